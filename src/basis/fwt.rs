@@ -1,0 +1,107 @@
+//! The interval fast wavelet transform between `V_{N+1}` coefficients and `Psi(n, N)`
+//! coefficients.
+//!
+//! One analysis step maps fine coefficients `f` (length `2^{j+1}`) to `s` (`V_j`) and `d` (`W_j`):
+//! - left edge `k < p`: `s_k = sum_l H_kl f_l + sum_{m=p}^{3p-2} h_{k,m} f_m` (and `d_k` with `G, g`);
+//! - interior `m`: `s_m = sum_i hc_i f_{2m+i}`, `d_m = sum_i gc_i f_{2m+i}`, `i = -p+1..p`;
+//! - right edge `k`: `s_{2^j-1-k} = sum_l HR_kl f_{2^{j+1}-1-l} + sum_m hR_{k,m} f_{2^{j+1}-1-m}`.
+//!
+//! The step is orthogonal, so synthesis is its transpose. Coefficients of `Psi(n, N)` are laid out
+//! by global index: `[s_n | d_n | d_{n+1} | ... | d_N]`.
+
+use nalgebra::DMatrix;
+
+use super::bank::FilterBank;
+use super::cdv::EdgeFilters;
+
+/// Coarse index, fine index and weight of every nonzero entry of one analysis step, for the
+/// low-pass (`false`) or high-pass (`true`) half.
+fn analysis_entries(bank: &FilterBank, level: u32, high: bool, mut f: impl FnMut(usize, usize, f64)) {
+    let p = bank.p();
+    let e = bank.edge_count();
+    let size = 1usize << level;
+    let fine = 2 * size;
+    let int = &bank.interior;
+    let pick = |edge: &EdgeFilters| -> (DMatrix<f64>, DMatrix<f64>) {
+        if high {
+            (edge.g_edge.clone(), edge.g_interior.clone())
+        } else {
+            (edge.h_edge.clone(), edge.h_interior.clone())
+        }
+    };
+    if let (Some(left), Some(right)) = (bank.left.as_ref(), bank.right.as_ref()) {
+        let (le, li) = pick(left);
+        let (re, ri) = pick(right);
+        for k in 0..e {
+            for l in 0..e {
+                f(k, l, le[(k, l)]);
+                f(size - 1 - k, fine - 1 - l, re[(k, l)]);
+            }
+            for q in 0..li.ncols() {
+                f(k, p + q, li[(k, q)]);
+                f(size - 1 - k, fine - 1 - (p + q), ri[(k, q)]);
+            }
+        }
+    }
+    for m in e..size - e {
+        for i in (-(p as i64) + 1)..=(p as i64) {
+            let w = if high { int.gc(i) } else { int.hc(i) };
+            f(m, (2 * m as i64 + i) as usize, w);
+        }
+    }
+}
+
+/// One analysis step `f (2^{j+1}) -> (s, d)` at level `level = j`, written into
+/// `out[..2^j]` and `out[2^j..2^{j+1}]`.
+pub fn analysis_step(bank: &FilterBank, level: u32, f: &[f64], out: &mut [f64]) {
+    let size = 1usize << level;
+    out[..2 * size].iter_mut().for_each(|x| *x = 0.0);
+    let (s, d) = out.split_at_mut(size);
+    analysis_entries(bank, level, false, |c, i, w| s[c] += w * f[i]);
+    analysis_entries(bank, level, true, |c, i, w| d[c] += w * f[i]);
+}
+
+/// One synthesis step (the transpose): `(s, d)` at level `j` to `f (2^{j+1})`.
+pub fn synthesis_step(bank: &FilterBank, level: u32, sd: &[f64], f: &mut [f64]) {
+    let size = 1usize << level;
+    f[..2 * size].iter_mut().for_each(|x| *x = 0.0);
+    let (s, d) = sd.split_at(size);
+    analysis_entries(bank, level, false, |c, i, w| f[i] += w * s[c]);
+    analysis_entries(bank, level, true, |c, i, w| f[i] += w * d[c]);
+}
+
+/// Full analysis: `V_{N+1}` coefficients (length `2^{N+1}`) to `Psi(n, N)` coefficients.
+pub fn analysis(bank: &FilterBank, coarse: u32, fine: u32, data: &[f64]) -> Vec<f64> {
+    let mut x = data.to_vec();
+    let mut buf = vec![0.0; data.len()];
+    for j in (coarse..=fine).rev() {
+        let len = 2usize << j;
+        analysis_step(bank, j, &x[..len], &mut buf[..len]);
+        x[..len].copy_from_slice(&buf[..len]);
+    }
+    x
+}
+
+/// Full synthesis: `Psi(n, N)` coefficients to `V_{N+1}` coefficients.
+pub fn synthesis(bank: &FilterBank, coarse: u32, fine: u32, coefficients: &[f64]) -> Vec<f64> {
+    let mut x = coefficients.to_vec();
+    let mut buf = vec![0.0; coefficients.len()];
+    for j in coarse..=fine {
+        let len = 2usize << j;
+        synthesis_step(bank, j, &x[..len], &mut buf[..len]);
+        x[..len].copy_from_slice(&buf[..len]);
+    }
+    x
+}
+
+/// The synthesis step of level `j` as a sparse matrix (`2^{j+1}` square, columns `[s | d]`).
+pub fn synthesis_matrix(bank: &FilterBank, level: u32, total: usize) -> sprs::CsMat<f64> {
+    let size = 1usize << level;
+    let mut tri = sprs::TriMat::new((total, total));
+    analysis_entries(bank, level, false, |c, i, w| tri.add_triplet(i, c, w));
+    analysis_entries(bank, level, true, |c, i, w| tri.add_triplet(i, size + c, w));
+    for i in 2 * size..total {
+        tri.add_triplet(i, i, 1.0);
+    }
+    tri.to_csr()
+}

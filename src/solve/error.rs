@@ -1,0 +1,126 @@
+//! Errors of the solver layer: `Result<T, SolveError>` everywhere a user can reach.
+//!
+//! Every variant carries the offending values and says how to fix the call, so a report
+//! can print the error as it is. The solvers never panic on user input and never return a
+//! non-finite number silently: a NaN or an infinity in an output becomes
+//! [`SolveError::NonFiniteOutput`].
+
+use thiserror::Error;
+
+/// Everything that can go wrong in `crate::solve`.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum SolveError {
+    /// Fewer samples than basis functions where the method needs full column rank
+    /// (a sparse Cholesky of `K^T K` with [`crate::solve::RankPolicy::Error`]).
+    #[error(
+        "undersampled: {rows} samples for {cols} basis functions; K^T K is singular. \
+         Add samples (rho = rows / cols should be >= 2), drop basis functions, or use \
+         RankPolicy::Regularize / the iterative solver"
+    )]
+    Undersampled {
+        /// Number of rows (samples) of `K`.
+        rows: usize,
+        /// Number of columns (basis functions) of `K`.
+        cols: usize,
+    },
+
+    /// The normal matrix is numerically singular although `rows >= cols`.
+    #[error(
+        "rank deficient: pivot {pivot:.3e} of the equilibrated normal matrix at column \
+         {column} is below the threshold {threshold:.3e} (column has {column_samples} \
+         nonzero samples). Add samples where that basis function lives, or use \
+         RankPolicy::Regularize, the iterative solver, or the dense SVD"
+    )]
+    RankDeficient {
+        /// A column (basis function) at which the factorization found the deficiency.
+        column: usize,
+        /// The pivot found there, relative to a unit diagonal.
+        pivot: f64,
+        /// The threshold it fell under.
+        threshold: f64,
+        /// Structural nonzeros of that column of `K`.
+        column_samples: usize,
+    },
+
+    /// A factorization failed outright.
+    #[error("factorization failed: {what}")]
+    Factorization {
+        /// Which factorization, where, and what to change.
+        what: String,
+    },
+
+    /// Shapes of the inputs do not fit together.
+    #[error("dimension mismatch in {what}: expected {expected}, found {found}")]
+    DimensionMismatch {
+        /// Which input.
+        what: &'static str,
+        /// The size it must have.
+        expected: usize,
+        /// The size it has.
+        found: usize,
+    },
+
+    /// A parameter is out of its range.
+    #[error("invalid parameter {name} = {value}: {fix}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Value given.
+        value: f64,
+        /// Allowed range / what to pass instead.
+        fix: &'static str,
+    },
+
+    /// An input holds NaN or an infinity.
+    #[error("non-finite input in {what} at position {index}: {value}; clean the samples first")]
+    NonFiniteInput {
+        /// Which input (`"kernel matrix"`, `"values channel 2"`, …).
+        what: String,
+        /// Flat index of the first offending entry (storage order).
+        index: usize,
+        /// The offending value.
+        value: f64,
+    },
+
+    /// A result came out non-finite (overflow); nothing is returned rather than NaN.
+    #[error(
+        "non-finite output in {what}: the result overflows f64. Rescale the values, \
+         raise the cut-off (more singular values dropped) or regularize"
+    )]
+    NonFiniteOutput {
+        /// Which output.
+        what: String,
+    },
+
+    /// A dense reference was asked for a matrix that is too large.
+    #[error(
+        "matrix {rows} x {cols} is too large for the dense reference (limit {limit} per \
+         dimension); use the sparse global least-squares solve instead"
+    )]
+    TooLarge {
+        /// Rows of `K`.
+        rows: usize,
+        /// Columns of `K`.
+        cols: usize,
+        /// Largest dimension accepted.
+        limit: usize,
+    },
+
+    /// The iterative solver did not reach its tolerance.
+    #[error(
+        "iterative solve of channel {channel} did not converge: relative normal-equation \
+         residual {residual:.3e} > tol {tol:.3e} after {iterations} iterations. Raise \
+         max_iter, loosen tol, or use the sparse Cholesky"
+    )]
+    NotConverged {
+        /// Channel (right-hand side) that failed.
+        channel: usize,
+        /// Iterations done.
+        iterations: usize,
+        /// Final relative residual `||K^T r|| / ||K^T f||`.
+        residual: f64,
+        /// Tolerance asked for.
+        tol: f64,
+    },
+}

@@ -1,0 +1,589 @@
+//! Global references: `K^+ = V diag(1/s) U^T` densely (faer thin SVD), and
+//! `c = argmin_c ||K c - f||_2` sparsely, by a sparse Cholesky of `K^T K` or by CGLS.
+//!
+//! * [`dense_pinv`]: the truth for small problems (each dimension up to
+//!   [`DENSE_LIMIT`]); one large SVD, so faer runs it with `Par::rayon(0)`.
+//! * [`global_ls`] with [`GlobalMethod::Cholesky`]: `D K^T K D y = D K^T f`, `c = D y`,
+//!   `D = diag(K^T K)^{-1/2}` (equilibration), AMD-ordered supernodal/simplicial sparse
+//!   Cholesky (`faer::sparse::linalg::cholesky`: symbolic once, numeric once, every channel
+//!   solved with the one factor). A pivot below `pivot_tol` means `K^T K` is numerically
+//!   singular: [`SolveError::RankDeficient`] / [`SolveError::Undersampled`], or with
+//!   [`RankPolicy::Regularize`] a ridge `ridge * I` on the equilibrated matrix, reported.
+//! * [`global_ls`] with [`GlobalMethod::Cgls`]: conjugate gradients on
+//!   `(K D)^T (K D) y = (K D)^T f` without forming it (two sprs-array mat-vecs per
+//!   iteration, all channels per sweep, rayon over rows). For a rank-deficient `K` it
+//!   converges to the solution of minimum `||D^{-1} c||` (min-norm in the equilibrated
+//!   variables; zero on never-sampled columns).
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::svd::{pseudoinverse_from_svd_scratch, pseudoinverse_from_svd_with_tolerance};
+use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, simplicial::SimplicialLltRef, supernodal::SupernodalLltRef,
+    SymbolicCholeskyRaw, SymmetricOrdering,
+};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Mat, Par, Side};
+use rayon::prelude::*;
+use serde::Serialize;
+use sprs::CsMat;
+
+use super::params::{GlobalLsParams, GlobalMethod, RankPolicy};
+use super::sparse::{check_finite_output, check_values, ldexp, normal_matrix, prepare, raw, spmm};
+use super::SolveError;
+
+/// Largest number of rows or columns [`dense_pinv`] accepts (an `8192 x 8192` SVD with
+/// vectors needs ~1.6 GB and minutes on two cores).
+pub const DENSE_LIMIT: usize = 8192;
+
+/// Dense pseudo-inverse and its spectrum.
+#[derive(Debug, Clone)]
+pub struct DensePinv {
+    /// `K^+`, `P x m`.
+    pub pinv: Mat<f64>,
+    /// Singular values of `K`, non-increasing.
+    pub singular_values: Vec<f64>,
+    /// Numerical rank (`s_k > cutoff * s_max`).
+    pub rank: usize,
+    /// Directions dropped: `P - rank`.
+    pub cut: usize,
+    /// `s_max / s_P`, infinite when `rank < P`.
+    pub condition: f64,
+}
+
+impl DensePinv {
+    /// `K^+ f` for one channel (`f.len() == m`).
+    pub fn apply(&self, f: &[f64]) -> Result<Vec<f64>, SolveError> {
+        if f.len() != self.pinv.ncols() {
+            return Err(SolveError::DimensionMismatch {
+                what: "values length (must equal the rows of K)",
+                expected: self.pinv.ncols(),
+                found: f.len(),
+            });
+        }
+        let out: Vec<f64> = (0..self.pinv.nrows())
+            .map(|a| (0..f.len()).map(|i| self.pinv[(a, i)] * f[i]).sum())
+            .collect();
+        check_finite_output(&out, "dense pinv applied to values")?;
+        Ok(out)
+    }
+}
+
+/// Dense `K^+` through faer's thin SVD, dropping `s_k <= cutoff * s_max`.
+pub fn dense_pinv(k: &CsMat<f64>, cutoff: f64) -> Result<DensePinv, SolveError> {
+    if !(cutoff.is_finite() && (0.0..1.0).contains(&cutoff)) {
+        return Err(SolveError::InvalidParameter {
+            name: "cutoff",
+            value: cutoff,
+            fix: "pass a relative singular value cut-off in [0, 1), e.g. 1e-12",
+        });
+    }
+    let (m, p) = k.shape();
+    if m > DENSE_LIMIT || p > DENSE_LIMIT {
+        return Err(SolveError::TooLarge {
+            rows: m,
+            cols: p,
+            limit: DENSE_LIMIT,
+        });
+    }
+    let prep = prepare(k)?;
+    let size = m.min(p);
+    if size == 0 {
+        return Ok(DensePinv {
+            pinv: Mat::zeros(p, m),
+            singular_values: vec![],
+            rank: 0,
+            cut: p,
+            condition: f64::INFINITY,
+        });
+    }
+    let mut a = Mat::<f64>::zeros(m, p);
+    let (kp, ki, kd) = raw(&prep.k);
+    for i in 0..m {
+        for t in kp[i]..kp[i + 1] {
+            a[(i, ki[t])] += kd[t];
+        }
+    }
+    let par = Par::rayon(0);
+    let mut s = faer::diag::Diag::<f64>::zeros(size);
+    let mut u = Mat::<f64>::zeros(m, size);
+    let mut v = Mat::<f64>::zeros(p, size);
+    let mut mem = MemBuffer::new(svd_scratch::<f64>(
+        m,
+        p,
+        ComputeSvdVectors::Thin,
+        ComputeSvdVectors::Thin,
+        par,
+        Default::default(),
+    ));
+    svd(
+        a.as_ref(),
+        s.as_mut(),
+        Some(u.as_mut()),
+        Some(v.as_mut()),
+        par,
+        MemStack::new(&mut mem),
+        Default::default(),
+    )
+    .map_err(|e| SolveError::Factorization {
+        what: format!("dense SVD of the {m} x {p} kernel matrix: {e:?}; try Solver::Qr locally"),
+    })?;
+    let mut pinv = Mat::<f64>::zeros(p, m);
+    let mut mem = MemBuffer::new(pseudoinverse_from_svd_scratch::<f64>(m, p, par));
+    pseudoinverse_from_svd_with_tolerance(
+        pinv.as_mut(),
+        s.as_ref(),
+        u.as_ref(),
+        v.as_ref(),
+        0.0,
+        cutoff,
+        par,
+        MemStack::new(&mut mem),
+    );
+    let e = prep.exponent;
+    let sv: Vec<f64> = (0..size).map(|i| ldexp(s[i], e)).collect();
+    let smax = s[0];
+    let rank = (0..size).filter(|&i| s[i] > cutoff * smax && s[i] > 0.0).count();
+    if e != 0 {
+        for j in 0..m {
+            for i in 0..p {
+                pinv[(i, j)] = ldexp(pinv[(i, j)], -e);
+            }
+        }
+    }
+    for j in 0..m {
+        if (0..p).any(|i| !pinv[(i, j)].is_finite()) {
+            return Err(SolveError::NonFiniteOutput {
+                what: format!("dense pseudo-inverse column {j}"),
+            });
+        }
+    }
+    let condition = if rank == p { smax / s[p - 1] } else { f64::INFINITY };
+    Ok(DensePinv {
+        pinv,
+        singular_values: sv,
+        rank,
+        cut: p - rank,
+        condition,
+    })
+}
+
+/// What the global solve did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GlobalReport {
+    /// Method used.
+    pub method: GlobalMethod,
+    /// CGLS iterations per channel (0 for Cholesky).
+    pub iterations: Vec<usize>,
+    /// Relative normal-equation residual `||K^T (f - K c)|| / ||K^T f||` per channel
+    /// (computed on the equilibrated system).
+    pub residuals: Vec<f64>,
+    /// Ridge added to the unit diagonal of the equilibrated normal matrix (0 = none).
+    pub ridge: f64,
+    /// Smallest pivot `L_ii^2` of the equilibrated Cholesky factor (Cholesky only; a lower
+    /// bound proxy for `1 / cond(K)^2`), 0 for CGLS.
+    pub min_pivot: f64,
+    /// Stored entries of `K^T K` (both triangles), 0 for CGLS.
+    pub normal_nnz: usize,
+    /// Stored entries of the Cholesky factor `L`, 0 for CGLS.
+    pub factor_nnz: usize,
+}
+
+/// Coefficients of the global least-squares fit.
+#[derive(Debug, Clone)]
+pub struct GlobalLs {
+    /// `c[ch] = argmin ||K c - f[ch]||`, `P` values per channel.
+    pub coefficients: Vec<Vec<f64>>,
+    /// Report.
+    pub report: GlobalReport,
+}
+
+/// Global sparse least squares for every channel (`values[ch].len() == rows of K`).
+pub fn global_ls(
+    k: &CsMat<f64>,
+    values: &[&[f64]],
+    params: &GlobalLsParams,
+) -> Result<GlobalLs, SolveError> {
+    params.validate()?;
+    check_values(values, k.rows())?;
+    if values.is_empty() {
+        return Ok(GlobalLs {
+            coefficients: vec![],
+            report: GlobalReport {
+                method: params.method,
+                iterations: vec![],
+                residuals: vec![],
+                ridge: 0.0,
+                min_pivot: 0.0,
+                normal_nnz: 0,
+                factor_nnz: 0,
+            },
+        });
+    }
+    match params.method {
+        GlobalMethod::Cholesky => cholesky_ls(k, values, params),
+        GlobalMethod::Cgls => cgls(k, values, params),
+    }
+}
+
+/// Row-major `m x ch` block of the channels.
+fn interleave(values: &[&[f64]], m: usize) -> Vec<f64> {
+    let ch = values.len();
+    let mut f = vec![0.0; m * ch];
+    f.par_chunks_mut(ch.max(1))
+        .enumerate()
+        .for_each(|(i, row)| {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = values[c][i];
+            }
+        });
+    f
+}
+
+/// Splits a row-major `p x ch` block into channels, scaled by `d[a] * 2^-e`.
+fn deinterleave(x: &[f64], d: &[f64], ch: usize, e: i32) -> Vec<Vec<f64>> {
+    (0..ch)
+        .map(|c| {
+            d.par_iter()
+                .enumerate()
+                .map(|(a, &da)| ldexp(da * x[a * ch + c], -e))
+                .collect()
+        })
+        .collect()
+}
+
+/// Relative normal-equation residuals `||A^T (f - A y)|| / ||A^T f||` per channel for
+/// `A = K_s D`, with `y` row-major `p x ch`.
+fn normal_residuals(
+    ks: &CsMat<f64>,
+    kt: &CsMat<f64>,
+    d: &[f64],
+    f: &[f64],
+    y: &[f64],
+    ch: usize,
+) -> Vec<f64> {
+    let (m, p) = ks.shape();
+    let dy: Vec<f64> = (0..p * ch).map(|t| d[t / ch] * y[t]).collect();
+    let mut r = vec![0.0; m * ch];
+    spmm(ks, &dy, &mut r, ch);
+    r.par_iter_mut().zip(f).for_each(|(r, f)| *r = f - *r);
+    let mut s = vec![0.0; p * ch];
+    spmm(kt, &r, &mut s, ch);
+    let mut s0 = vec![0.0; p * ch];
+    spmm(kt, f, &mut s0, ch);
+    (0..ch)
+        .map(|c| {
+            let (mut a, mut b) = (0.0f64, 0.0f64);
+            for t in 0..p {
+                a += (d[t] * s[t * ch + c]).powi(2);
+                b += (d[t] * s0[t * ch + c]).powi(2);
+            }
+            if b > 0.0 {
+                (a / b).sqrt()
+            } else {
+                a.sqrt()
+            }
+        })
+        .collect()
+}
+
+/// Column scaling `d_a = 1 / ||K_s[:, a]||` (1 for an empty column in Cholesky, where the
+/// zero pivot is then detected; 0 in CGLS, which keeps that coefficient at 0).
+fn column_scaling(normal_diag: impl Fn(usize) -> f64 + Sync, p: usize, empty: f64) -> Vec<f64> {
+    (0..p)
+        .into_par_iter()
+        .map(|a| {
+            let g = normal_diag(a);
+            if g > 0.0 {
+                1.0 / g.sqrt()
+            } else {
+                empty
+            }
+        })
+        .collect()
+}
+
+fn cholesky_ls(
+    k: &CsMat<f64>,
+    values: &[&[f64]],
+    params: &GlobalLsParams,
+) -> Result<GlobalLs, SolveError> {
+    let (m, p) = k.shape();
+    let ch = values.len();
+    if m < p && params.rank_policy == RankPolicy::Error {
+        return Err(SolveError::Undersampled { rows: m, cols: p });
+    }
+    let prep = prepare(k)?;
+    let g = normal_matrix(&prep.k, &prep.kt);
+    let (gp, gi, gd) = raw(&g);
+    let diag_of = |a: usize| {
+        gi[gp[a]..gp[a + 1]]
+            .binary_search(&a)
+            .map(|t| gd[gp[a] + t])
+            .unwrap_or(0.0)
+    };
+    let d = column_scaling(diag_of, p, 1.0);
+    // Equilibrated G with the diagonal always stored (so a ridge keeps the pattern).
+    let mut col_ptr = Vec::with_capacity(p + 1);
+    let mut row_idx = Vec::with_capacity(gi.len() + p);
+    let mut vals = Vec::with_capacity(gi.len() + p);
+    let mut diag_pos = vec![0usize; p];
+    col_ptr.push(0usize);
+    for a in 0..p {
+        let mut has_diag = false;
+        for t in gp[a]..gp[a + 1] {
+            let b = gi[t];
+            if b > a && !has_diag {
+                diag_pos[a] = row_idx.len();
+                row_idx.push(a);
+                vals.push(0.0);
+                has_diag = true;
+            }
+            if b == a {
+                diag_pos[a] = row_idx.len();
+                has_diag = true;
+            }
+            row_idx.push(b);
+            vals.push(gd[t] * d[a] * d[b]);
+        }
+        if !has_diag {
+            diag_pos[a] = row_idx.len();
+            row_idx.push(a);
+            vals.push(0.0);
+        }
+        col_ptr.push(row_idx.len());
+    }
+    let normal_nnz = row_idx.len();
+    let sym = SymbolicSparseColMatRef::new_checked(p, p, &col_ptr, None, &row_idx);
+    let symbolic = factorize_symbolic_cholesky(
+        sym,
+        Side::Lower,
+        SymmetricOrdering::Amd,
+        Default::default(),
+    )
+    .map_err(|e| SolveError::Factorization {
+        what: format!("symbolic sparse Cholesky of K^T K ({p} x {p}): {e:?}"),
+    })?;
+    let perm_fwd: Vec<usize> = match symbolic.perm() {
+        Some(perm) => perm.arrays().0.to_vec(),
+        None => (0..p).collect(),
+    };
+    let par = Par::rayon(0);
+    let mut lvals = vec![0.0f64; symbolic.len_val()];
+    let mut mem = MemBuffer::new(
+        symbolic
+            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+            .or(symbolic.solve_in_place_scratch::<f64>(ch.max(1), par)),
+    );
+    let col_samples = |a: usize| raw(&prep.kt).0[a + 1] - raw(&prep.kt).0[a];
+    let mut ridge = 0.0;
+    let mut min_pivot;
+    loop {
+        let a = SparseColMatRef::new(sym, &vals);
+        let res = symbolic.factorize_numeric_llt(
+            &mut lvals,
+            a,
+            Side::Lower,
+            LltRegularization::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        let failed_at = match res {
+            Ok(_) => {
+                let (q, piv) = min_diag(&symbolic, &lvals, p);
+                min_pivot = piv;
+                (piv < params.pivot_tol).then_some(q)
+            }
+            Err(faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index }) => {
+                min_pivot = 0.0;
+                Some(index)
+            }
+        };
+        let Some(q) = failed_at else { break };
+        let column = perm_fwd.get(q).copied().unwrap_or(q);
+        if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
+            if m < p {
+                return Err(SolveError::Undersampled { rows: m, cols: p });
+            }
+            return Err(SolveError::RankDeficient {
+                column,
+                pivot: min_pivot,
+                threshold: params.pivot_tol,
+                column_samples: col_samples(column),
+            });
+        }
+        ridge = params.ridge;
+        for &t in &diag_pos {
+            vals[t] += ridge;
+        }
+    }
+    // Right-hand sides: D K_s^T f, col-major P x ch.
+    let f = interleave(values, m);
+    let mut ktf = vec![0.0; p * ch];
+    spmm(&prep.kt, &f, &mut ktf, ch);
+    let mut rhs = Mat::<f64>::from_fn(p, ch, |a, c| d[a] * ktf[a * ch + c]);
+    let llt = faer::sparse::linalg::cholesky::LltRef::new(&symbolic, &lvals);
+    llt.solve_in_place_with_conj(Conj::No, rhs.as_mut(), par, MemStack::new(&mut mem));
+    let y: Vec<f64> = (0..p * ch).map(|t| rhs[(t / ch, t % ch)]).collect();
+    let residuals = normal_residuals(&prep.k, &prep.kt, &d, &f, &y, ch);
+    let coefficients = deinterleave(&y, &d, ch, prep.exponent);
+    for (c, x) in coefficients.iter().enumerate() {
+        check_finite_output(x, &format!("global Cholesky least squares, channel {c}"))?;
+    }
+    Ok(GlobalLs {
+        coefficients,
+        report: GlobalReport {
+            method: GlobalMethod::Cholesky,
+            iterations: vec![0; ch],
+            residuals,
+            ridge,
+            min_pivot,
+            normal_nnz,
+            factor_nnz: lvals.len(),
+        },
+    })
+}
+
+/// Smallest `L_qq^2` (permuted index `q`) of a numeric sparse Cholesky factor.
+fn min_diag(
+    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    lvals: &[f64],
+    p: usize,
+) -> (usize, f64) {
+    let mut diag = vec![0.0f64; p];
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => {
+            let l = SimplicialLltRef::new(s, lvals);
+            let (cp, ri) = (s.col_ptr(), s.row_idx());
+            for (j, dj) in diag.iter_mut().enumerate() {
+                if let Some(t) = (cp[j]..cp[j + 1]).find(|&t| ri[t] == j) {
+                    *dj = l.values()[t];
+                }
+            }
+        }
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let l = SupernodalLltRef::new(s, lvals);
+            for sn in 0..s.n_supernodes() {
+                let node = l.supernode(sn);
+                let v = node.val();
+                for c in 0..v.ncols() {
+                    diag[node.start() + c] = v[(c, c)];
+                }
+            }
+        }
+    }
+    diag.iter()
+        .enumerate()
+        .map(|(q, &l)| (q, l * l))
+        .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+}
+
+fn cgls(k: &CsMat<f64>, values: &[&[f64]], params: &GlobalLsParams) -> Result<GlobalLs, SolveError> {
+    let (m, p) = k.shape();
+    let ch = values.len();
+    let prep = prepare(k)?;
+    let (tp, _, td) = raw(&prep.kt);
+    let d = column_scaling(|a| td[tp[a]..tp[a + 1]].iter().map(|v| v * v).sum(), p, 0.0);
+    let f = interleave(values, m);
+    let dot_cols = |x: &[f64], y: &[f64]| -> Vec<f64> {
+        x.par_chunks(ch * 1024)
+            .zip(y.par_chunks(ch * 1024))
+            .map(|(xb, yb)| {
+                let mut acc = vec![0.0; ch];
+                for (t, (a, b)) in xb.iter().zip(yb).enumerate() {
+                    acc[t % ch] += a * b;
+                }
+                acc
+            })
+            .reduce(|| vec![0.0; ch], |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect())
+    };
+    // s = D K_s^T r
+    let at = |r: &[f64], s: &mut [f64]| {
+        spmm(&prep.kt, r, s, ch);
+        s.par_chunks_mut(ch)
+            .zip(d.par_iter())
+            .for_each(|(row, &da)| row.iter_mut().for_each(|v| *v *= da));
+    };
+    let mut y = vec![0.0; p * ch];
+    let mut r = f.clone();
+    let mut s = vec![0.0; p * ch];
+    at(&r, &mut s);
+    let mut pdir = s.clone();
+    let mut gamma = dot_cols(&s, &s);
+    let norm0: Vec<f64> = gamma.iter().map(|g| g.sqrt()).collect();
+    let mut active: Vec<bool> = norm0.iter().map(|&n| n > 0.0).collect();
+    let mut iterations = vec![0usize; ch];
+    let mut q = vec![0.0; m * ch];
+    let mut dp = vec![0.0; p * ch];
+    let mut it = 0;
+    while active.iter().any(|&a| a) {
+        if it >= params.max_iter {
+            let c = active.iter().position(|&a| a).unwrap_or(0);
+            return Err(SolveError::NotConverged {
+                channel: c,
+                iterations: it,
+                residual: gamma[c].sqrt() / norm0[c],
+                tol: params.tol,
+            });
+        }
+        it += 1;
+        dp.par_chunks_mut(ch)
+            .zip(pdir.par_chunks(ch))
+            .zip(d.par_iter())
+            .for_each(|((o, i), &da)| o.iter_mut().zip(i).for_each(|(o, i)| *o = da * i));
+        spmm(&prep.k, &dp, &mut q, ch);
+        let qq = dot_cols(&q, &q);
+        let alpha: Vec<f64> = (0..ch)
+            .map(|c| {
+                if active[c] && qq[c] > 0.0 {
+                    gamma[c] / qq[c]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        y.par_chunks_mut(ch)
+            .zip(pdir.par_chunks(ch))
+            .for_each(|(yr, pr)| (0..ch).for_each(|c| yr[c] += alpha[c] * pr[c]));
+        r.par_chunks_mut(ch)
+            .zip(q.par_chunks(ch))
+            .for_each(|(rr, qr)| (0..ch).for_each(|c| rr[c] -= alpha[c] * qr[c]));
+        at(&r, &mut s);
+        let gnew = dot_cols(&s, &s);
+        let mut beta = vec![0.0; ch];
+        for c in 0..ch {
+            if !active[c] {
+                continue;
+            }
+            iterations[c] = it;
+            if gnew[c].sqrt() <= params.tol * norm0[c] || qq[c] == 0.0 {
+                active[c] = false;
+            } else {
+                beta[c] = gnew[c] / gamma[c];
+                gamma[c] = gnew[c];
+            }
+        }
+        pdir.par_chunks_mut(ch)
+            .zip(s.par_chunks(ch))
+            .for_each(|(pr, sr)| (0..ch).for_each(|c| pr[c] = sr[c] + beta[c] * pr[c]));
+    }
+    let residuals = normal_residuals(&prep.k, &prep.kt, &d, &f, &y, ch);
+    let coefficients = deinterleave(&y, &d, ch, prep.exponent);
+    for (c, x) in coefficients.iter().enumerate() {
+        check_finite_output(x, &format!("global CGLS least squares, channel {c}"))?;
+    }
+    Ok(GlobalLs {
+        coefficients,
+        report: GlobalReport {
+            method: GlobalMethod::Cgls,
+            iterations,
+            residuals,
+            ridge: 0.0,
+            min_pivot: 0.0,
+            normal_nnz: 0,
+            factor_nnz: 0,
+        },
+    })
+}

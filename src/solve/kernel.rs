@@ -1,0 +1,267 @@
+//! Dense block kernels: `X = K1^+ E_R`, the columns of the pseudo-inverse of one local block
+//! `K1` (`r x n`) for the pivot rows `R` (`E_R` = identity columns), by SVD, column-pivoted
+//! QR or Cholesky of the normal matrix.
+//!
+//! All faer calls here take `Par::Seq` explicitly: the blocks are small (tens to a few
+//! hundred rows) and thousands of them run concurrently on the rayon pool, so faer's own
+//! parallelism would only add synchronisation (a 182 x 35 thin SVD takes 1.07 ms with
+//! `Par::rayon(0)` against 0.34 ms sequential, CRATES.md). Passing `Par` per call instead
+//! of `faer::set_global_parallelism(Par::Seq)` leaves the global setting alone for the one
+//! large factorization of the global reference, which runs at the same time in a report.
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::householder::{
+    apply_block_householder_sequence_transpose_on_the_left_in_place_scratch,
+    apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj,
+};
+use faer::linalg::qr::col_pivoting::factor::{qr_in_place, qr_in_place_scratch};
+use faer::linalg::qr::no_pivoting::factor::recommended_block_size;
+use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
+use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
+use faer::{Accum, Conj, Mat, MatRef, Par};
+
+/// Result of one block.
+pub(crate) struct BlockOut {
+    /// `n x g`: column `t` is the pseudo-inverse column of pivot `t`.
+    pub x: Mat<f64>,
+    /// `s_max / s_min` of `K1` (SVD), or an estimate (QR, Cholesky); infinite when `K1`
+    /// has a null space (`r < n` or a dropped direction / failed Cholesky).
+    pub condition: f64,
+    /// Directions dropped: `n - numerical rank` (SVD, QR); 0 for Cholesky.
+    pub cut: usize,
+    /// Relative diagonal shift that made the Cholesky succeed (0 when none was needed).
+    pub shift: f64,
+    /// The SVD did not converge and QR was used instead.
+    pub fallback: bool,
+}
+
+fn stack_for(req: StackReq) -> MemBuffer {
+    MemBuffer::new(req)
+}
+
+/// `K1^+ E_R` by thin SVD with relative cut-off; falls back to QR if the SVD does not
+/// converge (reported in [`BlockOut::fallback`]).
+pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> BlockOut {
+    let (r, n) = k1.shape();
+    let g = piv.len();
+    let size = r.min(n);
+    if size == 0 {
+        return BlockOut {
+            x: Mat::zeros(n, g),
+            condition: f64::INFINITY,
+            cut: n,
+            shift: 0.0,
+            fallback: false,
+        };
+    }
+    let mut s = faer::diag::Diag::<f64>::zeros(size);
+    let mut u = Mat::<f64>::zeros(r, size);
+    let mut v = Mat::<f64>::zeros(n, size);
+    let mut mem = stack_for(svd_scratch::<f64>(
+        r,
+        n,
+        ComputeSvdVectors::Thin,
+        ComputeSvdVectors::Thin,
+        Par::Seq,
+        Default::default(),
+    ));
+    let ok = svd(
+        k1,
+        s.as_mut(),
+        Some(u.as_mut()),
+        Some(v.as_mut()),
+        Par::Seq,
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    if ok.is_err() {
+        let mut out = qr_columns(k1, piv, cutoff);
+        out.fallback = true;
+        return out;
+    }
+    let s = s.column_vector();
+    let smax = s[0];
+    let tol = cutoff * smax;
+    let rank = (0..size).take_while(|&k| s[k] > tol && s[k] > 0.0).count();
+    // W = (U[R, :rank] diag(1/s))^T : rank x g
+    let w = Mat::<f64>::from_fn(rank, g, |k, t| u[(piv[t], k)] / s[k]);
+    let mut x = Mat::<f64>::zeros(n, g);
+    faer::linalg::matmul::matmul(
+        x.as_mut(),
+        Accum::Replace,
+        v.get(.., ..rank),
+        w.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    let smin = if r >= n { s[n - 1] } else { 0.0 };
+    BlockOut {
+        x,
+        condition: if smin > 0.0 { smax / smin } else { f64::INFINITY },
+        cut: n - rank,
+        shift: 0.0,
+        fallback: false,
+    }
+}
+
+/// `K1^+ E_R` by column-pivoted QR: basic least-squares solution on the leading columns
+/// with `|R_kk| > cutoff |R_00|`.
+pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> BlockOut {
+    let (r, n) = k1.shape();
+    let g = piv.len();
+    let size = r.min(n);
+    if size == 0 {
+        return BlockOut {
+            x: Mat::zeros(n, g),
+            condition: f64::INFINITY,
+            cut: n,
+            shift: 0.0,
+            fallback: false,
+        };
+    }
+    let mut a = k1.to_owned();
+    let bs = recommended_block_size::<f64>(r, n).max(1);
+    let mut coeff = Mat::<f64>::zeros(bs, size);
+    let mut fwd = vec![0usize; n];
+    let mut inv = vec![0usize; n];
+    let mut mem = stack_for(StackReq::any_of(&[
+        qr_in_place_scratch::<usize, f64>(r, n, bs, Par::Seq, Default::default()),
+        apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(r, bs, g),
+    ]));
+    let (_, perm) = qr_in_place(
+        a.as_mut(),
+        coeff.as_mut(),
+        &mut fwd,
+        &mut inv,
+        Par::Seq,
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    let perm_fwd: Vec<usize> = perm.arrays().0.to_vec();
+    let r00 = a[(0, 0)].abs();
+    let tol = cutoff * r00;
+    let rank = (0..size)
+        .take_while(|&k| a[(k, k)].abs() > tol && a[(k, k)] != 0.0)
+        .count();
+    // E_R, then Q^T E_R
+    let mut e = Mat::<f64>::zeros(r, g);
+    for (t, &p) in piv.iter().enumerate() {
+        e[(p, t)] = 1.0;
+    }
+    apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
+        a.get(.., ..size),
+        coeff.as_ref(),
+        Conj::No,
+        e.as_mut(),
+        Par::Seq,
+        MemStack::new(&mut mem),
+    );
+    let mut y = e.get(..rank, ..).to_owned();
+    solve_upper_triangular_in_place(a.get(..rank, ..rank), y.as_mut(), Par::Seq);
+    let mut x = Mat::<f64>::zeros(n, g);
+    for k in 0..rank {
+        for t in 0..g {
+            x[(perm_fwd[k], t)] = y[(k, t)];
+        }
+    }
+    let rnn = if r >= n { a[(n - 1, n - 1)].abs() } else { 0.0 };
+    BlockOut {
+        x,
+        condition: if rnn > 0.0 { r00 / rnn } else { f64::INFINITY },
+        cut: n - rank,
+        shift: 0.0,
+        fallback: false,
+    }
+}
+
+/// `G^{-1} B` for the normal matrix `G = K1^T K1` (`n x n`, full symmetric) and
+/// `B = K1[R, :]^T` (`n x g`), by Cholesky after symmetric diagonal equilibration.
+///
+/// A failed factorization, or one with a pivot below `16 n eps` (numerically singular),
+/// is retried with `G + delta I` (equilibrated), `delta = shift0 * 10^t`, `t = 0..8`.
+/// Returns `None` if even the largest shift fails (only possible for non-finite input).
+pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -> Option<BlockOut> {
+    let n = gm.nrows();
+    let g = b.ncols();
+    if n == 0 {
+        return Some(BlockOut {
+            x: Mat::zeros(0, g),
+            condition: f64::INFINITY,
+            cut: 0,
+            shift: 0.0,
+            fallback: false,
+        });
+    }
+    let d: Vec<f64> = (0..n)
+        .map(|i| {
+            let v = gm[(i, i)];
+            if v > 0.0 {
+                1.0 / v.sqrt()
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    for j in 0..n {
+        for i in 0..n {
+            gm[(i, j)] *= d[i] * d[j];
+        }
+    }
+    for t in 0..g {
+        for i in 0..n {
+            b[(i, t)] *= d[i];
+        }
+    }
+    let thresh = 16.0 * n as f64 * f64::EPSILON;
+    let mut mem = stack_for(cholesky_in_place_scratch::<f64>(
+        n,
+        Par::Seq,
+        Default::default(),
+    ));
+    let mut shift = 0.0;
+    for attempt in 0..=9 {
+        if attempt > 0 {
+            shift = shift0 * 10f64.powi(attempt - 1);
+        }
+        let mut l = gm.clone();
+        for i in 0..n {
+            l[(i, i)] += shift;
+        }
+        let ok = cholesky_in_place(
+            l.as_mut(),
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        if ok.is_err() {
+            continue;
+        }
+        let diag: Vec<f64> = (0..n).map(|i| l[(i, i)]).collect();
+        let lmin = diag.iter().cloned().fold(f64::INFINITY, f64::min);
+        let lmax = diag.iter().cloned().fold(0.0, f64::max);
+        if !(lmin * lmin >= thresh) {
+            continue;
+        }
+        faer::linalg::cholesky::llt::solve::solve_in_place(
+            l.as_ref(),
+            b.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+        for t in 0..g {
+            for i in 0..n {
+                b[(i, t)] *= d[i];
+            }
+        }
+        return Some(BlockOut {
+            x: b,
+            condition: if shift > 0.0 { f64::INFINITY } else { lmax / lmin },
+            cut: 0,
+            shift,
+            fallback: false,
+        });
+    }
+    None
+}

@@ -1,0 +1,473 @@
+//! Local inversion: `K~[:, i] = (K[jdx, idx])^+ e_i` placed at rows `idx`, an approximate
+//! `K^+` built one small pseudo-inverse per neighbourhood (DESIGN §4).
+//!
+//! For pivot row `i`: `idx` = the column pattern of row `i`; `jdx` = the rows where any
+//! column of `idx` is nonzero; each ring sets `idx` = all columns nonzero on `jdx`, then
+//! recomputes `jdx`. `K1 = K[jdx, idx]`, `S1 = pinv(K1)`, and column `i` of `K~` is the
+//! column of `S1` for row `i`, at rows `idx`.
+//!
+//! Speed: `idx` (hence `jdx` and `K1`) depends only on the pattern of row `i`, so pivots are
+//! grouped by their pattern (hashed index slice), and after the rings grow them, by the
+//! grown `idx` again; each group factors `K1` once and reads off the columns of all its
+//! pivots. Groups run in parallel on the rayon pool, each factorization sequential
+//! (see `kernel.rs`). Generic: any CSR matrix; structural nonzeros define the patterns.
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use faer::Mat;
+use rayon::prelude::*;
+use serde::Serialize;
+use sprs::CsMat;
+
+use super::kernel::{cholesky_columns, qr_columns, svd_columns, BlockOut};
+use super::params::{LocalInversionParams, Solver};
+use super::sparse::{check_values, ldexp, normal_matrix, prepare, raw, Prepared};
+use super::SolveError;
+
+/// Statistics of one group (one factorized block `K1`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GroupStats {
+    /// Rows of `K1` (`|jdx|`, samples in the neighbourhood).
+    pub rows: usize,
+    /// Columns of `K1` (`|idx|`, basis functions in the neighbourhood).
+    pub cols: usize,
+    /// Pivots (columns of `K~`) served by this factorization.
+    pub pivots: usize,
+    /// `s_max / s_min` of `K1` (exact for SVD; `|R_00|/|R_nn|` for QR; `max L_ii / min L_ii`
+    /// of the equilibrated Cholesky factor, a lower bound, for Cholesky). Infinite when `K1`
+    /// has a null space (`rows < cols`, exact zero singular value, or a shifted Cholesky).
+    pub condition: f64,
+    /// Directions dropped by the cut-off (`cols - numerical rank`); always 0 for Cholesky.
+    pub cut: usize,
+    /// Relative diagonal shift the Cholesky needed (0 = none).
+    pub shift: f64,
+    /// The SVD did not converge and QR was used.
+    pub svd_fallback: bool,
+}
+
+/// min / median / max / mean of a per-group quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Summary {
+    /// Smallest value.
+    pub min: f64,
+    /// Median (upper median for an even count).
+    pub median: f64,
+    /// Largest value.
+    pub max: f64,
+    /// Arithmetic mean (infinite if any value is).
+    pub mean: f64,
+}
+
+impl Summary {
+    /// Summary of `values` (`NaN`s count as `+inf`); all zero for an empty list.
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Self {
+        let mut v: Vec<f64> = values
+            .into_iter()
+            .map(|x| if x.is_nan() { f64::INFINITY } else { x })
+            .collect();
+        if v.is_empty() {
+            return Self {
+                min: 0.0,
+                median: 0.0,
+                max: 0.0,
+                mean: 0.0,
+            };
+        }
+        v.sort_by(f64::total_cmp);
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        Self {
+            min: v[0],
+            median: v[v.len() / 2],
+            max: v[v.len() - 1],
+            mean,
+        }
+    }
+}
+
+/// What the local inversion did, for reports.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LocalStats {
+    /// Solver used.
+    pub solver: Solver,
+    /// Rings used.
+    pub rings: usize,
+    /// One entry per factorization.
+    pub groups: Vec<GroupStats>,
+    /// Number of factorizations (`groups.len()`).
+    pub n_groups: usize,
+    /// Distinct row patterns (before merging groups whose grown `idx` coincide).
+    pub n_patterns: usize,
+    /// Rows of `K` with no nonzero: their column of `K~` is zero.
+    pub empty_rows: usize,
+    /// Groups where the cut-off dropped at least one direction.
+    pub cut_groups: usize,
+    /// Directions dropped, summed over groups.
+    pub cut_total: usize,
+    /// Groups whose Cholesky needed a diagonal shift (fallback 1).
+    pub cholesky_shifted: usize,
+    /// Largest Cholesky shift used.
+    pub max_shift: f64,
+    /// Groups whose SVD did not converge and used QR (fallback 2).
+    pub svd_fallbacks: usize,
+    /// Whether `condition` is exact (SVD) or an estimate (QR, Cholesky).
+    pub condition_is_estimate: bool,
+    /// `K` was scaled by `2^-scale_exponent` internally (exact; undone in the results).
+    pub scale_exponent: i32,
+}
+
+impl LocalStats {
+    /// Block rows (`|jdx|`) over groups.
+    pub fn rows_summary(&self) -> Summary {
+        Summary::of(self.groups.iter().map(|g| g.rows as f64))
+    }
+    /// Block columns (`|idx|`) over groups.
+    pub fn cols_summary(&self) -> Summary {
+        Summary::of(self.groups.iter().map(|g| g.cols as f64))
+    }
+    /// Condition numbers over groups.
+    pub fn condition_summary(&self) -> Summary {
+        Summary::of(self.groups.iter().map(|g| g.condition))
+    }
+    /// Pivots per group.
+    pub fn pivots_summary(&self) -> Summary {
+        Summary::of(self.groups.iter().map(|g| g.pivots as f64))
+    }
+}
+
+/// The approximate pseudo-inverse `K~ ≈ K^+` and how it was made.
+#[derive(Debug, Clone)]
+pub struct LocalInversion {
+    /// `K~`, `P x m`, stored **CSC**: column `i` (pivot `i`) is produced whole by one group,
+    /// its rows `idx` already sorted, so the matrix is assembled by appending with no sort
+    /// or transpose; `K~ f = sum_i f_i K~[:, i]` streams it, and `pinv.transpose_view()` is
+    /// the CSR matrix of the dual kernels (row `i` = coefficients of `k~_i`).
+    pub pinv: CsMat<f64>,
+    /// Statistics.
+    pub stats: LocalStats,
+}
+
+/// Coefficients from [`apply_local`].
+#[derive(Debug, Clone)]
+pub struct LocalApply {
+    /// `c[ch] = K~ f[ch]`, `P` values per channel.
+    pub coefficients: Vec<Vec<f64>>,
+    /// Statistics.
+    pub stats: LocalStats,
+}
+
+/// FxHash-style hasher for index slices: the SipHash default costs more than the grouping.
+#[derive(Default)]
+struct FxHasher(u64);
+
+impl Hasher for FxHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
+type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
+
+/// One block: its columns, rows and the pivots it serves (all sorted ascending).
+struct Group {
+    idx: Vec<usize>,
+    jdx: Vec<usize>,
+    pivots: Vec<usize>,
+}
+
+/// Sorted union of the index lists `outer` of the given rows of a CSR matrix.
+fn union_of(indptr: &[usize], indices: &[usize], outer: &[usize]) -> Vec<usize> {
+    let mut out = Vec::new();
+    for &o in outer {
+        out.extend_from_slice(&indices[indptr[o]..indptr[o + 1]]);
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// Groups the rows of `K` by pattern, grows neighbourhoods, merges equal `idx`.
+fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
+    let (kp, ki, _) = raw(&prep.k);
+    let (tp, ti, _) = raw(&prep.kt);
+    let m = prep.k.rows();
+    let mut by_pattern: FxMap<&[usize], usize> = FxMap::default();
+    let mut patterns: Vec<(&[usize], Vec<usize>)> = Vec::new();
+    let mut empty = 0;
+    for i in 0..m {
+        let pat = &ki[kp[i]..kp[i + 1]];
+        if pat.is_empty() {
+            empty += 1;
+            continue;
+        }
+        let next = patterns.len();
+        let g = *by_pattern.entry(pat).or_insert(next);
+        if g == next {
+            patterns.push((pat, Vec::new()));
+        }
+        patterns[g].1.push(i);
+    }
+    let n_patterns = patterns.len();
+    let grown: Vec<Group> = patterns
+        .into_par_iter()
+        .map(|(pat, pivots)| {
+            let mut idx = pat.to_vec();
+            let mut jdx = union_of(tp, ti, &idx);
+            for _ in 0..rings {
+                idx = union_of(kp, ki, &jdx);
+                jdx = union_of(tp, ti, &idx);
+            }
+            Group { idx, jdx, pivots }
+        })
+        .collect();
+    if rings == 0 {
+        return (grown, n_patterns, empty);
+    }
+    // Different patterns can grow into the same neighbourhood: one factorization each.
+    let mut by_idx: FxMap<Vec<usize>, usize> = FxMap::default();
+    let mut merged: Vec<Group> = Vec::new();
+    for g in grown {
+        match by_idx.get(&g.idx) {
+            Some(&t) => merged[t].pivots.extend_from_slice(&g.pivots),
+            None => {
+                by_idx.insert(g.idx.clone(), merged.len());
+                merged.push(g);
+            }
+        }
+    }
+    merged.par_iter_mut().for_each(|g| g.pivots.sort_unstable());
+    (merged, n_patterns, empty)
+}
+
+/// Everything the block solves need, prepared once.
+struct Context {
+    prep: Prepared,
+    normal: Option<CsMat<f64>>,
+    params: LocalInversionParams,
+}
+
+/// Factors one group: `X = S1[:, pivots]`, `|idx| x |pivots|`, in units of the scaled `K_s`.
+fn solve_group(ctx: &Context, g: &Group) -> Result<(BlockOut, GroupStats), SolveError> {
+    let (kp, ki, kd) = raw(&ctx.prep.k);
+    let (n, r) = (g.idx.len(), g.jdx.len());
+    let out = match ctx.params.solver {
+        Solver::Svd | Solver::Qr => {
+            let mut k1 = Mat::<f64>::zeros(r, n);
+            for (ri, &j) in g.jdx.iter().enumerate() {
+                for t in kp[j]..kp[j + 1] {
+                    if let Ok(ci) = g.idx.binary_search(&ki[t]) {
+                        k1[(ri, ci)] += kd[t];
+                    }
+                }
+            }
+            let piv: Vec<usize> = g
+                .pivots
+                .iter()
+                .map(|p| g.jdx.binary_search(p).unwrap_or(0))
+                .collect();
+            if ctx.params.solver == Solver::Svd {
+                svd_columns(k1.as_ref(), &piv, ctx.params.cutoff)
+            } else {
+                qr_columns(k1.as_ref(), &piv, ctx.params.cutoff)
+            }
+        }
+        Solver::Cholesky => {
+            let normal = ctx.normal.as_ref().ok_or_else(|| SolveError::Factorization {
+                what: "internal: normal matrix missing for the Cholesky solver".into(),
+            })?;
+            let (gp, gi, gd) = raw(normal);
+            let mut gm = Mat::<f64>::zeros(n, n);
+            for (ai, &a) in g.idx.iter().enumerate() {
+                for t in gp[a]..gp[a + 1] {
+                    if let Ok(bi) = g.idx.binary_search(&gi[t]) {
+                        gm[(ai, bi)] = gd[t];
+                    }
+                }
+            }
+            let mut b = Mat::<f64>::zeros(n, g.pivots.len());
+            for (t, &p) in g.pivots.iter().enumerate() {
+                for s in kp[p]..kp[p + 1] {
+                    if let Ok(ci) = g.idx.binary_search(&ki[s]) {
+                        b[(ci, t)] += kd[s];
+                    }
+                }
+            }
+            cholesky_columns(gm, b, ctx.params.cholesky_shift).ok_or_else(|| {
+                SolveError::Factorization {
+                    what: format!(
+                        "Cholesky of a {n} x {n} local normal matrix (pivot rows {:?}...) \
+                         failed even with a relative shift of {:e}; use Solver::Svd",
+                        &g.pivots[..g.pivots.len().min(4)],
+                        ctx.params.cholesky_shift * 1e8
+                    ),
+                }
+            })?
+        }
+    };
+    let stats = GroupStats {
+        rows: r,
+        cols: n,
+        pivots: g.pivots.len(),
+        condition: out.condition,
+        cut: out.cut,
+        shift: out.shift,
+        svd_fallback: out.fallback,
+    };
+    Ok((out, stats))
+}
+
+/// Validation, scaling, grouping, and the parallel factorizations, shared by both entry
+/// points; `each` turns a group's block result into what the caller keeps.
+fn run<T: Send>(
+    k: &CsMat<f64>,
+    params: &LocalInversionParams,
+    each: impl Fn(&Group, Mat<f64>) -> Result<T, SolveError> + Sync,
+) -> Result<(Vec<Group>, Vec<T>, LocalStats), SolveError> {
+    params.validate()?;
+    let prep = prepare(k)?;
+    let normal = (params.solver == Solver::Cholesky).then(|| normal_matrix(&prep.k, &prep.kt));
+    let (groups, n_patterns, empty_rows) = build_groups(&prep, params.rings);
+    let exponent = prep.exponent;
+    let ctx = Context {
+        prep,
+        normal,
+        params: *params,
+    };
+    let results: Vec<(T, GroupStats)> = groups
+        .par_iter()
+        .map(|g| {
+            let (out, st) = solve_group(&ctx, g)?;
+            let mut x = out.x;
+            if exponent != 0 {
+                for j in 0..x.ncols() {
+                    for i in 0..x.nrows() {
+                        x[(i, j)] = ldexp(x[(i, j)], -exponent);
+                    }
+                }
+            }
+            for j in 0..x.ncols() {
+                for i in 0..x.nrows() {
+                    if !x[(i, j)].is_finite() {
+                        return Err(SolveError::NonFiniteOutput {
+                            what: format!(
+                                "local pseudo-inverse column of row {} ({} x {} block, \
+                                 condition {:.3e})",
+                                g.pivots[j], st.rows, st.cols, st.condition
+                            ),
+                        });
+                    }
+                }
+            }
+            Ok((each(g, x)?, st))
+        })
+        .collect::<Result<_, _>>()?;
+    let (kept, group_stats): (Vec<T>, Vec<GroupStats>) = results.into_iter().unzip();
+    let stats = LocalStats {
+        solver: params.solver,
+        rings: params.rings,
+        n_groups: group_stats.len(),
+        n_patterns,
+        empty_rows,
+        cut_groups: group_stats.iter().filter(|g| g.cut > 0).count(),
+        cut_total: group_stats.iter().map(|g| g.cut).sum(),
+        cholesky_shifted: group_stats.iter().filter(|g| g.shift > 0.0).count(),
+        max_shift: group_stats.iter().map(|g| g.shift).fold(0.0, f64::max),
+        svd_fallbacks: group_stats.iter().filter(|g| g.svd_fallback).count(),
+        condition_is_estimate: params.solver != Solver::Svd,
+        scale_exponent: exponent,
+        groups: group_stats,
+    };
+    Ok((groups, kept, stats))
+}
+
+/// The approximate pseudo-inverse `K~` (`P x m`, CSC) of a CSR (or CSC, converted) `K`.
+///
+/// Cost: one factorization per group (see [`LocalStats::n_groups`]); memory: the
+/// `sum over pivots of |idx|` stored entries of `K~` plus the same again transiently.
+pub fn local_inversion(
+    k: &CsMat<f64>,
+    params: &LocalInversionParams,
+) -> Result<LocalInversion, SolveError> {
+    let (m, p) = k.shape();
+    let (groups, blocks, stats) = run(k, params, |_, x| Ok(x))?;
+    // owner[i] = (group, column in its block)
+    let mut owner = vec![(usize::MAX, 0usize); m];
+    for (gi, g) in groups.iter().enumerate() {
+        for (t, &i) in g.pivots.iter().enumerate() {
+            owner[i] = (gi, t);
+        }
+    }
+    let mut indptr = Vec::with_capacity(m + 1);
+    indptr.push(0usize);
+    let mut nnz = 0;
+    for &(gi, _) in &owner {
+        if gi != usize::MAX {
+            nnz += groups[gi].idx.len();
+        }
+        indptr.push(nnz);
+    }
+    let mut indices = Vec::with_capacity(nnz);
+    let mut data = Vec::with_capacity(nnz);
+    for &(gi, t) in &owner {
+        if gi == usize::MAX {
+            continue;
+        }
+        indices.extend_from_slice(&groups[gi].idx);
+        let x = &blocks[gi];
+        data.extend((0..x.nrows()).map(|a| x[(a, t)]));
+    }
+    let pinv = CsMat::new_csc((p, m), indptr, indices, data);
+    Ok(LocalInversion { pinv, stats })
+}
+
+/// `c[ch] = K~ f[ch]` for every channel without storing `K~`: each group is factored once
+/// and its block applied to all channels (`values[ch].len() == rows of K`).
+pub fn apply_local(
+    k: &CsMat<f64>,
+    values: &[&[f64]],
+    params: &LocalInversionParams,
+) -> Result<LocalApply, SolveError> {
+    let (m, p) = k.shape();
+    check_values(values, m)?;
+    let nch = values.len();
+    let (groups, contribs, stats) = run(k, params, |g, x| {
+        // contribution (|idx| x channels) = X (|idx| x g) * F (g x channels)
+        let f = Mat::<f64>::from_fn(g.pivots.len(), nch, |t, c| values[c][g.pivots[t]]);
+        let mut y = Mat::<f64>::zeros(x.nrows(), nch);
+        faer::linalg::matmul::matmul(
+            y.as_mut(),
+            faer::Accum::Replace,
+            x.as_ref(),
+            f.as_ref(),
+            1.0,
+            faer::Par::Seq,
+        );
+        Ok(y)
+    })?;
+    let mut coefficients = vec![vec![0.0; p]; nch];
+    for (g, y) in groups.iter().zip(&contribs) {
+        for (c, out) in coefficients.iter_mut().enumerate() {
+            for (ai, &a) in g.idx.iter().enumerate() {
+                out[a] += y[(ai, c)];
+            }
+        }
+    }
+    for (c, out) in coefficients.iter().enumerate() {
+        super::sparse::check_finite_output(out, &format!("apply_local channel {c}"))?;
+    }
+    Ok(LocalApply {
+        coefficients,
+        stats,
+    })
+}

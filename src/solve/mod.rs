@@ -1,0 +1,35 @@
+//! Solver layer: `c = K^+ f`, with `K` the `m x P` sparse kernel matrix
+//! `K[i, a] = basis_a(sample_i)` and `K^+` its Moore–Penrose pseudo-inverse.
+//!
+//! Generic over any `sprs` CSR matrix (nothing here knows about wavelets):
+//!
+//! * [`local_inversion`] / [`apply_local`]: the approximate `K~ ≈ K^+` assembled from
+//!   pseudo-inverses of small neighbourhood blocks `K[jdx, idx]` (DESIGN §4), one
+//!   factorization per distinct neighbourhood, in parallel ([`LocalInversionParams`],
+//!   [`Solver`]).
+//! * [`dense_pinv`]: dense `K^+` by faer's SVD, the truth for small problems.
+//! * [`global_ls`]: `argmin ||K c - f||` for large problems by sparse Cholesky of `K^T K`
+//!   or CGLS ([`GlobalLsParams`]).
+//! * [`compare_dense`], [`compare_sparse_dense`], [`compare_vectors`]: error figures.
+//!
+//! Every entry point validates its input, scales `K` by an exact power of two (so
+//! magnitudes `1e±300` are safe), reports cut-offs, shifts and condition numbers, and
+//! returns [`SolveError`] instead of panicking or returning NaN.
+
+mod compare;
+mod error;
+mod global;
+mod kernel;
+mod local;
+mod params;
+mod sparse;
+#[cfg(test)]
+mod tests;
+
+pub use compare::{compare_dense, compare_sparse_dense, compare_vectors, Comparison};
+pub use error::SolveError;
+pub use global::{dense_pinv, global_ls, DensePinv, GlobalLs, GlobalReport, DENSE_LIMIT};
+pub use local::{
+    apply_local, local_inversion, GroupStats, LocalApply, LocalInversion, LocalStats, Summary,
+};
+pub use params::{GlobalLsParams, GlobalMethod, LocalInversionParams, RankPolicy, Solver};

@@ -1,0 +1,179 @@
+//! Sparse plumbing shared by the solvers: `K = 2^e K_s` (exact power-of-two scaling),
+//! `K^T` as CSR, the normal matrix `G = K^T K`, and row-parallel products `Y = K X`.
+//!
+//! Scaling by a power of two is exact and `K^+ = 2^-e K_s^+`, so every solver works on
+//! `K_s` with `max |K_s| ∈ [1, 2)`: entries of magnitude `1e300` or `1e-300` neither
+//! overflow in `K^T K` nor underflow in the factorizations.
+
+use rayon::prelude::*;
+use sprs::CsMat;
+
+use super::SolveError;
+
+/// `K` prepared for the solvers: CSR, finite, scaled into `[1, 2)`, with its transpose.
+pub(crate) struct Prepared {
+    /// `K_s = 2^-e K`, CSR (`m x P`).
+    pub k: CsMat<f64>,
+    /// `K_s^T` as CSR (`P x m`): row `a` lists the samples where basis function `a` lives.
+    pub kt: CsMat<f64>,
+    /// The exponent `e`: `K = 2^e K_s`.
+    pub exponent: i32,
+}
+
+/// `x * 2^e` without intermediate overflow or underflow for `|e| <= 2100`.
+pub(crate) fn ldexp(x: f64, e: i32) -> f64 {
+    let h = e / 2;
+    x * 2f64.powi(h) * 2f64.powi(e - h)
+}
+
+/// Checks `K` (finite entries, CSR or converted to CSR), scales it and builds `K^T`.
+pub(crate) fn prepare(k: &CsMat<f64>) -> Result<Prepared, SolveError> {
+    if let Some((index, &value)) = k.data().iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(SolveError::NonFiniteInput {
+            what: "kernel matrix".into(),
+            index,
+            value,
+        });
+    }
+    let max = k.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    // frexp-like exponent: max = f * 2^e with f in [1, 2).
+    let exponent = if max > 0.0 { max.log2().floor() as i32 } else { 0 };
+    let mut ks = if k.is_csr() {
+        k.clone()
+    } else {
+        k.to_other_storage()
+    };
+    if exponent != 0 {
+        ks.data_mut()
+            .par_iter_mut()
+            .for_each(|v| *v = ldexp(*v, -exponent));
+    }
+    if !ks.indptr().is_proper() {
+        let shape = ks.shape();
+        let indptr = ks.indptr().to_proper().into_owned();
+        let (_, indices, data) = ks.into_raw_storage();
+        ks = CsMat::new(shape, indptr, indices, data);
+    }
+    let kt = ks.transpose_view().to_csr();
+    Ok(Prepared {
+        k: ks,
+        kt,
+        exponent,
+    })
+}
+
+/// Raw CSR/CSC arrays of a matrix with a proper (zero-based) `indptr`, as built by
+/// [`prepare`] and the solvers.
+pub(crate) fn raw(a: &CsMat<f64>) -> (&[usize], &[usize], &[f64]) {
+    (a.indptr().into_raw_storage(), a.indices(), a.data())
+}
+
+/// Checks the channels: each must have `rows` finite values.
+pub(crate) fn check_values(values: &[&[f64]], rows: usize) -> Result<(), SolveError> {
+    for (c, v) in values.iter().enumerate() {
+        if v.len() != rows {
+            return Err(SolveError::DimensionMismatch {
+                what: "values channel length (must equal the rows of K)",
+                expected: rows,
+                found: v.len(),
+            });
+        }
+        if let Some((index, &value)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            return Err(SolveError::NonFiniteInput {
+                what: format!("values channel {c}"),
+                index,
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Errors out if any entry is non-finite.
+pub(crate) fn check_finite_output(x: &[f64], what: &str) -> Result<(), SolveError> {
+    if x.par_iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(SolveError::NonFiniteOutput { what: what.into() })
+    }
+}
+
+/// The full symmetric normal matrix `G = K^T K` as CSR (sorted indices, both triangles),
+/// computed row-parallel with a dense accumulator per work chunk.
+pub(crate) fn normal_matrix(k: &CsMat<f64>, kt: &CsMat<f64>) -> CsMat<f64> {
+    let p = k.cols();
+    let chunks = (rayon::current_num_threads() * 8).max(1);
+    let chunk_len = p.div_ceil(chunks).max(1);
+    let starts: Vec<usize> = (0..p).step_by(chunk_len).collect();
+    let (kp, ki, kd) = raw(k);
+    let (tp, ti, td) = raw(kt);
+    let parts: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = starts
+        .par_iter()
+        .map(|&start| {
+            let end = (start + chunk_len).min(p);
+            let mut acc = vec![0.0f64; p];
+            let mut mark = vec![usize::MAX; p];
+            let mut touched: Vec<usize> = Vec::new();
+            let mut lens = Vec::with_capacity(end - start);
+            let mut idx = Vec::new();
+            let mut val = Vec::new();
+            for a in start..end {
+                touched.clear();
+                for t in tp[a]..tp[a + 1] {
+                    let (j, kja) = (ti[t], td[t]);
+                    for s in kp[j]..kp[j + 1] {
+                        let (b, kjb) = (ki[s], kd[s]);
+                        if mark[b] != a {
+                            mark[b] = a;
+                            acc[b] = 0.0;
+                            touched.push(b);
+                        }
+                        acc[b] += kja * kjb;
+                    }
+                }
+                touched.sort_unstable();
+                for &b in &touched {
+                    idx.push(b);
+                    val.push(acc[b]);
+                }
+                lens.push(touched.len());
+            }
+            (lens, idx, val)
+        })
+        .collect();
+    let nnz: usize = parts.iter().map(|p| p.1.len()).sum();
+    let mut indptr = Vec::with_capacity(p + 1);
+    let mut indices = Vec::with_capacity(nnz);
+    let mut data = Vec::with_capacity(nnz);
+    indptr.push(0);
+    for (lens, idx, val) in parts {
+        for l in lens {
+            let last = *indptr.last().expect("indptr starts with 0");
+            indptr.push(last + l);
+        }
+        indices.extend_from_slice(&idx);
+        data.extend_from_slice(&val);
+    }
+    CsMat::new((p, p), indptr, indices, data)
+}
+
+/// `Y = A X` for CSR `A` (`r x c`) and row-major blocks `X` (`c x ch`), `Y` (`r x ch`).
+pub(crate) fn spmm(a: &CsMat<f64>, x: &[f64], y: &mut [f64], ch: usize) {
+    let (indptr, indices, data) = raw(a);
+    y.par_chunks_mut(ch * 256)
+        .enumerate()
+        .for_each(|(block, yb)| {
+            let first = block * 256;
+            for (r, yr) in yb.chunks_mut(ch).enumerate() {
+                let i = first + r;
+                yr.iter_mut().for_each(|v| *v = 0.0);
+                for t in indptr[i]..indptr[i + 1] {
+                    let (c, v) = (indices[t], data[t]);
+                    let xr = &x[c * ch..(c + 1) * ch];
+                    for (yv, xv) in yr.iter_mut().zip(xr) {
+                        *yv += v * xv;
+                    }
+                }
+            }
+        });
+}
