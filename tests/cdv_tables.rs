@@ -15,13 +15,34 @@ fn table(text: &str) -> Vec<(f64, f64)> {
 
 fn tables(p: usize) -> (&'static str, &'static str) {
     match p {
-        2 => (include_str!("../data/cdjv/LFILT2.txt"), include_str!("../data/cdjv/RFILT2.txt")),
-        3 => (include_str!("../data/cdjv/LFILT3.txt"), include_str!("../data/cdjv/RFILT3.txt")),
-        4 => (include_str!("../data/cdjv/LFILT4.txt"), include_str!("../data/cdjv/RFILT4.txt")),
-        5 => (include_str!("../data/cdjv/LFILT5.txt"), include_str!("../data/cdjv/RFILT5.txt")),
-        6 => (include_str!("../data/cdjv/LFILT6.txt"), include_str!("../data/cdjv/RFILT6.txt")),
-        7 => (include_str!("../data/cdjv/LFILT7.txt"), include_str!("../data/cdjv/RFILT7.txt")),
-        8 => (include_str!("../data/cdjv/LFILT8.txt"), include_str!("../data/cdjv/RFILT8.txt")),
+        2 => (
+            include_str!("../data/cdjv/LFILT2.txt"),
+            include_str!("../data/cdjv/RFILT2.txt"),
+        ),
+        3 => (
+            include_str!("../data/cdjv/LFILT3.txt"),
+            include_str!("../data/cdjv/RFILT3.txt"),
+        ),
+        4 => (
+            include_str!("../data/cdjv/LFILT4.txt"),
+            include_str!("../data/cdjv/RFILT4.txt"),
+        ),
+        5 => (
+            include_str!("../data/cdjv/LFILT5.txt"),
+            include_str!("../data/cdjv/RFILT5.txt"),
+        ),
+        6 => (
+            include_str!("../data/cdjv/LFILT6.txt"),
+            include_str!("../data/cdjv/RFILT6.txt"),
+        ),
+        7 => (
+            include_str!("../data/cdjv/LFILT7.txt"),
+            include_str!("../data/cdjv/RFILT7.txt"),
+        ),
+        8 => (
+            include_str!("../data/cdjv/LFILT8.txt"),
+            include_str!("../data/cdjv/RFILT8.txt"),
+        ),
         _ => unreachable!(),
     }
 }
@@ -44,7 +65,12 @@ fn published_rows(p: usize, published: &[(f64, f64)]) -> Vec<Vec<f64>> {
         low.push(pad(|t| t.0));
         high.push(pad(|t| t.1));
     }
-    assert_eq!(row, published.len(), "table has {} rows, expected {row}", published.len());
+    assert_eq!(
+        row,
+        published.len(),
+        "table has {} rows, expected {row}",
+        published.len()
+    );
     low.extend(high);
     low
 }
@@ -55,7 +81,11 @@ fn our_rows(e: &EdgeFilters) -> Vec<Vec<f64>> {
     let mut rows = Vec::new();
     for (edge, int) in [(&e.h_edge, &e.h_interior), (&e.g_edge, &e.g_interior)] {
         for k in 0..p {
-            rows.push((0..3 * p - 1).map(|c| if c < p { edge[(k, c)] } else { int[(k, c - p)] }).collect());
+            rows.push(
+                (0..3 * p - 1)
+                    .map(|c| if c < p { edge[(k, c)] } else { int[(k, c - p)] })
+                    .collect(),
+            );
         }
     }
     rows
@@ -93,8 +123,16 @@ fn compare(
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     (0..rows)
         .map(|r| {
-            let plus = table[r].iter().zip(&mine[r]).map(|(t, o)| (t - o).abs()).fold(0.0, f64::max);
-            let minus = table[r].iter().zip(&mine[r]).map(|(t, o)| (t + o).abs()).fold(0.0, f64::max);
+            let plus = table[r]
+                .iter()
+                .zip(&mine[r])
+                .map(|(t, o)| (t - o).abs())
+                .fold(0.0, f64::max);
+            let minus = table[r]
+                .iter()
+                .zip(&mine[r])
+                .map(|(t, o)| (t + o).abs())
+                .fold(0.0, f64::max);
             let diff = if r < p { plus } else { plus.min(minus) };
             let defect = (0..table.len())
                 .map(|c| (dot(&table[r], &table[c]) - if r == c { 1.0 } else { 0.0 }).abs())
@@ -123,7 +161,10 @@ fn edge_filters_match_the_published_cdjv_tables() {
             ("right", bank.right.as_ref().unwrap(), &bank.reversed, right),
         ];
         for (side, ours, interior, text) in sides {
-            for (r, (diff, defect)) in compare(ours, interior, &table(text)).into_iter().enumerate() {
+            for (r, (diff, defect)) in compare(ours, interior, &table(text))
+                .into_iter()
+                .enumerate()
+            {
                 let floor: f64 = if r < p { 1e-9 } else { 1e-8 };
                 let tol = floor.max(100.0 * defect);
                 println!("p={p} {side} row {r}: diff {diff:.1e}, table defect {defect:.1e}");
@@ -132,7 +173,10 @@ fn edge_filters_match_the_published_cdjv_tables() {
         }
     }
     for (p, side, r, diff, tol) in worst {
-        assert!(diff < tol, "p = {p} {side} row {r} differs from the CDJV table by {diff:e} (tolerance {tol:e})");
+        assert!(
+            diff < tol,
+            "p = {p} {side} row {r} differs from the CDJV table by {diff:e} (tolerance {tol:e})"
+        );
     }
 }
 #[test]
@@ -151,7 +195,10 @@ fn interior_filters_match_the_published_cdjv_filters() {
         // p = 2, 3 are stored with sum sqrt2, p >= 4 with sum 2: normalize to sum sqrt2.
         let raw = parse_filter(text);
         let sum: f64 = raw.iter().sum();
-        let published: Vec<f64> = raw.iter().map(|x| x * std::f64::consts::SQRT_2 / sum).collect();
+        let published: Vec<f64> = raw
+            .iter()
+            .map(|x| x * std::f64::consts::SQRT_2 / sum)
+            .collect();
         let bank = FilterBank::new(p, FilterFamily::cdv_default(p)).unwrap();
         let err = bank
             .interior
@@ -161,7 +208,10 @@ fn interior_filters_match_the_published_cdjv_filters() {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert_eq!(published.len(), 2 * p);
-        assert!(err < 1e-9, "p = {p}: interior filter differs from CDJV FILT by {err:e}");
+        assert!(
+            err < 1e-9,
+            "p = {p}: interior filter differs from CDJV FILT by {err:e}"
+        );
     }
 }
 
@@ -191,21 +241,96 @@ fn p2_edge_filters_match_numerical_recipes_to_13_digits() {
             .collect()
     };
     let published: [(&EdgeFilters, usize, bool, &[f64]); 8] = [
-        (left, 0, false, &[0.603332511928053, 0.690895531839104, -0.398312997698228]),
-        (left, 0, true, &[-0.796543516912183, 0.546392713959015, -0.258792248333818]),
-        (left, 1, false, &[0.0375174604524466, 0.457327659851769, 0.850088102549165, 0.223820356983114, -0.129222743354319]),
-        (left, 1, true, &[0.0100372245644139, 0.122351043116799, 0.227428111655837, -0.836602921223654, 0.483012921773304]),
-        (right, 0, false, &[0.870508753349866, 0.434896997965703, 0.230389043796969]),
-        (right, 0, true, &[-0.257512919478482, 0.801422961990337, -0.539822500731772]),
-        (right, 1, false, &[-0.194233407427412, 0.190151418429955, 0.374955331645687, 0.767556669298114, 0.443149049637559]),
-        (right, 1, true, &[0.371718966535296, -0.363906959570891, -0.717579999353722, 0.401069519430217, 0.231557595006790]),
+        (
+            left,
+            0,
+            false,
+            &[0.603332511928053, 0.690895531839104, -0.398312997698228],
+        ),
+        (
+            left,
+            0,
+            true,
+            &[-0.796543516912183, 0.546392713959015, -0.258792248333818],
+        ),
+        (
+            left,
+            1,
+            false,
+            &[
+                0.0375174604524466,
+                0.457327659851769,
+                0.850088102549165,
+                0.223820356983114,
+                -0.129222743354319,
+            ],
+        ),
+        (
+            left,
+            1,
+            true,
+            &[
+                0.0100372245644139,
+                0.122351043116799,
+                0.227428111655837,
+                -0.836602921223654,
+                0.483012921773304,
+            ],
+        ),
+        (
+            right,
+            0,
+            false,
+            &[0.870508753349866, 0.434896997965703, 0.230389043796969],
+        ),
+        (
+            right,
+            0,
+            true,
+            &[-0.257512919478482, 0.801422961990337, -0.539822500731772],
+        ),
+        (
+            right,
+            1,
+            false,
+            &[
+                -0.194233407427412,
+                0.190151418429955,
+                0.374955331645687,
+                0.767556669298114,
+                0.443149049637559,
+            ],
+        ),
+        (
+            right,
+            1,
+            true,
+            &[
+                0.371718966535296,
+                -0.363906959570891,
+                -0.717579999353722,
+                0.401069519430217,
+                0.231557595006790,
+            ],
+        ),
     ];
     for (edge, k, high, values) in published {
         let ours = rows(edge, k, high);
-        let plus = ours.iter().zip(values).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        let minus = ours.iter().zip(values).map(|(a, b)| (a + b).abs()).fold(0.0, f64::max);
+        let plus = ours
+            .iter()
+            .zip(values)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let minus = ours
+            .iter()
+            .zip(values)
+            .map(|(a, b)| (a + b).abs())
+            .fold(0.0, f64::max);
         let err = if high { plus.min(minus) } else { plus };
-        assert!(err < 1e-13, "row k = {k} (high = {high}) differs by {err:e}: {ours:?}");
+        assert!(
+            err < 1e-13,
+            "row k = {k} (high = {high}) differs by {err:e}: {ours:?}"
+        );
     }
 }
 
@@ -218,8 +343,16 @@ fn edge_filter_identities() {
         for edge in [bank.left.as_ref().unwrap(), bank.right.as_ref().unwrap()] {
             let w = 2 * p - 1;
             let m = nalgebra::DMatrix::from_fn(2 * p, p + w, |r, c| {
-                let (a, b) = if r < p { (&edge.h_edge, &edge.h_interior) } else { (&edge.g_edge, &edge.g_interior) };
-                if c < p { a[(r % p, c)] } else { b[(r % p, c - p)] }
+                let (a, b) = if r < p {
+                    (&edge.h_edge, &edge.h_interior)
+                } else {
+                    (&edge.g_edge, &edge.g_interior)
+                };
+                if c < p {
+                    a[(r % p, c)]
+                } else {
+                    b[(r % p, c - p)]
+                }
             });
             let err = (&m * m.transpose() - nalgebra::DMatrix::identity(2 * p, 2 * p)).amax();
             assert!(err < 1e-14, "p = {p}: rows not orthonormal ({err:e})");
@@ -233,7 +366,10 @@ fn edge_filter_identities() {
                 let expect = 0.5f64.powi(i as i32);
                 // Eigenvalues of the non-normal H are ill-conditioned: a 1e-16 perturbation
                 // moves them by up to ~1e-9 at p = 10, hence the relative 1e-6.
-                assert!((e - expect).abs() < 1e-6 * expect, "p = {p}: eigenvalue {i} of sqrt2 H is {e}, expected {expect}");
+                assert!(
+                    (e - expect).abs() < 1e-6 * expect,
+                    "p = {p}: eigenvalue {i} of sqrt2 H is {e}, expected {expect}"
+                );
             }
         }
     }

@@ -3,6 +3,7 @@
 //! published exact values, the interval FWT, and identities (refinement between levels,
 //! reflection symmetry, reproduction of polynomials) over random positions.
 
+#![allow(clippy::needless_range_loop)] // the reference solver is written as plain index loops on purpose
 use std::collections::HashMap;
 
 use proptest::prelude::*;
@@ -21,7 +22,7 @@ struct Recursive {
 impl Recursive {
     fn new(h: Vec<f64>) -> Self {
         let n = h.len() - 1; // integers 0..=2p-1, phi(0) = phi(2p-1) = 0 for p >= 2
-        // phi(k) = sqrt2 sum_j h_{2k-j} phi(j), k = 1..n-1; plus sum phi(k) = 1.
+                             // phi(k) = sqrt2 sum_j h_{2k-j} phi(j), k = 1..n-1; plus sum phi(k) = 1.
         let m = n - 1;
         let mut a = vec![vec![0.0; m + 1]; m];
         for (row, k) in (1..n).enumerate() {
@@ -43,7 +44,9 @@ impl Recursive {
         }
         // Gaussian elimination with partial pivoting
         for c in 0..m {
-            let piv = (c..m).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs())).unwrap();
+            let piv = (c..m)
+                .max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))
+                .unwrap();
             a.swap(c, piv);
             for r in 0..m {
                 if r != c {
@@ -58,7 +61,11 @@ impl Recursive {
         for k in 1..n {
             integers[k] = a[k - 1][m] / a[k - 1][k - 1];
         }
-        Self { h, integers, memo: HashMap::new() }
+        Self {
+            h,
+            integers,
+            memo: HashMap::new(),
+        }
     }
 
     /// `phi_std(num / 2^r)`.
@@ -98,10 +105,12 @@ fn interior_values_match_an_independent_recursive_evaluator() {
     for p in 2..=8 {
         let family = FilterFamily::cdv_default(p);
         let h = daubechies_lowpass(p, family);
-        let g: Vec<f64> = (0..2 * p).map(|k| if k % 2 == 0 { 1.0 } else { -1.0 } * h[2 * p - 1 - k]).collect();
+        let g: Vec<f64> = (0..2 * p)
+            .map(|k| if k % 2 == 0 { 1.0 } else { -1.0 } * h[2 * p - 1 - k])
+            .collect();
         let mut rec = Recursive::new(h.clone());
         let n = rkwave::basis::minimum_level(p);
-        let basis = CdvBasis::new(p, family, n, n + 3, (0.0, 1.0)).unwrap();
+        let basis = CdvBasis::new(p, family, n, n + 3, rkwave::sampling::Domain::UNIT).unwrap();
         let mut ev = basis.evaluator();
         let r = n + 12; // dyadic resolution of the test positions
         let mut worst: f64 = 0.0;
@@ -117,7 +126,9 @@ fn interior_values_match_an_independent_recursive_evaluator() {
                 let j = id.level;
                 let m = id.index as i64;
                 // phi_{j,m}(x) = 2^{j/2} phi_std(2^j x - m + p - 1); positions num / 2^r.
-                let shift = |mm: i64| (num as i64) * (1i64 << j) / (1i64 << j) - ((mm - p as i64 + 1) << (r - j));
+                let shift = |mm: i64| {
+                    (num as i64) * (1i64 << j) / (1i64 << j) - ((mm - p as i64 + 1) << (r - j))
+                };
                 let expect = match id.kind {
                     FunctionKind::Scaling => 2f64.powf(j as f64 / 2.0) * rec.phi(shift(m), r - j),
                     FunctionKind::Wavelet => {
@@ -133,7 +144,10 @@ fn interior_values_match_an_independent_recursive_evaluator() {
                 worst = worst.max((v.value - expect).abs());
             }
         }
-        assert!(worst < 1e-12, "p = {p}: interior values differ from the recursive evaluator by {worst:e}");
+        assert!(
+            worst < 1e-12,
+            "p = {p}: interior values differ from the recursive evaluator by {worst:e}"
+        );
     }
 }
 
@@ -141,16 +155,31 @@ fn interior_values_match_an_independent_recursive_evaluator() {
 /// (standard support `[0, 3]`), through interior functions of `V_4` at positions `k / 16`.
 #[test]
 fn db2_exact_values() {
-    let basis = CdvBasis::new(2, FilterFamily::Extremal, 4, 4, (0.0, 1.0)).unwrap();
+    let basis = CdvBasis::new(
+        2,
+        FilterFamily::Extremal,
+        4,
+        4,
+        rkwave::sampling::Domain::UNIT,
+    )
+    .unwrap();
     let mut ev = basis.evaluator();
     let s3 = 3f64.sqrt();
     // phi_{4,m}(x) = 4 phi_cdv(16x - m) = 4 phi_std(16x - m + 1); interior m = 2..13.
     let m = 6usize;
-    for (y, expect) in [(0.5, (2.0 + s3) / 4.0), (1.0, (1.0 + s3) / 2.0), (2.0, (1.0 - s3) / 2.0)] {
+    for (y, expect) in [
+        (0.5, (2.0 + s3) / 4.0),
+        (1.0, (1.0 + s3) / 2.0),
+        (2.0, (1.0 - s3) / 2.0),
+    ] {
         let x = (y + m as f64 - 1.0) / 16.0;
         let out = ev.eval(x).unwrap();
         let v = value_of(&out, m).expect("function present");
-        assert!((v / 4.0 - expect).abs() < 1e-15, "phi({y}) = {} expected {expect}", v / 4.0);
+        assert!(
+            (v / 4.0 - expect).abs() < 1e-15,
+            "phi({y}) = {} expected {expect}",
+            v / 4.0
+        );
     }
 }
 
@@ -159,8 +188,9 @@ fn db2_exact_values() {
 fn check_refinement(p: usize, j: u32, xs: &[f64]) -> f64 {
     let family = FilterFamily::cdv_default(p);
     let bank = FilterBank::shared(p, family).unwrap();
-    let coarse = CdvBasis::with_bank(bank.clone(), j, j, (0.0, 1.0)).unwrap();
-    let fine = CdvBasis::with_bank(bank.clone(), j + 1, j + 1, (0.0, 1.0)).unwrap();
+    let coarse = CdvBasis::with_bank(bank.clone(), j, j, rkwave::sampling::Domain::UNIT).unwrap();
+    let fine =
+        CdvBasis::with_bank(bank.clone(), j + 1, j + 1, rkwave::sampling::Domain::UNIT).unwrap();
     let mut ce = coarse.evaluator();
     let mut fe = fine.evaluator();
     let size = 1usize << j;
@@ -168,11 +198,17 @@ fn check_refinement(p: usize, j: u32, xs: &[f64]) -> f64 {
     for &x in xs {
         let c = ce.eval(x).unwrap();
         let f = fe.eval(x).unwrap();
-        let fine_scaling: HashMap<usize, f64> =
-            f.iter().filter(|v| v.index < 2 * size).map(|v| (v.index, v.value)).collect();
+        let fine_scaling: HashMap<usize, f64> = f
+            .iter()
+            .filter(|v| v.index < 2 * size)
+            .map(|v| (v.index, v.value))
+            .collect();
         for v in &c {
             let expansion = local_synthesis(&bank, j, v.index);
-            let s: f64 = expansion.iter().map(|(i, w)| w * fine_scaling.get(i).copied().unwrap_or(0.0)).sum();
+            let s: f64 = expansion
+                .iter()
+                .map(|(i, w)| w * fine_scaling.get(i).copied().unwrap_or(0.0))
+                .sum();
             worst = worst.max((s - v.value).abs() / 2f64.powf(j as f64 / 2.0));
         }
     }
@@ -186,11 +222,19 @@ fn local_synthesis(bank: &FilterBank, j: u32, index: usize) -> Vec<(usize, f64)>
     let e = bank.edge_count();
     let size = 1usize << j;
     let fine = 2 * size;
-    let (wavelet, k) = if index < size { (false, index) } else { (true, index - size) };
+    let (wavelet, k) = if index < size {
+        (false, index)
+    } else {
+        (true, index - size)
+    };
     let mut out = Vec::new();
     if k >= e && k < size - e {
         for i in (-(p as i64) + 1)..=(p as i64) {
-            let w = if wavelet { bank.interior.gc(i) } else { bank.interior.hc(i) };
+            let w = if wavelet {
+                bank.interior.gc(i)
+            } else {
+                bank.interior.hc(i)
+            };
             out.push(((2 * k as i64 + i) as usize, w));
         }
         return out;
@@ -200,7 +244,11 @@ fn local_synthesis(bank: &FilterBank, j: u32, index: usize) -> Vec<(usize, f64)>
     } else {
         (bank.right.as_ref().unwrap(), size - 1 - k, false)
     };
-    let (me, mi) = if wavelet { (&edge.g_edge, &edge.g_interior) } else { (&edge.h_edge, &edge.h_interior) };
+    let (me, mi) = if wavelet {
+        (&edge.g_edge, &edge.g_interior)
+    } else {
+        (&edge.h_edge, &edge.h_interior)
+    };
     let place = |i: usize| if left { i } else { fine - 1 - i };
     for l in 0..p {
         out.push((place(l), me[(r, l)]));
@@ -232,8 +280,8 @@ proptest! {
         let bank = std::sync::Arc::new(FilterBank::from_lowpass(&h, family).unwrap());
         let bank_rev = std::sync::Arc::new(FilterBank::from_lowpass(&rev, family).unwrap());
         let n = rkwave::basis::minimum_level(p);
-        let a = CdvBasis::with_bank(bank, n, n + 2, (0.0, 1.0)).unwrap();
-        let b = CdvBasis::with_bank(bank_rev, n, n + 2, (0.0, 1.0)).unwrap();
+        let a = CdvBasis::with_bank(bank, n, n + 2, rkwave::sampling::Domain::UNIT).unwrap();
+        let b = CdvBasis::with_bank(bank_rev, n, n + 2, rkwave::sampling::Domain::UNIT).unwrap();
         let va = a.evaluator().eval(x).unwrap();
         let vb = b.evaluator().eval(1.0 - x).unwrap();
         for v in &va {
@@ -253,16 +301,35 @@ proptest! {
 /// them satisfy the refinement relation between levels (relative 1e-12), and are finite.
 #[test]
 fn extreme_levels_and_positions() {
-    let mut xs = vec![0.0, 1.0, f64::MIN_POSITIVE, 5e-324, 1.0 - f64::EPSILON / 2.0, 0.5, 0.25, 0.75];
-    for &d in &[0.5, 0.25, 0.375, 1.0 / 1024.0, 3.0 / (1u64 << 30) as f64, 1.0 - 1.0 / (1u64 << 29) as f64] {
+    let mut xs = vec![
+        0.0,
+        1.0,
+        f64::MIN_POSITIVE,
+        5e-324,
+        1.0 - f64::EPSILON / 2.0,
+        0.5,
+        0.25,
+        0.75,
+    ];
+    for &d in &[
+        0.5,
+        0.25,
+        0.375,
+        1.0 / 1024.0,
+        3.0 / (1u64 << 30) as f64,
+        1.0 - 1.0 / (1u64 << 29) as f64,
+    ] {
         xs.push(d);
-        xs.push(f64::from_bits((d as f64).to_bits() + 1));
-        xs.push(f64::from_bits((d as f64).to_bits() - 1));
+        xs.push(f64::from_bits(d.to_bits() + 1));
+        xs.push(f64::from_bits(d.to_bits() - 1));
     }
     for p in [1usize, 2, 3, 6, 10] {
         for j in [25u32, 28, 30] {
             let err = check_refinement(p, j, &xs);
-            assert!(err < 1e-12, "p = {p}, level {j}: refinement relation off by {err:e}");
+            assert!(
+                err < 1e-12,
+                "p = {p}, level {j}: refinement relation off by {err:e}"
+            );
         }
     }
 }

@@ -71,7 +71,12 @@ impl InteriorFilters {
         let range = || (-(p as i64) + 1)..=(p as i64);
         // a_q = sum_i hc_i i^q / sqrt2; M_r (1 - 2^-r) = 2^-r sum_{s<r} C(r,s) a_{r-s} M_s.
         let a: Vec<f64> = (0..p)
-            .map(|q| range().map(|i| hc(i) * (i as f64).powi(q as i32)).sum::<f64>() / SQRT2)
+            .map(|q| {
+                range()
+                    .map(|i| hc(i) * (i as f64).powi(q as i32))
+                    .sum::<f64>()
+                    / SQRT2
+            })
             .collect();
         let mut moments = vec![1.0; p];
         for r in 1..p {
@@ -89,7 +94,9 @@ impl InteriorFilters {
                             gc(i)
                                 * (0..=r)
                                     .map(|s| {
-                                        binomial(r, s) * (i as f64).powi((r - s) as i32) * moments[s]
+                                        binomial(r, s)
+                                            * (i as f64).powi((r - s) as i32)
+                                            * moments[s]
                                     })
                                     .sum::<f64>()
                         })
@@ -285,8 +292,7 @@ impl EdgeFilters {
         let gram_error = edge_gram_error(int, &h_edge, &h_interior);
         let values_at_integers = edge_values_at_integers(int, &h_edge, &h_interior)?;
         let scaling_moments = edge_moments(int, &h_edge, &h_interior, None);
-        let wavelet_moments =
-            edge_moments(int, &h_edge, &h_interior, Some((&g_edge, &g_interior)));
+        let wavelet_moments = edge_moments(int, &h_edge, &h_interior, Some((&g_edge, &g_interior)));
         Ok(Self {
             count: p,
             h_edge,
@@ -535,8 +541,8 @@ fn edge_moments(
             None => mu,
             Some((ge, gi)) => (ge * &mu + gi * &y) * s,
         };
-        for k in 0..p {
-            out[k][d] = res[k];
+        for (k, row) in out.iter_mut().enumerate() {
+            row[d] = res[k];
         }
     }
     out

@@ -119,6 +119,11 @@ impl Position {
 }
 
 #[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[inline]
 fn matvec(a: &[f64], x: &[f64], y: &mut [f64]) {
     let w = x.len();
     for (i, yi) in y.iter_mut().enumerate() {
@@ -163,7 +168,11 @@ impl Walk {
             }
             let (v, wav) = (&self.v, &mut self.wav);
             for l in 0..levels.min((wav_hi + 1).saturating_sub(lo) as usize) {
-                matvec(&tab.u[1], &v[l * w..(l + 1) * w], &mut wav[l * w..(l + 1) * w]);
+                matvec(
+                    &tab.u[1],
+                    &v[l * w..(l + 1) * w],
+                    &mut wav[l * w..(l + 1) * w],
+                );
             }
             return;
         }
@@ -275,7 +284,8 @@ impl<'a> Evaluator<'a> {
         let w = 2 * p - 1;
 
         // Left edge start level (first level at or beyond which the value is direct).
-        let left_start = (e > 0 && !pos.one && pos.cell(n) < w as u64).then(|| edge_start(&pos, n, w));
+        let left_start =
+            (e > 0 && !pos.one && pos.cell(n) < w as u64).then(|| edge_start(&pos, n, w));
         let hi = left_start.map_or(top, |s| s.max(top));
         self.walk.run(&bank.digits, &pos, n, hi, fine);
 
@@ -316,7 +326,16 @@ impl<'a> Evaluator<'a> {
                 }
             }
         }
-        push_interior(out, self.walk.level(n), self.walk.cell(n), p, e, size, 0, sc);
+        push_interior(
+            out,
+            self.walk.level(n),
+            self.walk.cell(n),
+            p,
+            e,
+            size,
+            0,
+            sc,
+        );
         if right_levels > 0 {
             let r = right_cell(n);
             for k in (0..p).rev() {
@@ -336,9 +355,18 @@ impl<'a> Evaluator<'a> {
             let base = size as usize;
             let c = pos.cell(j);
             if left_levels > 0 && c < w as u64 {
-                let tab = bank.left_tables.as_ref().expect("edge tables exist when e > 0");
+                let tab = bank
+                    .left_tables
+                    .as_ref()
+                    .expect("edge tables exist when e > 0");
                 let l = (j - n) as usize;
-                let wv = edge_wavelets(tab, &self.edge[(l + 1) * p..(l + 2) * p], &self.walk, j + 1, p);
+                let wv = edge_wavelets(
+                    tab,
+                    &self.edge[(l + 1) * p..(l + 2) * p],
+                    &self.walk,
+                    j + 1,
+                    p,
+                );
                 for (k, v) in wv.iter().enumerate() {
                     if c < (p + k) as u64 {
                         out.push(BasisValue {
@@ -351,9 +379,18 @@ impl<'a> Evaluator<'a> {
             push_interior(out, self.walk.wavelets(j), c, p, e, size, base, sc);
             let r = right_cell(j);
             if right_levels > 0 && r < w as u64 {
-                let tab = bank.right_tables.as_ref().expect("edge tables exist when e > 0");
+                let tab = bank
+                    .right_tables
+                    .as_ref()
+                    .expect("edge tables exist when e > 0");
                 let l = (j - n) as usize;
-                let wv = edge_wavelets(tab, &right_edge[(l + 1) * p..(l + 2) * p], &self.mirror, j + 1, p);
+                let wv = edge_wavelets(
+                    tab,
+                    &right_edge[(l + 1) * p..(l + 2) * p],
+                    &self.mirror,
+                    j + 1,
+                    p,
+                );
                 for k in (0..p).rev() {
                     if r < (p + k) as u64 {
                         out.push(BasisValue {
@@ -452,15 +489,9 @@ fn edge_recursion(
     }
     for j in (lo..start).rev() {
         interior_near_edge(walk, j + 1, &mut phi);
-        for k in 0..p {
-            let mut s = 0.0;
-            for l in 0..p {
-                s += tab.h_edge[k * p + l] * a[l];
-            }
-            for q in 0..w {
-                s += tab.h_interior[k * w + q] * phi[q];
-            }
-            next[k] = s;
+        for (k, nk) in next.iter_mut().enumerate() {
+            *nk = dot(&tab.h_edge[k * p..(k + 1) * p], &a)
+                + dot(&tab.h_interior[k * w..(k + 1) * w], &phi);
         }
         std::mem::swap(&mut a, &mut next);
         if j <= top {
@@ -478,14 +509,8 @@ fn edge_wavelets(tab: &EdgeTables, a_finer: &[f64], walk: &Walk, finer: u32, p: 
     interior_near_edge(walk, finer, &mut phi);
     (0..p)
         .map(|k| {
-            let mut s = 0.0;
-            for l in 0..p {
-                s += tab.g_edge[k * p + l] * a_finer[l];
-            }
-            for q in 0..w {
-                s += tab.g_interior[k * w + q] * phi[q];
-            }
-            s
+            dot(&tab.g_edge[k * p..(k + 1) * p], a_finer)
+                + dot(&tab.g_interior[k * w..(k + 1) * w], &phi)
         })
         .collect()
 }

@@ -113,8 +113,7 @@ pub fn polynomial_error(basis: &CdvBasis, points: usize, seed: u64) -> f64 {
         basis.domain(),
     )
     .expect("levels already validated");
-    let (a, b) = basis.domain();
-    let root = (b - a).sqrt();
+    let root = basis.domain().length().sqrt();
     let coefficients: Vec<Vec<f64>> = (0..basis.p())
         .map(|d| {
             monomial_coefficients(basis, d)

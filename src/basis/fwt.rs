@@ -16,7 +16,12 @@ use super::cdv::EdgeFilters;
 
 /// Coarse index, fine index and weight of every nonzero entry of one analysis step, for the
 /// low-pass (`false`) or high-pass (`true`) half.
-fn analysis_entries(bank: &FilterBank, level: u32, high: bool, mut f: impl FnMut(usize, usize, f64)) {
+fn analysis_entries(
+    bank: &FilterBank,
+    level: u32,
+    high: bool,
+    mut f: impl FnMut(usize, usize, f64),
+) {
     let p = bank.p();
     let e = bank.edge_count();
     let size = 1usize << level;

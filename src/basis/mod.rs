@@ -23,6 +23,8 @@ pub use index::{FunctionId, FunctionKind, Side};
 
 use std::sync::Arc;
 
+use crate::sampling::Domain;
+
 use thiserror::Error;
 
 /// Finest wavelet level the evaluator supports (positions are `f64`, levels beyond ~50 carry
@@ -41,7 +43,9 @@ pub enum BasisError {
         max: usize,
     },
     /// `coarse > fine`.
-    #[error("coarse level n = {coarse} is above the finest wavelet level N = {fine}: choose n <= N")]
+    #[error(
+        "coarse level n = {coarse} is above the finest wavelet level N = {fine}: choose n <= N"
+    )]
     CoarseAboveFine {
         /// Coarse level `n`.
         coarse: u32,
@@ -68,14 +72,6 @@ pub enum BasisError {
         fine: u32,
         /// Maximum level.
         max: u32,
-    },
-    /// An empty, reversed or non-finite domain.
-    #[error("domain [{a}, {b}] is not a finite interval with a < b: give --domain a,b with a < b")]
-    InvalidDomain {
-        /// Left end.
-        a: f64,
-        /// Right end.
-        b: f64,
     },
     /// A position outside the domain or not finite.
     #[error("position {x} is outside the domain [{a}, {b}] (or not finite): give positions within the domain")]
@@ -118,8 +114,7 @@ pub struct CdvBasis {
     bank: Arc<FilterBank>,
     coarse: u32,
     fine: u32,
-    a: f64,
-    b: f64,
+    domain: Domain,
 }
 
 impl CdvBasis {
@@ -129,7 +124,7 @@ impl CdvBasis {
         family: FilterFamily,
         coarse: u32,
         fine: u32,
-        domain: (f64, f64),
+        domain: Domain,
     ) -> Result<Self, BasisError> {
         let bank = FilterBank::shared(p, family)?;
         Self::with_bank(bank, coarse, fine, domain)
@@ -140,12 +135,8 @@ impl CdvBasis {
         bank: Arc<FilterBank>,
         coarse: u32,
         fine: u32,
-        domain: (f64, f64),
+        domain: Domain,
     ) -> Result<Self, BasisError> {
-        let (a, b) = domain;
-        if !(a.is_finite() && b.is_finite() && a < b && (b - a).is_finite()) {
-            return Err(BasisError::InvalidDomain { a, b });
-        }
         let minimum = minimum_level(bank.p());
         if coarse < minimum {
             return Err(BasisError::CoarseLevelTooSmall {
@@ -167,8 +158,7 @@ impl CdvBasis {
             bank,
             coarse,
             fine,
-            a,
-            b,
+            domain,
         })
     }
 
@@ -189,38 +179,27 @@ impl CdvBasis {
         self.fine
     }
     /// The domain `[a, b]`.
-    pub fn domain(&self) -> (f64, f64) {
-        (self.a, self.b)
+    pub fn domain(&self) -> Domain {
+        self.domain
     }
     /// `dim Psi(n, N) = 2^{N+1}`.
     pub fn dimension(&self) -> usize {
         1usize << (self.fine + 1)
     }
-    /// Maps `x` in `[a, b]` to `t` in `[0, 1]`, or reports it outside.
+    /// Maps `x` in `[a, b]` to `t` in `[0, 1]`, or reports it outside (NaN included).
     pub fn to_unit(&self, x: f64) -> Result<f64, BasisError> {
-        if !(x >= self.a && x <= self.b) {
+        if !self.domain.contains(x) {
             return Err(BasisError::PositionOutside {
                 x,
-                a: self.a,
-                b: self.b,
+                a: self.domain.a(),
+                b: self.domain.b(),
             });
         }
-        if x == self.b {
-            return Ok(1.0);
-        }
-        Ok(((x - self.a) / (self.b - self.a)).clamp(0.0, 1.0))
-    }
-    /// Maps `t` in `[0, 1]` to `[a, b]`.
-    pub fn from_unit(&self, t: f64) -> f64 {
-        if t >= 1.0 {
-            self.b
-        } else {
-            self.a + t * (self.b - self.a)
-        }
+        Ok(self.domain.to_unit(x))
     }
     /// `(b - a)^{-1/2}`: the factor that keeps the basis orthonormal on `[a, b]`.
     pub fn amplitude(&self) -> f64 {
-        1.0 / (self.b - self.a).sqrt()
+        1.0 / self.domain.length().sqrt()
     }
     /// An evaluator with its own scratch space (one per thread).
     pub fn evaluator(&self) -> Evaluator<'_> {

@@ -16,7 +16,9 @@ use faer::linalg::householder::{
     apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj,
 };
 use faer::linalg::qr::col_pivoting::factor::{qr_in_place, qr_in_place_scratch};
-use faer::linalg::qr::no_pivoting::factor::recommended_block_size;
+use faer::linalg::qr::no_pivoting::factor::{
+    qr_in_place as qr_plain, qr_in_place_scratch as qr_plain_scratch, recommended_block_size,
+};
 use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
 use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
 use faer::{Accum, Conj, Mat, MatRef, Par};
@@ -36,12 +38,35 @@ pub(crate) struct BlockOut {
     pub fallback: bool,
 }
 
-fn stack_for(req: StackReq) -> MemBuffer {
-    MemBuffer::new(req)
+thread_local! {
+    /// Per-thread faer workspace, grown on demand and reused by every block on that thread
+    /// (a block's scratch can exceed the allocator's mmap threshold, ~0.5 MB at 300 x 90).
+    static WORK: std::cell::RefCell<(usize, Option<MemBuffer>)> =
+        const { std::cell::RefCell::new((0, None)) };
+}
+
+/// Runs `f` with a workspace of at least `req`; not re-entrant (callers keep each faer
+/// call inside its own `with_stack`).
+fn with_stack<R>(req: StackReq, f: impl FnOnce(&mut MemStack) -> R) -> R {
+    WORK.with(|w| {
+        let mut w = w.borrow_mut();
+        let need = req.unaligned_bytes_required();
+        if w.1.is_none() || w.0 < need {
+            let cap = need.max(1 << 14);
+            *w = (cap, Some(MemBuffer::new(StackReq::new::<u8>(cap))));
+        }
+        let buf = w.1.as_mut().expect("workspace allocated above");
+        f(MemStack::new(buf))
+    })
 }
 
 /// `K1^+ E_R` by thin SVD with relative cut-off; falls back to QR if the SVD does not
 /// converge (reported in [`BlockOut::fallback`]).
+///
+/// Tall blocks (`r > n`, the usual case) are first reduced by Householder QR,
+/// `K1 = Q R`, so that `K1^+ E_R = R^+ (Q^T E_R)`: the SVD runs on the `n x n` factor and
+/// `Q` is applied to the `g` pivot columns only, never formed (`U` of `K1` would cost
+/// `~4 r n^2` flops more).
 pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> BlockOut {
     let (r, n) = k1.shape();
     let g = piv.len();
@@ -55,25 +80,68 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
             fallback: false,
         };
     }
-    let mut s = faer::diag::Diag::<f64>::zeros(size);
-    let mut u = Mat::<f64>::zeros(r, size);
-    let mut v = Mat::<f64>::zeros(n, size);
-    let mut mem = stack_for(svd_scratch::<f64>(
-        r,
-        n,
-        ComputeSvdVectors::Thin,
-        ComputeSvdVectors::Thin,
-        Par::Seq,
-        Default::default(),
-    ));
-    let ok = svd(
-        k1,
-        s.as_mut(),
-        Some(u.as_mut()),
-        Some(v.as_mut()),
-        Par::Seq,
-        MemStack::new(&mut mem),
-        Default::default(),
+    // (matrix to decompose, right-hand side block it acts on: E_R or Q^T E_R)
+    let (core, rhs) = if r > n {
+        let mut a = k1.to_owned();
+        let bs = qr_block_size(r, n);
+        let mut coeff = Mat::<f64>::zeros(bs, n);
+        let mut e = Mat::<f64>::zeros(r, g);
+        for (t, &p) in piv.iter().enumerate() {
+            e[(p, t)] = 1.0;
+        }
+        with_stack(
+            StackReq::any_of(&[
+                qr_plain_scratch::<f64>(r, n, bs, Par::Seq, Default::default()),
+                apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(
+                    r, bs, g,
+                ),
+            ]),
+            |stack| {
+                qr_plain(a.as_mut(), coeff.as_mut(), Par::Seq, stack, Default::default());
+                apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
+                    a.as_ref(),
+                    coeff.as_ref(),
+                    Conj::No,
+                    e.as_mut(),
+                    Par::Seq,
+                    stack,
+                );
+            },
+        );
+        let rr = Mat::<f64>::from_fn(n, n, |i, j| if i <= j { a[(i, j)] } else { 0.0 });
+        (rr, e.get(..n, ..).to_owned())
+    } else {
+        let mut e = Mat::<f64>::zeros(r, g);
+        for (t, &p) in piv.iter().enumerate() {
+            e[(p, t)] = 1.0;
+        }
+        (k1.to_owned(), e)
+    };
+    let (cr, cn) = core.shape();
+    let csize = cr.min(cn);
+    let mut s = faer::diag::Diag::<f64>::zeros(csize);
+    let mut u = Mat::<f64>::zeros(cr, csize);
+    let mut v = Mat::<f64>::zeros(cn, csize);
+    let ok = with_stack(
+        svd_scratch::<f64>(
+            cr,
+            cn,
+            ComputeSvdVectors::Thin,
+            ComputeSvdVectors::Thin,
+            Par::Seq,
+            Default::default(),
+        ),
+        |stack| {
+            svd(
+                core.as_ref(),
+                s.as_mut(),
+                Some(u.as_mut()),
+                Some(v.as_mut()),
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+        },
     );
     if ok.is_err() {
         let mut out = qr_columns(k1, piv, cutoff);
@@ -83,9 +151,23 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
     let s = s.column_vector();
     let smax = s[0];
     let tol = cutoff * smax;
-    let rank = (0..size).take_while(|&k| s[k] > tol && s[k] > 0.0).count();
-    // W = (U[R, :rank] diag(1/s))^T : rank x g
-    let w = Mat::<f64>::from_fn(rank, g, |k, t| u[(piv[t], k)] / s[k]);
+    let rank = (0..csize).take_while(|&k| s[k] > tol && s[k] > 0.0).count();
+    // W = diag(1/s) U[:, :rank]^T rhs : rank x g
+    let mut w = Mat::<f64>::zeros(rank, g);
+    faer::linalg::matmul::matmul(
+        w.as_mut(),
+        Accum::Replace,
+        u.get(.., ..rank).transpose(),
+        rhs.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    for k in 0..rank {
+        let inv = 1.0 / s[k];
+        for t in 0..g {
+            w[(k, t)] *= inv;
+        }
+    }
     let mut x = Mat::<f64>::zeros(n, g);
     faer::linalg::matmul::matmul(
         x.as_mut(),
@@ -105,6 +187,10 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
     }
 }
 
+fn qr_block_size(r: usize, n: usize) -> usize {
+    recommended_block_size::<f64>(r, n).max(1)
+}
+
 /// `K1^+ E_R` by column-pivoted QR: basic least-squares solution on the leading columns
 /// with `|R_kk| > cutoff |R_00|`.
 pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> BlockOut {
@@ -121,42 +207,49 @@ pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Blo
         };
     }
     let mut a = k1.to_owned();
-    let bs = recommended_block_size::<f64>(r, n).max(1);
+    let bs = qr_block_size(r, n);
     let mut coeff = Mat::<f64>::zeros(bs, size);
     let mut fwd = vec![0usize; n];
     let mut inv = vec![0usize; n];
-    let mut mem = stack_for(StackReq::any_of(&[
-        qr_in_place_scratch::<usize, f64>(r, n, bs, Par::Seq, Default::default()),
-        apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(r, bs, g),
-    ]));
-    let (_, perm) = qr_in_place(
-        a.as_mut(),
-        coeff.as_mut(),
-        &mut fwd,
-        &mut inv,
-        Par::Seq,
-        MemStack::new(&mut mem),
-        Default::default(),
-    );
-    let perm_fwd: Vec<usize> = perm.arrays().0.to_vec();
-    let r00 = a[(0, 0)].abs();
-    let tol = cutoff * r00;
-    let rank = (0..size)
-        .take_while(|&k| a[(k, k)].abs() > tol && a[(k, k)] != 0.0)
-        .count();
     // E_R, then Q^T E_R
     let mut e = Mat::<f64>::zeros(r, g);
     for (t, &p) in piv.iter().enumerate() {
         e[(p, t)] = 1.0;
     }
-    apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
-        a.get(.., ..size),
-        coeff.as_ref(),
-        Conj::No,
-        e.as_mut(),
-        Par::Seq,
-        MemStack::new(&mut mem),
+    let perm_fwd: Vec<usize> = with_stack(
+        StackReq::any_of(&[
+            qr_in_place_scratch::<usize, f64>(r, n, bs, Par::Seq, Default::default()),
+            apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(
+                r, bs, g,
+            ),
+        ]),
+        |stack| {
+            let (_, perm) = qr_in_place(
+                a.as_mut(),
+                coeff.as_mut(),
+                &mut fwd,
+                &mut inv,
+                Par::Seq,
+                stack,
+                Default::default(),
+            );
+            let perm_fwd = perm.arrays().0.to_vec();
+            apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
+                a.get(.., ..size),
+                coeff.as_ref(),
+                Conj::No,
+                e.as_mut(),
+                Par::Seq,
+                stack,
+            );
+            perm_fwd
+        },
     );
+    let r00 = a[(0, 0)].abs();
+    let tol = cutoff * r00;
+    let rank = (0..size)
+        .take_while(|&k| a[(k, k)].abs() > tol && a[(k, k)] != 0.0)
+        .count();
     let mut y = e.get(..rank, ..).to_owned();
     solve_upper_triangular_in_place(a.get(..rank, ..rank), y.as_mut(), Par::Seq);
     let mut x = Mat::<f64>::zeros(n, g);
@@ -214,11 +307,7 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
         }
     }
     let thresh = 16.0 * n as f64 * f64::EPSILON;
-    let mut mem = stack_for(cholesky_in_place_scratch::<f64>(
-        n,
-        Par::Seq,
-        Default::default(),
-    ));
+    let req = cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default());
     let mut shift = 0.0;
     for attempt in 0..=9 {
         if attempt > 0 {
@@ -228,13 +317,15 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
         for i in 0..n {
             l[(i, i)] += shift;
         }
-        let ok = cholesky_in_place(
-            l.as_mut(),
-            Default::default(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-            Default::default(),
-        );
+        let ok = with_stack(req, |stack| {
+            cholesky_in_place(
+                l.as_mut(),
+                Default::default(),
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+        });
         if ok.is_err() {
             continue;
         }
@@ -244,12 +335,14 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
         if !(lmin * lmin >= thresh) {
             continue;
         }
-        faer::linalg::cholesky::llt::solve::solve_in_place(
-            l.as_ref(),
-            b.as_mut(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-        );
+        with_stack(StackReq::EMPTY, |stack| {
+            faer::linalg::cholesky::llt::solve::solve_in_place(
+                l.as_ref(),
+                b.as_mut(),
+                Par::Seq,
+                stack,
+            )
+        });
         for t in 0..g {
             for i in 0..n {
                 b[(i, t)] *= d[i];

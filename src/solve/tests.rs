@@ -613,3 +613,44 @@ fn explore_ring_decay() {
         }
     }
 }
+
+#[test]
+#[ignore]
+fn profile_local() {
+    let m = 1_000_000;
+    let mut rng = Rng::new(99);
+    let xs: Vec<f64> = (0..m).map(|i| (i as f64 + rng.uniform()) / m as f64).collect();
+    let k = two_level_matrix(m / 8 + 1, &xs);
+    let solver = match std::env::var("SOLVER").as_deref() {
+        Ok("qr") => Solver::Qr,
+        Ok("chol") => Solver::Cholesky,
+        _ => Solver::Svd,
+    };
+    let params = LocalInversionParams {
+        rings: 1,
+        solver,
+        ..Default::default()
+    };
+    for _ in 0..3 {
+        let t = std::time::Instant::now();
+        let l = local_inversion(&k, &params).unwrap();
+        eprintln!("{solver:?} {:.0} ms groups {}", t.elapsed().as_secs_f64() * 1e3, l.stats.n_groups);
+    }
+}
+
+#[test]
+#[ignore]
+fn scratch_sizes() {
+    use faer::linalg::svd::{svd_scratch, ComputeSvdVectors};
+    for (r, n) in [(12, 2), (40, 7), (182, 35), (300, 90)] {
+        let req = svd_scratch::<f64>(
+            r,
+            n,
+            ComputeSvdVectors::Thin,
+            ComputeSvdVectors::Thin,
+            faer::Par::Seq,
+            Default::default(),
+        );
+        eprintln!("svd {r}x{n}: {} bytes", req.unaligned_bytes_required());
+    }
+}

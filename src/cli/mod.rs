@@ -1,0 +1,210 @@
+//! The command line: arguments are parsed and validated into plain values here, then those
+//! values build the library objects. No algorithm lives in the binary.
+
+pub mod basis_cmd;
+pub mod demo;
+pub mod eval_cmd;
+pub mod figures;
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use rkwave::basis::{BasisError, FilterFamily};
+use rkwave::plot::PlotError;
+use rkwave::sampling::{Domain, DomainError};
+use thiserror::Error;
+
+/// rkwave: least-squares reconstruction from scattered samples in CDV interval wavelet bases.
+#[derive(Parser, Debug)]
+#[command(name = "rkwave", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do; without a subcommand, the built-in demo writes its figures and report to
+    /// `out/`.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Basis facts (orthonormality, polynomial reproduction, vanishing moments, FWT) and a figure.
+    Basis(BasisArgs),
+    /// Every nonzero basis function at the given positions.
+    Eval(EvalArgs),
+    /// The built-in demo (what `cargo run --release` runs).
+    Demo(DemoArgs),
+}
+
+/// Interior filter family on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum FamilyArg {
+    /// Extremal phase (dbP).
+    Db,
+    /// Least asymmetric (symP).
+    Sym,
+}
+
+/// The basis: `p`, family, levels and domain.
+#[derive(Args, Debug, Clone)]
+pub struct BasisSpec {
+    /// Vanishing moments p (1 = Haar, up to 10).
+    #[arg(long, default_value_t = 3)]
+    pub p: usize,
+    /// Interior filter family; default CDV's choice (db for p <= 3, sym for p >= 4).
+    #[arg(long, value_enum)]
+    pub family: Option<FamilyArg>,
+    /// Coarse scaling level n (default j_min(p)).
+    #[arg(long)]
+    pub coarse: Option<u32>,
+    /// Finest wavelet level N.
+    #[arg(long, default_value_t = 8)]
+    pub fine: u32,
+    /// Domain `a,b`.
+    #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
+    pub domain: String,
+}
+
+impl BasisSpec {
+    /// The family (CDV's default when not given).
+    pub fn family(&self) -> FilterFamily {
+        match self.family {
+            Some(FamilyArg::Db) => FilterFamily::Extremal,
+            Some(FamilyArg::Sym) => FilterFamily::LeastAsymmetric,
+            None => FilterFamily::cdv_default(self.p),
+        }
+    }
+    /// The coarse level (`j_min(p)` when not given).
+    pub fn coarse(&self) -> u32 {
+        self.coarse
+            .unwrap_or_else(|| rkwave::basis::minimum_level(self.p.max(1)))
+    }
+    /// The validated domain.
+    pub fn domain(&self) -> Result<Domain, CliError> {
+        Ok(self.domain.parse::<Domain>()?)
+    }
+    /// Builds the basis, validating every parameter.
+    pub fn build(&self) -> Result<rkwave::basis::CdvBasis, CliError> {
+        let domain = self.domain()?;
+        Ok(rkwave::basis::CdvBasis::new(
+            self.p,
+            self.family(),
+            self.coarse(),
+            self.fine,
+            domain,
+        )?)
+    }
+}
+
+/// `rkwave basis`.
+#[derive(Args, Debug)]
+pub struct BasisArgs {
+    /// The basis.
+    #[command(flatten)]
+    pub spec: BasisSpec,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the scaling functions and wavelets of the coarse level to this PNG (or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Positions at which polynomial reproduction is checked.
+    #[arg(long, default_value_t = 20_000)]
+    pub points: usize,
+    /// Seed of the random test data.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Overwrite an existing plot file.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// `rkwave eval`.
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// The basis.
+    #[command(flatten)]
+    pub spec: BasisSpec,
+    /// Positions, comma separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        required = true
+    )]
+    pub x: Vec<f64>,
+    /// Print JSON (one object with a list per position).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `rkwave demo`.
+#[derive(Args, Debug, Default)]
+pub struct DemoArgs {
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+}
+
+/// Everything that can go wrong on the command line. User errors exit with code 2.
+#[derive(Debug, Error)]
+pub enum CliError {
+    /// Invalid basis parameters or positions.
+    #[error(transparent)]
+    Basis(#[from] BasisError),
+    /// Invalid domain.
+    #[error("invalid --domain: {0}")]
+    Domain(#[from] DomainError),
+    /// A figure could not be drawn or written.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// A file operation failed.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// An output file exists and would be overwritten.
+    #[error("{path} exists: pass --force to overwrite it or choose another path")]
+    WouldOverwrite {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Other invalid input.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl CliError {
+    /// Exit code: 2 for bad input, 1 for failures of the machine (files, drawing).
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            CliError::Write { .. } | CliError::Plot(_) => 1,
+            CliError::Basis(BasisError::Construction { .. }) => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// Refuses to overwrite `path` unless `force`.
+pub fn check_writable(path: &std::path::Path, force: bool) -> Result<(), CliError> {
+    if path.exists() && !force {
+        return Err(CliError::WouldOverwrite {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+/// Runs the parsed command.
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        None => demo::run(&DemoArgs {
+            out: PathBuf::from("out"),
+        }),
+        Some(Command::Demo(args)) => demo::run(&args),
+        Some(Command::Basis(args)) => basis_cmd::run(&args),
+        Some(Command::Eval(args)) => eval_cmd::run(&args),
+    }
+}
