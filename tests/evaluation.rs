@@ -333,3 +333,29 @@ fn extreme_levels_and_positions() {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Pointwise values of every function of `Psi(n, N)` agree with its FWT synthesis into
+    /// `V_{N+1}` evaluated at the same dyadic position (relative to `2^{(N+1)/2}`), 1e-12.
+    #[test]
+    fn values_agree_with_fwt_synthesis_at_dyadic_positions(p in 1usize..=8, depth in 0u32..3, num in 0u64..=4096) {
+        let family = FilterFamily::cdv_default(p);
+        let n = rkwave::basis::minimum_level(p);
+        let fine = n + depth;
+        let basis = CdvBasis::new(p, family, n, fine, rkwave::sampling::Domain::UNIT).unwrap();
+        let top = CdvBasis::new(p, family, fine + 1, fine + 1, rkwave::sampling::Domain::UNIT).unwrap();
+        let x = num as f64 / 4096.0;
+        let values = basis.evaluator().eval(x).unwrap();
+        let fine_values = top.evaluator().eval(x).unwrap();
+        let dim = basis.dimension();
+        for v in &values {
+            let unit: Vec<f64> = (0..dim).map(|i| if i == v.index { 1.0 } else { 0.0 }).collect();
+            let coefficients = rkwave::basis::fwt::synthesis(basis.bank(), n, fine, &unit);
+            let s: f64 = fine_values.iter().filter(|f| f.index < dim).map(|f| coefficients[f.index] * f.value).sum();
+            let scale = 2f64.powf((fine + 1) as f64 / 2.0);
+            prop_assert!((s - v.value).abs() < 1e-12 * scale, "p = {} x = {} a = {}: {} vs {}", p, x, v.index, s, v.value);
+        }
+    }
+}

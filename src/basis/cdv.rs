@@ -31,12 +31,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::filters::binomial;
 use super::BasisError;
-
-/// Binomial coefficient as `f64` (small arguments only).
-fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
-}
 
 /// The interior filter pair and the exact facts about `phi` and `psi` derived from it.
 #[derive(Clone, Debug)]

@@ -12,12 +12,9 @@
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
+use super::filters::binomial;
 use super::fwt::{analysis, synthesis, synthesis_matrix};
 use super::{BasisValue, CdvBasis};
-
-fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
-}
 
 /// Errors of the four identities (all in absolute terms on the basis' own domain; polynomials are
 /// `((x - a) / (b - a))^d`).

@@ -193,8 +193,9 @@ fn y_polynomial(p: usize) -> Vec<f64> {
     (0..p).map(|k| binomial(p - 1 + k, k)).collect()
 }
 
-fn binomial(n: usize, k: usize) -> f64 {
-    // Exact in f64 for the sizes used here (C(18, 9) = 48620).
+/// Binomial coefficient `C(n, k)` as `f64` (exact for the small arguments used in rkwave, e.g.
+/// `C(18, 9) = 48620`).
+pub(crate) fn binomial(n: usize, k: usize) -> f64 {
     (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
 }
 

@@ -202,6 +202,7 @@ fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
     let (kp, ki, _) = raw(&prep.k);
     let (tp, ti, _) = raw(&prep.kt);
     let m = prep.k.rows();
+    let t1 = std::time::Instant::now();
     let mut by_pattern: FxMap<&[usize], usize> = FxMap::default();
     let mut patterns: Vec<(&[usize], Vec<usize>)> = Vec::new();
     let mut empty = 0;
@@ -219,6 +220,7 @@ fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
         patterns[g].1.push(i);
     }
     let n_patterns = patterns.len();
+    eprintln!("  hashed {:?}", t1.elapsed());
     let grown: Vec<Group> = patterns
         .into_par_iter()
         .map(|(pat, pivots)| {
@@ -231,6 +233,7 @@ fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
             Group { idx, jdx, pivots }
         })
         .collect();
+    eprintln!("  grown {:?}", t1.elapsed());
     if rings == 0 {
         return (grown, n_patterns, empty);
     }
@@ -335,9 +338,13 @@ fn run<T: Send>(
     each: impl Fn(&Group, Mat<f64>) -> Result<T, SolveError> + Sync,
 ) -> Result<(Vec<Group>, Vec<T>, LocalStats), SolveError> {
     params.validate()?;
+    let t0 = std::time::Instant::now();
     let prep = prepare(k)?;
+    eprintln!("prepare {:?}", t0.elapsed());
     let normal = (params.solver == Solver::Cholesky).then(|| normal_matrix(&prep.k, &prep.kt));
+    eprintln!("normal {:?}", t0.elapsed());
     let (groups, n_patterns, empty_rows) = build_groups(&prep, params.rings);
+    eprintln!("groups {:?}", t0.elapsed());
     let exponent = prep.exponent;
     let ctx = Context {
         prep,
@@ -372,6 +379,7 @@ fn run<T: Send>(
             Ok((each(g, x)?, st))
         })
         .collect::<Result<_, _>>()?;
+    eprintln!("solved {:?}", t0.elapsed());
     let (kept, group_stats): (Vec<T>, Vec<GroupStats>) = results.into_iter().unzip();
     let stats = LocalStats {
         solver: params.solver,
