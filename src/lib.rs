@@ -8,7 +8,7 @@
 //!   `Psi(n, N)` ([`basis::CdvBasis`], [`basis::Evaluator`]) and the interval FWT;
 //! - [`sampling`]: domains, sample layouts and built-in test signals;
 //! - [`io`]: reading and writing samples (CSV, NumPy `.npy`);
-//! - [`plot`]: figures.
+//! - [`plot`] draws the figures.
 //!
 //! ```
 //! use rkwave::basis::{CdvBasis, FilterFamily};
