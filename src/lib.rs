@@ -24,5 +24,6 @@
 
 pub mod basis;
 pub mod io;
+pub mod kernel;
 pub mod plot;
 pub mod sampling;

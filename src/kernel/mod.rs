@@ -1,0 +1,14 @@
+//! Sparse kernel matrices `K[i, a] = Psi_a(lambda_i)` (DESIGN §3), the active basis sets that
+//! index their columns, and the automatic choice of levels.
+//!
+//! Each row holds the values of the functions of the active set that are nonzero at one
+//! sample, straight from the one-pass pointwise evaluation (about `2p - 1` per level plus edge
+//! functions), built in parallel with rayon.
+
+mod active;
+mod levels;
+mod matrix;
+
+pub use active::ActiveSet;
+pub use levels::{LevelChoice, LevelParams};
+pub use matrix::{kernel_matrix, KernelError};
