@@ -26,4 +26,6 @@ pub mod basis;
 pub mod io;
 pub mod kernel;
 pub mod plot;
+pub mod reconstruct;
 pub mod sampling;
+pub mod solve;

@@ -64,10 +64,16 @@ fn automatic_levels_hit_the_oversampling_and_locality_targets() {
             assert!(c.coarse >= minimum_level(p) && c.coarse <= c.fine);
             // 2^{N+1} <= m / rho < 2^{N+2} unless clamped at j_min
             if c.fine > minimum_level(p) {
-                assert!(dim <= m as f64 / params.rho && 2.0 * dim > m as f64 / params.rho, "m = {m}, p = {p}: {c:?}");
+                assert!(
+                    dim <= m as f64 / params.rho && 2.0 * dim > m as f64 / params.rho,
+                    "m = {m}, p = {p}: {c:?}"
+                );
             }
             let per_coarse = m as f64 * (2 * p - 1) as f64 / (1u64 << c.coarse) as f64;
-            assert!(per_coarse <= params.coarse_samples || c.coarse == c.fine, "m = {m}: {c:?}");
+            assert!(
+                per_coarse <= params.coarse_samples || c.coarse == c.fine,
+                "m = {m}: {c:?}"
+            );
         }
     }
 }

@@ -273,13 +273,24 @@ impl<'a> Evaluator<'a> {
 
     /// Evaluation at `t` in `[0, 1]` (unit coordinates; not checked).
     pub fn eval_unit_into(&mut self, t: f64, out: &mut Vec<BasisValue>) {
+        self.eval_levels(t, out, true);
+    }
+
+    /// Only the scaling functions of `V_n` (global indices `< 2^n`) at `t` in `[0, 1]`: the
+    /// single-scale evaluation used to evaluate a reconstruction after FWT synthesis.
+    pub fn eval_scaling_unit_into(&mut self, t: f64, out: &mut Vec<BasisValue>) {
+        self.eval_levels(t, out, false);
+    }
+
+    fn eval_levels(&mut self, t: f64, out: &mut Vec<BasisValue>, with_wavelets: bool) {
         out.clear();
         let basis = self.basis;
         let bank = basis.bank();
         let p = bank.p();
         let e = bank.edge_count();
-        let (n, fine) = (basis.coarse(), basis.fine());
-        let top = fine + 1;
+        let n = basis.coarse();
+        let fine = if with_wavelets { basis.fine() } else { n };
+        let top = if with_wavelets { fine + 1 } else { n };
         let pos = Position::new(t);
         let w = 2 * p - 1;
 
@@ -348,6 +359,9 @@ impl<'a> Evaluator<'a> {
             }
         }
 
+        if !with_wavelets {
+            return;
+        }
         // Wavelets at levels n..=N.
         for j in n..=fine {
             let size = 1u64 << j;

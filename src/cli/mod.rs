@@ -5,6 +5,8 @@ pub mod basis_cmd;
 pub mod demo;
 pub mod eval_cmd;
 pub mod figures;
+pub mod reconstruct_cmd;
+pub mod solve_args;
 
 use std::path::PathBuf;
 
@@ -33,6 +35,8 @@ pub enum Command {
     Eval(EvalArgs),
     /// The built-in demo (what `cargo run --release` runs).
     Demo(DemoArgs),
+    /// Reconstruct a user's samples (CSV or .npy) onto a grid.
+    Reconstruct(reconstruct_cmd::ReconstructArgs),
 }
 
 /// Interior filter family on the command line.
@@ -154,6 +158,12 @@ pub enum CliError {
     /// Invalid domain.
     #[error("invalid --domain: {0}")]
     Domain(#[from] DomainError),
+    /// Reading or writing samples.
+    #[error(transparent)]
+    Io(#[from] rkwave::io::IoError),
+    /// Reconstruction.
+    #[error(transparent)]
+    Reconstruct(#[from] rkwave::reconstruct::ReconstructError),
     /// A figure could not be drawn or written.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -206,5 +216,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Demo(args)) => demo::run(&args),
         Some(Command::Basis(args)) => basis_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
+        Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
     }
 }

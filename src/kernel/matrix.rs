@@ -87,5 +87,10 @@ pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>
         indices.extend(idx);
         data.extend(val);
     }
-    Ok(CsMat::new((positions.len(), active.len()), indptr, indices, data))
+    Ok(CsMat::new(
+        (positions.len(), active.len()),
+        indptr,
+        indices,
+        data,
+    ))
 }

@@ -24,12 +24,23 @@ pub struct Comparison {
     pub cols: usize,
 }
 
-fn finish(sq: f64, ref_sq: f64, max_abs: f64, argmax: (usize, usize), rows: usize, cols: usize) -> Comparison {
+fn finish(
+    sq: f64,
+    ref_sq: f64,
+    max_abs: f64,
+    argmax: (usize, usize),
+    rows: usize,
+    cols: usize,
+) -> Comparison {
     let n = (rows * cols).max(1) as f64;
     Comparison {
         max_abs,
         rms: (sq / n).sqrt(),
-        rel_frobenius: if ref_sq > 0.0 { (sq / ref_sq).sqrt() } else { sq.sqrt() },
+        rel_frobenius: if ref_sq > 0.0 {
+            (sq / ref_sq).sqrt()
+        } else {
+            sq.sqrt()
+        },
         argmax,
         rows,
         cols,
@@ -38,10 +49,18 @@ fn finish(sq: f64, ref_sq: f64, max_abs: f64, argmax: (usize, usize), rows: usiz
 
 fn check_shape(a: (usize, usize), b: (usize, usize)) -> Result<(), SolveError> {
     if a.0 != b.0 {
-        return Err(SolveError::DimensionMismatch { what: "rows of the compared matrices", expected: b.0, found: a.0 });
+        return Err(SolveError::DimensionMismatch {
+            what: "rows of the compared matrices",
+            expected: b.0,
+            found: a.0,
+        });
     }
     if a.1 != b.1 {
-        return Err(SolveError::DimensionMismatch { what: "columns of the compared matrices", expected: b.1, found: a.1 });
+        return Err(SolveError::DimensionMismatch {
+            what: "columns of the compared matrices",
+            expected: b.1,
+            found: a.1,
+        });
     }
     Ok(())
 }
@@ -77,5 +96,8 @@ pub fn compare_sparse_dense(a: &CsMat<f64>, b: MatRef<'_, f64>) -> Result<Compar
 
 /// Compares two vectors (`a` approximation, `b` reference) as `n x 1` matrices.
 pub fn compare_vectors(a: &[f64], b: &[f64]) -> Result<Comparison, SolveError> {
-    compare_dense(MatRef::from_column_major_slice(a, a.len(), 1), MatRef::from_column_major_slice(b, b.len(), 1))
+    compare_dense(
+        MatRef::from_column_major_slice(a, a.len(), 1),
+        MatRef::from_column_major_slice(b, b.len(), 1),
+    )
 }

@@ -16,13 +16,13 @@
 //!   variables; zero on never-sampled columns).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::linalg::svd::{pseudoinverse_from_svd_scratch, pseudoinverse_from_svd_with_tolerance};
 use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, simplicial::SimplicialLltRef, supernodal::SupernodalLltRef,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
-use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, Par, Side};
 use rayon::prelude::*;
@@ -144,7 +144,9 @@ pub fn dense_pinv(k: &CsMat<f64>, cutoff: f64) -> Result<DensePinv, SolveError> 
     let e = prep.exponent;
     let sv: Vec<f64> = (0..size).map(|i| ldexp(s[i], e)).collect();
     let smax = s[0];
-    let rank = (0..size).filter(|&i| s[i] > cutoff * smax && s[i] > 0.0).count();
+    let rank = (0..size)
+        .filter(|&i| s[i] > cutoff * smax && s[i] > 0.0)
+        .count();
     if e != 0 {
         for j in 0..m {
             for i in 0..p {
@@ -159,7 +161,11 @@ pub fn dense_pinv(k: &CsMat<f64>, cutoff: f64) -> Result<DensePinv, SolveError> 
             });
         }
     }
-    let condition = if rank == p { smax / s[p - 1] } else { f64::INFINITY };
+    let condition = if rank == p {
+        smax / s[p - 1]
+    } else {
+        f64::INFINITY
+    };
     Ok(DensePinv {
         pinv,
         singular_values: sv,
@@ -207,9 +213,13 @@ pub fn global_ls(
 ) -> Result<GlobalLs, SolveError> {
     params.validate()?;
     check_values(values, k.rows())?;
-    if values.is_empty() {
+    let (m, p) = k.shape();
+    if m < p && params.method == GlobalMethod::Cholesky && params.rank_policy == RankPolicy::Error {
+        return Err(SolveError::Undersampled { rows: m, cols: p });
+    }
+    if values.is_empty() || p == 0 || m == 0 {
         return Ok(GlobalLs {
-            coefficients: vec![],
+            coefficients: vec![vec![0.0; p]; values.len()],
             report: GlobalReport {
                 method: params.method,
                 iterations: vec![],
@@ -356,15 +366,11 @@ fn cholesky_ls(
     }
     let normal_nnz = row_idx.len();
     let sym = SymbolicSparseColMatRef::new_checked(p, p, &col_ptr, None, &row_idx);
-    let symbolic = factorize_symbolic_cholesky(
-        sym,
-        Side::Lower,
-        SymmetricOrdering::Amd,
-        Default::default(),
-    )
-    .map_err(|e| SolveError::Factorization {
-        what: format!("symbolic sparse Cholesky of K^T K ({p} x {p}): {e:?}"),
-    })?;
+    let symbolic =
+        factorize_symbolic_cholesky(sym, Side::Lower, SymmetricOrdering::Amd, Default::default())
+            .map_err(|e| SolveError::Factorization {
+            what: format!("symbolic sparse Cholesky of K^T K ({p} x {p}): {e:?}"),
+        })?;
     let perm_fwd: Vec<usize> = match symbolic.perm() {
         Some(perm) => perm.arrays().0.to_vec(),
         None => (0..p).collect(),
@@ -480,7 +486,11 @@ fn min_diag(
         .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
 }
 
-fn cgls(k: &CsMat<f64>, values: &[&[f64]], params: &GlobalLsParams) -> Result<GlobalLs, SolveError> {
+fn cgls(
+    k: &CsMat<f64>,
+    values: &[&[f64]],
+    params: &GlobalLsParams,
+) -> Result<GlobalLs, SolveError> {
     let (m, p) = k.shape();
     let ch = values.len();
     let prep = prepare(k)?;
@@ -497,7 +507,10 @@ fn cgls(k: &CsMat<f64>, values: &[&[f64]], params: &GlobalLsParams) -> Result<Gl
                 }
                 acc
             })
-            .reduce(|| vec![0.0; ch], |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect())
+            .reduce(
+                || vec![0.0; ch],
+                |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
+            )
     };
     // s = D K_s^T r
     let at = |r: &[f64], s: &mut [f64]| {

@@ -97,7 +97,13 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
                 ),
             ]),
             |stack| {
-                qr_plain(a.as_mut(), coeff.as_mut(), Par::Seq, stack, Default::default());
+                qr_plain(
+                    a.as_mut(),
+                    coeff.as_mut(),
+                    Par::Seq,
+                    stack,
+                    Default::default(),
+                );
                 apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
                     a.as_ref(),
                     coeff.as_ref(),
@@ -180,7 +186,11 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
     let smin = if r >= n { s[n - 1] } else { 0.0 };
     BlockOut {
         x,
-        condition: if smin > 0.0 { smax / smin } else { f64::INFINITY },
+        condition: if smin > 0.0 {
+            smax / smin
+        } else {
+            f64::INFINITY
+        },
         cut: n - rank,
         shift: 0.0,
         fallback: false,
@@ -332,7 +342,7 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
         let diag: Vec<f64> = (0..n).map(|i| l[(i, i)]).collect();
         let lmin = diag.iter().cloned().fold(f64::INFINITY, f64::min);
         let lmax = diag.iter().cloned().fold(0.0, f64::max);
-        if !(lmin * lmin >= thresh) {
+        if lmin.is_nan() || lmin * lmin < thresh {
             continue;
         }
         with_stack(StackReq::EMPTY, |stack| {
@@ -350,7 +360,11 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
         }
         return Some(BlockOut {
             x: b,
-            condition: if shift > 0.0 { f64::INFINITY } else { lmax / lmin },
+            condition: if shift > 0.0 {
+                f64::INFINITY
+            } else {
+                lmax / lmin
+            },
             cut: 0,
             shift,
             fallback: false,

@@ -197,34 +197,69 @@ fn union_of(indptr: &[usize], indices: &[usize], outer: &[usize]) -> Vec<usize> 
     out
 }
 
+fn hash_slice(v: &[usize]) -> u64 {
+    let mut h = FxHasher::default();
+    for &x in v {
+        h.write_usize(x);
+    }
+    h.write_usize(v.len());
+    h.finish()
+}
+
+/// Classes of equal slices: `class[i]` = index of the first `i' <= i` with
+/// `key(i') == key(i)`, hashed in parallel, compared exactly (no false merge on a hash
+/// collision).
+fn classes<'a>(n: usize, key: impl Fn(usize) -> &'a [usize] + Sync) -> Vec<usize> {
+    let hashes: Vec<u64> = (0..n).into_par_iter().map(|i| hash_slice(key(i))).collect();
+    let mut first: FxMap<u64, Vec<usize>> = FxMap::default();
+    let mut class = Vec::with_capacity(n);
+    for (i, &h) in hashes.iter().enumerate() {
+        // consecutive equal keys (sorted samples) skip the map
+        if i > 0 && hashes[i - 1] == h && key(i - 1) == key(i) {
+            let c = class[i - 1];
+            class.push(c);
+            continue;
+        }
+        let bucket = first.entry(h).or_default();
+        match bucket.iter().find(|&&j| key(j) == key(i)) {
+            Some(&j) => class.push(j),
+            None => {
+                bucket.push(i);
+                class.push(i);
+            }
+        }
+    }
+    class
+}
+
 /// Groups the rows of `K` by pattern, grows neighbourhoods, merges equal `idx`.
 fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
     let (kp, ki, _) = raw(&prep.k);
     let (tp, ti, _) = raw(&prep.kt);
     let m = prep.k.rows();
-    let t1 = std::time::Instant::now();
-    let mut by_pattern: FxMap<&[usize], usize> = FxMap::default();
-    let mut patterns: Vec<(&[usize], Vec<usize>)> = Vec::new();
+    let class = classes(m, |i| &ki[kp[i]..kp[i + 1]]);
+    // representative row -> group number, in order of first appearance
+    let mut number = vec![usize::MAX; m];
+    let mut patterns: Vec<(usize, Vec<usize>)> = Vec::new();
     let mut empty = 0;
     for i in 0..m {
-        let pat = &ki[kp[i]..kp[i + 1]];
-        if pat.is_empty() {
+        if kp[i] == kp[i + 1] {
             empty += 1;
             continue;
         }
-        let next = patterns.len();
-        let g = *by_pattern.entry(pat).or_insert(next);
-        if g == next {
-            patterns.push((pat, Vec::new()));
+        let c = class[i];
+        if number[c] == usize::MAX {
+            number[c] = patterns.len();
+            patterns.push((c, Vec::new()));
         }
-        patterns[g].1.push(i);
+        patterns[number[c]].1.push(i);
     }
+    drop(number);
     let n_patterns = patterns.len();
-    eprintln!("  hashed {:?}", t1.elapsed());
     let grown: Vec<Group> = patterns
         .into_par_iter()
-        .map(|(pat, pivots)| {
-            let mut idx = pat.to_vec();
+        .map(|(rep, pivots)| {
+            let mut idx = ki[kp[rep]..kp[rep + 1]].to_vec();
             let mut jdx = union_of(tp, ti, &idx);
             for _ in 0..rings {
                 idx = union_of(kp, ki, &jdx);
@@ -233,22 +268,30 @@ fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
             Group { idx, jdx, pivots }
         })
         .collect();
-    eprintln!("  grown {:?}", t1.elapsed());
     if rings == 0 {
         return (grown, n_patterns, empty);
     }
     // Different patterns can grow into the same neighbourhood: one factorization each.
-    let mut by_idx: FxMap<Vec<usize>, usize> = FxMap::default();
-    let mut merged: Vec<Group> = Vec::new();
-    for g in grown {
-        match by_idx.get(&g.idx) {
-            Some(&t) => merged[t].pivots.extend_from_slice(&g.pivots),
-            None => {
-                by_idx.insert(g.idx.clone(), merged.len());
-                merged.push(g);
-            }
+    let class = classes(grown.len(), |g| grown[g].idx.as_slice());
+    if class.iter().enumerate().all(|(g, &c)| g == c) {
+        return (grown, n_patterns, empty);
+    }
+    let mut extra: Vec<Vec<usize>> = vec![Vec::new(); grown.len()];
+    for (g, &c) in class.iter().enumerate() {
+        if c != g {
+            extra[c].extend_from_slice(&grown[g].pivots);
         }
     }
+    let mut merged: Vec<Group> = grown
+        .into_iter()
+        .zip(extra)
+        .enumerate()
+        .filter(|(g, _)| class[*g] == *g)
+        .map(|(_, (mut grp, more))| {
+            grp.pivots.extend(more);
+            grp
+        })
+        .collect();
     merged.par_iter_mut().for_each(|g| g.pivots.sort_unstable());
     (merged, n_patterns, empty)
 }
@@ -286,9 +329,12 @@ fn solve_group(ctx: &Context, g: &Group) -> Result<(BlockOut, GroupStats), Solve
             }
         }
         Solver::Cholesky => {
-            let normal = ctx.normal.as_ref().ok_or_else(|| SolveError::Factorization {
-                what: "internal: normal matrix missing for the Cholesky solver".into(),
-            })?;
+            let normal = ctx
+                .normal
+                .as_ref()
+                .ok_or_else(|| SolveError::Factorization {
+                    what: "internal: normal matrix missing for the Cholesky solver".into(),
+                })?;
             let (gp, gi, gd) = raw(normal);
             let mut gm = Mat::<f64>::zeros(n, n);
             for (ai, &a) in g.idx.iter().enumerate() {
@@ -338,13 +384,9 @@ fn run<T: Send>(
     each: impl Fn(&Group, Mat<f64>) -> Result<T, SolveError> + Sync,
 ) -> Result<(Vec<Group>, Vec<T>, LocalStats), SolveError> {
     params.validate()?;
-    let t0 = std::time::Instant::now();
     let prep = prepare(k)?;
-    eprintln!("prepare {:?}", t0.elapsed());
     let normal = (params.solver == Solver::Cholesky).then(|| normal_matrix(&prep.k, &prep.kt));
-    eprintln!("normal {:?}", t0.elapsed());
     let (groups, n_patterns, empty_rows) = build_groups(&prep, params.rings);
-    eprintln!("groups {:?}", t0.elapsed());
     let exponent = prep.exponent;
     let ctx = Context {
         prep,
@@ -379,7 +421,6 @@ fn run<T: Send>(
             Ok((each(g, x)?, st))
         })
         .collect::<Result<_, _>>()?;
-    eprintln!("solved {:?}", t0.elapsed());
     let (kept, group_stats): (Vec<T>, Vec<GroupStats>) = results.into_iter().unzip();
     let stats = LocalStats {
         solver: params.solver,
@@ -425,16 +466,30 @@ pub fn local_inversion(
         }
         indptr.push(nnz);
     }
-    let mut indices = Vec::with_capacity(nnz);
-    let mut data = Vec::with_capacity(nnz);
-    for &(gi, t) in &owner {
-        if gi == usize::MAX {
-            continue;
-        }
-        indices.extend_from_slice(&groups[gi].idx);
-        let x = &blocks[gi];
-        data.extend((0..x.nrows()).map(|a| x[(a, t)]));
+    let mut indices = vec![0usize; nnz];
+    let mut data = vec![0.0f64; nnz];
+    // one disjoint (indices, data) slice per column, filled in parallel
+    let mut cols: Vec<(&mut [usize], &mut [f64])> = Vec::with_capacity(m);
+    let (mut ri, mut rd) = (indices.as_mut_slice(), data.as_mut_slice());
+    for w in indptr.windows(2) {
+        let len = w[1] - w[0];
+        let (ci, ti) = std::mem::take(&mut ri).split_at_mut(len);
+        let (cd, td) = std::mem::take(&mut rd).split_at_mut(len);
+        cols.push((ci, cd));
+        ri = ti;
+        rd = td;
     }
+    cols.into_par_iter()
+        .zip(owner.par_iter())
+        .for_each(|((ci, cd), &(gi, t))| {
+            if gi != usize::MAX {
+                ci.copy_from_slice(&groups[gi].idx);
+                let x = &blocks[gi];
+                for (a, v) in cd.iter_mut().enumerate() {
+                    *v = x[(a, t)];
+                }
+            }
+        });
     let pinv = CsMat::new_csc((p, m), indptr, indices, data);
     Ok(LocalInversion { pinv, stats })
 }

@@ -69,7 +69,9 @@ impl LocalInversionParams {
                 fix: "pass a relative singular value cut-off in [0, 1), e.g. 1e-12",
             });
         }
-        if !(self.cholesky_shift.is_finite() && self.cholesky_shift > 0.0 && self.cholesky_shift < 1.0)
+        if !(self.cholesky_shift.is_finite()
+            && self.cholesky_shift > 0.0
+            && self.cholesky_shift < 1.0)
         {
             return Err(SolveError::InvalidParameter {
                 name: "cholesky_shift",
@@ -154,7 +156,11 @@ impl GlobalLsParams {
                 })
             }
         };
-        pos("pivot_tol", self.pivot_tol, "pass a value in (0, 1), e.g. 1e-13")?;
+        pos(
+            "pivot_tol",
+            self.pivot_tol,
+            "pass a value in (0, 1), e.g. 1e-13",
+        )?;
         pos("ridge", self.ridge, "pass a value in (0, 1), e.g. 1e-10")?;
         pos("tol", self.tol, "pass a value in (0, 1), e.g. 1e-13")?;
         if self.max_iter == 0 {

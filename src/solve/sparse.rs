@@ -37,7 +37,11 @@ pub(crate) fn prepare(k: &CsMat<f64>) -> Result<Prepared, SolveError> {
     }
     let max = k.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
     // frexp-like exponent: max = f * 2^e with f in [1, 2).
-    let exponent = if max > 0.0 { max.log2().floor() as i32 } else { 0 };
+    let exponent = if max > 0.0 {
+        max.log2().floor() as i32
+    } else {
+        0
+    };
     let mut ks = if k.is_csr() {
         k.clone()
     } else {

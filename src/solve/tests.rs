@@ -148,7 +148,10 @@ fn huge_rings_equal_dense_pinv() {
         (Solver::Cholesky, 1e-11),
     ] {
         let loc = local(&k, 1000, solver);
-        assert_eq!(loc.stats.n_groups, 1, "{solver:?}: every block is the whole matrix");
+        assert_eq!(
+            loc.stats.n_groups, 1,
+            "{solver:?}: every block is the whole matrix"
+        );
         assert_eq!(loc.stats.groups[0].rows, 120);
         assert_eq!(loc.stats.groups[0].cols, 24);
         let cmp = compare_sparse_dense(&loc.pinv, dense.pinv.as_ref()).unwrap();
@@ -234,11 +237,19 @@ fn moore_penrose_identities() {
         }
         let na = max_abs(&a);
         let nx = max_abs(x);
-        let tol = 1e-12 * 100.0;
+        let tol = 1e-12;
         let kxk = &a * x * &a - &a;
-        assert!(max_abs(&kxk) <= tol * na * na * nx, "KXK - K {}", max_abs(&kxk));
+        assert!(
+            max_abs(&kxk) <= tol * na * na * nx,
+            "KXK - K {}",
+            max_abs(&kxk)
+        );
         let xkx = x * &a * x - x;
-        assert!(max_abs(&xkx) <= tol * nx * nx * na, "XKX - X {}", max_abs(&xkx));
+        assert!(
+            max_abs(&xkx) <= tol * nx * nx * na,
+            "XKX - X {}",
+            max_abs(&xkx)
+        );
         let kx = &a * x;
         let xk = x * &a;
         assert!(max_abs(&(&kx - kx.transpose())) <= tol * na * nx);
@@ -275,7 +286,11 @@ fn sparse_global_ls_matches_dense() {
                     g.report
                 );
             }
-            assert!(g.report.residuals.iter().all(|r| *r < 1e-10), "{:?}", g.report);
+            assert!(
+                g.report.residuals.iter().all(|r| *r < 1e-10),
+                "{:?}",
+                g.report
+            );
         }
     }
 }
@@ -315,7 +330,10 @@ fn global_rank_deficient_is_reported_never_nan() {
     let k = hat_matrix(40, &random_positions(20, 13));
     let f = vec![1.0; 20];
     let err = global_ls(&k, &[&f], &GlobalLsParams::default()).unwrap_err();
-    assert!(matches!(err, SolveError::Undersampled { rows: 20, cols: 40 }), "{err}");
+    assert!(
+        matches!(err, SolveError::Undersampled { rows: 20, cols: 40 }),
+        "{err}"
+    );
 }
 
 #[test]
@@ -387,8 +405,7 @@ fn extremes_are_finite_and_reported() {
             // K^+ scales by 1/s: compare relative
             let mut scaled = l.pinv.clone();
             scaled.data_mut().iter_mut().for_each(|v| *v *= s);
-            let c =
-                compare_sparse_dense(&scaled, reference.pinv.to_dense_faer().as_ref()).unwrap();
+            let c = compare_sparse_dense(&scaled, reference.pinv.to_dense_faer().as_ref()).unwrap();
             assert!(c.rel_frobenius < 1e-9, "{s:e} {solver:?}: {c:?}");
         }
         let f = smooth(&xs, 3.0);
@@ -403,7 +420,10 @@ fn extremes_are_finite_and_reported() {
                 ..Default::default()
             };
             let g = global_ls(&k, &[&f], &p).unwrap();
-            assert!(g.coefficients[0].iter().all(|v| v.is_finite()), "{method:?} {s:e}");
+            assert!(
+                g.coefficients[0].iter().all(|v| v.is_finite()),
+                "{method:?} {s:e}"
+            );
         }
     }
     // values of magnitude 1e300 with an O(1) K
@@ -482,7 +502,11 @@ fn dimension_and_parameter_errors() {
     let short = vec![0.0; 39];
     assert!(matches!(
         apply_local(&k, &[&short], &LocalInversionParams::default()),
-        Err(SolveError::DimensionMismatch { expected: 40, found: 39, .. })
+        Err(SolveError::DimensionMismatch {
+            expected: 40,
+            found: 39,
+            ..
+        })
     ));
     assert!(matches!(
         global_ls(&k, &[&short], &GlobalLsParams::default()),
@@ -521,18 +545,31 @@ proptest! {
     }
 }
 
-/// Timings (not a test of speed: run by hand with
-/// `cargo test --release -- --ignored --nocapture timings`).
+/// Timings, best of 3 per configuration (not a test of speed: run by hand, alone, with
+/// `cargo test --release -- --ignored --nocapture --exact --test-threads=1
+/// solve::tests::timings`).
 #[test]
 #[ignore]
 fn timings() {
     use std::time::Instant;
-    let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
+    fn best<T>(mut f: impl FnMut() -> T) -> (f64, T) {
+        let mut best = f64::INFINITY;
+        let mut out = None;
+        for _ in 0..3 {
+            let t = Instant::now();
+            let o = f();
+            best = best.min(t.elapsed().as_secs_f64() * 1e3);
+            out = Some(o);
+        }
+        (best, out.expect("ran at least once"))
+    }
     for m in [100_000usize, 1_000_000] {
         let p = m / 4;
         // jittered (stratified) samples: random positions, no empty cell, full rank
         let mut rng = Rng::new(99);
-        let xs: Vec<f64> = (0..m).map(|i| (i as f64 + rng.uniform()) / m as f64).collect();
+        let xs: Vec<f64> = (0..m)
+            .map(|i| (i as f64 + rng.uniform()) / m as f64)
+            .collect();
         let f = smooth(&xs, 40.0);
         for (name, k) in [
             ("hat", hat_matrix(p, &xs)),
@@ -545,12 +582,8 @@ fn timings() {
                         solver,
                         ..Default::default()
                     };
-                    let t = Instant::now();
-                    let l = local_inversion(&k, &params).unwrap();
-                    let tl = ms(t);
-                    let t = Instant::now();
-                    let a = apply_local(&k, &[&f, &f, &f], &params).unwrap();
-                    let ta = ms(t);
+                    let (tl, l) = best(|| local_inversion(&k, &params).unwrap());
+                    let (ta, _) = best(|| apply_local(&k, &[&f, &f, &f], &params).unwrap());
                     eprintln!(
                         "m={m} {name} rings={rings} {solver:?}: local_inversion {tl:.0} ms, \
                          apply_local(3ch) {ta:.0} ms, groups {} blocks {}x{} (median) \
@@ -563,7 +596,6 @@ fn timings() {
                         l.stats.cholesky_shifted,
                         l.pinv.nnz(),
                     );
-                    drop(a);
                 }
             }
             for method in [GlobalMethod::Cholesky, GlobalMethod::Cgls] {
@@ -573,12 +605,10 @@ fn timings() {
                 };
                 for nch in [1usize, 3] {
                     let chans: Vec<&[f64]> = (0..nch).map(|_| f.as_slice()).collect();
-                    let t = Instant::now();
-                    let g = global_ls(&k, &chans, &params).unwrap();
+                    let (t, g) = best(|| global_ls(&k, &chans, &params).unwrap());
                     eprintln!(
-                        "m={m} {name} global {method:?} {nch}ch: {:.0} ms, iterations {:?}, \
+                        "m={m} {name} global {method:?} {nch}ch: {t:.0} ms, iterations {:?}, \
                          residual {:.1e}, nnz(G) {} nnz(L) {}",
-                        ms(t),
                         g.report.iterations,
                         g.report.residuals[0],
                         g.report.normal_nnz,
@@ -592,11 +622,16 @@ fn timings() {
 
 #[test]
 #[ignore]
-fn explore_ring_decay() {
+fn ring_decay_table() {
     let p = 64;
     for (label, xs) in [
         ("random", random_positions(4 * p, 7)),
-        ("uniform", (0..4 * p).map(|i| (i as f64 + 0.5) / (4 * p) as f64).collect()),
+        (
+            "uniform",
+            (0..4 * p)
+                .map(|i| (i as f64 + 0.5) / (4 * p) as f64)
+                .collect(),
+        ),
     ] {
         for (name, k) in [
             ("one", hat_matrix(p, &xs)),
@@ -615,42 +650,48 @@ fn explore_ring_decay() {
 }
 
 #[test]
-#[ignore]
-fn profile_local() {
-    let m = 1_000_000;
-    let mut rng = Rng::new(99);
-    let xs: Vec<f64> = (0..m).map(|i| (i as f64 + rng.uniform()) / m as f64).collect();
-    let k = two_level_matrix(m / 8 + 1, &xs);
-    let solver = match std::env::var("SOLVER").as_deref() {
-        Ok("qr") => Solver::Qr,
-        Ok("chol") => Solver::Cholesky,
-        _ => Solver::Svd,
-    };
-    let params = LocalInversionParams {
-        rings: 1,
-        solver,
-        ..Default::default()
-    };
-    for _ in 0..3 {
-        let t = std::time::Instant::now();
-        let l = local_inversion(&k, &params).unwrap();
-        eprintln!("{solver:?} {:.0} ms groups {}", t.elapsed().as_secs_f64() * 1e3, l.stats.n_groups);
+fn degenerate_inputs() {
+    // explicit zeros: a block whose values are all zero has rank 0
+    let mut tri = TriMat::new((6, 3));
+    for i in 0..6 {
+        tri.add_triplet(i, 0, 0.0);
+        tri.add_triplet(i, 1, 1.0 + i as f64);
     }
-}
-
-#[test]
-#[ignore]
-fn scratch_sizes() {
-    use faer::linalg::svd::{svd_scratch, ComputeSvdVectors};
-    for (r, n) in [(12, 2), (40, 7), (182, 35), (300, 90)] {
-        let req = svd_scratch::<f64>(
-            r,
-            n,
-            ComputeSvdVectors::Thin,
-            ComputeSvdVectors::Thin,
-            faer::Par::Seq,
-            Default::default(),
-        );
-        eprintln!("svd {r}x{n}: {} bytes", req.unaligned_bytes_required());
+    tri.add_triplet(5, 2, 0.0);
+    let k: CsMat<f64> = tri.to_csr();
+    for solver in [Solver::Svd, Solver::Qr, Solver::Cholesky] {
+        for rings in [0, 1] {
+            let l = local(&k, rings, solver);
+            assert!(all_finite(&l.pinv), "{solver:?}");
+        }
+    }
+    let d = dense_pinv(&k, 1e-12).unwrap();
+    assert_eq!(d.rank, 1);
+    let f = vec![1.0; 6];
+    assert!(matches!(
+        global_ls(&k, &[&f], &GlobalLsParams::default()),
+        Err(SolveError::RankDeficient { .. })
+    ));
+    // empty matrices
+    for (m, p) in [(0usize, 0usize), (0, 3), (4, 0)] {
+        let k: CsMat<f64> = CsMat::zero((m, p));
+        let l = local_inversion(&k, &LocalInversionParams::default()).unwrap();
+        assert_eq!(l.pinv.shape(), (p, m));
+        assert_eq!(l.stats.empty_rows, m);
+        let f = vec![0.0; m];
+        let a = apply_local(&k, &[&f], &LocalInversionParams::default()).unwrap();
+        assert_eq!(a.coefficients[0].len(), p);
+        let d = dense_pinv(&k, 1e-12).unwrap();
+        assert_eq!(d.pinv.shape(), (p, m));
+        for method in [GlobalMethod::Cholesky, GlobalMethod::Cgls] {
+            let params = GlobalLsParams {
+                method,
+                ..Default::default()
+            };
+            match global_ls(&k, &[&f], &params) {
+                Ok(g) => assert_eq!(g.coefficients[0].len(), p),
+                Err(e) => assert!(matches!(e, SolveError::Undersampled { .. }), "{e}"),
+            }
+        }
     }
 }

@@ -1,0 +1,136 @@
+//! Command-line knobs of the solve, shared by `reconstruct`, `report` and `sweep`.
+
+use clap::{Args, ValueEnum};
+use rkwave::kernel::LevelParams;
+use rkwave::reconstruct::{Levels, Method};
+use rkwave::solve::{GlobalLsParams, LocalInversionParams, Solver};
+
+use super::CliError;
+
+/// Which solve.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum MethodArg {
+    /// Global least squares through the single-scale basis (banded normal equations + FWT).
+    Single,
+    /// Local inversion (the paper's method).
+    Local,
+    /// Global sparse least squares on the multilevel K (sparse Cholesky of K^T K).
+    Global,
+    /// Dense SVD pseudo-inverse (small problems).
+    Dense,
+}
+
+/// Local solver on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum SolverArg {
+    /// SVD pseudo-inverse with a relative cut-off.
+    Svd,
+    /// Column-pivoted QR.
+    Qr,
+    /// Cholesky of the normal matrix.
+    Cholesky,
+}
+
+impl From<SolverArg> for Solver {
+    fn from(s: SolverArg) -> Self {
+        match s {
+            SolverArg::Svd => Solver::Svd,
+            SolverArg::Qr => Solver::Qr,
+            SolverArg::Cholesky => Solver::Cholesky,
+        }
+    }
+}
+
+/// Solve knobs.
+#[derive(Args, Debug, Clone)]
+pub struct SolveArgs {
+    /// Levels: `auto` (from the samples and --rho) or `n..N`.
+    #[arg(long, default_value = "auto")]
+    pub levels: String,
+    /// Oversampling target m / P for automatic levels.
+    #[arg(long, default_value_t = 2.0)]
+    pub rho: f64,
+    /// Samples a coarse scaling function may cover (automatic levels).
+    #[arg(long, default_value_t = 256.0)]
+    pub coarse_samples: f64,
+    /// Neighbourhood rings of local inversion.
+    #[arg(long, default_value_t = 1)]
+    pub rings: usize,
+    /// Local solver.
+    #[arg(long, value_enum, default_value_t = SolverArg::Svd)]
+    pub solver: SolverArg,
+    /// Relative singular value cut-off of the local SVD/QR.
+    #[arg(long, default_value_t = 1e-12)]
+    pub cutoff: f64,
+    /// Relative ridge of the single-scale normal equations.
+    #[arg(long, default_value_t = 1e-15)]
+    pub ridge: f64,
+}
+
+impl SolveArgs {
+    /// The level choice.
+    pub fn levels(&self) -> Result<Levels, CliError> {
+        if !(self.rho.is_finite() && self.rho > 0.0) {
+            return Err(CliError::Invalid(format!(
+                "--rho {} must be a positive oversampling rate such as 2",
+                self.rho
+            )));
+        }
+        if !(self.coarse_samples.is_finite() && self.coarse_samples >= 1.0) {
+            return Err(CliError::Invalid(format!(
+                "--coarse-samples {} must be at least 1",
+                self.coarse_samples
+            )));
+        }
+        if self.levels == "auto" {
+            return Ok(Levels::Auto(LevelParams {
+                rho: self.rho,
+                coarse_samples: self.coarse_samples,
+            }));
+        }
+        let bad = || {
+            CliError::Invalid(format!(
+                "--levels {:?} is neither `auto` nor `n..N` (e.g. 4..9)",
+                self.levels
+            ))
+        };
+        let (a, b) = self.levels.split_once("..").ok_or_else(bad)?;
+        let coarse = a.trim().parse::<u32>().map_err(|_| bad())?;
+        let fine = b.trim().parse::<u32>().map_err(|_| bad())?;
+        Ok(Levels::Fixed { coarse, fine })
+    }
+
+    /// The method.
+    pub fn method(&self, which: MethodArg) -> Result<Method, CliError> {
+        if !(self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff)) {
+            return Err(CliError::Invalid(format!(
+                "--cutoff {} must be a relative cut-off in [0, 1), e.g. 1e-12",
+                self.cutoff
+            )));
+        }
+        if !(self.ridge.is_finite() && (0.0..1.0).contains(&self.ridge)) {
+            return Err(CliError::Invalid(format!(
+                "--ridge {} must be in [0, 1), e.g. 1e-15",
+                self.ridge
+            )));
+        }
+        Ok(match which {
+            MethodArg::Single => Method::SingleScale { ridge: self.ridge },
+            MethodArg::Local => Method::Local(self.local()),
+            MethodArg::Global => Method::Global(GlobalLsParams::default()),
+            MethodArg::Dense => Method::Dense {
+                cutoff: self.cutoff,
+            },
+        })
+    }
+
+    /// The local inversion parameters.
+    pub fn local(&self) -> LocalInversionParams {
+        LocalInversionParams {
+            rings: self.rings,
+            solver: self.solver.into(),
+            cutoff: self.cutoff,
+            ..LocalInversionParams::default()
+        }
+    }
+}

@@ -1,0 +1,353 @@
+//! From samples to a reconstruction: levels, kernel matrix, solve, coefficients, evaluation.
+//!
+//! `c = K^+ f` (DESIGN §3): the coefficients of `f(x) = sum_a c_a Psi_a(x)` over the active set,
+//! by local inversion (the default), a global sparse least-squares solve, or a dense
+//! pseudo-inverse. Evaluation of a uniform `Psi(n, N)` goes through the interval FWT to the
+//! single-scale `V_{N+1}` coefficients and then evaluates only `2p - 1` (plus edge) scaling
+//! functions per position.
+
+mod kernels;
+mod single_scale;
+
+pub use kernels::{dual_kernel, reproducing_kernel};
+pub use single_scale::{single_scale_ls, SingleScaleReport};
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::basis::{fwt, BasisError, BasisValue, CdvBasis, FilterFamily};
+use crate::kernel::{kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams};
+use crate::sampling::Domain;
+use crate::solve::{
+    apply_local, dense_pinv, global_ls, GlobalLsParams, GlobalReport, LocalInversionParams,
+    LocalStats, SolveError,
+};
+
+/// How the levels are chosen.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub enum Levels {
+    /// From the number of samples ([`LevelChoice::auto`]).
+    Auto(LevelParams),
+    /// Given explicitly.
+    Fixed {
+        /// Coarse scaling level `n`.
+        coarse: u32,
+        /// Finest wavelet level `N`.
+        fine: u32,
+    },
+}
+
+/// How `c = K^+ f` is computed.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub enum Method {
+    /// Global least squares through the single-scale basis `V_{N+1}` (banded normal
+    /// equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for uniform
+    /// levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
+    SingleScale {
+        /// Relative ridge (e.g. 1e-13).
+        ridge: f64,
+    },
+    /// Local inversion (DESIGN §4): fast, local, approximate.
+    Local(LocalInversionParams),
+    /// Global sparse least squares: exact up to the solver tolerance, one large factorization.
+    Global(GlobalLsParams),
+    /// Dense SVD pseudo-inverse with a relative cut-off: the truth, small problems only.
+    Dense {
+        /// Relative singular value cut-off.
+        cutoff: f64,
+    },
+}
+
+/// Parameters of a fit.
+#[derive(Clone, Copy, Debug)]
+pub struct FitParams {
+    /// Vanishing moments `p`: higher reproduces smoother signals with fewer samples, costs
+    /// `O(p^2)` per sample.
+    pub p: usize,
+    /// Interior filter family.
+    pub family: FilterFamily,
+    /// Levels.
+    pub levels: Levels,
+    /// Solver.
+    pub method: Method,
+}
+
+impl Default for FitParams {
+    fn default() -> Self {
+        Self {
+            p: 3,
+            family: FilterFamily::cdv_default(3),
+            levels: Levels::Auto(LevelParams::default()),
+            method: Method::Local(LocalInversionParams::default()),
+        }
+    }
+}
+
+/// Errors of reconstruction.
+#[derive(Debug, Error)]
+pub enum ReconstructError {
+    /// Basis parameters.
+    #[error(transparent)]
+    Basis(#[from] BasisError),
+    /// Sample positions.
+    #[error(transparent)]
+    Kernel(#[from] KernelError),
+    /// The solve.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+    /// Fewer samples than basis functions.
+    #[error(
+        "{samples} samples cannot determine {functions} basis functions: give more samples, \
+         a smaller fine level N, or automatic levels"
+    )]
+    Undersampled {
+        /// Samples `m`.
+        samples: usize,
+        /// Basis functions `P`.
+        functions: usize,
+    },
+    /// A sample value is NaN or infinite.
+    #[error(
+        "sample {row} (1-based), channel {channel}: value {value} is not finite: fix or remove it"
+    )]
+    NonFiniteValue {
+        /// 1-based sample.
+        row: usize,
+        /// 0-based channel.
+        channel: usize,
+        /// The value.
+        value: f64,
+    },
+    /// Values and positions disagree in length.
+    #[error("channel {channel} has {found} values for {expected} positions")]
+    LengthMismatch {
+        /// Channel.
+        channel: usize,
+        /// Positions.
+        expected: usize,
+        /// Values.
+        found: usize,
+    },
+}
+
+/// Seconds spent in each stage.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Timings {
+    /// Building `K`.
+    pub kernel_s: f64,
+    /// Solving for the coefficients.
+    pub solve_s: f64,
+}
+
+/// A fitted reconstruction.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    /// The active basis.
+    pub active: ActiveSet,
+    /// Coefficients per channel, one per active function.
+    pub coefficients: Vec<Vec<f64>>,
+    /// The levels used.
+    pub levels: LevelChoice,
+    /// Stage times.
+    pub timings: Timings,
+    /// Local inversion statistics (local method).
+    pub local: Option<LocalStats>,
+    /// Single-scale solve report.
+    pub single_scale: Option<SingleScaleReport>,
+    /// Global solve report (global method).
+    pub global: Option<GlobalReport>,
+}
+
+fn check_values(m: usize, values: &[&[f64]]) -> Result<(), ReconstructError> {
+    for (c, ch) in values.iter().enumerate() {
+        if ch.len() != m {
+            return Err(ReconstructError::LengthMismatch {
+                channel: c,
+                expected: m,
+                found: ch.len(),
+            });
+        }
+        if let Some((i, &v)) = ch.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(ReconstructError::NonFiniteValue {
+                row: i + 1,
+                channel: c,
+                value: v,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Chooses the levels for `m` samples.
+pub fn choose_levels(m: usize, params: &FitParams) -> LevelChoice {
+    match params.levels {
+        Levels::Auto(lp) => LevelChoice::auto(m, params.p, lp),
+        Levels::Fixed { coarse, fine } => LevelChoice {
+            coarse,
+            fine,
+            oversampling: m as f64 / 2f64.powi(fine as i32 + 1),
+        },
+    }
+}
+
+/// Fits `values` (one slice per channel) at `positions` on `domain`.
+pub fn fit(
+    positions: &[f64],
+    values: &[&[f64]],
+    domain: Domain,
+    params: &FitParams,
+) -> Result<Fit, ReconstructError> {
+    let m = positions.len();
+    check_values(m, values)?;
+    let levels = choose_levels(m, params);
+    let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+    let active = ActiveSet::uniform(basis);
+    fit_active(active, positions, values, params.method, levels)
+}
+
+/// Fits on a given active set (uniform or adaptive).
+pub fn fit_active(
+    active: ActiveSet,
+    positions: &[f64],
+    values: &[&[f64]],
+    method: Method,
+    levels: LevelChoice,
+) -> Result<Fit, ReconstructError> {
+    let m = positions.len();
+    check_values(m, values)?;
+    if m < active.len() {
+        return Err(ReconstructError::Undersampled {
+            samples: m,
+            functions: active.len(),
+        });
+    }
+    let uniform = active.len() == active.basis().dimension();
+    let single = matches!(method, Method::SingleScale { .. }) && uniform;
+    let t0 = Instant::now();
+    // The single-scale path never forms K.
+    let k = if single {
+        None
+    } else {
+        Some(kernel_matrix(&active, positions)?)
+    };
+    let kernel_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let mut single_scale = None;
+    let (coefficients, local, global) = match (method, k) {
+        (Method::SingleScale { ridge }, None) => {
+            let (c, rep) = single_scale_ls(active.basis(), positions, values, ridge)?;
+            single_scale = Some(rep);
+            (c, None, None)
+        }
+        (Method::Local(lp), Some(k)) => {
+            let out = apply_local(&k, values, &lp)?;
+            (out.coefficients, Some(out.stats), None)
+        }
+        (Method::Dense { cutoff }, Some(k)) => {
+            let pinv = dense_pinv(&k, cutoff)?;
+            let c = values
+                .iter()
+                .map(|f| pinv.apply(f))
+                .collect::<Result<Vec<_>, _>>()?;
+            (c, None, None)
+        }
+        // Global, or single scale on an adaptive set (no single-scale equivalent).
+        (m, Some(k)) => {
+            let gp = match m {
+                Method::Global(gp) => gp,
+                _ => GlobalLsParams::default(),
+            };
+            let out = global_ls(&k, values, &gp)?;
+            (out.coefficients, None, Some(out.report))
+        }
+        (_, None) => unreachable!("K is formed for every method but the uniform single scale"),
+    };
+    Ok(Fit {
+        active,
+        coefficients,
+        levels,
+        timings: Timings {
+            kernel_s,
+            solve_s: t1.elapsed().as_secs_f64(),
+        },
+        local,
+        global,
+        single_scale,
+    })
+}
+
+/// Positions evaluated per parallel work item.
+const CHUNK: usize = 8192;
+
+impl Fit {
+    /// The reconstruction at `xs`, one vector per channel.
+    pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<Vec<f64>>, ReconstructError> {
+        let basis = self.active.basis();
+        let domain = basis.domain();
+        if let Some(&x) = xs.iter().find(|x| !domain.contains(**x)) {
+            return Err(BasisError::PositionOutside {
+                x,
+                a: domain.a(),
+                b: domain.b(),
+            }
+            .into());
+        }
+        let channels = self.coefficients.len();
+        let uniform = self.active.len() == basis.dimension();
+        let per_point: Vec<Vec<f64>> = if uniform {
+            // Single scale: V_{N+1} coefficients by FWT synthesis.
+            let top = basis.fine() + 1;
+            let single: Vec<Vec<f64>> = self
+                .coefficients
+                .iter()
+                .map(|c| fwt::synthesis(basis.bank(), basis.coarse(), basis.fine(), c))
+                .collect();
+            let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, domain)?;
+            xs.par_chunks(CHUNK)
+                .map(|chunk| {
+                    let mut ev = scale.evaluator();
+                    let mut out: Vec<BasisValue> = Vec::with_capacity(64);
+                    let mut vals = Vec::with_capacity(chunk.len() * channels);
+                    for &x in chunk {
+                        ev.eval_scaling_unit_into(domain.to_unit(x), &mut out);
+                        for s in &single {
+                            vals.push(out.iter().map(|v| s[v.index] * v.value).sum::<f64>());
+                        }
+                    }
+                    vals
+                })
+                .collect()
+        } else {
+            xs.par_chunks(CHUNK)
+                .map(|chunk| {
+                    let mut ev = basis.evaluator();
+                    let mut out: Vec<BasisValue> = Vec::with_capacity(256);
+                    let mut vals = Vec::with_capacity(chunk.len() * channels);
+                    for &x in chunk {
+                        ev.eval_unit_into(domain.to_unit(x), &mut out);
+                        for c in &self.coefficients {
+                            vals.push(
+                                out.iter()
+                                    .filter_map(|v| {
+                                        self.active.column(v.index).map(|col| c[col] * v.value)
+                                    })
+                                    .sum::<f64>(),
+                            );
+                        }
+                    }
+                    vals
+                })
+                .collect()
+        };
+        let mut result = vec![Vec::with_capacity(xs.len()); channels];
+        for block in per_point {
+            for (i, v) in block.into_iter().enumerate() {
+                result[i % channels].push(v);
+            }
+        }
+        Ok(result)
+    }
+}
