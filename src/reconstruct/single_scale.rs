@@ -9,6 +9,8 @@
 //! ridge `epsilon I` (a function without samples gets coefficient 0, as with a truncated
 //! pseudo-inverse), and factored by a banded Cholesky `A = L L^T` in `O(P b^2)`.
 
+#![allow(clippy::needless_range_loop)] // banded triangular solves read clearest as index loops
+
 use rayon::prelude::*;
 use serde::Serialize;
 
