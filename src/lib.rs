@@ -27,5 +27,6 @@ pub mod io;
 pub mod kernel;
 pub mod plot;
 pub mod reconstruct;
+pub mod report;
 pub mod sampling;
 pub mod solve;

@@ -6,6 +6,7 @@ pub mod demo;
 pub mod eval_cmd;
 pub mod figures;
 pub mod reconstruct_cmd;
+pub mod report_cmd;
 pub mod solve_args;
 
 use std::path::PathBuf;
@@ -37,6 +38,8 @@ pub enum Command {
     Demo(DemoArgs),
     /// Reconstruct a user's samples (CSV or .npy) onto a grid.
     Reconstruct(reconstruct_cmd::ReconstructArgs),
+    /// Local inversion against the global pseudo-inverse (DESIGN §5).
+    Report(report_cmd::ReportArgs),
 }
 
 /// Interior filter family on the command line.
@@ -217,5 +220,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Basis(args)) => basis_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
+        Some(Command::Report(args)) => report_cmd::run(&args),
     }
 }

@@ -1,0 +1,229 @@
+//! Reports: the local-vs-global comparison of DESIGN §5, as plain data that the command line
+//! prints and plots.
+//!
+//! For a basis, a sample layout and a test signal: the approximate pseudo-inverse `K~` of local
+//! inversion against the dense `K^+` (element-wise `max |K~ - K^+|`, RMS, relative Frobenius
+//! error), the reconstructions `K~ f` and `K^+ f` against each other and against the true signal
+//! (RMS on a fine grid), submatrix sizes, local condition numbers, cut-offs and times.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::basis::{CdvBasis, FilterFamily};
+use crate::kernel::{kernel_matrix, ActiveSet, LevelChoice};
+use crate::reconstruct::{Fit, ReconstructError, Timings};
+use crate::sampling::{Domain, Layout, Signal};
+use crate::solve::{
+    compare_sparse_dense, dense_pinv, global_ls, local_inversion, Comparison, GlobalLsParams,
+    LocalInversionParams, Summary, DENSE_LIMIT,
+};
+
+/// The setting of one report.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ReportSetting {
+    /// Vanishing moments.
+    pub p: usize,
+    /// Interior filter family ("db" or "sym").
+    #[serde(serialize_with = "family_name")]
+    pub family: FilterFamily,
+    /// Coarse level `n`.
+    pub coarse: u32,
+    /// Finest wavelet level `N`.
+    pub fine: u32,
+    /// Samples `m`.
+    pub samples: usize,
+    /// Sample layout.
+    pub layout: Layout,
+    /// Seed of random layouts.
+    pub seed: u64,
+    /// Test signal.
+    pub signal: Signal,
+    /// Local inversion knobs.
+    pub local: LocalInversionParams,
+    /// Points of the grid on which reconstructions are compared.
+    pub grid: usize,
+}
+
+fn family_name<S: serde::Serializer>(f: &FilterFamily, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(f.short_name())
+}
+
+/// min / median / max.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Spread {
+    /// Smallest.
+    pub min: f64,
+    /// Median.
+    pub median: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl From<Summary> for Spread {
+    fn from(s: Summary) -> Self {
+        Self {
+            min: s.min,
+            median: s.median,
+            max: s.max,
+        }
+    }
+}
+
+/// Submatrix sizes.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Submatrix {
+    /// Rows `|jdx|` over groups.
+    pub rows: Spread,
+    /// Columns `|idx|` over groups.
+    pub cols: Spread,
+}
+
+/// Reconstruction errors (RMS on the grid).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ReconstructionErrors {
+    /// `K~ f` against `K^+ f`.
+    pub local_vs_global: f64,
+    /// `K~ f` against the signal.
+    pub local_vs_truth: f64,
+    /// `K^+ f` against the signal.
+    pub global_vs_truth: f64,
+}
+
+/// Seconds per stage.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ReportTimes {
+    /// Building `K`.
+    pub kernel: f64,
+    /// Local inversion (all of `K~`).
+    pub local: f64,
+    /// Global reference (dense SVD pseudo-inverse, or sparse least squares when too large).
+    pub global: f64,
+}
+
+/// The local-vs-global report.
+#[derive(Clone, Debug, Serialize)]
+pub struct LocalGlobalReport {
+    /// What was run.
+    pub setting: ReportSetting,
+    /// Basis functions `P`.
+    pub functions: usize,
+    /// `m / P`.
+    pub oversampling: f64,
+    /// Which global reference: "dense_pinv" or "sparse_least_squares".
+    pub reference: &'static str,
+    /// Submatrix sizes.
+    pub submatrix: Submatrix,
+    /// `K~` against `K^+` (absent when the dense reference is out of reach).
+    pub error: Option<Comparison>,
+    /// Reconstructions.
+    pub reconstruction: ReconstructionErrors,
+    /// Local condition numbers (`s_max / s_min` of each `K1`).
+    pub condition: Spread,
+    /// Condition number of the whole `K` (dense reference only).
+    pub global_condition: Option<f64>,
+    /// Groups whose cut-off dropped directions, and directions dropped.
+    pub cut: (usize, usize),
+    /// Factorizations.
+    pub groups: usize,
+    /// Times.
+    pub time_s: ReportTimes,
+}
+
+fn rms(a: &[f64], b: &[f64]) -> f64 {
+    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
+}
+
+/// Runs one report.
+pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, ReconstructError> {
+    let domain = Domain::UNIT;
+    let basis = CdvBasis::new(
+        setting.p,
+        setting.family,
+        setting.coarse,
+        setting.fine,
+        domain,
+    )?;
+    let active = ActiveSet::uniform(basis);
+    let xs = setting
+        .layout
+        .generate(setting.samples, domain, setting.seed);
+    let f = setting.signal.sample(domain, &xs);
+    let t0 = Instant::now();
+    let k = kernel_matrix(&active, &xs)?;
+    let kernel = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let local = local_inversion(&k, &setting.local)?;
+    let local_s = t1.elapsed().as_secs_f64();
+    let (m, p) = k.shape();
+    let c_local = {
+        let mut c = vec![0.0; p];
+        sprs::prod::mul_acc_mat_vec_csc(local.pinv.view(), &f, &mut c);
+        c
+    };
+    let t2 = Instant::now();
+    let (reference, error, c_global, global_condition) = if m <= DENSE_LIMIT && p <= DENSE_LIMIT {
+        let dense = dense_pinv(&k, setting.local.cutoff.max(1e-15))?;
+        let cmp = compare_sparse_dense(&local.pinv, dense.pinv.as_ref())?;
+        let c = dense.apply(&f)?;
+        ("dense_pinv", Some(cmp), c, Some(dense.condition))
+    } else {
+        let g = global_ls(&k, &[&f], &GlobalLsParams::default())?;
+        (
+            "sparse_least_squares",
+            None,
+            g.coefficients[0].clone(),
+            None,
+        )
+    };
+    let global_s = t2.elapsed().as_secs_f64();
+    let grid: Vec<f64> = (0..setting.grid)
+        .map(|i| domain.from_unit(i as f64 / (setting.grid - 1).max(1) as f64))
+        .collect();
+    let truth = setting.signal.sample(domain, &grid);
+    let levels = LevelChoice {
+        coarse: setting.coarse,
+        fine: setting.fine,
+        oversampling: m as f64 / p as f64,
+    };
+    let eval = |c: Vec<f64>| -> Result<Vec<f64>, ReconstructError> {
+        let fit = Fit {
+            active: active.clone(),
+            coefficients: vec![c],
+            levels,
+            timings: Timings::default(),
+            local: None,
+            global: None,
+            single_scale: None,
+        };
+        Ok(fit.evaluate(&grid)?.remove(0))
+    };
+    let r_local = eval(c_local)?;
+    let r_global = eval(c_global)?;
+    let stats = &local.stats;
+    Ok(LocalGlobalReport {
+        setting: *setting,
+        functions: p,
+        oversampling: m as f64 / p as f64,
+        reference,
+        submatrix: Submatrix {
+            rows: stats.rows_summary().into(),
+            cols: stats.cols_summary().into(),
+        },
+        error,
+        reconstruction: ReconstructionErrors {
+            local_vs_global: rms(&r_local, &r_global),
+            local_vs_truth: rms(&r_local, &truth),
+            global_vs_truth: rms(&r_global, &truth),
+        },
+        condition: stats.condition_summary().into(),
+        global_condition,
+        cut: (stats.cut_groups, stats.cut_total),
+        groups: stats.n_groups,
+        time_s: ReportTimes {
+            kernel,
+            local: local_s,
+            global: global_s,
+        },
+    })
+}
