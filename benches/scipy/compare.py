@@ -65,7 +65,8 @@ def run_rkwave(binary, npy, grid, out_csv, name):
                            + (proc.stderr.strip() or proc.stdout.strip()))
     try:
         report = json.loads(proc.stdout)
-        int(report["functions"]), float(report["time_s"]["total"])  # the keys used below
+        int(report["functions"])  # the keys used below
+        [float(report["time_s"][k]) for k in ("kernel", "solve", "evaluate", "total")]
     except (ValueError, KeyError, TypeError) as err:
         raise RuntimeError(f"unexpected JSON from rkwave ({err!r}):\n{proc.stdout[:500]}")
     out = np.loadtxt(out_csv, delimiter=",", skiprows=1, dtype=np.float64, ndmin=2)
@@ -100,7 +101,9 @@ def compare(args, m, seed, tmp, use_rkwave):
     if use_rkwave:
         try:
             report, wall, err = run_rkwave(args.rkwave, npy, args.grid, out_csv, args.signal)
-            row.update(P=int(report["functions"]), rkwave_total_s=report["time_s"]["total"],
+            ts = report["time_s"]  # total may include reading input and writing the CSV
+            row.update(P=int(report["functions"]), rkwave_total_s=ts["total"],
+                       rkwave_fit_eval_s=ts["kernel"] + ts["solve"] + ts["evaluate"],
                        rkwave_wall_s=wall, rkwave_rms=err, rkwave=report)
         except RuntimeError as exc:
             print(f"rkwave failed for m={m}, seed={seed}: {exc}\n"
@@ -115,6 +118,7 @@ def compare(args, m, seed, tmp, use_rkwave):
         print(f"scipy failed for m={m}, seed={seed}, P={row['P']}: FITPACK rejected the knots "
               "(Schoenberg-Whitney: some B-spline has no sample of its own)", file=sys.stderr)
     if "rkwave_total_s" in row and "scipy_s" in row:
+        row["ratio_fit_eval"] = row["scipy_s"] / row["rkwave_fit_eval_s"]
         row["ratio_total"] = row["scipy_s"] / row["rkwave_total_s"]
         row["ratio_wall"] = row["scipy_s"] / row["rkwave_wall_s"]
     return row
@@ -123,14 +127,15 @@ def compare(args, m, seed, tmp, use_rkwave):
 def print_table(rows):
     def f(row, key, fmt):
         return format(row[key], fmt) if key in row else "n/a"
-    head = ("m", "P", "rk total s", "rk wall s", "scipy s", "sp/rk tot", "sp/rk wall",
-            "rk RMS", "scipy RMS")
-    print(("{:>9} " * len(head)).format(*head))
+    cols = (("m", "m", "d"), ("P", "P", "d"), ("rk fit+ev", "rkwave_fit_eval_s", ".4f"),
+            ("rk total", "rkwave_total_s", ".4f"), ("rk wall", "rkwave_wall_s", ".4f"),
+            ("scipy", "scipy_s", ".4f"), ("sp/rk f+e", "ratio_fit_eval", ".2f"),
+            ("sp/rk tot", "ratio_total", ".2f"), ("sp/rk wal", "ratio_wall", ".2f"),
+            ("rk RMS", "rkwave_rms", ".2e"), ("scipy RMS", "scipy_rms", ".2e"))
+    print("times in seconds; sp/rk > 1: rkwave faster")
+    print(" ".join(f"{c[0]:>9}" for c in cols))
     for r in rows:
-        cells = (r["m"], r["P"], f(r, "rkwave_total_s", ".4f"), f(r, "rkwave_wall_s", ".4f"),
-                 f(r, "scipy_s", ".4f"), f(r, "ratio_total", ".2f"), f(r, "ratio_wall", ".2f"),
-                 f(r, "rkwave_rms", ".2e"), f(r, "scipy_rms", ".2e"))
-        print(("{:>9} " * len(cells)).format(*cells))
+        print(" ".join(f"{f(r, key, fmt):>9}" for _, key, fmt in cols))
 
 
 def main():
@@ -162,7 +167,7 @@ def main():
         print(json.dumps(rows, indent=2))
     else:
         print_table(rows)
-    return 1 if problem or any("rkwave_error" in r or "scipy_error" in r for r in rows) else 0
+    return 1 if problem or any("rkwave_error" in r for r in rows) else 0
 
 
 if __name__ == "__main__":

@@ -142,6 +142,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             "condition": s.condition_summary(),
         })),
         "single_scale": fitted.single_scale,
+        "fallback": fitted.fallback,
     });
     if args.json {
         println!(

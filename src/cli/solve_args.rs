@@ -62,8 +62,9 @@ pub struct SolveArgs {
     /// Relative singular value cut-off of the local SVD/QR.
     #[arg(long, default_value_t = 1e-12)]
     pub cutoff: f64,
-    /// Relative ridge of the single-scale normal equations.
-    #[arg(long, default_value_t = 1e-15)]
+    /// Relative ridge of the single-scale normal equations (it moves the solution by about
+    /// ridge x cond(K)^2; undetermined directions are handled without it).
+    #[arg(long, default_value_t = 0.0)]
     pub ridge: f64,
 }
 
@@ -110,7 +111,7 @@ impl SolveArgs {
         }
         if !(self.ridge.is_finite() && (0.0..1.0).contains(&self.ridge)) {
             return Err(CliError::Invalid(format!(
-                "--ridge {} must be in [0, 1), e.g. 1e-15",
+                "--ridge {} must be in [0, 1), e.g. 1e-16",
                 self.ridge
             )));
         }

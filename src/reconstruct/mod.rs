@@ -10,7 +10,7 @@ mod kernels;
 mod single_scale;
 
 pub use kernels::{dual_kernel, reproducing_kernel};
-pub use single_scale::{single_scale_ls, SingleScaleReport};
+pub use single_scale::{single_scale_ls, SingleScaleReport, PIVOT_TOLERANCE};
 
 use std::time::Instant;
 
@@ -81,7 +81,7 @@ impl Default for FitParams {
             p: 3,
             family: FilterFamily::cdv_default(3),
             levels: Levels::Auto(LevelParams::default()),
-            method: Method::Local(LocalInversionParams::default()),
+            method: Method::SingleScale { ridge: 0.0 },
         }
     }
 }
@@ -157,6 +157,9 @@ pub struct Fit {
     pub local: Option<LocalStats>,
     /// Single-scale solve report.
     pub single_scale: Option<SingleScaleReport>,
+    /// Why the requested method was replaced, if it was (e.g. the single-scale normal
+    /// equations were rank deficient and local inversion took over).
+    pub fallback: Option<String>,
     /// Global solve report (global method).
     pub global: Option<GlobalReport>,
 }
@@ -224,6 +227,20 @@ pub fn fit_active(
             functions: active.len(),
         });
     }
+    let domain = active.basis().domain();
+    if let Some((i, &x)) = positions
+        .iter()
+        .enumerate()
+        .find(|(_, x)| !domain.contains(**x))
+    {
+        return Err(KernelError::PositionOutside {
+            row: i + 1,
+            x,
+            a: domain.a(),
+            b: domain.b(),
+        }
+        .into());
+    }
     let uniform = active.len() == active.basis().dimension();
     let single = matches!(method, Method::SingleScale { .. }) && uniform;
     let t0 = Instant::now();
@@ -236,11 +253,24 @@ pub fn fit_active(
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let mut single_scale = None;
+    let mut fallback = None;
     let (coefficients, local, global) = match (method, k) {
         (Method::SingleScale { ridge }, None) => {
             let (c, rep) = single_scale_ls(active.basis(), positions, values, ridge)?;
-            single_scale = Some(rep);
-            (c, None, None)
+            if rep.deficient > 0 {
+                // Undetermined directions: truncated local pseudo-inverses instead.
+                fallback = Some(format!(
+                    "single-scale normal equations have {} undetermined directions                      ({} functions without samples): local inversion used instead",
+                    rep.deficient, rep.unsampled
+                ));
+                single_scale = Some(rep);
+                let k = kernel_matrix(&active, positions)?;
+                let out = apply_local(&k, values, &LocalInversionParams::default())?;
+                (out.coefficients, Some(out.stats), None)
+            } else {
+                single_scale = Some(rep);
+                (c, None, None)
+            }
         }
         (Method::Local(lp), Some(k)) => {
             let out = apply_local(&k, values, &lp)?;
@@ -276,6 +306,7 @@ pub fn fit_active(
         local,
         global,
         single_scale,
+        fallback,
     })
 }
 

@@ -6,8 +6,10 @@
 //! each other, so the normal matrix `K_J^T K_J` is banded with half-bandwidth `b = 3p - 3`
 //! (`b = 0` for Haar) and is accumulated sample by sample without storing `K_J`. It is
 //! equilibrated, `A = D^{-1/2} K_J^T K_J D^{-1/2}` with `D = diag`, shifted by a tiny relative
-//! ridge `epsilon I` (a function without samples gets coefficient 0, as with a truncated
-//! pseudo-inverse), and factored by a banded Cholesky `A = L L^T` in `O(P b^2)`.
+//! ridge `epsilon I` (default 0), and factored by a banded Cholesky `A = L L^T` in `O(P b^2)`; a
+//! pivot below [`PIVOT_TOLERANCE`] (an undetermined direction, e.g. a function without
+//! samples) gets component 0 and is counted in the report: the caller must not trust such a
+//! solution (the fit falls back to local inversion's truncated pseudo-inverses).
 
 #![allow(clippy::needless_range_loop)] // banded triangular solves read clearest as index loops
 
@@ -19,6 +21,11 @@ use crate::basis::{fwt, BasisValue, CdvBasis};
 /// Samples per parallel work item.
 const CHUNK: usize = 16_384;
 
+/// Pivots of the equilibrated factor below this mark directions the samples do not determine
+/// (`cond(K) >~ 1e5` along them): the normal equations cannot give a trustworthy solution
+/// there, and [`crate::reconstruct::fit_active`] falls back to local inversion.
+pub const PIVOT_TOLERANCE: f64 = 1e-10;
+
 /// What the single-scale solve did.
 #[derive(Clone, Debug, Serialize)]
 pub struct SingleScaleReport {
@@ -28,6 +35,9 @@ pub struct SingleScaleReport {
     pub ridge: f64,
     /// Single-scale functions without any sample in their support (coefficient set to 0).
     pub unsampled: usize,
+    /// Pivots below the tolerance: directions the samples do not determine (their component
+    /// is set to 0, a basic least-squares solution), unsampled functions included.
+    pub deficient: usize,
     /// Smallest pivot `L_jj^2` of the equilibrated factor: near `1 / cond(K)^2`, small values
     /// flag locally undersampled regions.
     pub min_pivot: f64,
@@ -143,13 +153,12 @@ pub fn single_scale_ls(
             *a.at(i, dd) *= d[i] * d[i - dd];
         }
         *a.at(i, 0) += ridge;
-        if d[i] == 0.0 {
-            *a.at(i, 0) = 1.0;
-        }
     }
-    // Banded Cholesky in place: A = L L^T.
+    // Banded Cholesky in place: A = L L^T. A pivot below PIVOT_TOLERANCE marks a direction
+    // the samples do not determine: its column of L is zeroed and its component set to 0.
     let w = b + 1;
     let mut min_pivot = f64::INFINITY;
+    let mut deficient = vec![false; n];
     for j in 0..n {
         let lo = j.saturating_sub(b);
         let mut s = a.data[j * w];
@@ -157,7 +166,14 @@ pub fn single_scale_ls(
             let l = a.data[j * w + (j - k)];
             s -= l * l;
         }
-        let s = s.max(ridge.max(f64::MIN_POSITIVE));
+        if s <= PIVOT_TOLERANCE {
+            deficient[j] = true;
+            a.data[j * w] = 1.0;
+            for i in (j + 1)..n.min(j + b + 1) {
+                a.data[i * w + (i - j)] = 0.0;
+            }
+            continue;
+        }
         min_pivot = min_pivot.min(s);
         let ljj = s.sqrt();
         a.data[j * w] = ljj;
@@ -182,14 +198,14 @@ pub fn single_scale_ls(
                 for k in i.saturating_sub(b)..i {
                     t -= a.data[i * w + (i - k)] * r[k];
                 }
-                r[i] = t / a.data[i * w];
+                r[i] = if deficient[i] { 0.0 } else { t / a.data[i * w] };
             }
             for i in (0..n).rev() {
                 let mut t = r[i];
                 for k in (i + 1)..n.min(i + b + 1) {
                     t -= a.data[k * w + (k - i)] * r[k];
                 }
-                r[i] = t / a.data[i * w];
+                r[i] = if deficient[i] { 0.0 } else { t / a.data[i * w] };
             }
             for i in 0..n {
                 r[i] *= d[i];
@@ -203,6 +219,7 @@ pub fn single_scale_ls(
             bandwidth: b,
             ridge,
             unsampled,
+            deficient: deficient.iter().filter(|&&x| x).count(),
             min_pivot,
         },
     ))

@@ -195,6 +195,7 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
             local: None,
             global: None,
             single_scale: None,
+            fallback: None,
         };
         Ok(fit.evaluate(&grid)?.remove(0))
     };
