@@ -7,7 +7,9 @@ pub mod eval_cmd;
 pub mod figures;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
+pub mod scaling_cmd;
 pub mod solve_args;
+pub mod sweep_cmd;
 
 use std::path::PathBuf;
 
@@ -40,6 +42,10 @@ pub enum Command {
     Reconstruct(reconstruct_cmd::ReconstructArgs),
     /// Local inversion against the global pseudo-inverse (DESIGN §5).
     Report(report_cmd::ReportArgs),
+    /// The report over a grid of knobs: CSV and a figure of error against time.
+    Sweep(sweep_cmd::SweepArgs),
+    /// End-to-end time and memory against the number of samples.
+    Scaling(scaling_cmd::ScalingArgs),
 }
 
 /// Interior filter family on the command line.
@@ -221,5 +227,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Eval(args)) => eval_cmd::run(&args),
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
         Some(Command::Report(args)) => report_cmd::run(&args),
+        Some(Command::Sweep(args)) => sweep_cmd::run(&args),
+        Some(Command::Scaling(args)) => scaling_cmd::run(&args),
     }
 }

@@ -205,7 +205,44 @@ pub fn fit(
 ) -> Result<Fit, ReconstructError> {
     let m = positions.len();
     check_values(m, values)?;
-    let levels = choose_levels(m, params);
+    let mut levels = choose_levels(m, params);
+    let mut dropped = 0;
+    if let (Levels::Auto(_), Method::SingleScale { ridge }) = (params.levels, params.method) {
+        // Automatic levels: while the samples leave single-scale directions undetermined,
+        // drop the finest level (doubling the oversampling) rather than solve an ill-posed
+        // problem; at most three times, then the general path (local inversion) decides.
+        while dropped < 3 && levels.fine > levels.coarse {
+            let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+            if m < basis.dimension() {
+                break;
+            }
+            let t0 = Instant::now();
+            let (c, rep) = single_scale_ls(&basis, positions, values, ridge)?;
+            if rep.deficient == 0 {
+                return Ok(Fit {
+                    active: ActiveSet::uniform(basis),
+                    coefficients: c,
+                    levels,
+                    timings: Timings {
+                        kernel_s: 0.0,
+                        solve_s: t0.elapsed().as_secs_f64(),
+                    },
+                    local: None,
+                    global: None,
+                    single_scale: Some(rep),
+                    fallback: (dropped > 0).then(|| {
+                        format!(
+                            "finest level lowered by {dropped}: the samples left single-scale \
+                             directions undetermined at the automatic level"
+                        )
+                    }),
+                });
+            }
+            levels.fine -= 1;
+            levels.oversampling *= 2.0;
+            dropped += 1;
+        }
+    }
     let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
     let active = ActiveSet::uniform(basis);
     fit_active(active, positions, values, params.method, levels)
@@ -260,7 +297,8 @@ pub fn fit_active(
             if rep.deficient > 0 {
                 // Undetermined directions: truncated local pseudo-inverses instead.
                 fallback = Some(format!(
-                    "single-scale normal equations have {} undetermined directions                      ({} functions without samples): local inversion used instead",
+                    "single-scale normal equations have {} undetermined directions \
+                     ({} functions without samples): local inversion used instead",
                     rep.deficient, rep.unsampled
                 ));
                 single_scale = Some(rep);

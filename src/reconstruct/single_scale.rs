@@ -8,8 +8,8 @@
 //! equilibrated, `A = D^{-1/2} K_J^T K_J D^{-1/2}` with `D = diag`, shifted by a tiny relative
 //! ridge `epsilon I` (default 0), and factored by a banded Cholesky `A = L L^T` in `O(P b^2)`; a
 //! pivot below [`PIVOT_TOLERANCE`] (an undetermined direction, e.g. a function without
-//! samples) gets component 0 and is counted in the report: the caller must not trust such a
-//! solution (the fit falls back to local inversion's truncated pseudo-inverses).
+//! samples) is counted in the report and the caller falls back: automatic levels drop the
+//! finest level, fixed levels use local inversion's truncated pseudo-inverses.
 
 #![allow(clippy::needless_range_loop)] // banded triangular solves read clearest as index loops
 
@@ -22,8 +22,7 @@ use crate::basis::{fwt, BasisValue, CdvBasis};
 const CHUNK: usize = 16_384;
 
 /// Pivots of the equilibrated factor below this mark directions the samples do not determine
-/// (`cond(K) >~ 1e5` along them): the normal equations cannot give a trustworthy solution
-/// there, and [`crate::reconstruct::fit_active`] falls back to local inversion.
+/// (`cond(K) >~ 1e5` along them).
 pub const PIVOT_TOLERANCE: f64 = 1e-10;
 
 /// What the single-scale solve did.
@@ -35,8 +34,9 @@ pub struct SingleScaleReport {
     pub ridge: f64,
     /// Single-scale functions without any sample in their support (coefficient set to 0).
     pub unsampled: usize,
-    /// Pivots below the tolerance: directions the samples do not determine (their component
-    /// is set to 0, a basic least-squares solution), unsampled functions included.
+    /// Pivots below the tolerance: directions the samples do not determine, unsampled
+    /// functions included. When nonzero the solution is not trustworthy (near-deficient
+    /// directions amplify rounding): callers fall back (see [`crate::reconstruct::fit`]).
     pub deficient: usize,
     /// Smallest pivot `L_jj^2` of the equilibrated factor: near `1 / cond(K)^2`, small values
     /// flag locally undersampled regions.
@@ -80,16 +80,22 @@ fn normal_equations(
     let n = scale.dimension() / 2; // V_J has 2^J functions; Psi(J, J) has 2^{J+1}
     let domain = scale.domain();
     let channels = values.len();
+    // One accumulator per thread (not per work item: a band is O(P) memory).
+    let per = positions
+        .len()
+        .div_ceil(rayon::current_num_threads().max(1))
+        .max(CHUNK);
     let chunks: Vec<(usize, &[f64])> = positions
-        .chunks(CHUNK)
+        .chunks(per)
         .enumerate()
-        .map(|(c, x)| (c * CHUNK, x))
+        .map(|(c, x)| (c * per, x))
         .collect();
     chunks
         .par_iter()
-        .fold(
-            || (Band::zeros(n, b), vec![vec![0.0; n]; channels]),
-            |(mut band, mut rhs), &(start, xs)| {
+        .map(|&(start, xs)| {
+            let mut band = Band::zeros(n, b);
+            let mut rhs = vec![vec![0.0; n]; channels];
+            {
                 let mut ev = scale.evaluator();
                 let mut out: Vec<BasisValue> = Vec::with_capacity(32);
                 for (off, &x) in xs.iter().enumerate() {
@@ -103,19 +109,17 @@ fn normal_equations(
                         }
                     }
                 }
-                (band, rhs)
-            },
-        )
-        .reduce(
-            || (Band::zeros(n, b), vec![vec![0.0; n]; channels]),
-            |(mut a, mut ra), (bb, rb)| {
-                a.add(&bb);
-                for (x, y) in ra.iter_mut().zip(rb) {
-                    x.iter_mut().zip(y).for_each(|(p, q)| *p += q);
-                }
-                (a, ra)
-            },
-        )
+            }
+            (band, rhs)
+        })
+        .reduce_with(|(mut a, mut ra), (bb, rb)| {
+            a.add(&bb);
+            for (x, y) in ra.iter_mut().zip(rb) {
+                x.iter_mut().zip(y).for_each(|(p, q)| *p += q);
+            }
+            (a, ra)
+        })
+        .unwrap_or_else(|| (Band::zeros(n, b), vec![vec![0.0; n]; channels]))
 }
 
 /// Global least squares for every channel through `V_{N+1}`; returns the `Psi(n, N)`
@@ -167,6 +171,8 @@ pub fn single_scale_ls(
             s -= l * l;
         }
         if s <= PIVOT_TOLERANCE {
+            // An undetermined direction: fixed at 0 so the factorization stays finite; the
+            // caller decides what to do (fewer levels, or local inversion).
             deficient[j] = true;
             a.data[j * w] = 1.0;
             for i in (j + 1)..n.min(j + b + 1) {

@@ -1,0 +1,72 @@
+//! Errors of the refiner: each names the value at fault and the way out.
+
+use thiserror::Error;
+
+use crate::basis::BasisError;
+use crate::kernel::KernelError;
+use crate::solve::SolveError;
+
+/// Everything that can go wrong in `crate::refine`.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum RefineError {
+    /// A parameter outside its range.
+    #[error("invalid {name} = {value}: {fix}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value, as given.
+        value: String,
+        /// What to pass instead.
+        fix: &'static str,
+    },
+    /// The depth limit is below the base tree.
+    #[error(
+        "max depth {max_depth} is below the base depth {base_depth}: raise --max-depth to at \
+         least {base_depth} or give fewer base samples"
+    )]
+    MaxDepthBelowBase {
+        /// The requested depth limit.
+        max_depth: u32,
+        /// The depth of the base tree.
+        base_depth: u32,
+    },
+    /// The base sampling alone needs more samples than the budget.
+    #[error(
+        "the base sampling needs {required} samples but the budget is {budget}: raise the \
+         budget or lower the base samples (or the base depth)"
+    )]
+    BudgetBelowBase {
+        /// The budget.
+        budget: usize,
+        /// Samples the base tree needs.
+        required: usize,
+    },
+    /// The oracle returned NaN or an infinity.
+    #[error("the signal is not finite at x = {x} (value {value}): fix the signal or the domain")]
+    NonFiniteValue {
+        /// The position.
+        x: f64,
+        /// The value returned.
+        value: f64,
+    },
+    /// A leaf is narrower than the `f64` resolution of the domain.
+    #[error(
+        "cannot place a sample inside the level-{level} cell at x = {x}: the domain's f64 \
+         resolution is exhausted; lower the max depth or shift the domain towards 0"
+    )]
+    Unresolvable {
+        /// Level of the leaf.
+        level: u32,
+        /// Left end of the leaf, in the domain.
+        x: f64,
+    },
+    /// Basis parameters.
+    #[error(transparent)]
+    Basis(#[from] BasisError),
+    /// Kernel matrix construction.
+    #[error(transparent)]
+    Kernel(#[from] KernelError),
+    /// The least-squares solve.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+}

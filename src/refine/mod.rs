@@ -1,0 +1,63 @@
+//! The adaptive refiner (DESIGN §6; paper supplement §4, figure 4): an adaptive wavelet tree
+//! and the samples that keep it locally oversampled, grown together until a tolerance, a
+//! depth limit or a sample budget is reached.
+//!
+//! The basis is a tree `T`: the coarse scaling functions `phi_{n,k}` and a set of wavelets
+//! closed under "parent present" (parent of `psi_{j,k}` is `psi_{j-1, floor(k/2)}`). Its local
+//! depth `d(x)` is the finest level of an active wavelet whose support contains `x` (`n - 1`
+//! if none); the points of depth `d` form whole dyadic cells of level `d + 1` (supports nest),
+//! the *leaves*, and each leaf is one slot of the local space `V_{d+1}`: the tree has
+//! `2^{d(x)+1}` functions per unit length around `x`. The sampling invariant is
+//!
+//! ```text
+//! samples(C) >= ceil(rho)      for every leaf C,
+//! ```
+//!
+//! so every active function has at least `rho` samples per slot of its support. One round:
+//!
+//! 1. fit `c = argmin ||K c - f||` on the active set (sparse Cholesky of `K^T K`);
+//! 2. indicate ([`Indicator`]): predict the coefficient of every missing child `psi_{j+1,k'}`
+//!    of an active wavelet from the coefficients near its parent and their decay
+//!    `r = |c_j| / |c_{j-1}|` across levels (`|c~| = r |c_j| / sqrt(1 - r^2)`, the norm of the
+//!    predicted subtree), and/or measure the residual at probe points in each leaf;
+//! 3. stop if the estimated RMS error `sqrt(sum eta^2 / (b - a))` is below the tolerance;
+//! 4. mark the largest indicators holding a fraction `theta` of the estimated error (Dörfler
+//!    marking), as many as the budget allows, and add them to the tree: one level deeper where
+//!    flagged;
+//! 5. add jittered samples to every leaf that has fewer than `ceil(rho)` (only the new, finer
+//!    leaves lack them), so the invariant holds again.
+//!
+//! Nothing is recomputed between rounds but the solve: sample values (oracle calls) and the
+//! pointwise evaluation of every basis function at every sample are computed once per sample
+//! and kept ([`Refiner`] builds each round's `K` by filtering the cached rows with the active
+//! set); the tree's coverage and leaves are rebuilt (cheap, `O(P)`).
+//!
+//! ```
+//! use rkwave::refine::{refine, RefineParams, SampleOracle};
+//!
+//! let f = |x: f64| if x < 0.4 { x } else { 1.0 + x }; // one jump
+//! let params = RefineParams { max_depth: 10, tolerance: 1e-6, ..RefineParams::default() };
+//! let result = refine(&f, &params)?;
+//! assert!(result.tree.local_depth(0.4) > result.tree.local_depth(0.9));
+//! # Ok::<(), rkwave::refine::RefineError>(())
+//! ```
+
+mod error;
+mod indicator;
+mod oracle;
+mod params;
+mod refiner;
+mod samples;
+mod tree;
+
+#[cfg(test)]
+mod tests;
+
+pub use error::RefineError;
+pub use oracle::{ExpressionError, ExpressionOracle, SampleOracle, SignalOracle};
+pub use params::{Indicator, RefineParams, MAX_DEPTH_LIMIT};
+pub use refiner::{
+    grid_error, refine, ErrorFigures, Refinement, Refiner, RoundLog, RoundTimes, StopReason,
+};
+pub use samples::{Sample, SampleOrigin};
+pub use tree::{cell_of, support_cells, Leaf, WaveletTree};
