@@ -115,3 +115,78 @@ pub fn save(fig: &Figure, path: &Path) -> Result<(), CliError> {
     }
     Ok(())
 }
+
+/// Dual kernels `k~_i` (top) and reproducing kernels `k_i` (bottom) of a few samples near the
+/// left edge, in the interior and near the right edge, for `basis` and `positions`, with the
+/// dense pseudo-inverse (the paper's figure of dual kernels).
+pub fn kernels_figure(basis: &CdvBasis, positions: &[f64], path: &Path) -> Result<(), CliError> {
+    use rkwave::kernel::{kernel_matrix, ActiveSet};
+    use rkwave::reconstruct::{dual_kernel, reproducing_kernel};
+    let active = ActiveSet::uniform(basis.clone());
+    let k = kernel_matrix(&active, positions).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let dense =
+        rkwave::solve::dense_pinv(&k, 1e-12).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let m = positions.len();
+    let picks = [0, 3, m / 2, m - 4, m - 1];
+    let domain = basis.domain();
+    let grid: Vec<f64> = (0..=2000)
+        .map(|i| domain.from_unit(i as f64 / 2000.0))
+        .collect();
+    let mut duals = Vec::new();
+    let mut reps = Vec::new();
+    for (c, &i) in picks.iter().enumerate() {
+        let column: Vec<(usize, f64)> = (0..active.len())
+            .map(|a| (a, dense.pinv[(a, i)]))
+            .filter(|(_, v)| *v != 0.0)
+            .collect();
+        let d = dual_kernel(&active, &column, &grid)?;
+        let r = reproducing_kernel(&active, &k, i, &grid)?;
+        let label = format!("λ_{i} = {:.4}", positions[i]);
+        duals.push(
+            Series::new(
+                label.clone(),
+                grid.iter().copied().zip(d).collect(),
+                SeriesStyle::Line,
+            )
+            .with_color(c),
+        );
+        reps.push(
+            Series::new(
+                label,
+                grid.iter().copied().zip(r).collect(),
+                SeriesStyle::Line,
+            )
+            .with_color(c),
+        );
+    }
+    let n = basis.coarse();
+    let fine = basis.fine();
+    let panel = |title: String, series: Vec<Series>, y: &str| -> PanelContent {
+        Panel {
+            title,
+            x_label: "x".into(),
+            y_label: y.into(),
+            series,
+            x_range: Some((domain.a(), domain.b())),
+            ..Panel::default()
+        }
+        .into()
+    };
+    let fig = Figure {
+        width: 1100,
+        height: 900,
+        columns: 1,
+        panels: vec![
+            panel(
+                format!(
+                    "Dual kernels k~_i(x), p = {}, Psi({n}, {fine}), {m} samples",
+                    basis.p()
+                ),
+                duals,
+                "k~_i(x)",
+            ),
+            panel("Reproducing kernels k_i(x)".into(), reps, "k_i(x)"),
+        ],
+    };
+    save(&fig, path)
+}

@@ -154,7 +154,7 @@ pub fn run(args: &SweepArgs) -> Result<(), CliError> {
                         .map(|e| (r.report.time_s.local, e.max_abs.max(1e-17)))
                 })
                 .collect();
-            Series::new(format!("{k}"), pts, SeriesStyle::LineMarkers).with_color(c)
+            Series::new(k.to_string(), pts, SeriesStyle::LineMarkers).with_color(c)
         })
         .collect();
     let fig = Figure {

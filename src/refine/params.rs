@@ -1,0 +1,215 @@
+//! Knobs of the refiner: each field says what it costs and what it buys.
+
+use serde::Serialize;
+
+use super::RefineError;
+use crate::basis::{minimum_level, FilterFamily, MAX_VANISHING_MOMENTS};
+use crate::sampling::{Domain, Layout};
+use crate::solve::GlobalLsParams;
+
+/// Deepest wavelet level the refiner accepts: the active set keeps a dense column map over
+/// `Psi(n, D)` (`2^{D+1}` entries, 128 MiB at `D = 24`).
+pub const MAX_DEPTH_LIMIT: u32 = 24;
+
+/// How the refiner decides where the signal is not yet resolved.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum Indicator {
+    /// Predicted coefficients of the missing children of every active wavelet, from the
+    /// coefficients near the parent and their decay across levels. Free (no extra samples);
+    /// blind to detail that falls between samples.
+    Coefficients,
+    /// Residual `f - f~` at `probes` jittered probe points per leaf (which then join the
+    /// sample set). Measures the error directly, catches detail the coefficients miss, but
+    /// spends `probes` samples per leaf and round, also where the signal is smooth.
+    Residual {
+        /// Probe points per leaf and round.
+        probes: usize,
+    },
+    /// Both: the union of their marks, the larger of their error estimates.
+    Both {
+        /// Probe points per leaf and round.
+        probes: usize,
+    },
+}
+
+/// Parameters of [`crate::refine::refine`].
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct RefineParams {
+    /// The domain `[a, b]`.
+    pub domain: Domain,
+    /// Vanishing moments `p`: higher resolves smooth parts with fewer samples; supports (and
+    /// so the refined zone around a singularity) are `2p - 1` cells wide.
+    pub p: usize,
+    /// Interior filter family; `None` is CDV's choice for `p`.
+    pub family: Option<FilterFamily>,
+    /// Coarse scaling level `n`; `None` is `j_min(p)`. Larger makes everything more local.
+    pub coarse: Option<u32>,
+    /// Base samples `m0`: the sampling of the whole domain before any refinement.
+    pub base_samples: usize,
+    /// Layout of the base samples (seeded); leaves it leaves short are topped up.
+    pub base_layout: Layout,
+    /// Depth of the uniform base tree; `None` is the deepest level whose leaves the base
+    /// samples fill with `rho` each (`rho 2^{d+1} <= m0`, at least `n`).
+    pub base_depth: Option<u32>,
+    /// Depth limit `D`: finest wavelet level the tree may reach (at most [`MAX_DEPTH_LIMIT`]).
+    /// Deeper resolves singularities further at ~`4 (2p - 1) rho` samples per level and
+    /// singularity.
+    pub max_depth: u32,
+    /// Local oversampling `rho`: every leaf (one slot of the local space) holds at least
+    /// `ceil(rho)` samples. Larger is better conditioned and costs samples everywhere.
+    pub rho: f64,
+    /// Target RMS error `sqrt(int (f - f~)^2 / (b - a))`, as estimated by the indicator: the
+    /// refiner stops once the estimate is below it.
+    pub tolerance: f64,
+    /// Sample budget (base samples included): a round adds only as many marks as it can
+    /// sample.
+    pub budget: usize,
+    /// Refinement indicator.
+    pub indicator: Indicator,
+    /// Dörfler fraction `theta` in `(0, 1]`: each round marks the largest indicators holding
+    /// `theta` of the estimated squared error. Smaller is more selective (fewer samples per
+    /// round, more rounds); 1 marks everything that is not yet zero.
+    pub theta: f64,
+    /// Safety limit on rounds.
+    pub max_rounds: usize,
+    /// Seed of every random choice (base layout, jitter): the same seed gives the same result.
+    pub seed: u64,
+    /// The global least-squares solve of each round.
+    pub solve: GlobalLsParams,
+    /// Diagnostics: points of a uniform grid on which each round's error against the oracle is
+    /// measured (0 = off). These oracle calls are not samples.
+    pub reference_grid: usize,
+}
+
+impl Default for RefineParams {
+    fn default() -> Self {
+        Self {
+            domain: Domain::UNIT,
+            p: 3,
+            family: None,
+            coarse: None,
+            base_samples: 256,
+            base_layout: Layout::Jittered,
+            base_depth: None,
+            max_depth: 20,
+            rho: 2.0,
+            tolerance: 1e-4,
+            budget: 100_000,
+            indicator: Indicator::Coefficients,
+            theta: 0.5,
+            max_rounds: 200,
+            seed: 1,
+            solve: GlobalLsParams::default(),
+            reference_grid: 0,
+        }
+    }
+}
+
+impl RefineParams {
+    /// The filter family (CDV's choice when not given).
+    pub fn family(&self) -> FilterFamily {
+        self.family
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p.max(1)))
+    }
+
+    /// The coarse level (`j_min(p)` when not given).
+    pub fn coarse(&self) -> u32 {
+        self.coarse
+            .unwrap_or_else(|| minimum_level(self.p.clamp(1, MAX_VANISHING_MOMENTS)))
+    }
+
+    /// Samples per leaf, `ceil(rho)`.
+    pub fn per_leaf(&self) -> usize {
+        self.rho.ceil().max(1.0) as usize
+    }
+
+    /// The base depth (given, or from the base samples).
+    pub fn base_depth(&self) -> u32 {
+        let n = self.coarse();
+        self.base_depth.unwrap_or_else(|| {
+            let need = self.per_leaf() as f64;
+            let mut d = n;
+            while d < 40 && need * 2f64.powi(d as i32 + 2) <= self.base_samples as f64 {
+                d += 1;
+            }
+            d
+        })
+    }
+
+    /// Checks every range; called by the refiner.
+    pub fn validate(&self) -> Result<(), RefineError> {
+        let bad = |name, value: String, fix| {
+            Err(RefineError::InvalidParameter { name, value, fix })
+        };
+        if self.p == 0 || self.p > MAX_VANISHING_MOMENTS {
+            return bad("p", self.p.to_string(), "choose p in 1..=10");
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return bad(
+                "tolerance",
+                self.tolerance.to_string(),
+                "give a positive target RMS error, e.g. 1e-4",
+            );
+        }
+        if self.budget == 0 {
+            return bad(
+                "budget",
+                "0".into(),
+                "give a positive sample budget, e.g. 4096",
+            );
+        }
+        if self.base_samples == 0 {
+            return bad(
+                "base samples",
+                "0".into(),
+                "give at least one base sample, e.g. 256",
+            );
+        }
+        if !(self.rho.is_finite() && self.rho >= 1.0 && self.rho <= 64.0) {
+            return bad(
+                "rho",
+                self.rho.to_string(),
+                "give a local oversampling in [1, 64], e.g. 2",
+            );
+        }
+        if !(self.theta.is_finite() && self.theta > 0.0 && self.theta <= 1.0) {
+            return bad(
+                "theta",
+                self.theta.to_string(),
+                "give a marking fraction in (0, 1], e.g. 0.5",
+            );
+        }
+        if let Indicator::Residual { probes } | Indicator::Both { probes } = self.indicator {
+            if probes == 0 {
+                return bad(
+                    "probes",
+                    "0".into(),
+                    "give at least one probe point per leaf",
+                );
+            }
+        }
+        if self.max_depth > MAX_DEPTH_LIMIT {
+            return bad(
+                "max depth",
+                self.max_depth.to_string(),
+                "choose a depth limit of at most 24",
+            );
+        }
+        let base = self.base_depth();
+        if self.max_depth < base {
+            return Err(RefineError::MaxDepthBelowBase {
+                max_depth: self.max_depth,
+                base_depth: base,
+            });
+        }
+        if base < self.coarse() {
+            return bad(
+                "base depth",
+                base.to_string(),
+                "the base tree needs every wavelet of the coarse level: choose base depth >= n",
+            );
+        }
+        self.solve.validate()?;
+        Ok(())
+    }
+}

@@ -1,0 +1,252 @@
+//! The samples of a refinement and everything computed from them once: the oracle's values
+//! and the pointwise evaluation of `Psi(n, D)` (`D` the depth limit) at every sample, from
+//! which each round's kernel matrix is filtered.
+
+use rand::Rng;
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+use serde::Serialize;
+use sprs::CsMat;
+
+use super::tree::Leaf;
+use super::{RefineError, SampleOracle};
+use crate::basis::{BasisValue, CdvBasis};
+use crate::kernel::ActiveSet;
+use crate::sampling::Domain;
+
+/// Samples per parallel evaluation work item.
+const CHUNK: usize = 1024;
+
+/// Whether a sample belongs to the base sampling or was added by refinement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SampleOrigin {
+    /// The base sampling (round 0, top-ups of the base tree included).
+    Base,
+    /// Added in a refinement round (new leaves, residual probes).
+    Refinement,
+}
+
+/// One sample.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Sample {
+    /// Position in the domain.
+    pub x: f64,
+    /// Position on the unit interval (`domain.to_unit(x)`, the coordinate the basis sees).
+    pub t: f64,
+    /// `f(x)`.
+    pub value: f64,
+    /// Round whose fit first used it (0 = base).
+    pub round: usize,
+}
+
+impl Sample {
+    /// Base or refinement.
+    pub fn origin(&self) -> SampleOrigin {
+        if self.round == 0 {
+            SampleOrigin::Base
+        } else {
+            SampleOrigin::Refinement
+        }
+    }
+}
+
+/// Samples, values, sorted positions and cached basis evaluations (CSR-like rows).
+#[derive(Clone, Debug)]
+pub(crate) struct SampleStore {
+    pub samples: Vec<Sample>,
+    /// Unit positions, ascending (for counting per leaf).
+    sorted: Vec<f64>,
+    row_ptr: Vec<usize>,
+    row_index: Vec<u32>,
+    row_value: Vec<f64>,
+}
+
+impl SampleStore {
+    pub fn new() -> Self {
+        Self {
+            samples: Vec::new(),
+            sorted: Vec::new(),
+            row_ptr: vec![0],
+            row_index: Vec::new(),
+            row_value: Vec::new(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    pub fn values(&self) -> Vec<f64> {
+        self.samples.iter().map(|s| s.value).collect()
+    }
+
+    pub fn positions(&self) -> Vec<f64> {
+        self.samples.iter().map(|s| s.x).collect()
+    }
+
+    /// Samples `xs` (domain positions) through the oracle, evaluates `basis` there once and
+    /// keeps both.
+    pub fn add<O: SampleOracle + ?Sized>(
+        &mut self,
+        xs: &[f64],
+        oracle: &O,
+        basis: &CdvBasis,
+        round: usize,
+    ) -> Result<(), RefineError> {
+        let domain = basis.domain();
+        let mut new = Vec::with_capacity(xs.len());
+        for &x in xs {
+            let value = oracle.sample(x);
+            if !value.is_finite() {
+                return Err(RefineError::NonFiniteValue { x, value });
+            }
+            new.push(Sample {
+                x,
+                t: domain.to_unit(x),
+                value,
+                round,
+            });
+        }
+        let rows: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = new
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut ev = basis.evaluator();
+                let mut out: Vec<BasisValue> = Vec::with_capacity(256);
+                let mut counts = Vec::with_capacity(chunk.len());
+                let mut index = Vec::new();
+                let mut value = Vec::new();
+                for s in chunk {
+                    ev.eval_unit_into(s.t, &mut out);
+                    counts.push(out.len());
+                    index.extend(out.iter().map(|v| v.index as u32));
+                    value.extend(out.iter().map(|v| v.value));
+                }
+                (counts, index, value)
+            })
+            .collect();
+        for (counts, index, value) in rows {
+            for c in counts {
+                let last = *self.row_ptr.last().unwrap_or(&0);
+                self.row_ptr.push(last + c);
+            }
+            self.row_index.extend(index);
+            self.row_value.extend(value);
+        }
+        self.sorted.extend(new.iter().map(|s| s.t));
+        self.sorted.sort_by(f64::total_cmp);
+        self.samples.extend(new);
+        Ok(())
+    }
+
+    /// Samples in `leaf` (by the cell convention of [`cell_of`]).
+    pub fn count_in(&self, leaf: &Leaf) -> usize {
+        self.range_in(leaf).len()
+    }
+
+    /// The sorted unit positions inside `leaf`.
+    pub fn range_in(&self, leaf: &Leaf) -> &[f64] {
+        let (lo, hi) = leaf.unit_bounds();
+        let last = leaf.cell + 1 == 1u64 << leaf.level;
+        let a = self.sorted.partition_point(|&t| t < lo);
+        let b = if last {
+            self.sorted.len()
+        } else {
+            self.sorted.partition_point(|&t| t < hi)
+        };
+        &self.sorted[a..b.max(a)]
+    }
+
+    /// `K` for `active` from the cached evaluations: row `i` is sample `i`.
+    pub fn kernel(&self, active: &ActiveSet) -> CsMat<f64> {
+        let m = self.samples.len();
+        let mut indptr = Vec::with_capacity(m + 1);
+        let mut indices = Vec::with_capacity(self.row_index.len() / 2);
+        let mut data = Vec::with_capacity(self.row_index.len() / 2);
+        indptr.push(0);
+        for i in 0..m {
+            for t in self.row_ptr[i]..self.row_ptr[i + 1] {
+                if let Some(c) = active.column(self.row_index[t] as usize) {
+                    indices.push(c);
+                    data.push(self.row_value[t]);
+                }
+            }
+            indptr.push(indices.len());
+        }
+        CsMat::new((m, active.len()), indptr, indices, data)
+    }
+}
+
+/// New unit positions that bring every leaf to `need` samples: each short leaf is cut into
+/// `need` equal strata and every empty stratum gets one jittered point (middle 80 %) until the
+/// leaf is full. Positions are returned in the domain, checked to map back into their leaf.
+pub(crate) fn fill_leaves(
+    store: &SampleStore,
+    leaves: &[Leaf],
+    need: usize,
+    domain: Domain,
+    rng: &mut Pcg64,
+) -> Result<Vec<f64>, RefineError> {
+    let mut out = Vec::new();
+    for leaf in leaves {
+        let have = store.range_in(leaf);
+        if have.len() >= need {
+            continue;
+        }
+        let mut missing = need - have.len();
+        let (lo, hi) = leaf.unit_bounds();
+        let w = (hi - lo) / need as f64;
+        for s in 0..need {
+            if missing == 0 {
+                break;
+            }
+            let (a, b) = (lo + s as f64 * w, lo + (s + 1) as f64 * w);
+            if have.iter().any(|&t| t >= a && t < b) {
+                continue;
+            }
+            let u: f64 = rng.random();
+            let t = a + (0.1 + 0.8 * u) * (b - a);
+            let x = domain.from_unit(t);
+            if !leaf.contains(domain.to_unit(x)) {
+                return Err(RefineError::Unresolvable {
+                    level: leaf.level,
+                    x: domain.from_unit(lo),
+                });
+            }
+            out.push(x);
+            missing -= 1;
+        }
+    }
+    Ok(out)
+}
+
+/// Samples the leaves would still need (`sum max(0, need - samples(C))`).
+pub(crate) fn shortfall(store: &SampleStore, leaves: &[Leaf], need: usize) -> usize {
+    leaves
+        .iter()
+        .map(|l| need.saturating_sub(store.count_in(l)))
+        .sum()
+}
+
+/// `probes` jittered points per leaf (one per stratum), in the domain.
+pub(crate) fn probe_points(
+    leaves: &[Leaf],
+    probes: usize,
+    domain: Domain,
+    rng: &mut Pcg64,
+) -> Vec<(usize, f64)> {
+    let mut out = Vec::with_capacity(leaves.len() * probes);
+    for (i, leaf) in leaves.iter().enumerate() {
+        let (lo, hi) = leaf.unit_bounds();
+        let w = (hi - lo) / probes as f64;
+        for s in 0..probes {
+            let u: f64 = rng.random();
+            let t = lo + (s as f64 + 0.1 + 0.8 * u) * w;
+            let x = domain.from_unit(t);
+            if leaf.contains(domain.to_unit(x)) {
+                out.push((i, x));
+            }
+        }
+    }
+    out
+}
