@@ -16,7 +16,7 @@ use super::cdv::EdgeFilters;
 
 /// Coarse index, fine index and weight of every nonzero entry of one analysis step, for the
 /// low-pass (`false`) or high-pass (`true`) half.
-fn analysis_entries(
+pub(crate) fn analysis_entries(
     bank: &FilterBank,
     level: u32,
     high: bool,

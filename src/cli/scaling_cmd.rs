@@ -26,7 +26,7 @@ pub struct ScalingArgs {
     /// Methods: single, global, local0 (rings 0, Cholesky), local1 (rings 1, Cholesky).
     #[arg(long, value_delimiter = ',', default_value = "single")]
     pub methods: Vec<String>,
-    /// Evaluation grid (points).
+    /// Evaluation grid (points); 0 means as many points as samples.
     #[arg(long, default_value_t = 1_000_000)]
     pub grid: usize,
     /// Print JSON rows.
@@ -107,6 +107,7 @@ fn run_one(m: usize, channels: usize, name: &str, grid_n: usize) -> Result<Scali
         method: method(name)?,
         ..FitParams::default()
     };
+    let grid_n = if grid_n == 0 { m } else { grid_n };
     let grid: Vec<f64> = (0..grid_n)
         .map(|i| domain.from_unit(i as f64 / (grid_n - 1) as f64))
         .collect();
@@ -147,8 +148,10 @@ fn run_one(m: usize, channels: usize, name: &str, grid_n: usize) -> Result<Scali
 
 /// Runs `rkwave scaling`.
 pub fn run(args: &ScalingArgs) -> Result<(), CliError> {
-    if args.grid < 2 {
-        return Err(CliError::Invalid("--grid must be at least 2".into()));
+    if args.grid == 1 {
+        return Err(CliError::Invalid(
+            "--grid must be at least 2 (or 0: as many points as samples)".into(),
+        ));
     }
     let sizes: Vec<usize> = args
         .sizes

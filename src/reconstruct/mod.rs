@@ -10,7 +10,7 @@ mod kernels;
 mod single_scale;
 
 pub use kernels::{dual_kernel, reproducing_kernel};
-pub use single_scale::{single_scale_ls, SingleScaleReport, PIVOT_TOLERANCE};
+pub use single_scale::{single_scale_ls, NormalEquations, SingleScaleReport, PIVOT_TOLERANCE};
 
 use std::time::Instant;
 
@@ -210,37 +210,45 @@ pub fn fit(
     if let (Levels::Auto(_), Method::SingleScale { ridge }) = (params.levels, params.method) {
         // Automatic levels: while the samples leave single-scale directions undetermined,
         // drop the finest level (doubling the oversampling) rather than solve an ill-posed
-        // problem; at most three times, then the general path (local inversion) decides.
-        while dropped < 3 && levels.fine > levels.coarse {
-            let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
-            if m < basis.dimension() {
-                break;
-            }
+        // problem; the normal equations are coarsened, not accumulated again. At most three
+        // times, then the general path (local inversion) decides.
+        let domain_ok = positions.iter().all(|x| domain.contains(*x));
+        let first = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+        if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
-            let (c, rep) = single_scale_ls(&basis, positions, values, ridge)?;
-            if rep.deficient == 0 {
-                return Ok(Fit {
-                    active: ActiveSet::uniform(basis),
-                    coefficients: c,
-                    levels,
-                    timings: Timings {
-                        kernel_s: 0.0,
-                        solve_s: t0.elapsed().as_secs_f64(),
-                    },
-                    local: None,
-                    global: None,
-                    single_scale: Some(rep),
-                    fallback: (dropped > 0).then(|| {
-                        format!(
-                            "finest level lowered by {dropped}: the samples left single-scale \
-                             directions undetermined at the automatic level"
-                        )
-                    }),
-                });
+            let mut ne = NormalEquations::accumulate(&first, positions, values)?;
+            while dropped <= 3 && levels.fine >= levels.coarse {
+                let basis =
+                    CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+                let (c, rep) = ne.solve(&basis, ridge);
+                if rep.deficient == 0 {
+                    return Ok(Fit {
+                        active: ActiveSet::uniform(basis),
+                        coefficients: c,
+                        levels,
+                        timings: Timings {
+                            kernel_s: 0.0,
+                            solve_s: t0.elapsed().as_secs_f64(),
+                        },
+                        local: None,
+                        global: None,
+                        single_scale: Some(rep),
+                        fallback: (dropped > 0).then(|| {
+                            format!(
+                                "finest level lowered by {dropped}: the samples left \
+                                 single-scale directions undetermined at the automatic level"
+                            )
+                        }),
+                    });
+                }
+                if levels.fine == levels.coarse {
+                    break;
+                }
+                ne = ne.coarsen(basis.bank());
+                levels.fine -= 1;
+                levels.oversampling *= 2.0;
+                dropped += 1;
             }
-            levels.fine -= 1;
-            levels.oversampling *= 2.0;
-            dropped += 1;
         }
     }
     let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;

@@ -122,6 +122,117 @@ fn normal_equations(
         .unwrap_or_else(|| (Band::zeros(n, b), vec![vec![0.0; n]; channels]))
 }
 
+/// The normal equations `K_J^T K_J v = K_J^T f` of the single-scale basis `V_J` (banded,
+/// not equilibrated), one right-hand side per channel.
+pub struct NormalEquations {
+    band: Band,
+    rhs: Vec<Vec<f64>>,
+    level: u32,
+}
+
+impl NormalEquations {
+    /// Accumulates the normal equations of `V_{N+1}` for `basis = Psi(n, N)`.
+    pub fn accumulate(
+        basis: &CdvBasis,
+        positions: &[f64],
+        values: &[&[f64]],
+    ) -> Result<Self, crate::basis::BasisError> {
+        let top = basis.fine() + 1;
+        let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, basis.domain())?;
+        let (band, rhs) = normal_equations(&scale, positions, values, bandwidth(basis));
+        Ok(Self {
+            band,
+            rhs,
+            level: top,
+        })
+    }
+
+    /// The single-scale level `J`.
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// The same least-squares problem restricted to `V_{J-1} ⊂ V_J`: with `H` the low-pass
+    /// half of the FWT step (`phi_{J-1,c} = sum_i H_ci phi_{J,i}`), `A' = H A H^T`,
+    /// `r' = H r`; `O(P b p)`, no pass over the samples. `A'` keeps the half-bandwidth
+    /// `b = 3p - 3` (coarse functions `b + 1` apart share no fine function's band).
+    pub fn coarsen(&self, bank: &crate::basis::FilterBank) -> Self {
+        let coarse_level = self.level - 1;
+        let n = self.band.n / 2;
+        let b = self.band.b;
+        let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+        fwt::analysis_entries(bank, coarse_level, false, |c, i, w| rows[c].push((i, w)));
+        let fine = &self.band;
+        let a_sym = |i: usize, j: usize| -> f64 {
+            let (hi, lo) = if i >= j { (i, j) } else { (j, i) };
+            if hi - lo <= b {
+                fine.data[hi * (b + 1) + (hi - lo)]
+            } else {
+                0.0
+            }
+        };
+        // B = H A, row c on the window [lo_c, hi_c] of fine indices.
+        let windows: Vec<(usize, Vec<f64>)> = rows
+            .par_iter()
+            .map(|row| {
+                let lo = row.iter().map(|e| e.0).min().unwrap_or(0).saturating_sub(b);
+                let hi = (row.iter().map(|e| e.0).max().unwrap_or(0) + b).min(fine.n - 1);
+                let vals = (lo..=hi)
+                    .map(|i| row.iter().map(|&(i1, w1)| w1 * a_sym(i1, i)).sum())
+                    .collect();
+                (lo, vals)
+            })
+            .collect();
+        let mut band = Band::zeros(n, b);
+        band.data
+            .par_chunks_mut(b + 1)
+            .enumerate()
+            .for_each(|(c1, out)| {
+                let (lo, ref vals) = windows[c1];
+                for (d, o) in out.iter_mut().enumerate().take(b.min(c1) + 1) {
+                    *o = rows[c1 - d]
+                        .iter()
+                        .filter_map(|&(i2, w2)| {
+                            i2.checked_sub(lo).and_then(|k| vals.get(k)).map(|v| w2 * v)
+                        })
+                        .sum();
+                }
+            });
+        let rhs = self
+            .rhs
+            .iter()
+            .map(|r| {
+                rows.iter()
+                    .map(|row| row.iter().map(|&(i, w)| w * r[i]).sum())
+                    .collect()
+            })
+            .collect();
+        Self {
+            band,
+            rhs,
+            level: coarse_level,
+        }
+    }
+
+    /// Solves for the `Psi(n, N)` coefficients (`basis.fine() + 1` must equal the level).
+    pub fn solve(
+        &self,
+        basis: &CdvBasis,
+        ridge: f64,
+    ) -> (Vec<Vec<f64>>, SingleScaleReport) {
+        debug_assert_eq!(basis.fine() + 1, self.level);
+        factor_and_solve(basis, Band { n: self.band.n, b: self.band.b, data: self.band.data.clone() }, self.rhs.clone(), ridge)
+    }
+}
+
+fn bandwidth(basis: &CdvBasis) -> usize {
+    if basis.bank().edge_count() == 0 {
+        0
+    } else {
+        3 * basis.p() - 3
+    }
+}
+
 /// Global least squares for every channel through `V_{N+1}`; returns the `Psi(n, N)`
 /// coefficients per channel.
 pub fn single_scale_ls(
@@ -130,15 +241,17 @@ pub fn single_scale_ls(
     values: &[&[f64]],
     ridge: f64,
 ) -> Result<(Vec<Vec<f64>>, SingleScaleReport), crate::basis::BasisError> {
-    let top = basis.fine() + 1;
-    let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, basis.domain())?;
-    let p = basis.p();
-    let b = if basis.bank().edge_count() == 0 {
-        0
-    } else {
-        3 * p - 3
-    };
-    let (mut a, mut rhs) = normal_equations(&scale, positions, values, b);
+    let ne = NormalEquations::accumulate(basis, positions, values)?;
+    Ok(factor_and_solve(basis, ne.band, ne.rhs, ridge))
+}
+
+fn factor_and_solve(
+    basis: &CdvBasis,
+    mut a: Band,
+    mut rhs: Vec<Vec<f64>>,
+    ridge: f64,
+) -> (Vec<Vec<f64>>, SingleScaleReport) {
+    let b = a.b;
     let n = a.n;
     // Equilibrate.
     let d: Vec<f64> = (0..n)
@@ -219,7 +332,7 @@ pub fn single_scale_ls(
             fwt::analysis(basis.bank(), basis.coarse(), basis.fine(), r)
         })
         .collect();
-    Ok((
+    (
         coefficients,
         SingleScaleReport {
             bandwidth: b,
@@ -228,5 +341,5 @@ pub fn single_scale_ls(
             deficient: deficient.iter().filter(|&&x| x).count(),
             min_pivot,
         },
-    ))
+    )
 }
