@@ -6,6 +6,7 @@ use thiserror::Error;
 
 use super::ActiveSet;
 use crate::basis::BasisValue;
+use crate::sampling::Domain;
 
 /// Samples per parallel work item.
 const CHUNK: usize = 4096;
@@ -33,6 +34,23 @@ pub enum KernelError {
     Empty,
 }
 
+/// Every position lies in the domain (and is finite), or the first that does not, 1-based.
+pub fn check_positions(domain: Domain, positions: &[f64]) -> Result<(), KernelError> {
+    match positions
+        .iter()
+        .enumerate()
+        .find(|(_, x)| !domain.contains(**x))
+    {
+        Some((i, &x)) => Err(KernelError::PositionOutside {
+            row: i + 1,
+            x,
+            a: domain.a(),
+            b: domain.b(),
+        }),
+        None => Ok(()),
+    }
+}
+
 /// `K[i, c] = Psi_{active(c)}(x_i)`: one row per sample, the active functions that are
 /// (structurally) nonzero at it, in ascending column order.
 pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>, KernelError> {
@@ -41,18 +59,7 @@ pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>
     }
     let basis = active.basis();
     let domain = basis.domain();
-    if let Some((i, &x)) = positions
-        .iter()
-        .enumerate()
-        .find(|(_, x)| !domain.contains(**x))
-    {
-        return Err(KernelError::PositionOutside {
-            row: i + 1,
-            x,
-            a: domain.a(),
-            b: domain.b(),
-        });
-    }
+    check_positions(domain, positions)?;
     let blocks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = positions
         .par_chunks(CHUNK)
         .map(|chunk| {

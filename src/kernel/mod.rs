@@ -11,4 +11,4 @@ mod matrix;
 
 pub use active::ActiveSet;
 pub use levels::{LevelChoice, LevelParams};
-pub use matrix::{kernel_matrix, KernelError};
+pub use matrix::{check_positions, kernel_matrix, KernelError};

@@ -19,7 +19,9 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::basis::{fwt, BasisError, BasisValue, CdvBasis, FilterFamily};
-use crate::kernel::{kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams};
+use crate::kernel::{
+    check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
+};
 use crate::sampling::Domain;
 use crate::solve::{
     apply_local, dense_pinv, global_ls, GlobalLsParams, GlobalReport, LocalInversionParams,
@@ -212,7 +214,7 @@ pub fn fit(
         // drop the finest level (doubling the oversampling) rather than solve an ill-posed
         // problem; the normal equations are coarsened, not accumulated again. At most three
         // times, then the general path (local inversion) decides.
-        let domain_ok = positions.iter().all(|x| domain.contains(*x));
+        let domain_ok = check_positions(domain, positions).is_ok();
         let first = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
@@ -272,20 +274,7 @@ pub fn fit_active(
             functions: active.len(),
         });
     }
-    let domain = active.basis().domain();
-    if let Some((i, &x)) = positions
-        .iter()
-        .enumerate()
-        .find(|(_, x)| !domain.contains(**x))
-    {
-        return Err(KernelError::PositionOutside {
-            row: i + 1,
-            x,
-            a: domain.a(),
-            b: domain.b(),
-        }
-        .into());
-    }
+    check_positions(active.basis().domain(), positions)?;
     let uniform = active.len() == active.basis().dimension();
     let single = matches!(method, Method::SingleScale { .. }) && uniform;
     let t0 = Instant::now();

@@ -215,13 +215,18 @@ impl NormalEquations {
     }
 
     /// Solves for the `Psi(n, N)` coefficients (`basis.fine() + 1` must equal the level).
-    pub fn solve(
-        &self,
-        basis: &CdvBasis,
-        ridge: f64,
-    ) -> (Vec<Vec<f64>>, SingleScaleReport) {
+    pub fn solve(&self, basis: &CdvBasis, ridge: f64) -> (Vec<Vec<f64>>, SingleScaleReport) {
         debug_assert_eq!(basis.fine() + 1, self.level);
-        factor_and_solve(basis, Band { n: self.band.n, b: self.band.b, data: self.band.data.clone() }, self.rhs.clone(), ridge)
+        factor_and_solve(
+            basis,
+            Band {
+                n: self.band.n,
+                b: self.band.b,
+                data: self.band.data.clone(),
+            },
+            self.rhs.clone(),
+            ridge,
+        )
     }
 }
 
