@@ -31,16 +31,12 @@ fn end_to_end(c: &mut Criterion) {
             let (xs, values, grid) = data(m, channels);
             let refs: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
             group.throughput(Throughput::Elements(m as u64));
-            group.bench_with_input(
-                BenchmarkId::new(format!("{channels}ch"), m),
-                &m,
-                |b, _| {
-                    b.iter(|| {
-                        let f = fit(&xs, &refs, Domain::UNIT, &FitParams::default()).unwrap();
-                        f.evaluate(&grid).unwrap()
-                    })
-                },
-            );
+            group.bench_with_input(BenchmarkId::new(format!("{channels}ch"), m), &m, |b, _| {
+                b.iter(|| {
+                    let f = fit(&xs, &refs, Domain::UNIT, &FitParams::default()).unwrap();
+                    f.evaluate(&grid).unwrap()
+                })
+            });
         }
     }
     group.finish();
@@ -53,20 +49,39 @@ fn methods(c: &mut Criterion) {
     let refs: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
     let cases = [
         ("single_scale", Method::SingleScale { ridge: 0.0 }),
-        ("global_sparse_cholesky", Method::Global(GlobalLsParams::default())),
+        (
+            "global_sparse_cholesky",
+            Method::Global(GlobalLsParams::default()),
+        ),
         (
             "local_rings0_cholesky",
-            Method::Local(LocalInversionParams { rings: 0, solver: Solver::Cholesky, ..Default::default() }),
+            Method::Local(LocalInversionParams {
+                rings: 0,
+                solver: Solver::Cholesky,
+                ..Default::default()
+            }),
         ),
         (
             "local_rings1_cholesky",
-            Method::Local(LocalInversionParams { rings: 1, solver: Solver::Cholesky, ..Default::default() }),
+            Method::Local(LocalInversionParams {
+                rings: 1,
+                solver: Solver::Cholesky,
+                ..Default::default()
+            }),
         ),
-        ("local_rings1_svd", Method::Local(LocalInversionParams::default())),
+        (
+            "local_rings1_svd",
+            Method::Local(LocalInversionParams::default()),
+        ),
     ];
     for (name, method) in cases {
-        let params = FitParams { method, ..FitParams::default() };
-        group.bench_function(name, |b| b.iter(|| fit(&xs, &refs, Domain::UNIT, &params).unwrap()));
+        let params = FitParams {
+            method,
+            ..FitParams::default()
+        };
+        group.bench_function(name, |b| {
+            b.iter(|| fit(&xs, &refs, Domain::UNIT, &params).unwrap())
+        });
     }
     group.finish();
 }

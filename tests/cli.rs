@@ -113,8 +113,25 @@ fn plot_is_written_and_not_overwritten_without_force() {
 
 #[test]
 fn report_json_at_the_paper_setting_meets_the_error_target() {
-    let out = rkwave(&["report", "--p", "3", "--coarse", "4", "--fine", "8", "--samples", "1024", "--layout", "uniform", "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = rkwave(&[
+        "report",
+        "--p",
+        "3",
+        "--coarse",
+        "4",
+        "--fine",
+        "8",
+        "--samples",
+        "1024",
+        "--layout",
+        "uniform",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for key in ["min", "median", "max"] {
         assert!(v["submatrix"]["rows"][key].as_f64().is_some());
@@ -125,7 +142,9 @@ fn report_json_at_the_paper_setting_meets_the_error_target() {
     for key in ["local_vs_global", "local_vs_truth", "global_vs_truth"] {
         assert!(v["reconstruction"][key].as_f64().unwrap().is_finite());
     }
-    assert!(v["condition"]["median"].as_f64().is_some() && v["condition"]["max"].as_f64().is_some());
+    assert!(
+        v["condition"]["median"].as_f64().is_some() && v["condition"]["max"].as_f64().is_some()
+    );
     for key in ["kernel", "local", "global"] {
         assert!(v["time_s"][key].as_f64().unwrap() >= 0.0);
     }
@@ -148,8 +167,23 @@ fn reconstruct_reads_csv_writes_the_grid_and_reports() {
     }
     std::fs::write(&input, text).unwrap();
     let output = dir.join("grid.csv");
-    let out = rkwave(&["reconstruct", "--input", input.to_str().unwrap(), "--domain", "0,1", "--grid", "11", "--output", output.to_str().unwrap(), "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = rkwave(&[
+        "reconstruct",
+        "--input",
+        input.to_str().unwrap(),
+        "--domain",
+        "0,1",
+        "--grid",
+        "11",
+        "--output",
+        output.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["samples"], 3000);
     assert_eq!(v["channels"], 2);
@@ -163,12 +197,31 @@ fn reconstruct_reads_csv_writes_the_grid_and_reports() {
     assert_eq!(lines[0], "x,a,b");
     assert_eq!(lines.len(), 12);
     let mid: Vec<f64> = lines[6].split(',').map(|t| t.parse().unwrap()).collect();
-    assert!((mid[0] - 0.5).abs() < 1e-15 && (mid[1] - 2.0).abs() < 1e-10 && (mid[2] - 0.25).abs() < 1e-10);
+    assert!(
+        (mid[0] - 0.5).abs() < 1e-15
+            && (mid[1] - 2.0).abs() < 1e-10
+            && (mid[2] - 0.25).abs() < 1e-10
+    );
     // Malformed input names the row; existing output is not overwritten.
-    let bad = rkwave(&["reconstruct", "--input", concat!(env!("CARGO_MANIFEST_DIR"), "/data/bad_files/wrong_columns.csv"), "--output", dir.join("o2.csv").to_str().unwrap()]);
+    let bad = rkwave(&[
+        "reconstruct",
+        "--input",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/data/bad_files/wrong_columns.csv"
+        ),
+        "--output",
+        dir.join("o2.csv").to_str().unwrap(),
+    ]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("row 3"));
-    let again = rkwave(&["reconstruct", "--input", input.to_str().unwrap(), "--output", output.to_str().unwrap()]);
+    let again = rkwave(&[
+        "reconstruct",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+    ]);
     assert_eq!(again.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -22,7 +22,11 @@ fn coarsened_normal_equations_equal_direct_accumulation() {
         let (c, rep) = coarsened.solve(&coarse, 0.0);
         assert_eq!(rep.deficient, 0);
         let scale = direct[0].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let err = c[0].iter().zip(&direct[0]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let err = c[0]
+            .iter()
+            .zip(&direct[0])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-10 * scale, "p = {p}: {err:e} (scale {scale:e})");
     }
 }

@@ -215,6 +215,18 @@ pub fn fit(
         // problem; the normal equations are coarsened, not accumulated again. At most three
         // times, then the general path (local inversion) decides.
         let domain_ok = check_positions(domain, positions).is_ok();
+        // Predict from sample counts what the pivots would show: a single-scale support with
+        // fewer than two samples leaves its function undetermined. Drop those levels before
+        // accumulating anything (the pivot check below stays the arbiter).
+        while domain_ok
+            && dropped < 3
+            && levels.fine > levels.coarse
+            && min_support_samples(positions, domain, levels.fine + 1, params.p) < 2
+        {
+            levels.fine -= 1;
+            levels.oversampling *= 2.0;
+            dropped += 1;
+        }
         let first = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
@@ -256,6 +268,28 @@ pub fn fit(
     let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
     let active = ActiveSet::uniform(basis);
     fit_active(active, positions, values, params.method, levels)
+}
+
+/// The fewest samples in the support of any function of `V_level` (windows of `2p - 1`
+/// cells of width `2^-level`, and the `p` cells at each end).
+fn min_support_samples(positions: &[f64], domain: Domain, level: u32, p: usize) -> usize {
+    let cells = 1usize << level;
+    let mut counts = vec![0usize; cells];
+    for &x in positions {
+        let c = (domain.to_unit(x) * cells as f64) as usize;
+        counts[c.min(cells - 1)] += 1;
+    }
+    let w = (2 * p - 1).min(cells);
+    let mut window: usize = counts[..w].iter().sum();
+    let mut least = window;
+    for c in w..cells {
+        window = window + counts[c] - counts[c - w];
+        least = least.min(window);
+    }
+    let edge = p.min(cells);
+    let left: usize = counts[..edge].iter().sum();
+    let right: usize = counts[cells - edge..].iter().sum();
+    least.min(left).min(right)
 }
 
 /// Fits on a given active set (uniform or adaptive).
