@@ -7,6 +7,8 @@
 //! - [`basis`]: Daubechies filters, the CDV edge construction, exact pointwise evaluation of
 //!   `Psi(n, N)` ([`basis::CdvBasis`], [`basis::Evaluator`]) and the interval FWT;
 //! - [`sampling`]: domains, sample layouts and built-in test signals;
+//! - [`refine`]: the adaptive refiner ([`refine::refine`]): a wavelet tree and samples grown
+//!   together where the signal needs them;
 //! - [`io`]: reading and writing samples (CSV, NumPy `.npy`);
 //! - [`plot`] draws the figures.
 //!
@@ -27,6 +29,7 @@ pub mod io;
 pub mod kernel;
 pub mod plot;
 pub mod reconstruct;
+pub mod refine;
 pub mod report;
 pub mod sampling;
 pub mod solve;

@@ -1,6 +1,7 @@
 //! The command line: arguments are parsed and validated into plain values here, then those
 //! values build the library objects. No algorithm lives in the binary.
 
+pub mod adapt_cmd;
 pub mod basis_cmd;
 pub mod demo;
 pub mod eval_cmd;
@@ -46,6 +47,8 @@ pub enum Command {
     Sweep(sweep_cmd::SweepArgs),
     /// End-to-end time and memory against the number of samples.
     Scaling(scaling_cmd::ScalingArgs),
+    /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
+    Adapt(adapt_cmd::AdaptArgs),
 }
 
 /// Interior filter family on the command line.
@@ -228,6 +231,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
         Some(Command::Report(args)) => report_cmd::run(&args),
         Some(Command::Sweep(args)) => sweep_cmd::run(&args),
+        Some(Command::Adapt(args)) => adapt_cmd::run(&args),
         Some(Command::Scaling(args)) => scaling_cmd::run(&args),
     }
 }

@@ -13,8 +13,7 @@
 //! estimate of `int_C (f - f~)^2`; marking `C` adds the wavelets one level deeper whose support
 //! covers it.
 
-use super::tree::{support_cells, Leaf, WaveletTree};
-use crate::kernel::ActiveSet;
+use super::tree::{column_of, support_cells, Leaf, WaveletTree};
 
 /// Cap of the decay ratio: beyond it the estimate `1 / sqrt(1 - r^2)` would explode.
 const MAX_RATIO: f64 = 0.9;
@@ -93,7 +92,7 @@ impl Indication {
 /// Predicted missing coefficients from the decay across levels.
 pub(crate) fn coefficient_indication(
     tree: &WaveletTree,
-    active: &ActiveSet,
+    columns: &[usize],
     coefficients: &[f64],
 ) -> Indication {
     let p = tree.p();
@@ -105,7 +104,7 @@ pub(crate) fn coefficient_indication(
         let lo = k.saturating_sub(1);
         let hi = (k + 1).min(size - 1);
         (lo..=hi)
-            .filter_map(|kk| active.column(size + kk).map(|c| coefficients[c].abs()))
+            .filter_map(|kk| column_of(columns, size + kk).map(|c| coefficients[c].abs()))
             .fold(0.0, f64::max)
     };
     let mut out = Indication::default();

@@ -100,7 +100,8 @@ impl MakeOperators<f64> for ComparisonOps {
 #[derive(Clone, Debug)]
 pub struct ExpressionOracle {
     text: String,
-    expr: FlatEx<f64, ComparisonOps>,
+    // Boxed: exmex keeps its operators inline (~20 KB).
+    expr: Box<FlatEx<f64, ComparisonOps>>,
     uses_x: bool,
 }
 
@@ -112,7 +113,9 @@ impl ExpressionOracle {
             reason,
         };
         if text.trim().is_empty() {
-            return Err(err("it is empty: give a formula in x, e.g. `sin(8*x)`".into()));
+            return Err(err(
+                "it is empty: give a formula in x, e.g. `sin(8*x)`".into()
+            ));
         }
         let expr = FlatEx::<f64, ComparisonOps>::parse(text).map_err(|e| {
             err(format!(
@@ -129,7 +132,7 @@ impl ExpressionOracle {
         Ok(Self {
             text: text.to_string(),
             uses_x: !vars.is_empty(),
-            expr,
+            expr: Box::new(expr),
         })
     }
 

@@ -7,9 +7,10 @@ use crate::basis::{minimum_level, FilterFamily, MAX_VANISHING_MOMENTS};
 use crate::sampling::{Domain, Layout};
 use crate::solve::GlobalLsParams;
 
-/// Deepest wavelet level the refiner accepts: the active set keeps a dense column map over
-/// `Psi(n, D)` (`2^{D+1}` entries, 128 MiB at `D = 24`).
-pub const MAX_DEPTH_LIMIT: u32 = 24;
+/// Deepest wavelet level the refiner accepts. Positions are `f64`: a level-40 leaf of the unit
+/// interval is `9e-13` wide, still ~4000 ulps near 1; every sample caches the values of its
+/// `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
+pub const MAX_DEPTH_LIMIT: u32 = 40;
 
 /// How the refiner decides where the signal is not yet resolved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -41,6 +42,7 @@ pub struct RefineParams {
     /// so the refined zone around a singularity) are `2p - 1` cells wide.
     pub p: usize,
     /// Interior filter family; `None` is CDV's choice for `p`.
+    #[serde(skip)]
     pub family: Option<FilterFamily>,
     /// Coarse scaling level `n`; `None` is `j_min(p)`. Larger makes everything more local.
     pub coarse: Option<u32>,
@@ -91,13 +93,13 @@ impl Default for RefineParams {
             base_samples: 256,
             base_layout: Layout::Jittered,
             base_depth: None,
-            max_depth: 20,
+            max_depth: 32,
             rho: 2.0,
             tolerance: 1e-4,
             budget: 100_000,
             indicator: Indicator::Coefficients,
             theta: 0.5,
-            max_rounds: 200,
+            max_rounds: 1000,
             seed: 1,
             solve: GlobalLsParams::default(),
             reference_grid: 0,
@@ -138,9 +140,8 @@ impl RefineParams {
 
     /// Checks every range; called by the refiner.
     pub fn validate(&self) -> Result<(), RefineError> {
-        let bad = |name, value: String, fix| {
-            Err(RefineError::InvalidParameter { name, value, fix })
-        };
+        let bad =
+            |name, value: String, fix| Err(RefineError::InvalidParameter { name, value, fix });
         if self.p == 0 || self.p > MAX_VANISHING_MOMENTS {
             return bad("p", self.p.to_string(), "choose p in 1..=10");
         }
@@ -192,7 +193,7 @@ impl RefineParams {
             return bad(
                 "max depth",
                 self.max_depth.to_string(),
-                "choose a depth limit of at most 24",
+                "choose a depth limit of at most 40",
             );
         }
         let base = self.base_depth();

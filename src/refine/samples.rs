@@ -8,10 +8,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::tree::Leaf;
+use super::tree::{column_of, Leaf};
 use super::{RefineError, SampleOracle};
 use crate::basis::{BasisValue, CdvBasis};
-use crate::kernel::ActiveSet;
 use crate::sampling::Domain;
 
 /// Samples per parallel evaluation work item.
@@ -58,7 +57,7 @@ pub(crate) struct SampleStore {
     /// Unit positions, ascending (for counting per leaf).
     sorted: Vec<f64>,
     row_ptr: Vec<usize>,
-    row_index: Vec<u32>,
+    row_index: Vec<usize>,
     row_value: Vec<f64>,
 }
 
@@ -79,10 +78,6 @@ impl SampleStore {
 
     pub fn values(&self) -> Vec<f64> {
         self.samples.iter().map(|s| s.value).collect()
-    }
-
-    pub fn positions(&self) -> Vec<f64> {
-        self.samples.iter().map(|s| s.x).collect()
     }
 
     /// Samples `xs` (domain positions) through the oracle, evaluates `basis` there once and
@@ -108,7 +103,7 @@ impl SampleStore {
                 round,
             });
         }
-        let rows: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = new
+        let rows: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = new
             .par_chunks(CHUNK)
             .map(|chunk| {
                 let mut ev = basis.evaluator();
@@ -119,7 +114,7 @@ impl SampleStore {
                 for s in chunk {
                     ev.eval_unit_into(s.t, &mut out);
                     counts.push(out.len());
-                    index.extend(out.iter().map(|v| v.index as u32));
+                    index.extend(out.iter().map(|v| v.index));
                     value.extend(out.iter().map(|v| v.value));
                 }
                 (counts, index, value)
@@ -144,21 +139,19 @@ impl SampleStore {
         self.range_in(leaf).len()
     }
 
-    /// The sorted unit positions inside `leaf`.
-    pub fn range_in(&self, leaf: &Leaf) -> &[f64] {
-        let (lo, hi) = leaf.unit_bounds();
-        let last = leaf.cell + 1 == 1u64 << leaf.level;
-        let a = self.sorted.partition_point(|&t| t < lo);
-        let b = if last {
-            self.sorted.len()
-        } else {
-            self.sorted.partition_point(|&t| t < hi)
-        };
-        &self.sorted[a..b.max(a)]
+    /// Unit positions of every sample, ascending.
+    pub fn sorted(&self) -> &[f64] {
+        &self.sorted
     }
 
-    /// `K` for `active` from the cached evaluations: row `i` is sample `i`.
-    pub fn kernel(&self, active: &ActiveSet) -> CsMat<f64> {
+    /// The sorted unit positions inside `leaf`.
+    pub fn range_in(&self, leaf: &Leaf) -> &[f64] {
+        range_in(&self.sorted, leaf)
+    }
+
+    /// `K` for the active `columns` (ascending global indices) from the cached evaluations:
+    /// row `i` is sample `i`.
+    pub fn kernel(&self, columns: &[usize]) -> CsMat<f64> {
         let m = self.samples.len();
         let mut indptr = Vec::with_capacity(m + 1);
         let mut indices = Vec::with_capacity(self.row_index.len() / 2);
@@ -166,22 +159,35 @@ impl SampleStore {
         indptr.push(0);
         for i in 0..m {
             for t in self.row_ptr[i]..self.row_ptr[i + 1] {
-                if let Some(c) = active.column(self.row_index[t] as usize) {
+                if let Some(c) = column_of(columns, self.row_index[t]) {
                     indices.push(c);
                     data.push(self.row_value[t]);
                 }
             }
             indptr.push(indices.len());
         }
-        CsMat::new((m, active.len()), indptr, indices, data)
+        CsMat::new((m, columns.len()), indptr, indices, data)
     }
+}
+
+/// The part of the ascending unit positions `sorted` inside `leaf`.
+pub(crate) fn range_in<'a>(sorted: &'a [f64], leaf: &Leaf) -> &'a [f64] {
+    let (lo, hi) = leaf.unit_bounds();
+    let last = leaf.cell + 1 == 1u64 << leaf.level;
+    let a = sorted.partition_point(|&t| t < lo);
+    let b = if last {
+        sorted.len()
+    } else {
+        sorted.partition_point(|&t| t < hi)
+    };
+    &sorted[a..b.max(a)]
 }
 
 /// New unit positions that bring every leaf to `need` samples: each short leaf is cut into
 /// `need` equal strata and every empty stratum gets one jittered point (middle 80 %) until the
 /// leaf is full. Positions are returned in the domain, checked to map back into their leaf.
 pub(crate) fn fill_leaves(
-    store: &SampleStore,
+    sorted: &[f64],
     leaves: &[Leaf],
     need: usize,
     domain: Domain,
@@ -189,7 +195,7 @@ pub(crate) fn fill_leaves(
 ) -> Result<Vec<f64>, RefineError> {
     let mut out = Vec::new();
     for leaf in leaves {
-        let have = store.range_in(leaf);
+        let have = range_in(sorted, leaf);
         if have.len() >= need {
             continue;
         }

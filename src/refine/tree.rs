@@ -30,6 +30,16 @@ pub fn cell_of(t: f64, level: u32) -> u64 {
     ((t * size as f64).floor() as u64).min(size - 1)
 }
 
+/// Deepest tree [`WaveletTree::active_set`] converts: an [`ActiveSet`] keeps a dense column map
+/// over `Psi(n, F)` (`2^{F+1}` entries, 128 MiB at `F = 24`). The refiner itself uses the sorted
+/// column list of [`WaveletTree::columns`] and goes deeper.
+pub const ACTIVE_SET_MAX_LEVEL: u32 = 24;
+
+/// Column of global index `a` in the ascending list `columns` (binary search).
+pub fn column_of(columns: &[usize], a: usize) -> Option<usize> {
+    columns.binary_search(&a).ok()
+}
+
 /// Structural support of function `index` of a level with `2^level` functions: the inclusive
 /// range of level-`level` cells on which it is (structurally) nonzero, for `p` vanishing
 /// moments (`p` edge functions per side, none for Haar).
@@ -351,8 +361,22 @@ impl WaveletTree {
         CdvBasis::with_bank(self.bank.clone(), self.coarse, fine, self.domain)
     }
 
-    /// The active set (columns of `K` in ascending global index) over [`WaveletTree::basis`].
+    /// The columns of `K`: every active global index, ascending (column `c` is `columns[c]`,
+    /// the order of [`ActiveSet`]); look one up with [`column_of`].
+    pub fn columns(&self) -> Vec<usize> {
+        self.indices().collect()
+    }
+
+    /// The active set (columns of `K` in ascending global index) over [`WaveletTree::basis`];
+    /// refuses trees deeper than [`ACTIVE_SET_MAX_LEVEL`], whose dense column map would not fit.
     pub fn active_set(&self) -> Result<ActiveSet, BasisError> {
+        let depth = self.depth().max(0) as u32;
+        if depth > ACTIVE_SET_MAX_LEVEL {
+            return Err(BasisError::FineLevelTooDeep {
+                fine: depth,
+                max: ACTIVE_SET_MAX_LEVEL,
+            });
+        }
         Ok(ActiveSet::from_indices(self.basis()?, self.indices()))
     }
 }

@@ -1,0 +1,704 @@
+//! The refinement loop: fit, indicate, mark, deepen, sample, repeat (module docs of
+//! [`crate::refine`]).
+
+use std::time::Instant;
+
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+use serde::Serialize;
+use sprs::CsMat;
+
+use super::indicator::{coefficient_indication, residual_indication, Indication};
+use super::measure::{grid, ErrorFigures};
+use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
+use super::tree::{column_of, Leaf, WaveletTree};
+use super::{Indicator, RefineError, RefineParams, Sample, SampleOracle};
+use rayon::prelude::*;
+
+use crate::basis::{BasisError, BasisValue, CdvBasis, FilterBank};
+use crate::kernel::LevelChoice;
+use crate::reconstruct::{Fit, ReconstructError, Timings};
+use crate::solve::{global_ls, GlobalReport};
+
+/// Why the refiner stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The estimated RMS error is below the tolerance.
+    Tolerance,
+    /// What is left of the estimated error sits at the depth limit.
+    DepthLimit,
+    /// The next marked refinement would exceed the sample budget.
+    Budget,
+    /// The safety limit on rounds.
+    MaxRounds,
+}
+
+/// Seconds spent in one round (diagnostic error measurement excluded).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct RoundTimes {
+    /// Oracle calls and basis evaluation at this round's new samples.
+    pub sample_s: f64,
+    /// `K` from the cached evaluations.
+    pub kernel_s: f64,
+    /// The least-squares solve.
+    pub solve_s: f64,
+    /// The indicator (probes included).
+    pub indicate_s: f64,
+    /// Marking, the budget search and deepening the tree.
+    pub mark_s: f64,
+    /// All of the above.
+    pub total_s: f64,
+}
+
+/// What one round saw and did: the fit of this round, its indicator, the marks made.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RoundLog {
+    /// Round number (0 = the base fit).
+    pub round: usize,
+    /// Samples in this round's fit.
+    pub samples: usize,
+    /// Samples added for this round's fit.
+    pub new_samples: usize,
+    /// Active functions `P`.
+    pub basis_size: usize,
+    /// Finest active wavelet level.
+    pub depth: i32,
+    /// Leaves of the tree.
+    pub leaves: usize,
+    /// Fewest samples in a leaf (the invariant: at least `ceil(rho)`).
+    pub min_leaf_samples: usize,
+    /// Largest indicator of this fit (`None` if not computed).
+    pub indicator_max: Option<f64>,
+    /// Estimated RMS error of this fit (`None` if not computed).
+    pub estimated_error: Option<f64>,
+    /// Error against the oracle on the reference grid (if requested).
+    pub error: Option<ErrorFigures>,
+    /// Marked refinements accepted after this fit.
+    pub marked: usize,
+    /// Wavelets those marks added (ancestors included).
+    pub added_functions: usize,
+    /// Seconds per stage.
+    pub times: RoundTimes,
+}
+
+/// The outcome of a refinement.
+#[derive(Clone, Debug)]
+pub struct Refinement {
+    /// The final tree.
+    pub tree: WaveletTree,
+    /// Every sample, in the order of the rows of `kernel`.
+    pub samples: Vec<Sample>,
+    /// The columns of `kernel`: active global indices, ascending.
+    pub columns: Vec<usize>,
+    /// The coefficients, one per column.
+    pub coefficients: Vec<f64>,
+    /// The final kernel matrix `K` (`samples x columns`).
+    pub kernel: CsMat<f64>,
+    /// The last solve.
+    pub solve: GlobalReport,
+    /// One entry per round.
+    pub rounds: Vec<RoundLog>,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// Depth of the base tree.
+    pub base_depth: u32,
+    /// The parameters it ran with.
+    pub params: RefineParams,
+}
+
+impl Refinement {
+    /// The reconstruction `sum_a c_a Psi_a(x)` at domain positions `xs`.
+    pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
+        evaluate_sparse(&self.tree.basis()?, &self.columns, &self.coefficients, xs)
+    }
+    /// Everything a refinement round reuses, recomputed from scratch on the final tree (the
+    /// oracle aside): the evaluation of the basis at every sample, `K`, the solve. Returns the
+    /// coefficients (equal to [`Refinement::coefficients`]) and the times, as the cost of a
+    /// full rebuild to set against a round's.
+    pub fn rebuild(&self) -> Result<(Vec<f64>, RoundTimes), RefineError> {
+        let t0 = Instant::now();
+        let basis = self.tree.basis()?;
+        let unit: Vec<f64> = self.samples.iter().map(|s| s.t).collect();
+        let rows: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = unit
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut ev = basis.evaluator();
+                let mut out: Vec<BasisValue> = Vec::with_capacity(256);
+                let (mut counts, mut index, mut value) = (Vec::new(), Vec::new(), Vec::new());
+                for &t in chunk {
+                    ev.eval_unit_into(t, &mut out);
+                    let before = index.len();
+                    for v in &out {
+                        if let Some(c) = column_of(&self.columns, v.index) {
+                            index.push(c);
+                            value.push(v.value);
+                        }
+                    }
+                    counts.push(index.len() - before);
+                }
+                (counts, index, value)
+            })
+            .collect();
+        let sample_s = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let mut indptr = vec![0usize];
+        let (mut indices, mut data) = (Vec::new(), Vec::new());
+        for (counts, index, value) in rows {
+            for c in counts {
+                indptr.push(indptr[indptr.len() - 1] + c);
+            }
+            indices.extend(index);
+            data.extend(value);
+        }
+        let k = CsMat::new((unit.len(), self.columns.len()), indptr, indices, data);
+        let kernel_s = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let values: Vec<f64> = self.samples.iter().map(|s| s.value).collect();
+        let mut solved = global_ls(&k, &[&values], &self.params.solve)?;
+        let solve_s = t2.elapsed().as_secs_f64();
+        Ok((
+            solved.coefficients.swap_remove(0),
+            RoundTimes {
+                sample_s,
+                kernel_s,
+                solve_s,
+                total_s: sample_s + kernel_s + solve_s,
+                ..RoundTimes::default()
+            },
+        ))
+    }
+
+    /// Samples of the base sampling.
+    pub fn base_samples(&self) -> usize {
+        self.samples.iter().filter(|s| s.round == 0).count()
+    }
+    /// The result as a [`Fit`] over an [`crate::kernel::ActiveSet`] (for the rest of the
+    /// crate's tools); refuses trees deeper than
+    /// [`crate::refine::ACTIVE_SET_MAX_LEVEL`].
+    pub fn fit(&self) -> Result<Fit, RefineError> {
+        let active = self.tree.active_set()?;
+        let basis = active.basis();
+        Ok(Fit {
+            levels: LevelChoice {
+                coarse: basis.coarse(),
+                fine: basis.fine(),
+                oversampling: self.samples.len() as f64 / active.len() as f64,
+            },
+            active,
+            coefficients: vec![self.coefficients.clone()],
+            timings: Timings::default(),
+            local: None,
+            single_scale: None,
+            fallback: None,
+            global: Some(self.solve.clone()),
+        })
+    }
+}
+
+/// Samples per parallel evaluation work item.
+const CHUNK: usize = 4096;
+
+/// `sum_c coefficients[c] Psi_{columns[c]}(x)` for every `x` of `xs`, `basis` holding them all.
+pub(crate) fn evaluate_sparse(
+    basis: &CdvBasis,
+    columns: &[usize],
+    coefficients: &[f64],
+    xs: &[f64],
+) -> Result<Vec<f64>, RefineError> {
+    let domain = basis.domain();
+    if let Some(&x) = xs.iter().find(|x| !domain.contains(**x)) {
+        return Err(RefineError::Basis(BasisError::PositionOutside {
+            x,
+            a: domain.a(),
+            b: domain.b(),
+        }));
+    }
+    let blocks: Vec<Vec<f64>> = xs
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut ev = basis.evaluator();
+            let mut out: Vec<BasisValue> = Vec::with_capacity(256);
+            chunk
+                .iter()
+                .map(|&x| {
+                    ev.eval_unit_into(domain.to_unit(x), &mut out);
+                    out.iter()
+                        .filter_map(|v| {
+                            column_of(columns, v.index).map(|c| coefficients[c] * v.value)
+                        })
+                        .sum()
+                })
+                .collect()
+        })
+        .collect();
+    Ok(blocks.concat())
+}
+
+pub(crate) fn from_reconstruct(e: ReconstructError) -> RefineError {
+    match e {
+        ReconstructError::Basis(b) => RefineError::Basis(b),
+        ReconstructError::Kernel(k) => RefineError::Kernel(k),
+        ReconstructError::Solve(s) => RefineError::Solve(s),
+        other => RefineError::InvalidParameter {
+            name: "reconstruction",
+            value: other.to_string(),
+            fix: "report this as a bug",
+        },
+    }
+}
+
+/// The fit of the current round and how it was made.
+#[derive(Clone, Debug)]
+struct Current {
+    columns: Vec<usize>,
+    coefficients: Vec<f64>,
+    kernel: CsMat<f64>,
+    solve: GlobalReport,
+    error: Option<ErrorFigures>,
+    new_samples: usize,
+    times: RoundTimes,
+}
+
+/// The indicator of one fit and the probe samples it took.
+struct Probed {
+    /// `None` when no indicator could be computed (residual probes over budget).
+    indication: Option<Indication>,
+    probes: usize,
+}
+
+/// An accepted marking: the deepened tree, its leaves and the samples they still need.
+struct Marks {
+    marked: usize,
+    tree: WaveletTree,
+    leaves: Vec<Leaf>,
+    shortfall: usize,
+}
+
+/// What [`Refiner::refine_once`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// The tree was deepened, sampled and refitted.
+    Refined,
+    /// Nothing more to do.
+    Stopped(StopReason),
+}
+
+/// The refiner, one round at a time: [`Refiner::new`] samples the base and fits it,
+/// [`Refiner::refine_once`] runs one round; every intermediate state is inspectable.
+pub struct Refiner<'o, O: SampleOracle + ?Sized> {
+    oracle: &'o O,
+    params: RefineParams,
+    full: CdvBasis,
+    tree: WaveletTree,
+    store: SampleStore,
+    rng: Pcg64,
+    round: usize,
+    current: Current,
+    rounds: Vec<RoundLog>,
+    stop: Option<StopReason>,
+    reference: Option<(Vec<f64>, Vec<f64>)>,
+    base_depth: u32,
+}
+
+/// Refines until a stop: [`Refiner::new`], [`Refiner::refine_once`] until it stops.
+pub fn refine<O: SampleOracle + ?Sized>(
+    oracle: &O,
+    params: &RefineParams,
+) -> Result<Refinement, RefineError> {
+    let mut refiner = Refiner::new(oracle, params)?;
+    while refiner.refine_once()? == Step::Refined {}
+    Ok(refiner.into_result())
+}
+
+impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
+    /// Validates `params`, samples the base layout, tops up the leaves of the base tree that
+    /// hold fewer than `ceil(rho)` samples, and fits (round 0).
+    pub fn new(oracle: &'o O, params: &RefineParams) -> Result<Self, RefineError> {
+        params.validate()?;
+        let domain = params.domain;
+        let bank = FilterBank::shared(params.p, params.family())?;
+        let coarse = params.coarse();
+        let base_depth = params.base_depth();
+        let full = CdvBasis::with_bank(bank.clone(), coarse, params.max_depth, domain)?;
+        let tree = WaveletTree::uniform(bank, coarse, base_depth as i32, params.max_depth, domain)?;
+        let mut rng = Pcg64::seed_from_u64(params.seed ^ 0x5EED_0FAD_A971);
+        let t0 = Instant::now();
+        let mut xs = params
+            .base_layout
+            .generate(params.base_samples, domain, params.seed);
+        // Top-ups for the base leaves the layout left short.
+        let mut sorted: Vec<f64> = xs.iter().map(|&x| domain.to_unit(x)).collect();
+        sorted.sort_by(f64::total_cmp);
+        let top_up = fill_leaves(&sorted, &tree.leaves(), params.per_leaf(), domain, &mut rng)?;
+        xs.extend(top_up);
+        let mut store = SampleStore::new();
+        if xs.len() > params.budget {
+            return Err(RefineError::BudgetBelowBase {
+                budget: params.budget,
+                required: xs.len(),
+            });
+        }
+        store.add(&xs, oracle, &full, 0)?;
+        let sample_s = t0.elapsed().as_secs_f64();
+        let reference = (params.reference_grid > 0).then(|| {
+            let g = grid(domain, params.reference_grid);
+            let truth = g.iter().map(|&x| oracle.sample(x)).collect();
+            (g, truth)
+        });
+        let current = fit_round(&tree, &store, params, xs.len(), sample_s, &reference)?;
+        Ok(Self {
+            oracle,
+            params: *params,
+            full,
+            tree,
+            store,
+            rng,
+            round: 0,
+            current,
+            rounds: Vec::new(),
+            stop: None,
+            reference,
+            base_depth,
+        })
+    }
+
+    /// The current tree.
+    pub fn tree(&self) -> &WaveletTree {
+        &self.tree
+    }
+    /// Every sample so far (rows of [`Refiner::kernel`] once refitted).
+    pub fn samples(&self) -> &[Sample] {
+        &self.store.samples
+    }
+    /// The current columns (active global indices, ascending).
+    pub fn columns(&self) -> &[usize] {
+        &self.current.columns
+    }
+    /// The current coefficients, one per column.
+    pub fn coefficients(&self) -> &[f64] {
+        &self.current.coefficients
+    }
+    /// The current reconstruction at domain positions `xs`.
+    pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
+        evaluate_sparse(
+            &self.tree.basis()?,
+            &self.current.columns,
+            &self.current.coefficients,
+            xs,
+        )
+    }
+    /// The current kernel matrix.
+    pub fn kernel(&self) -> &CsMat<f64> {
+        &self.current.kernel
+    }
+    /// The rounds logged so far.
+    pub fn rounds(&self) -> &[RoundLog] {
+        &self.rounds
+    }
+    /// Why the refiner stopped, once it has.
+    pub fn stop(&self) -> Option<StopReason> {
+        self.stop
+    }
+    /// The parameters.
+    pub fn params(&self) -> &RefineParams {
+        &self.params
+    }
+    /// Current round number (0 = base fit).
+    pub fn round(&self) -> usize {
+        self.round
+    }
+
+    /// One round: indicate on the current fit, stop or mark, deepen, sample the new leaves,
+    /// refit. Logs the current round either way.
+    pub fn refine_once(&mut self) -> Result<Step, RefineError> {
+        if let Some(reason) = self.stop {
+            return Ok(Step::Stopped(reason));
+        }
+        let t_ind = Instant::now();
+        let leaves = self.tree.leaves();
+        let min_leaf = self.min_leaf_samples(&leaves);
+        let probed = self.indicate(&leaves)?;
+        let indicate_s = t_ind.elapsed().as_secs_f64();
+        let t_mark = Instant::now();
+        let decision = self.mark(&probed);
+        let mark_s = t_mark.elapsed().as_secs_f64();
+
+        let (marked, added) = match &decision {
+            Ok(m) => (m.marked, m.tree.len() - self.tree.len()),
+            Err(_) => (0, 0),
+        };
+        let estimate = probed
+            .indication
+            .as_ref()
+            .map(|i| (i.total_sq / self.params.domain.length()).sqrt());
+        let log = self.log(
+            leaves.len(),
+            min_leaf,
+            probed.indication.as_ref().map(|i| i.max),
+            estimate,
+            marked,
+            added,
+            indicate_s,
+            mark_s,
+        );
+        self.rounds.push(log);
+        match decision {
+            Err(reason) => {
+                self.stop = Some(reason);
+                if probed.probes > 0 {
+                    // The probes are samples: the final fit uses them.
+                    self.round += 1;
+                    self.current = fit_round(
+                        &self.tree,
+                        &self.store,
+                        &self.params,
+                        probed.probes,
+                        0.0,
+                        &self.reference,
+                    )?;
+                    let leaves = self.tree.leaves();
+                    let min_leaf = self.min_leaf_samples(&leaves);
+                    let log = self.log(leaves.len(), min_leaf, None, None, 0, 0, 0.0, 0.0);
+                    self.rounds.push(log);
+                }
+                Ok(Step::Stopped(reason))
+            }
+            Ok(marks) => {
+                self.tree = marks.tree;
+                self.sample_and_refit(&marks.leaves, probed.probes)?;
+                Ok(Step::Refined)
+            }
+        }
+    }
+
+    /// The indicator of the current fit; residual probes are sampled (and kept) here.
+    fn indicate(&mut self, leaves: &[Leaf]) -> Result<Probed, RefineError> {
+        let params = self.params;
+        let mut out = Probed {
+            indication: None,
+            probes: 0,
+        };
+        if matches!(
+            params.indicator,
+            Indicator::Coefficients | Indicator::Both { .. }
+        ) {
+            out.indication = Some(coefficient_indication(
+                &self.tree,
+                &self.current.columns,
+                &self.current.coefficients,
+            ));
+        }
+        if let Indicator::Residual { probes } | Indicator::Both { probes } = params.indicator {
+            let markable: Vec<Leaf> = leaves
+                .iter()
+                .copied()
+                .filter(|l| l.level <= self.tree.max_level())
+                .collect();
+            let points = probe_points(&markable, probes, params.domain, &mut self.rng);
+            // Without budget for the probes, Both goes on with the coefficients alone.
+            if self.store.len() + points.len() <= params.budget {
+                let xs: Vec<f64> = points.iter().map(|p| p.1).collect();
+                let fitted = self.evaluate(&xs)?;
+                let before = self.store.len();
+                self.store
+                    .add(&xs, self.oracle, &self.full, self.round + 1)?;
+                out.probes = xs.len();
+                let residuals: Vec<(usize, f64)> = points
+                    .iter()
+                    .zip(&self.store.samples[before..])
+                    .zip(&fitted)
+                    .map(|((&(i, _), s), f)| (i, s.value - f))
+                    .collect();
+                let r =
+                    residual_indication(&self.tree, &markable, &residuals, params.domain.length());
+                out.indication = Some(match out.indication.take() {
+                    Some(c) => c.merge(r),
+                    None => r,
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// Stop, or the marks to make: Dörfler's set, cut to the largest prefix whose new leaves
+    /// the budget can sample.
+    fn mark(&self, probed: &Probed) -> Result<Marks, StopReason> {
+        let params = &self.params;
+        let length = params.domain.length();
+        let Some(indication) = &probed.indication else {
+            return Err(StopReason::Budget);
+        };
+        if (indication.total_sq / length).sqrt() <= params.tolerance {
+            return Err(StopReason::Tolerance);
+        }
+        if indication.units.is_empty()
+            || (indication.markable_sq / length).sqrt() <= params.tolerance
+        {
+            return Err(StopReason::DepthLimit);
+        }
+        if self.round + 1 >= params.max_rounds {
+            return Err(StopReason::MaxRounds);
+        }
+        let need = params.per_leaf();
+        let remaining = params.budget.saturating_sub(self.store.len());
+        let trial = |k: usize| -> Marks {
+            let mut tree = self.tree.clone();
+            tree.extend(
+                indication.units[..k]
+                    .iter()
+                    .flat_map(|u| u.wavelets.iter().copied()),
+            );
+            let leaves = tree.leaves();
+            let shortfall = shortfall(&self.store, &leaves, need);
+            Marks {
+                marked: k,
+                tree,
+                leaves,
+                shortfall,
+            }
+        };
+        let wanted = trial(indication.dorfler(params.theta));
+        if wanted.shortfall <= remaining {
+            return Ok(wanted);
+        }
+        // Largest prefix that fits the budget (the shortfall grows with the prefix).
+        let (mut lo, mut hi) = (0usize, wanted.marked);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if trial(mid).shortfall <= remaining {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if lo == 0 {
+            return Err(StopReason::Budget);
+        }
+        Ok(trial(lo))
+    }
+
+    /// Brings every leaf to `ceil(rho)` samples and refits (the next round).
+    fn sample_and_refit(&mut self, leaves: &[Leaf], probes: usize) -> Result<(), RefineError> {
+        let t0 = Instant::now();
+        let xs = fill_leaves(
+            self.store.sorted(),
+            leaves,
+            self.params.per_leaf(),
+            self.params.domain,
+            &mut self.rng,
+        )?;
+        self.round += 1;
+        self.store.add(&xs, self.oracle, &self.full, self.round)?;
+        let sample_s = t0.elapsed().as_secs_f64();
+        self.current = fit_round(
+            &self.tree,
+            &self.store,
+            &self.params,
+            xs.len() + probes,
+            sample_s,
+            &self.reference,
+        )?;
+        Ok(())
+    }
+
+    fn min_leaf_samples(&self, leaves: &[Leaf]) -> usize {
+        leaves
+            .iter()
+            .map(|l| self.store.count_in(l))
+            .min()
+            .unwrap_or(0)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn log(
+        &self,
+        leaves: usize,
+        min_leaf_samples: usize,
+        indicator_max: Option<f64>,
+        estimated_error: Option<f64>,
+        marked: usize,
+        added_functions: usize,
+        indicate_s: f64,
+        mark_s: f64,
+    ) -> RoundLog {
+        let c = &self.current;
+        let mut times = c.times;
+        times.indicate_s = indicate_s;
+        times.mark_s = mark_s;
+        times.total_s = times.sample_s + times.kernel_s + times.solve_s + indicate_s + mark_s;
+        RoundLog {
+            round: self.round,
+            samples: c.kernel.rows(),
+            new_samples: c.new_samples,
+            basis_size: c.columns.len(),
+            depth: self.tree.depth(),
+            leaves,
+            min_leaf_samples,
+            indicator_max,
+            estimated_error,
+            error: c.error,
+            marked,
+            added_functions,
+            times,
+        }
+    }
+
+    /// The result (runs no further round).
+    pub fn into_result(self) -> Refinement {
+        Refinement {
+            tree: self.tree,
+            samples: self.store.samples,
+            columns: self.current.columns,
+            coefficients: self.current.coefficients,
+            kernel: self.current.kernel,
+            solve: self.current.solve,
+            rounds: self.rounds,
+            stop: self.stop.unwrap_or(StopReason::MaxRounds),
+            base_depth: self.base_depth,
+            params: self.params,
+        }
+    }
+}
+
+/// Builds `K` from the cached evaluations and solves.
+fn fit_round(
+    tree: &WaveletTree,
+    store: &SampleStore,
+    params: &RefineParams,
+    new_samples: usize,
+    sample_s: f64,
+    reference: &Option<(Vec<f64>, Vec<f64>)>,
+) -> Result<Current, RefineError> {
+    let t0 = Instant::now();
+    let columns = tree.columns();
+    let kernel = store.kernel(&columns);
+    let kernel_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let values = store.values();
+    let mut solved = global_ls(&kernel, &[&values], &params.solve)?;
+    let solve_s = t1.elapsed().as_secs_f64();
+    let coefficients = solved.coefficients.swap_remove(0);
+    let error = match reference {
+        Some((xs, truth)) => {
+            let basis = tree.basis()?;
+            let got = evaluate_sparse(&basis, &columns, &coefficients, xs)?;
+            Some(ErrorFigures::between(&got, truth))
+        }
+        None => None,
+    };
+    Ok(Current {
+        columns,
+        coefficients,
+        kernel,
+        solve: solved.report,
+        error,
+        new_samples,
+        times: RoundTimes {
+            sample_s,
+            kernel_s,
+            solve_s,
+            ..RoundTimes::default()
+        },
+    })
+}

@@ -1,0 +1,409 @@
+//! The adaptive refiner (DESIGN §6): exact reproduction without deepening, refinement that
+//! stays at the singularity, the local oversampling invariant after every round (checked
+//! against column counts of an independently built `K`), the budget, determinism, the
+//! incremental fit against a rebuild, bad input, and the `rkwave adapt` command.
+
+use std::process::Command;
+
+use rkwave::basis::minimum_level;
+use rkwave::kernel::kernel_matrix;
+use rkwave::refine::{
+    refine, ExpressionOracle, Indicator, RefineError, RefineParams, Refiner, SampleOracle,
+    SignalOracle, Step, StopReason,
+};
+use rkwave::sampling::{Domain, Layout, Signal};
+
+/// Named seeds.
+const SEED_A: u64 = 7;
+const SEED_B: u64 = 8;
+
+fn monomials(p: usize) -> impl Fn(f64) -> f64 {
+    // Degree p - 1, every monomial present, on [-1, 2].
+    move |x: f64| (0..p).fold(0.0, |acc, _| acc * x + 1.0) + 0.25 * x
+}
+
+#[test]
+fn polynomials_of_degree_below_p_are_reproduced_without_deepening() {
+    for p in 2..=5usize {
+        let domain = Domain::new(-1.0, 2.0).unwrap();
+        let f = monomials(p);
+        let params = RefineParams {
+            domain,
+            p,
+            tolerance: 1e-8,
+            seed: SEED_A,
+            ..RefineParams::default()
+        };
+        let r = refine(&f, &params).unwrap();
+        assert_eq!(r.stop, StopReason::Tolerance, "p = {p}");
+        assert_eq!(r.rounds.len(), 1, "p = {p}: no refinement round");
+        assert_eq!(r.tree.depth(), r.base_depth as i32);
+        assert_eq!(
+            r.tree.len(),
+            1usize << (r.base_depth + 1),
+            "uniform base tree"
+        );
+        assert!(r.samples.iter().all(|s| s.round == 0));
+        let xs = Layout::Random.generate(2000, domain, SEED_B);
+        let got = r.evaluate(&xs).unwrap();
+        let scale = xs.iter().map(|&x| f(x).abs()).fold(0.0, f64::max);
+        for (x, g) in xs.iter().zip(&got) {
+            // Exact up to rounding: the condition of the solve times a few ulps.
+            assert!((g - f(*x)).abs() <= 1e-10 * scale, "p = {p} x = {x}");
+        }
+    }
+}
+
+#[test]
+fn one_jump_deepens_only_within_a_few_supports_of_the_jump() {
+    let jump = 0.4;
+    let f = |x: f64| 0.3 * x * x + if x >= jump { 1.0 } else { 0.0 };
+    for p in [3usize, 4] {
+        let params = RefineParams {
+            p,
+            max_depth: 14,
+            tolerance: 1e-5,
+            seed: SEED_A,
+            ..RefineParams::default()
+        };
+        let r = refine(&f, &params).unwrap();
+        let base = r.base_depth as i32;
+        assert_eq!(
+            r.tree.local_depth(jump),
+            14,
+            "p = {p}: the jump is resolved"
+        );
+        let points = 100_000;
+        for i in 0..=points {
+            let x = i as f64 / points as f64;
+            let d = r.tree.local_depth(x);
+            assert!(d >= base);
+            if d > base {
+                // Depth d only within three level-d supports ((2p-1) 2^-d wide) of the jump.
+                let support = (2 * p - 1) as f64 * (-(d as f64)).exp2();
+                assert!(
+                    (x - jump).abs() <= 3.0 * support,
+                    "p = {p}: depth {d} at x = {x}, {:.1} supports from the jump",
+                    (x - jump).abs() / support
+                );
+            }
+        }
+        // The smooth part is left at the base depth and sampled only by the base.
+        for leaf in r.tree.leaves() {
+            let (a, b) = leaf.unit_bounds();
+            if b < jump - 0.1 || a > jump + 0.1 {
+                assert_eq!(leaf.depth(), base);
+            }
+        }
+        assert!(r
+            .samples
+            .iter()
+            .filter(|s| s.round > 0)
+            .all(|s| (s.x - jump).abs() < 0.1));
+    }
+}
+
+/// After every round, every active function has at least `rho` samples per leaf (local slot)
+/// of its support: its column of `K` (built here by `kernel_matrix`, independently of the
+/// refiner's cache) counts the samples in its support.
+#[test]
+fn local_oversampling_holds_after_every_round() {
+    for (signal, rho) in [
+        (Signal::Jumps, 2.0),
+        (Signal::Cusp, 3.0),
+        (Signal::Bumps, 2.0),
+    ] {
+        let oracle = SignalOracle::new(signal, Domain::UNIT);
+        let params = RefineParams {
+            max_depth: 14,
+            tolerance: 1e-6,
+            rho,
+            budget: 3000,
+            base_layout: Layout::Random,
+            seed: SEED_A,
+            ..RefineParams::default()
+        };
+        let mut refiner = Refiner::new(&oracle, &params).unwrap();
+        let need = rho.ceil() as usize;
+        let mut rounds = 0;
+        loop {
+            let tree = refiner.tree();
+            let positions: Vec<f64> = refiner.samples().iter().map(|s| s.x).collect();
+            let active = tree.active_set().unwrap();
+            let k = kernel_matrix(&active, &positions).unwrap();
+            let k_csc = k.to_csc();
+            let leaves = tree.leaves();
+            let mid: Vec<f64> = leaves
+                .iter()
+                .map(|l| {
+                    let (a, b) = l.unit_bounds();
+                    0.5 * (a + b)
+                })
+                .collect();
+            for (c, column) in k_csc.outer_iterator().enumerate() {
+                let (lo, hi) = tree.support_unit(active.global(c));
+                let slots = mid.iter().filter(|&&t| lo <= t && t <= hi).count();
+                assert!(slots > 0);
+                assert!(
+                    column.nnz() as f64 >= rho * slots as f64,
+                    "{signal} round {rounds}: function {} has {} samples for {slots} slots",
+                    active.global(c),
+                    column.nnz()
+                );
+            }
+            for leaf in &leaves {
+                let count = refiner
+                    .samples()
+                    .iter()
+                    .filter(|s| leaf.contains(s.t))
+                    .count();
+                assert!(
+                    count >= need,
+                    "{signal} round {rounds}: leaf {leaf:?} has {count}"
+                );
+            }
+            if refiner.refine_once().unwrap() != Step::Refined {
+                break;
+            }
+            rounds += 1;
+        }
+        assert!(rounds >= 3, "{signal}: the test must see refinement rounds");
+        for log in refiner.rounds() {
+            assert!(log.min_leaf_samples >= need);
+        }
+    }
+}
+
+#[test]
+fn the_refiner_stops_at_the_budget() {
+    let oracle = SignalOracle::new(Signal::Jumps, Domain::UNIT);
+    let mut last = 0;
+    for budget in [400usize, 700, 1500] {
+        let params = RefineParams {
+            budget,
+            tolerance: 1e-12,
+            seed: SEED_A,
+            ..RefineParams::default()
+        };
+        let r = refine(&oracle, &params).unwrap();
+        assert_eq!(r.stop, StopReason::Budget);
+        assert!(r.samples.len() <= budget, "{} > {budget}", r.samples.len());
+        // The last marks are cut to what the budget can sample: little is left over.
+        assert!(
+            r.samples.len() + 64 >= budget,
+            "{} of {budget}",
+            r.samples.len()
+        );
+        assert!(r.samples.len() > last);
+        last = r.samples.len();
+        for log in &r.rounds {
+            assert!(log.samples <= budget);
+        }
+    }
+}
+
+#[test]
+fn a_seed_fixes_everything_and_rounds_reuse_exactly() {
+    let oracle = SignalOracle::new(Signal::HeaviSine, Domain::UNIT);
+    let params = RefineParams {
+        budget: 1200,
+        seed: SEED_A,
+        ..RefineParams::default()
+    };
+    let a = refine(&oracle, &params).unwrap();
+    let b = refine(&oracle, &params).unwrap();
+    assert_eq!(a.samples, b.samples);
+    assert_eq!(a.coefficients, b.coefficients);
+    assert_eq!(a.columns, b.columns);
+    let c = refine(
+        &oracle,
+        &RefineParams {
+            seed: SEED_B,
+            ..params
+        },
+    )
+    .unwrap();
+    assert_ne!(a.samples, c.samples);
+    // The cached evaluations give the same K, hence the same solve, as a rebuild from scratch.
+    let (fresh, _) = a.rebuild().unwrap();
+    let scale = a.coefficients.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    for (x, y) in fresh.iter().zip(&a.coefficients) {
+        assert!((x - y).abs() <= 1e-12 * scale);
+    }
+    // Every oracle call is a sample: values are never recomputed.
+    let calls = std::cell::Cell::new(0usize);
+    let counted = |x: f64| {
+        calls.set(calls.get() + 1);
+        oracle.sample(x)
+    };
+    let r = refine(&counted, &params).unwrap();
+    assert_eq!(calls.get(), r.samples.len());
+}
+
+#[test]
+fn expressions_refine_where_they_jump() {
+    let e = ExpressionOracle::parse("sin(8*x) + (x > 0.6)").unwrap();
+    let params = RefineParams {
+        max_depth: 16,
+        tolerance: 1e-5,
+        ..RefineParams::default()
+    };
+    let r = refine(&e, &params).unwrap();
+    assert_eq!(r.tree.local_depth(0.6), 16);
+    assert!(r.tree.local_depth(0.2) < 10);
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let f = |x: f64| x;
+    let base = RefineParams::default();
+    let invalid = |params: RefineParams, name: &str| match refine(&f, &params) {
+        Err(RefineError::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
+        other => panic!("expected an invalid {name}, got {other:?}"),
+    };
+    invalid(RefineParams { budget: 0, ..base }, "budget");
+    invalid(
+        RefineParams {
+            tolerance: 0.0,
+            ..base
+        },
+        "tolerance",
+    );
+    invalid(
+        RefineParams {
+            tolerance: -1.0,
+            ..base
+        },
+        "tolerance",
+    );
+    invalid(
+        RefineParams {
+            tolerance: f64::NAN,
+            ..base
+        },
+        "tolerance",
+    );
+    invalid(
+        RefineParams {
+            max_depth: 41,
+            ..base
+        },
+        "max depth",
+    );
+    invalid(RefineParams { rho: 0.5, ..base }, "rho");
+    invalid(RefineParams { theta: 0.0, ..base }, "theta");
+    invalid(RefineParams { p: 11, ..base }, "p");
+    invalid(
+        RefineParams {
+            indicator: Indicator::Residual { probes: 0 },
+            ..base
+        },
+        "probes",
+    );
+    match refine(
+        &f,
+        &RefineParams {
+            max_depth: 5,
+            ..base
+        },
+    ) {
+        Err(RefineError::MaxDepthBelowBase {
+            max_depth: 5,
+            base_depth: 6,
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    match refine(
+        &f,
+        &RefineParams {
+            budget: 100,
+            ..base
+        },
+    ) {
+        Err(e @ RefineError::BudgetBelowBase { .. }) => {
+            assert!(e.to_string().contains("budget is 100"))
+        }
+        other => panic!("{other:?}"),
+    }
+    let bad = |x: f64| if x > 0.5 { f64::NAN } else { x };
+    assert!(matches!(
+        refine(&bad, &base),
+        Err(RefineError::NonFiniteValue { .. })
+    ));
+    let inf = ExpressionOracle::parse("1/(x - x)").unwrap();
+    assert!(matches!(
+        refine(&inf, &base),
+        Err(RefineError::NonFiniteValue { .. })
+    ));
+    assert!(ExpressionOracle::parse("sin(x").is_err());
+    assert_eq!(minimum_level(3), 4);
+}
+
+fn rkwave(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_rkwave"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+#[test]
+fn adapt_reports_json_and_rejects_bad_input_with_exit_code_2() {
+    let out = rkwave(&[
+        "adapt", "--signal", "jumps", "--budget", "1024", "--grid", "4096", "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    for key in [
+        "samples",
+        "basis_size",
+        "max_depth",
+        "error_l2",
+        "error_max",
+        "error_l2_quadrature",
+        "rounds",
+    ] {
+        assert!(!v[key].is_null(), "missing {key}");
+    }
+    assert!(v["samples"].as_u64().unwrap() <= 1024);
+    assert!(v["uniform"]["error_l2"].as_f64().unwrap() > v["error_l2"].as_f64().unwrap());
+    assert!(!v["rounds"].as_array().unwrap().is_empty());
+    let out = rkwave(&[
+        "adapt",
+        "--signal",
+        "sin(8*x) + (x > 0.6)",
+        "--budget",
+        "600",
+        "--grid",
+        "1024",
+        "--json",
+    ]);
+    assert!(out.status.success());
+    for bad in [
+        vec!["--signal", "jumps", "--budget", "0"],
+        vec!["--signal", "jumps", "--tolerance", "0"],
+        vec!["--signal", "jumps", "--tolerance", "-1e-3"],
+        vec!["--signal", "jumps", "--max-depth", "4"],
+        vec!["--signal", "sin(8*x"],
+        vec!["--signal", "wobble"],
+        vec![
+            "--signal",
+            "1/(x - 0.5)",
+            "--base-samples",
+            "255",
+            "--layout",
+            "endpoints",
+        ],
+    ] {
+        let args: Vec<&str> = std::iter::once("adapt")
+            .chain(bad.iter().copied())
+            .collect();
+        let out = rkwave(&args);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.starts_with("error: "), "{bad:?}: {err}");
+    }
+}
