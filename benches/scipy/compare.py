@@ -51,11 +51,11 @@ def rkwave_problem(binary):
     return None
 
 
-def run_rkwave(binary, npy, grid, out_csv, name):
+def run_rkwave(binary, npy, grid, out_csv, name, p=3):
     """Runs `rkwave reconstruct`; returns (its JSON, wall seconds, grid RMS error).
 
     Raises RuntimeError with a readable message when it fails or its output is unexpected."""
-    cmd = [binary, "reconstruct", "--input", npy, "--domain", "0,1", "--p", "3",
+    cmd = [binary, "reconstruct", "--input", npy, "--domain", "0,1", "--p", str(p),
            "--levels", "auto", "--grid", str(grid), "--output", out_csv, "--json"]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -100,7 +100,7 @@ def compare(args, m, seed, tmp, use_rkwave):
     row = {"m": m, "seed": seed, "signal": args.signal, "grid": args.grid}
     if use_rkwave:
         try:
-            report, wall, err = run_rkwave(args.rkwave, npy, args.grid, out_csv, args.signal)
+            report, wall, err = run_rkwave(args.rkwave, npy, args.grid, out_csv, args.signal, args.p)
             ts = report["time_s"]  # total may include reading input and writing the CSV
             row.update(P=int(report["functions"]), rkwave_total_s=ts["total"],
                        rkwave_fit_eval_s=ts["kernel"] + ts["solve"] + ts["evaluate"],
@@ -149,6 +149,8 @@ def main():
                     help="comma-separated sample counts m (default 1e4,1e5,1e6)")
     ap.add_argument("--seeds", type=ints, default=[0], help="comma-separated seeds (default 0)")
     ap.add_argument("--signal", choices=["smooth", "jumps"], default="smooth")
+    ap.add_argument("--p", type=int, default=3,
+                    help="rkwave's vanishing moments (3: order 3; 4 matches the cubic spline's order 4)")
     ap.add_argument("--grid", type=int, default=1_000_000,
                     help="evaluation grid points G (default 1000000)")
     ap.add_argument("--scipy-only", action="store_true",
