@@ -77,3 +77,36 @@ fn automatic_levels_hit_the_oversampling_and_locality_targets() {
         }
     }
 }
+
+/// A deep, sparse active set (beyond the dense column map) gives the same kernel rows as
+/// the direct evaluation filtered to its functions.
+#[test]
+fn deep_sparse_active_sets_look_columns_up_by_search() {
+    let basis = CdvBasis::new(3, FilterFamily::Extremal, 4, 30, Domain::UNIT).unwrap();
+    // Coarse scaling functions plus a chain of wavelets towards x = 0.3 down to level 30.
+    let mut keep: Vec<usize> = (0..16).collect();
+    for j in 4..=30u32 {
+        let k = (0.3 * (1u64 << j) as f64) as usize;
+        for d in 0..2 {
+            keep.push((1usize << j) + k + d);
+        }
+    }
+    let active = ActiveSet::from_indices(basis.clone(), keep.clone());
+    let xs = [0.3, 0.3 + 1e-9, 0.1];
+    let k = kernel_matrix(&active, &xs).unwrap();
+    let mut ev = basis.evaluator();
+    for (i, row) in k.outer_iterator().enumerate() {
+        let expect: Vec<(usize, f64)> = ev
+            .eval(xs[i])
+            .unwrap()
+            .iter()
+            .filter_map(|v| active.column(v.index).map(|c| (c, v.value)))
+            .collect();
+        let got: Vec<(usize, f64)> = row.iter().map(|(c, &v)| (c, v)).collect();
+        assert_eq!(got, expect);
+        for &(c, _) in &got {
+            assert!(keep.contains(&active.global(c)));
+        }
+    }
+    assert!(k.nnz() > 40, "the deep chain is present at x = 0.3");
+}

@@ -5,6 +5,10 @@ use crate::basis::CdvBasis;
 /// Marks a global index that is not active.
 const INACTIVE: u32 = u32::MAX;
 
+/// Largest enclosing dimension for which a dense column map (4 bytes per function of
+/// `Psi(n, N)`) is kept; sparser or deeper sets use binary search in the sorted columns.
+const DENSE_MAP_LIMIT: usize = 1 << 24;
+
 /// A set of active functions of an enclosing `Psi(n, N)`: uniformly all of them, or (for the
 /// adaptive tree of the refiner) any subset; column `c` of `K` is the `c`-th active function in
 /// ascending global index.
@@ -12,17 +16,22 @@ const INACTIVE: u32 = u32::MAX;
 pub struct ActiveSet {
     basis: CdvBasis,
     columns: Vec<usize>,
+    /// Dense map global index -> column (empty when the set is sparse or deep).
     column_of: Vec<u32>,
 }
 
 impl ActiveSet {
-    /// Every function of `Psi(n, N)`.
+    /// Every function of `Psi(n, N)` (column = global index).
     pub fn uniform(basis: CdvBasis) -> Self {
         let dim = basis.dimension();
         Self {
             basis,
             columns: (0..dim).collect(),
-            column_of: (0..dim as u32).collect(),
+            column_of: if dim <= DENSE_MAP_LIMIT {
+                (0..dim as u32).collect()
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -32,9 +41,17 @@ impl ActiveSet {
         let mut columns: Vec<usize> = indices.into_iter().filter(|&a| a < dim).collect();
         columns.sort_unstable();
         columns.dedup();
-        let mut column_of = vec![INACTIVE; dim];
-        for (c, &a) in columns.iter().enumerate() {
-            column_of[a] = c as u32;
+        // Dense map only when it is small and the set fills a good part of it.
+        let dense = dim <= DENSE_MAP_LIMIT && columns.len() * 16 >= dim;
+        let mut column_of = if dense {
+            vec![INACTIVE; dim]
+        } else {
+            Vec::new()
+        };
+        if dense {
+            for (c, &a) in columns.iter().enumerate() {
+                column_of[a] = c as u32;
+            }
         }
         Self {
             basis,
@@ -57,6 +74,9 @@ impl ActiveSet {
     }
     /// Column of global index `a`, if active.
     pub fn column(&self, a: usize) -> Option<usize> {
+        if self.column_of.is_empty() {
+            return self.columns.binary_search(&a).ok();
+        }
         self.column_of
             .get(a)
             .copied()

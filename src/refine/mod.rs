@@ -36,7 +36,7 @@
 //!
 //! Columns are kept as a sorted list of global indices ([`WaveletTree::columns`], looked up by
 //! [`column_of`]), so trees go to level [`MAX_DEPTH_LIMIT`]; [`WaveletTree::active_set`] and
-//! [`Refinement::fit`] convert to the crate's dense-map [`crate::kernel::ActiveSet`] and
+//! [`Refinement::fit`] convert to the crate's [`crate::kernel::ActiveSet`] and
 //! [`crate::reconstruct::Fit`] up to level [`ACTIVE_SET_MAX_LEVEL`].
 //!
 //! ```

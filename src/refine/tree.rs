@@ -30,10 +30,9 @@ pub fn cell_of(t: f64, level: u32) -> u64 {
     ((t * size as f64).floor() as u64).min(size - 1)
 }
 
-/// Deepest tree [`WaveletTree::active_set`] converts: an [`ActiveSet`] keeps a dense column map
-/// over `Psi(n, F)` (`2^{F+1}` entries, 128 MiB at `F = 24`). The refiner itself uses the sorted
-/// column list of [`WaveletTree::columns`] and goes deeper.
-pub const ACTIVE_SET_MAX_LEVEL: u32 = 24;
+/// Deepest tree [`WaveletTree::active_set`] converts: the evaluator's limit (an [`ActiveSet`]
+/// of a sparse or deep tree looks columns up by binary search instead of a dense map).
+pub const ACTIVE_SET_MAX_LEVEL: u32 = crate::basis::MAX_LEVEL;
 
 /// Column of global index `a` in the ascending list `columns` (binary search).
 pub fn column_of(columns: &[usize], a: usize) -> Option<usize> {
@@ -368,7 +367,7 @@ impl WaveletTree {
     }
 
     /// The active set (columns of `K` in ascending global index) over [`WaveletTree::basis`];
-    /// refuses trees deeper than [`ACTIVE_SET_MAX_LEVEL`], whose dense column map would not fit.
+    /// refuses trees deeper than [`ACTIVE_SET_MAX_LEVEL`].
     pub fn active_set(&self) -> Result<ActiveSet, BasisError> {
         let depth = self.depth().max(0) as u32;
         if depth > ACTIVE_SET_MAX_LEVEL {
