@@ -70,12 +70,7 @@ impl ReportArgs {
         if self.grid < 2 {
             return Err(CliError::Invalid("--grid must be at least 2".into()));
         }
-        if !(self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff)) {
-            return Err(CliError::Invalid(format!(
-                "--cutoff {} must be in [0, 1), e.g. 1e-12",
-                self.cutoff
-            )));
-        }
+        super::solve_args::check_cutoff(self.cutoff)?;
         let layout: Layout = self
             .layout
             .parse()

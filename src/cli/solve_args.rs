@@ -68,6 +68,17 @@ pub struct SolveArgs {
     pub ridge: f64,
 }
 
+/// A relative singular value cut-off must lie in `[0, 1)`.
+pub fn check_cutoff(cutoff: f64) -> Result<(), CliError> {
+    if cutoff.is_finite() && (0.0..1.0).contains(&cutoff) {
+        Ok(())
+    } else {
+        Err(CliError::Invalid(format!(
+            "--cutoff {cutoff} must be a relative cut-off in [0, 1), e.g. 1e-12"
+        )))
+    }
+}
+
 impl SolveArgs {
     /// The level choice.
     pub fn levels(&self) -> Result<Levels, CliError> {
@@ -103,12 +114,7 @@ impl SolveArgs {
 
     /// The method.
     pub fn method(&self, which: MethodArg) -> Result<Method, CliError> {
-        if !(self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff)) {
-            return Err(CliError::Invalid(format!(
-                "--cutoff {} must be a relative cut-off in [0, 1), e.g. 1e-12",
-                self.cutoff
-            )));
-        }
+        check_cutoff(self.cutoff)?;
         if !(self.ridge.is_finite() && (0.0..1.0).contains(&self.ridge)) {
             return Err(CliError::Invalid(format!(
                 "--ridge {} must be in [0, 1), e.g. 1e-16",
