@@ -233,6 +233,9 @@ pub struct Evaluator<'a> {
     walk: Walk,
     mirror: Walk,
     edge: Vec<f64>,
+    right_edge: Vec<f64>,
+    phi: Vec<f64>,
+    wavelet: Vec<f64>,
     scale: Vec<f64>,
 }
 
@@ -248,6 +251,9 @@ impl<'a> Evaluator<'a> {
             walk: Walk::default(),
             mirror: Walk::default(),
             edge: Vec::new(),
+            right_edge: Vec::new(),
+            phi: vec![0.0; 2 * basis.p() - 1],
+            wavelet: vec![0.0; basis.p()],
             scale,
         }
     }
@@ -308,7 +314,6 @@ impl<'a> Evaluator<'a> {
 
         // Right edge in the reflected coordinate.
         let right_cell = |j: u32| (1u64 << j) - 1 - pos.cell(j);
-        let mut right_edge: Vec<f64> = Vec::new();
         let mut right_levels = 0;
         if e > 0 && right_cell(n) < w as u64 {
             let y = if pos.one { 0.0 } else { 1.0 - t };
@@ -317,8 +322,15 @@ impl<'a> Evaluator<'a> {
             self.mirror
                 .run(&bank.reversed_digits, &ypos, n, start.max(top), n);
             if let Some(tab) = bank.right_tables.as_ref() {
-                right_levels =
-                    edge_recursion(&self.mirror, &ypos, tab, n, top, start, &mut right_edge);
+                right_levels = edge_recursion(
+                    &self.mirror,
+                    &ypos,
+                    tab,
+                    n,
+                    top,
+                    start,
+                    &mut self.right_edge,
+                );
             }
         }
 
@@ -353,7 +365,7 @@ impl<'a> Evaluator<'a> {
                 if r < (p + k) as u64 {
                     out.push(BasisValue {
                         index: (size - 1) as usize - k,
-                        value: sc * right_edge[k],
+                        value: sc * self.right_edge[k],
                     });
                 }
             }
@@ -374,14 +386,15 @@ impl<'a> Evaluator<'a> {
                     .as_ref()
                     .expect("edge tables exist when e > 0");
                 let l = (j - n) as usize;
-                let wv = edge_wavelets(
+                edge_wavelets(
                     tab,
                     &self.edge[(l + 1) * p..(l + 2) * p],
                     &self.walk,
                     j + 1,
-                    p,
+                    &mut self.phi,
+                    &mut self.wavelet,
                 );
-                for (k, v) in wv.iter().enumerate() {
+                for (k, v) in self.wavelet.iter().enumerate() {
                     if c < (p + k) as u64 {
                         out.push(BasisValue {
                             index: base + k,
@@ -398,18 +411,19 @@ impl<'a> Evaluator<'a> {
                     .as_ref()
                     .expect("edge tables exist when e > 0");
                 let l = (j - n) as usize;
-                let wv = edge_wavelets(
+                edge_wavelets(
                     tab,
-                    &right_edge[(l + 1) * p..(l + 2) * p],
+                    &self.right_edge[(l + 1) * p..(l + 2) * p],
                     &self.mirror,
                     j + 1,
-                    p,
+                    &mut self.phi,
+                    &mut self.wavelet,
                 );
                 for k in (0..p).rev() {
                     if r < (p + k) as u64 {
                         out.push(BasisValue {
                             index: base + (size - 1) as usize - k,
-                            value: sc * wv[k],
+                            value: sc * self.wavelet[k],
                         });
                     }
                 }
@@ -516,15 +530,21 @@ fn edge_recursion(
     levels
 }
 
-/// Edge wavelet values `b_j = sqrt2 G a_{j+1} + sqrt2 g phi_{j+1}`.
-fn edge_wavelets(tab: &EdgeTables, a_finer: &[f64], walk: &Walk, finer: u32, p: usize) -> Vec<f64> {
-    let w = 2 * p - 1;
-    let mut phi = vec![0.0; w];
-    interior_near_edge(walk, finer, &mut phi);
-    (0..p)
-        .map(|k| {
-            dot(&tab.g_edge[k * p..(k + 1) * p], a_finer)
-                + dot(&tab.g_interior[k * w..(k + 1) * w], &phi)
-        })
-        .collect()
+/// Edge wavelet values `b_j = sqrt2 G a_{j+1} + sqrt2 g phi_{j+1}` into `out` (`p` values;
+/// `phi` is scratch of length `2p - 1`).
+fn edge_wavelets(
+    tab: &EdgeTables,
+    a_finer: &[f64],
+    walk: &Walk,
+    finer: u32,
+    phi: &mut [f64],
+    out: &mut [f64],
+) {
+    let p = out.len();
+    let w = phi.len();
+    interior_near_edge(walk, finer, phi);
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = dot(&tab.g_edge[k * p..(k + 1) * p], a_finer)
+            + dot(&tab.g_interior[k * w..(k + 1) * w], phi);
+    }
 }

@@ -14,6 +14,15 @@ use nalgebra::DMatrix;
 use super::bank::FilterBank;
 use super::cdv::EdgeFilters;
 
+/// The low-pass (`H`, `h`) or high-pass (`G`, `g`) refinement matrices of one edge.
+fn halves(edge: &EdgeFilters, high: bool) -> (&DMatrix<f64>, &DMatrix<f64>) {
+    if high {
+        (&edge.g_edge, &edge.g_interior)
+    } else {
+        (&edge.h_edge, &edge.h_interior)
+    }
+}
+
 /// Coarse index, fine index and weight of every nonzero entry of one analysis step, for the
 /// low-pass (`false`) or high-pass (`true`) half.
 pub(crate) fn analysis_entries(
@@ -27,13 +36,7 @@ pub(crate) fn analysis_entries(
     let size = 1usize << level;
     let fine = 2 * size;
     let int = &bank.interior;
-    let pick = |edge: &EdgeFilters| -> (DMatrix<f64>, DMatrix<f64>) {
-        if high {
-            (edge.g_edge.clone(), edge.g_interior.clone())
-        } else {
-            (edge.h_edge.clone(), edge.h_interior.clone())
-        }
-    };
+    let pick = |edge| halves(edge, high);
     if let (Some(left), Some(right)) = (bank.left.as_ref(), bank.right.as_ref()) {
         let (le, li) = pick(left);
         let (re, ri) = pick(right);

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use rkwave::basis::{CdvBasis, FunctionKind, Side};
 use rkwave::plot::{Figure, Panel, PanelContent, Series, SeriesStyle};
+use rkwave::sampling::Domain;
 
 use super::CliError;
 
@@ -61,40 +62,51 @@ pub fn basis_figure(basis: &CdvBasis, path: &Path) -> Result<(), CliError> {
             curves.entry(a).or_default().push((x, v));
         }
     }
-    let panel = |title: &str, ids: &[usize], y: &str| -> PanelContent {
-        Panel {
-            title: title.to_string(),
-            x_label: "x".into(),
-            y_label: y.into(),
-            series: ids
-                .iter()
-                .enumerate()
-                .map(|(c, a)| {
-                    Series::new(label(&single, *a), curves[a].clone(), SeriesStyle::Line)
-                        .with_color(c)
-                })
-                .collect(),
-            x_range: Some((domain.a(), domain.b())),
-            ..Panel::default()
-        }
-        .into()
+    let series = |ids: &[usize]| -> Vec<Series> {
+        ids.iter()
+            .enumerate()
+            .map(|(c, a)| {
+                Series::new(label(&single, *a), curves[a].clone(), SeriesStyle::Line).with_color(c)
+            })
+            .collect()
     };
     let family = basis.bank().family().short_name();
     let p = basis.p();
-    let fig = Figure {
+    let fig = stacked_over_domain(
+        domain,
+        vec![
+            (
+                format!("CDV scaling functions of V_{n}, p = {p} ({family}{p}), edges included"),
+                series(&scaling),
+                "φ(x)",
+            ),
+            (format!("CDV wavelets of W_{n}"), series(&wavelets), "ψ(x)"),
+        ],
+    );
+    save(&fig, path)
+}
+
+/// Charts of functions of `x` stacked in one column, each over the whole domain.
+fn stacked_over_domain(domain: Domain, charts: Vec<(String, Vec<Series>, &str)>) -> Figure {
+    Figure {
         width: 1100,
         height: 900,
         columns: 1,
-        panels: vec![
-            panel(
-                &format!("CDV scaling functions of V_{n}, p = {p} ({family}{p}), edges included"),
-                &scaling,
-                "φ(x)",
-            ),
-            panel(&format!("CDV wavelets of W_{n}"), &wavelets, "ψ(x)"),
-        ],
-    };
-    save(&fig, path)
+        panels: charts
+            .into_iter()
+            .map(|(title, series, y)| -> PanelContent {
+                Panel {
+                    title,
+                    x_label: "x".into(),
+                    y_label: y.into(),
+                    series,
+                    x_range: Some((domain.a(), domain.b())),
+                    ..Panel::default()
+                }
+                .into()
+            })
+            .collect(),
+    }
 }
 
 /// Saves as SVG when the extension says so, PNG otherwise; creates the folder.
@@ -161,23 +173,10 @@ pub fn kernels_figure(basis: &CdvBasis, positions: &[f64], path: &Path) -> Resul
     }
     let n = basis.coarse();
     let fine = basis.fine();
-    let panel = |title: String, series: Vec<Series>, y: &str| -> PanelContent {
-        Panel {
-            title,
-            x_label: "x".into(),
-            y_label: y.into(),
-            series,
-            x_range: Some((domain.a(), domain.b())),
-            ..Panel::default()
-        }
-        .into()
-    };
-    let fig = Figure {
-        width: 1100,
-        height: 900,
-        columns: 1,
-        panels: vec![
-            panel(
+    let fig = stacked_over_domain(
+        domain,
+        vec![
+            (
                 format!(
                     "Dual kernels k~_i(x), p = {}, Psi({n}, {fine}), {m} samples",
                     basis.p()
@@ -185,8 +184,8 @@ pub fn kernels_figure(basis: &CdvBasis, positions: &[f64], path: &Path) -> Resul
                 duals,
                 "k~_i(x)",
             ),
-            panel("Reproducing kernels k_i(x)".into(), reps, "k_i(x)"),
+            ("Reproducing kernels k_i(x)".into(), reps, "k_i(x)"),
         ],
-    };
+    );
     save(&fig, path)
 }
