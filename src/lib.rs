@@ -27,6 +27,7 @@
 pub mod basis;
 pub mod io;
 pub mod kernel;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod reconstruct;
 pub mod refine;
