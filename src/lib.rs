@@ -10,6 +10,7 @@
 //! - [`refine`]: the adaptive refiner ([`refine::refine`]): a wavelet tree and samples grown
 //!   together where the signal needs them;
 //! - [`io`]: reading and writing samples (CSV, NumPy `.npy`);
+//! - [`resources`]: memory estimates of a request, checked before allocating;
 //! - [`plot`] draws the figures.
 //!
 //! ```
@@ -27,10 +28,12 @@
 pub mod basis;
 pub mod io;
 pub mod kernel;
+pub mod norms;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod reconstruct;
 pub mod refine;
 pub mod report;
+pub mod resources;
 pub mod sampling;
 pub mod solve;

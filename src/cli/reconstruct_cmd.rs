@@ -5,13 +5,14 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::io::{read_samples, validate_positions, write_csv, SampleSet};
+use rkwave::io::output::{check_output, write_new};
+use rkwave::io::{csv_string, read_samples, validate_positions, SampleSet};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::sampling::Domain;
 use serde_json::json;
 
 use super::solve_args::{MethodArg, SolveArgs};
-use super::{check_writable, CliError, FamilyArg};
+use super::{CliError, FamilyArg};
 
 /// `rkwave reconstruct`.
 #[derive(Args, Debug)]
@@ -35,7 +36,7 @@ pub struct ReconstructArgs {
     #[command(flatten)]
     pub solve: SolveArgs,
     /// Grid points of the output (uniform, both ends included).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = super::limits::grid)]
     pub grid: usize,
     /// Output CSV (`x,<channels>`).
     #[arg(long)]
@@ -51,7 +52,7 @@ pub struct ReconstructArgs {
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
-    check_writable(&args.output, args.force)?;
+    check_output(&args.output, args.force, &[&args.input])?;
     if args.grid < 2 {
         return Err(CliError::Invalid(format!(
             "--grid {} is too small: give at least 2 points",
@@ -103,14 +104,12 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let residual_rms: Vec<f64> = at_samples
         .iter()
         .zip(&set.values)
-        .map(|(r, f)| {
-            (r.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / f.len() as f64).sqrt()
-        })
+        .map(|(r, f)| rkwave::norms::rms_difference(r, f))
         .collect();
     bar.set_message("writing");
     let t_write = Instant::now();
     let out = SampleSet::new(grid, values)?.with_names(set.names_or_default())?;
-    write_csv(&args.output, &out)?;
+    write_new(&args.output, csv_string(&out)?.as_bytes(), args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let total = started.elapsed().as_secs_f64();
@@ -143,6 +142,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         })),
         "single_scale": fitted.single_scale,
         "fallback": fitted.fallback,
+        "warnings": fitted.warnings(),
     });
     if args.json {
         println!(
@@ -150,16 +150,23 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             serde_json::to_string_pretty(&report).expect("plain data")
         );
     } else {
+        for w in fitted.warnings() {
+            eprintln!("warning: {w}");
+        }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
-             residual RMS {:?}, {:.3} s; wrote {}",
+             residual RMS [{}], {:.3} s; wrote {}",
             set.len(),
             set.channels(),
             fitted.active.len(),
             fitted.levels.coarse,
             fitted.levels.fine,
             fitted.levels.oversampling,
-            residual_rms,
+            residual_rms
+                .iter()
+                .map(|r| format!("{r:.3e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
             total,
             args.output.display()
         );

@@ -382,7 +382,10 @@ fn cholesky_ls(
             .factorize_numeric_llt_scratch::<f64>(par, Default::default())
             .or(symbolic.solve_in_place_scratch::<f64>(ch.max(1), par)),
     );
-    let col_samples = |a: usize| raw(&prep.kt).0[a + 1] - raw(&prep.kt).0[a];
+    let col_samples = |a: usize| {
+        let ptr = raw(&prep.kt).0;
+        ptr.get(a + 1).map_or(0, |&e| e - ptr[a])
+    };
     let mut ridge = 0.0;
     let mut min_pivot;
     loop {
@@ -408,7 +411,12 @@ fn cholesky_ls(
             }
         };
         let Some(q) = failed_at else { break };
-        let column = perm_fwd.get(q).copied().unwrap_or(q);
+        // faer may report the failing pivot one past the end (a zero trailing block).
+        let column = perm_fwd
+            .get(q)
+            .copied()
+            .unwrap_or(q)
+            .min(p.saturating_sub(1));
         if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
             if m < p {
                 return Err(SolveError::Undersampled { rows: m, cols: p });
