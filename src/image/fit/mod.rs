@@ -355,6 +355,23 @@ pub fn fit_image(
     })
 }
 
+/// [`fit_image`] on validated [`super::ImageSamples`].
+pub fn fit_samples(
+    samples: &super::ImageSamples,
+    params: &ImageFitParams,
+) -> Result<ImageFit, ImageFitError> {
+    let plane = samples.plane();
+    let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
+    fit_image(
+        plane.width(),
+        plane.height(),
+        samples.xs(),
+        samples.ys(),
+        &values,
+        params,
+    )
+}
+
 /// Positions evaluated per parallel work item.
 const CHUNK: usize = 4096;
 
