@@ -9,6 +9,8 @@
 //! - [`sampling`]: domains, sample layouts and built-in test signals;
 //! - [`refine`]: the adaptive refiner ([`refine::refine`]): a wavelet tree and samples grown
 //!   together where the signal needs them;
+//! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
+//!   filters and image-plane reconstruction;
 //! - [`io`]: reading and writing samples (CSV, NumPy `.npy`);
 //! - [`resources`]: memory estimates of a request, checked before allocating;
 //! - [`plot`] draws the figures.
@@ -26,6 +28,7 @@
 #![deny(missing_docs)]
 
 pub mod basis;
+pub mod image;
 pub mod io;
 pub mod kernel;
 pub mod norms;
