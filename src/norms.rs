@@ -50,6 +50,17 @@ pub fn rms_difference(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
+/// A number for a message: positional for ordinary magnitudes, `{:e}` for the extreme
+/// (`|x| >= 1e6` or `0 < |x| < 1e-4`), so no message prints hundreds of digits.
+pub fn show(x: f64) -> String {
+    let a = x.abs();
+    if x.is_finite() && a != 0.0 && !(1e-4..1e6).contains(&a) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -69,5 +80,8 @@ mod tests {
         let d = rms_difference(&[f64::MAX, 0.0], &[-f64::MAX, 0.0]);
         assert!(d.is_infinite() || d > 1e308, "{d}");
         assert_eq!(rms_difference(&[1.0, 2.0], &[1.0, 2.0]), 0.0);
+        assert_eq!(show(-1e308), "-1e308");
+        assert_eq!(show(0.25), "0.25");
+        assert_eq!(show(0.0), "0");
     }
 }

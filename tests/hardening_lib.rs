@@ -7,9 +7,7 @@ use rkwave::kernel::LevelParams;
 use rkwave::reconstruct::{fit, FitParams, Levels, Method, ReconstructError};
 use rkwave::refine::{ExpressionOracle, SampleOracle};
 use rkwave::sampling::Domain;
-use rkwave::solve::{
-    GlobalLsParams, LocalInversionParams, SolveError, Solver, CHOLESKY_MAX_CONDITION,
-};
+use rkwave::solve::{GlobalLsParams, LocalInversionParams, Solver, CHOLESKY_MAX_CONDITION};
 
 fn params(p: usize, levels: Levels, method: Method) -> FitParams {
     FitParams {
@@ -171,18 +169,6 @@ fn cholesky_blocks_stay_within_their_tolerance_of_svd() {
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
     assert!(worst <= 1e-6, "max |cholesky - svd| = {worst:e}");
-}
-
-#[test]
-fn rings_are_capped() {
-    let lp = LocalInversionParams {
-        rings: 1000,
-        ..LocalInversionParams::default()
-    };
-    assert!(matches!(
-        lp.validate(),
-        Err(SolveError::InvalidParameter { name: "rings", .. })
-    ));
 }
 
 #[test]

@@ -30,6 +30,11 @@ pub fn count_in(text: &str, lo: u64, hi: u64) -> Result<usize, String> {
     Ok(v as usize)
 }
 
+/// Neighbourhood rings of local inversion: `0..=10` (`rkwave::solve::MAX_RINGS`).
+pub fn rings(text: &str) -> Result<usize, String> {
+    count_in(text, 0, rkwave::solve::MAX_RINGS as u64)
+}
+
 /// Grid points: `2..=1e8`.
 pub fn grid(text: &str) -> Result<usize, String> {
     count_in(text, 2, MAX_POINTS)

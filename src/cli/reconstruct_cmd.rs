@@ -68,10 +68,16 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         Some(d) => d.parse::<Domain>()?,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            Domain::new(a, b).map_err(|_| {
-                CliError::Invalid(format!(
-                    "all samples sit at x = {a}: give --domain a,b explicitly"
-                ))
+            Domain::new(a, b).map_err(|e| match e {
+                rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
+                    "all samples sit at x = {}: give --domain a,b explicitly",
+                    rkwave::norms::show(a)
+                )),
+                other => CliError::Invalid(format!(
+                    "the samples span [{}, {}], which is no usable domain: {other}",
+                    rkwave::norms::show(a),
+                    rkwave::norms::show(b)
+                )),
             })?
         }
     };

@@ -35,7 +35,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "smooth")]
     pub signal: String,
     /// Neighbourhood rings.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::limits::rings)]
     pub rings: usize,
     /// Local solver.
     #[arg(long, value_enum, default_value_t = SolverArg::Svd)]

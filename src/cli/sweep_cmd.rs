@@ -21,7 +21,7 @@ pub struct SweepArgs {
     #[command(flatten)]
     pub base: ReportArgs,
     /// Rings to sweep.
-    #[arg(long, value_delimiter = ',', default_value = "0,1,2")]
+    #[arg(long, value_delimiter = ',', default_value = "0,1,2", value_parser = super::limits::rings)]
     pub sweep_rings: Vec<usize>,
     /// Vanishing moments to sweep (coarse level follows j_min(p) when it would be too small).
     #[arg(long, value_delimiter = ',', default_value = "2,3,4,5")]

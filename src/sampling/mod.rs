@@ -28,8 +28,10 @@ mod tests;
 pub enum DomainError {
     /// An endpoint is NaN or infinite.
     #[error(
-        "invalid domain [{a}, {b}]: both endpoints must be finite numbers; \
-         pass finite bounds such as a = 0 and b = 1"
+        "invalid domain [{}, {}]: both endpoints must be finite numbers; \
+         pass finite bounds such as a = 0 and b = 1",
+        crate::norms::show(*a),
+        crate::norms::show(*b)
     )]
     NotFinite {
         /// The left endpoint as given.
@@ -39,8 +41,12 @@ pub enum DomainError {
     },
     /// `a >= b`: the interval is empty or reversed.
     #[error(
-        "invalid domain [{a}, {b}]: the left endpoint a = {a} must be strictly less than \
-         the right endpoint b = {b}; swap the endpoints or widen the interval"
+        "invalid domain [{}, {}]: the left endpoint a = {} must be strictly less than the \
+         right endpoint b = {}; swap the endpoints or widen the interval",
+        crate::norms::show(*a),
+        crate::norms::show(*b),
+        crate::norms::show(*a),
+        crate::norms::show(*b)
     )]
     NotIncreasing {
         /// The left endpoint as given.
@@ -50,10 +56,29 @@ pub enum DomainError {
     },
     /// `b - a` overflows to infinity in `f64`.
     #[error(
-        "invalid domain [{a}, {b}]: its length b - a overflows f64; \
-         rescale the positions to a smaller range"
+        "invalid domain [{}, {}]: its width b - a overflows f64 (above {:e}); \
+         rescale the positions to a smaller range",
+        crate::norms::show(*a),
+        crate::norms::show(*b),
+        f64::MAX
     )]
     TooWide {
+        /// The left endpoint as given.
+        a: f64,
+        /// The right endpoint as given.
+        b: f64,
+    },
+    /// `b - a` is subnormal: positions that close carry too few significant bits.
+    #[error(
+        "invalid domain [{}, {}]: its width {:e} is subnormal (below {:e}), so positions \
+         in it carry too few significant bits; rescale the positions (e.g. multiply them by \
+         1e300)",
+        crate::norms::show(*a),
+        crate::norms::show(*b),
+        b - a,
+        f64::MIN_POSITIVE
+    )]
+    TooNarrow {
         /// The left endpoint as given.
         a: f64,
         /// The right endpoint as given.
@@ -121,6 +146,9 @@ impl Domain {
         }
         if !(b - a).is_finite() {
             return Err(DomainError::TooWide { a, b });
+        }
+        if b - a < f64::MIN_POSITIVE {
+            return Err(DomainError::TooNarrow { a, b });
         }
         Ok(Domain { a, b })
     }

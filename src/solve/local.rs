@@ -326,7 +326,12 @@ fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
             let mut idx = ki[kp[rep]..kp[rep + 1]].to_vec();
             let mut jdx = union_of(tp, ti, &idx);
             for _ in 0..rings {
-                idx = union_of(kp, ki, &jdx);
+                let grown = union_of(kp, ki, &jdx);
+                // A closed neighbourhood grows no further: more rings cost nothing.
+                if grown.len() == idx.len() {
+                    break;
+                }
+                idx = grown;
                 jdx = union_of(tp, ti, &idx);
             }
             Group { idx, jdx, pivots }
