@@ -25,7 +25,11 @@ pub fn count_in(text: &str, lo: u64, hi: u64) -> Result<usize, String> {
         return Err(format!("`{t}` is not a whole number"));
     }
     if v < lo as f64 || v > hi as f64 {
-        return Err(format!("{v:e} is outside {lo}..={hi:e}", hi = hi as f64));
+        return Err(format!(
+            "{} is outside {lo}..={}",
+            rkwave::norms::show(v),
+            rkwave::norms::show(hi as f64)
+        ));
     }
     Ok(v as usize)
 }
