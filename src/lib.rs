@@ -44,6 +44,8 @@
 //!   through the single-scale normal equations of `V_{N+1}`; dual and reproducing kernels;
 //! - [`refine`]: the adaptive refiner: a wavelet tree and its samples grown together where
 //!   the signal needs them ([`refine::refine`]);
+//! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
+//!   filters and image-plane reconstruction;
 //! - [`report`]: the local-vs-global comparison of DESIGN §5 as typed data;
 //! - [`io`] (at the edge): reading and writing samples (CSV, NumPy `.npy`);
 //! - `plot` (at the edge, feature `plot`): the figures.
@@ -90,6 +92,7 @@
 
 pub mod basis;
 pub mod domain;
+pub mod image;
 pub mod io;
 pub mod kernel;
 #[cfg(feature = "plot")]
