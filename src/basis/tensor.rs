@@ -27,7 +27,7 @@ use thiserror::Error;
 
 use super::{fwt, minimum_level, BasisError, BasisValue, CdvBasis, Evaluator, FilterBank};
 use super::{FilterFamily, MAX_LEVEL};
-use crate::sampling::Domain;
+use crate::domain::Domain;
 
 /// Errors of the tensor basis: each names the value at fault and the way out.
 #[derive(Debug, Clone, PartialEq, Error)]
