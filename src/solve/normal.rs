@@ -151,7 +151,10 @@ pub(crate) fn factor_solve(
             .min(p.saturating_sub(1));
         if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
             if m < p {
-                return Err(SolveError::Undersampled { rows: m, cols: p });
+                return Err(SolveError::Undersampled {
+                    samples: m,
+                    functions: p,
+                });
             }
             return Err(SolveError::RankDeficient {
                 column,
