@@ -25,6 +25,7 @@
 #![deny(missing_docs)]
 
 pub mod basis;
+pub mod image;
 pub mod io;
 pub mod kernel;
 #[cfg(feature = "plot")]
