@@ -13,6 +13,12 @@
 pub mod equivalent_filter;
 pub mod pixels;
 
+pub mod fit;
+
+pub use fit::{
+    fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
+};
+
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
