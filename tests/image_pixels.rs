@@ -243,16 +243,11 @@ impl NormalEquations for Dense {
             .copied()
             .collect()
     }
-    fn sample_row(&self, i: usize, out: &mut Vec<BasisValue>) {
-        out.clear();
-        for j in 0..self.k.ncols() {
-            if self.k[(i, j)] != 0.0 {
-                out.push(BasisValue {
-                    index: j,
-                    value: self.k[(i, j)],
-                });
-            }
-        }
+    fn apply_rows(&self, z: &[f64]) -> Vec<f64> {
+        (&self.k * DVector::from_column_slice(z))
+            .iter()
+            .copied()
+            .collect()
     }
 }
 
@@ -312,4 +307,47 @@ fn equivalent_filter_matches_dense_pseudo_inverse() {
         assert!((cy - (py as f64 + 0.5)).abs() < 1e-9, "centroid y {cy}");
     }
     assert!(equivalent_filter(&dense, &by, &bx, 8, 0).is_err());
+}
+
+/// Wired to `ImageFit`: the weights of the fit's own solve reproduce its box pixel,
+/// `sum_i w_i f_i = I[Y, X]` (both are `b . c`; tolerance: two solves of the same factored
+/// system, relative rounding ~1e-12 of O(1) values), and sum to one.
+#[test]
+fn equivalent_filter_of_an_image_fit_reproduces_its_pixels() {
+    use rkwave::image::equivalent_filter::FitNormalEquations;
+    use rkwave::image::fit::{fit_image, ImageFitParams, ImageLevels};
+    use rkwave::image::pixels::{fit_pixels, PixelFilter};
+    let (w, h) = (12, 10);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(86);
+    let m = 6 * w * h;
+    let xs: Vec<f64> = (0..m).map(|_| rng.random::<f64>() * w as f64).collect();
+    let ys: Vec<f64> = (0..m).map(|_| rng.random::<f64>() * h as f64).collect();
+    let f: Vec<f64> = xs
+        .iter()
+        .zip(&ys)
+        .map(|(x, y)| (0.7 * x).sin() + 0.1 * y)
+        .collect();
+    let params = ImageFitParams {
+        p: 2,
+        levels: ImageLevels::Fixed(4, 4),
+        ridge: 0.0,
+        ..ImageFitParams::default()
+    };
+    let fit = fit_image(w, h, &xs, &ys, &[&f], &params).unwrap();
+    let image = fit_pixels(&fit, PixelFilter::Box).unwrap();
+    let normal = FitNormalEquations::new(&fit, &xs, &ys).unwrap();
+    let (bx, by) = (
+        PixelIntegrals::new(fit.scale_x(), w).unwrap(),
+        PixelIntegrals::new(fit.scale_y(), h).unwrap(),
+    );
+    for (px, py) in [(0, 0), (5, 4), (11, 9)] {
+        let e = equivalent_filter(&normal, &by, &bx, px, py).unwrap();
+        let value: f64 = e.weights.iter().zip(&f).map(|(w, v)| w * v).sum();
+        assert!(
+            (value - image[0][py * w + px]).abs() < 1e-9,
+            "pixel ({px},{py}): {value} vs {}",
+            image[0][py * w + px]
+        );
+        assert!((e.total - 1.0).abs() < 1e-9, "total {}", e.total);
+    }
 }

@@ -14,8 +14,8 @@
 
 use serde::Serialize;
 
+use super::fit::ImageFit;
 use super::pixels::{PixelError, PixelIntegrals};
-use crate::basis::BasisValue;
 
 /// The normal equations of a least-squares fit in a single-scale tensor space: what the
 /// equivalent filter needs from a solver.
@@ -26,9 +26,9 @@ pub trait NormalEquations {
     fn samples(&self) -> usize;
     /// `z` with `G z = b` (`G = K^T K`).
     fn solve_normal(&self, b: &[f64]) -> Vec<f64>;
-    /// The nonzero entries of row `K_i` (tensor single-scale values at sample `i`, index
-    /// `ky * nx + kx`), into `out` (cleared first).
-    fn sample_row(&self, i: usize, out: &mut Vec<BasisValue>);
+    /// `K z`: for every sample `i`, `K_i . z` (`K_i` the tensor single-scale values at sample
+    /// `i`, index `ky * nx + kx`).
+    fn apply_rows(&self, z: &[f64]) -> Vec<f64>;
 }
 
 /// The weights of every sample in one pixel's value.
@@ -71,13 +71,7 @@ pub fn equivalent_filter(
     }
     let b = pixel_functional(by, bx, x, y);
     let z = normal.solve_normal(&b);
-    let mut row = Vec::new();
-    let weights: Vec<f64> = (0..normal.samples())
-        .map(|i| {
-            normal.sample_row(i, &mut row);
-            row.iter().map(|v| v.value * z[v.index]).sum()
-        })
-        .collect();
+    let weights = normal.apply_rows(&z);
     let total = weights.iter().sum();
     Ok(EquivalentFilter {
         x,
@@ -100,4 +94,69 @@ pub fn pixel_functional(by: &PixelIntegrals, bx: &PixelIntegrals, x: usize, y: u
         }
     }
     b
+}
+
+/// An [`ImageFit`] together with the samples it was fitted to: its normal equations for the
+/// equivalent filter (`G` solved with the fit's own factor or CG, rows `K_i` evaluated from the
+/// tensor basis).
+pub struct FitNormalEquations<'a> {
+    fit: &'a ImageFit,
+    xs: &'a [f64],
+    ys: &'a [f64],
+}
+
+impl<'a> FitNormalEquations<'a> {
+    /// The fit and its sample positions (pixel units; the same samples, in the same order, as
+    /// the fit used).
+    pub fn new(fit: &'a ImageFit, xs: &'a [f64], ys: &'a [f64]) -> Result<Self, PixelError> {
+        let basis = fit.basis();
+        if xs.len() != ys.len() {
+            return Err(PixelError::SampleLengths {
+                xs: xs.len(),
+                ys: ys.len(),
+            });
+        }
+        if let Some(i) = (0..xs.len()).find(|&i| basis.check(xs[i], ys[i]).is_err()) {
+            return Err(PixelError::SampleOutside {
+                index: i,
+                x: xs[i],
+                y: ys[i],
+            });
+        }
+        Ok(Self { fit, xs, ys })
+    }
+}
+
+impl NormalEquations for FitNormalEquations<'_> {
+    fn unknowns(&self) -> usize {
+        self.fit.basis().len()
+    }
+    fn samples(&self) -> usize {
+        self.xs.len()
+    }
+    fn solve_normal(&self, b: &[f64]) -> Vec<f64> {
+        self.fit
+            .solve_normal(b)
+            .expect("b has nx * ny entries: checked by equivalent_filter")
+    }
+    fn apply_rows(&self, z: &[f64]) -> Vec<f64> {
+        use rayon::prelude::*;
+        let basis = self.fit.basis();
+        self.xs
+            .par_chunks(4096)
+            .zip(self.ys.par_chunks(4096))
+            .flat_map_iter(|(cx, cy)| {
+                let mut ev = basis.evaluator();
+                let mut row = Vec::new();
+                cx.iter()
+                    .zip(cy)
+                    .map(|(&x, &y)| {
+                        ev.eval_into(x, y, &mut row)
+                            .expect("positions checked in FitNormalEquations::new");
+                        row.iter().map(|v| v.value * z[v.index]).sum::<f64>()
+                    })
+                    .collect::<Vec<f64>>()
+            })
+            .collect()
+    }
 }

@@ -96,6 +96,26 @@ pub enum PixelError {
         /// Image height.
         height: usize,
     },
+    /// Sample position arrays of different lengths.
+    #[error("{xs} x positions but {ys} y positions: give one (x, y) per sample")]
+    SampleLengths {
+        /// Length of `xs`.
+        xs: usize,
+        /// Length of `ys`.
+        ys: usize,
+    },
+    /// A sample outside the image.
+    #[error(
+        "sample {index} at ({x}, {y}) is outside the image: give positions within [0, W] x [0, H]"
+    )]
+    SampleOutside {
+        /// Sample index.
+        index: usize,
+        /// Its x.
+        x: f64,
+        /// Its y.
+        y: f64,
+    },
     /// The basis could not be built or a position was outside it.
     #[error(transparent)]
     Basis(#[from] BasisError),
@@ -299,6 +319,38 @@ pub fn filter_image(
         }
     }
     Ok(image)
+}
+
+/// The pixel filter applied to a reconstruction.
+#[derive(Clone, Copy)]
+pub enum PixelFilter<'a> {
+    /// The box over each pixel (the anti-aliased image), exact to rounding.
+    Box,
+    /// A separable film filter on both axes (module docs for its accuracy).
+    Film(&'a dyn FilmFilter1d, FilterQuadrature),
+}
+
+/// The pixels of a fitted image, one `H x W` row-major image per channel (index `Y * W + X`).
+pub fn fit_pixels(
+    fit: &super::fit::ImageFit,
+    filter: PixelFilter<'_>,
+) -> Result<Vec<Vec<f64>>, PixelError> {
+    let basis = fit.basis();
+    let (w, h) = (basis.width(), basis.height());
+    let (bx, by) = match filter {
+        PixelFilter::Box => (
+            PixelIntegrals::new(fit.scale_x(), w)?,
+            PixelIntegrals::new(fit.scale_y(), h)?,
+        ),
+        PixelFilter::Film(f, q) => (
+            PixelIntegrals::filtered(fit.scale_x(), w, f, q)?,
+            PixelIntegrals::filtered(fit.scale_y(), h, f, q)?,
+        ),
+    };
+    fit.coefficients
+        .iter()
+        .map(|c| filter_image(&by, &bx, c))
+        .collect()
 }
 
 fn check_axis(basis: &CdvBasis, pixels: usize) -> Result<(), PixelError> {
