@@ -45,7 +45,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::filters::binomial;
 use super::{BasisError, BasisValue, CdvBasis, FilterBank};
-use crate::sampling::Domain;
+use crate::domain::Domain;
 
 /// Largest polynomial degree supported for moments (film filters need at most cubics).
 pub const MAX_MOMENT_DEGREE: usize = 7;
