@@ -7,6 +7,11 @@
 //!
 //! * [`ImagePlane`] is a validated resolution `W x H`.
 //! * [`ImageSamples`] are validated scattered samples on a plane, stored per channel.
+//! * [`pixels`]: pixel values of a reconstruction as exact integrals against a pixel filter;
+//!   [`equivalent_filter`]: the weight of each sample in one pixel's value.
+
+pub mod equivalent_filter;
+pub mod pixels;
 
 pub mod fit;
 
