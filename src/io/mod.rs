@@ -22,6 +22,7 @@ use thiserror::Error;
 use crate::sampling::Domain;
 
 mod csv;
+pub mod image_file;
 mod npy;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
