@@ -14,6 +14,12 @@
 //!   ground truth; [`metrics`]: PSNR, RMSE, relative MSE, SSIM.
 //! * [`experiment`]: every method on the same samples, measured; `figure` draws it.
 
+pub mod fit;
+
+pub use fit::{
+    fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
+};
+
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
