@@ -265,7 +265,7 @@ pub fn sample_scene(scene: &Scene, params: &SamplingParams) -> Result<ImageSampl
             expected: "an integer in 1..=4096",
         });
     }
-    if !(params.noise >= 0.0 && params.noise.is_finite()) {
+    if params.noise.is_nan() || params.noise < 0.0 || params.noise.is_infinite() {
         return Err(ImageRunError::Parameter {
             parameter: "noise sigma",
             value: params.noise.to_string(),
@@ -277,8 +277,8 @@ pub fn sample_scene(scene: &Scene, params: &SamplingParams) -> Result<ImageSampl
     let mut values = vec![Vec::with_capacity(xs.len()); 3];
     for (&x, &y) in xs.iter().zip(&ys) {
         let v = scene.radiance_on(plane, x, y);
-        for c in 0..3 {
-            values[c].push(v[c]);
+        for (channel, value) in values.iter_mut().zip(v) {
+            channel.push(value);
         }
     }
     if params.noise > 0.0 {

@@ -143,8 +143,8 @@ impl ImageField {
                 let xx = (x0 as isize + i as isize - 1).clamp(0, self.width as isize - 1) as usize;
                 let p = self.data[yy * self.width + xx];
                 let w = wxi * wyj;
-                for c in 0..3 {
-                    out[c] += w * p[c];
+                for (o, v) in out.iter_mut().zip(p) {
+                    *o += w * v;
                 }
             }
         }

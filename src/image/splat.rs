@@ -120,10 +120,11 @@ pub fn splat(samples: &ImageSamples, filter: &dyn FilmFilter) -> (PixelImage, Sp
                             let wt = filter.eval_2d(dx, dy);
                             den += wt;
                             den_abs += wt.abs();
-                            for c in 0..channels {
-                                let f = samples.values()[c][i];
-                                num[c] += wt * f;
-                                num_abs[c] += wt.abs() * f;
+                            for ((n, na), values) in
+                                num.iter_mut().zip(num_abs.iter_mut()).zip(samples.values())
+                            {
+                                *n += wt * values[i];
+                                *na += wt.abs() * values[i];
                             }
                         }
                     }
@@ -134,12 +135,12 @@ pub fn splat(samples: &ImageSamples, filter: &dyn FilmFilter) -> (PixelImage, Sp
                     nearest_ring_mean(samples, &bins, px, py, px_out);
                 } else if den.abs() <= CANCELLATION_RATIO * den_abs {
                     cancelled += 1;
-                    for c in 0..channels {
-                        px_out[c] = num_abs[c] / den_abs;
+                    for (o, n) in px_out.iter_mut().zip(&num_abs) {
+                        *o = n / den_abs;
                     }
                 } else {
-                    for c in 0..channels {
-                        px_out[c] = num[c] / den;
+                    for (o, n) in px_out.iter_mut().zip(&num) {
+                        *o = n / den;
                     }
                 }
             }

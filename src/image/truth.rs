@@ -56,8 +56,8 @@ pub fn box_truth(scene: &Scene, plane: ImagePlane, rate: usize) -> PixelImage {
     let mut image = PixelImage::zeros(plane, 3);
     for (py, row) in rows.iter().enumerate() {
         for (px, v) in row.iter().enumerate() {
-            for c in 0..3 {
-                image.channels[c][py * w + px] = v[c];
+            for (channel, value) in image.channels.iter_mut().zip(v) {
+                channel[py * w + px] = *value;
             }
         }
     }
