@@ -1,9 +1,9 @@
 //! The image-plane experiment: sample a scene, reconstruct pixels by every method from the
 //! same samples, measure each against the box-filtered ground truth.
 //!
-//! One run ([`render`]) is: samples `(x_i, y_i)` from a [`Sampler`], values `f_i = L(x_i, y_i)
-//! + n_i` (optional Gaussian noise `n_i ~ N(0, sigma^2)` per channel, seeded, because renderer
-//! samples are Monte Carlo estimates), then a [`Method`] turns them into pixels, timed by
+//! One run is: samples `(x_i, y_i)` from a [`Sampler`], values
+//! `f_i = L(x_i, y_i) + n_i` (optional Gaussian noise `n_i ~ N(0, sigma^2)` per channel,
+//! seeded, because renderer samples are Monte Carlo estimates), then a [`Method`] turns them into pixels, timed by
 //! stage, and [`metrics::compare`](super::metrics::compare) measures the result against
 //! [`truth_cached`]. A [`Comparison`] runs every method on the same samples and renders its
 //! table as CSV and Markdown.
@@ -274,7 +274,7 @@ pub fn sample_scene(scene: &Scene, params: &SamplingParams) -> Result<ImageSampl
     }
     let plane = params.plane;
     let (xs, ys) = params.sampler.positions(plane, params.spp, params.seed);
-    let mut values = vec![Vec::with_capacity(xs.len()); 3];
+    let mut values: Vec<Vec<f64>> = (0..3).map(|_| Vec::with_capacity(xs.len())).collect();
     for (&x, &y) in xs.iter().zip(&ys) {
         let v = scene.radiance_on(plane, x, y);
         for (channel, value) in values.iter_mut().zip(v) {
