@@ -3,10 +3,14 @@
 
 pub mod adapt_cmd;
 pub mod basis_cmd;
+pub mod compare_cmd;
 pub mod demo;
+pub mod demo_image;
 pub mod eval_cmd;
 pub mod figures;
+pub mod image_cmd;
 pub mod limits;
+pub mod reconstruct2d_cmd;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
@@ -54,6 +58,10 @@ pub enum Command {
     Scaling(scaling_cmd::ScalingArgs),
     /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
     Adapt(adapt_cmd::AdaptArgs),
+    /// Render a scene's pixels from image-plane samples by one method, measured against the truth.
+    Image(image_cmd::ImageArgs),
+    /// Every image-plane method on the same samples: figures and a table.
+    Compare(compare_cmd::CompareArgs),
 }
 
 /// Interior filter family on the command line.
@@ -274,5 +282,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Sweep(args)) => sweep_cmd::run(&args),
         Some(Command::Adapt(args)) => adapt_cmd::run(&args),
         Some(Command::Scaling(args)) => scaling_cmd::run(&args),
+        Some(Command::Image(args)) => image_cmd::run(&args),
+        Some(Command::Compare(args)) => compare_cmd::run(&args),
     }
 }

@@ -47,10 +47,22 @@ pub struct ReconstructArgs {
     /// Print a JSON report.
     #[arg(long)]
     pub json: bool,
+    /// Dimension of the sample positions: 1 (`x,value...`) or 2 (image plane, `x,y,c1...`,
+    /// see `reconstruct2d_cmd`).
+    #[arg(long, default_value_t = 1)]
+    pub dim: usize,
+    /// Image resolution `WxH` (with `--dim 2`).
+    #[arg(long)]
+    pub resolution: Option<String>,
 }
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
+    match args.dim {
+        1 => {}
+        2 => return super::reconstruct2d_cmd::run(args),
+        d => return Err(CliError::Invalid(format!("--dim {d}: expected 1 or 2"))),
+    }
     let started = Instant::now();
     check_output(&args.output, args.force, &[&args.input])?;
     if args.grid < 2 {

@@ -22,6 +22,7 @@ use thiserror::Error;
 use crate::sampling::Domain;
 
 mod csv;
+pub mod image_file;
 mod npy;
 pub mod output;
 
