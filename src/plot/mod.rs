@@ -69,11 +69,13 @@
 //! - `layout.rs`: pixel geometry of a cell (margins, label areas, fonts, a title that fits);
 //! - `axes.rs`: axes in plot space, tick positions and tick labels;
 //! - `clip.rs`: lines broken at gaps and clipped to the axes box (Liang–Barsky);
+//! - `figures.rs`: the reports' figures, built from their typed data;
 //! - `draw.rs`: rendering a [`Figure`] with plotters and writing PNG or SVG.
 
 mod axes;
 mod clip;
 mod draw;
+pub mod figures;
 mod layout;
 mod spec;
 
