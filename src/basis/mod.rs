@@ -15,6 +15,7 @@ pub mod facts;
 pub mod filters;
 pub mod fwt;
 mod index;
+pub mod tensor;
 
 pub use bank::FilterBank;
 pub use eval::{BasisValue, Evaluator};

@@ -8,6 +8,12 @@
 //! * [`ImagePlane`] is a validated resolution `W x H`.
 //! * [`ImageSamples`] are validated scattered samples on a plane, stored per channel.
 
+pub mod fit;
+
+pub use fit::{
+    fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
+};
+
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
