@@ -74,7 +74,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     validate_positions(&set, domain)?;
     let params = FitParams {
         p: args.filter.p,
-        family: args.filter.family(),
+        family: args.filter.family_given(),
         levels: args.solve.levels()?,
         method: args.solve.method(args.method)?,
     };
@@ -120,6 +120,9 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             report.time_s.total,
             args.output.display()
         );
+        for f in &report.fallbacks {
+            println!("note: {}", f.message);
+        }
     }
     Ok(())
 }

@@ -82,7 +82,8 @@ mod spec;
 pub use spec::{Figure, Panel, PanelContent, Scale, Series, SeriesStyle, SparsityPanel, PALETTE};
 
 /// Error returned when a figure cannot be rendered or written.
-#[derive(thiserror::Error, Debug)]
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlotError {
     /// The figure could not be drawn (invalid description or a backend failure).
     #[error("cannot draw figure {path}: {message}")]

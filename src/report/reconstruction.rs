@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::rms;
 use crate::io::SampleSet;
-use crate::reconstruct::{Fit, Method, ReconstructError, SingleScaleReport};
+use crate::reconstruct::{Fallback, Fit, Method, ReconstructError, SingleScaleReport, SolveReport};
 use crate::sampling::Domain;
 use crate::solve::Summary;
 
@@ -158,8 +158,17 @@ pub struct ReconstructReport {
     pub local: Option<LocalSummary>,
     /// The single-scale solve's report (single method).
     pub single_scale: Option<SingleScaleReport>,
-    /// Why the requested method was replaced, if it was.
-    pub fallback: Option<String>,
+    /// Every departure from the requested levels or method, in the order taken.
+    pub fallbacks: Vec<FallbackNote>,
+}
+
+/// A fallback with its message, as printed.
+#[derive(Clone, Debug, Serialize)]
+pub struct FallbackNote {
+    /// The fallback.
+    pub fallback: Fallback,
+    /// What it means, for people.
+    pub message: String,
 }
 
 impl ReconstructReport {
@@ -196,13 +205,26 @@ impl ReconstructReport {
                 evaluate: rec.evaluate_s,
                 ..time_s
             },
-            local: fit.local.as_ref().map(|s| LocalSummary {
-                groups: s.n_groups,
-                cut_groups: s.cut_groups,
-                condition: s.condition_summary(),
-            }),
-            single_scale: fit.single_scale.clone(),
-            fallback: fit.fallback.clone(),
+            local: match &fit.solve {
+                SolveReport::Local(s) => Some(LocalSummary {
+                    groups: s.n_groups,
+                    cut_groups: s.cut_groups,
+                    condition: s.condition_summary(),
+                }),
+                _ => None,
+            },
+            single_scale: match &fit.solve {
+                SolveReport::SingleScale(rep) => Some(rep.clone()),
+                _ => None,
+            },
+            fallbacks: fit
+                .fallbacks
+                .iter()
+                .map(|f| FallbackNote {
+                    fallback: f.clone(),
+                    message: f.to_string(),
+                })
+                .collect(),
         }
     }
 }

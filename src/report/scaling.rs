@@ -220,6 +220,9 @@ pub fn scaling_run(setting: &ScalingSetting) -> Result<ScalingRow, ScalingError>
         ns_per_sample: time_s / setting.samples as f64 * 1e9,
         peak_mb: peak_resident_mb(),
         rms_error,
-        fallback: fitted.fallback.clone(),
+        fallback: (!fitted.fallbacks.is_empty()).then(|| {
+            let notes: Vec<String> = fitted.fallbacks.iter().map(ToString::to_string).collect();
+            notes.join("; ")
+        }),
     })
 }
