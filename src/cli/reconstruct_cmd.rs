@@ -5,13 +5,15 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::io::{read_samples, validate_positions, write_csv};
+use rkwave::io::csv_string;
+use rkwave::io::output::{check_output, write_new};
+use rkwave::io::{read_samples, validate_positions};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
 use rkwave::sampling::Domain;
 
 use super::solve_args::{MethodArg, SolveArgs};
-use super::{check_writable, CliError, FilterSpec};
+use super::{CliError, FilterSpec};
 
 /// `rkwave reconstruct`.
 #[derive(Args, Debug)]
@@ -32,7 +34,7 @@ pub struct ReconstructArgs {
     #[command(flatten)]
     pub solve: SolveArgs,
     /// Grid points of the output (uniform, both ends included).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = super::limits::grid)]
     pub grid: usize,
     /// Output CSV (`x,<channels>`).
     #[arg(long)]
@@ -48,7 +50,7 @@ pub struct ReconstructArgs {
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
-    check_writable(&args.output, args.force)?;
+    check_output(&args.output, args.force, &[&args.input])?;
     if args.grid < 2 {
         return Err(CliError::Invalid(format!(
             "--grid {} is too small: give at least 2 points",
@@ -64,10 +66,16 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         Some(d) => d,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            Domain::new(a, b).map_err(|_| {
-                CliError::Invalid(format!(
-                    "all samples sit at x = {a}: give --domain a,b explicitly"
-                ))
+            Domain::new(a, b).map_err(|e| match e {
+                rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
+                    "all samples sit at x = {}: give --domain a,b explicitly",
+                    rkwave::norms::show(a)
+                )),
+                other => CliError::Invalid(format!(
+                    "the samples span [{}, {}], which is no usable domain: {other}",
+                    rkwave::norms::show(a),
+                    rkwave::norms::show(b)
+                )),
             })?
         }
     };
@@ -85,7 +93,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let rec = onto_grid(fitted, &set, domain, args.grid)?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    write_csv(&args.output, &rec.grid)?;
+    write_new(&args.output, csv_string(&rec.grid)?.as_bytes(), args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let report = ReconstructReport::new(
@@ -107,22 +115,26 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             serde_json::to_string_pretty(&report).expect("plain data")
         );
     } else {
+        for w in &report.warnings {
+            eprintln!("warning: {w}");
+        }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
-             residual RMS {:?}, {:.3} s; wrote {}",
+             residual RMS [{}], {:.3} s; wrote {}",
             report.samples,
             report.channels,
             report.functions,
             report.coarse,
             report.fine,
             report.oversampling,
-            rec.residual_rms,
+            rec.residual_rms
+                .iter()
+                .map(|r| format!("{r:.3e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
             report.time_s.total,
             args.output.display()
         );
-        for f in &report.fallbacks {
-            println!("note: {}", f.message);
-        }
     }
     Ok(())
 }

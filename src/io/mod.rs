@@ -23,6 +23,7 @@ use crate::sampling::Domain;
 
 mod csv;
 mod npy;
+pub mod output;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
 pub use self::npy::{npy_bytes, parse_npy, read_npy, write_npy};

@@ -144,10 +144,8 @@ pub struct LocalGlobalReport {
     pub time_s: ReportTimes,
 }
 
-/// `sqrt( sum_i (a_i - b_i)^2 / n )` for `a`, `b` of equal length `n` (0 for empty input).
-pub(crate) fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
-}
+/// The one RMS of the crate: `sqrt( sum_i (a_i - b_i)^2 / n )`.
+pub(crate) use crate::norms::rms_difference as rms;
 
 /// The demo's summary: the measured identities of every basis and the local-vs-global
 /// reports.
@@ -168,6 +166,24 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
         setting.coarse,
         setting.fine,
         domain,
+    )?;
+    // Refused before allocating: the basis, the samples and K (with its transpose).
+    crate::resources::check(
+        || {
+            format!(
+                "a report of {} samples on levels {}..{}",
+                setting.samples, setting.coarse, setting.fine
+            )
+        },
+        crate::resources::uniform_basis_bytes(setting.p, setting.fine, 1)
+            + crate::resources::grid_bytes(setting.samples, 1)
+            + crate::resources::kernel_bytes(
+                setting.samples,
+                setting.p,
+                setting.coarse,
+                setting.fine,
+            ),
+        || "use fewer samples or a smaller fine level N".into(),
     )?;
     let active = ActiveSet::uniform(basis);
     let xs = setting

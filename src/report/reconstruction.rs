@@ -160,6 +160,9 @@ pub struct ReconstructReport {
     pub single_scale: Option<SingleScaleReport>,
     /// Every departure from the requested levels or method, in the order taken.
     pub fallbacks: Vec<FallbackNote>,
+    /// Every fallback and warning of the fit, one sentence each (see
+    /// [`Fit::warnings`]).
+    pub warnings: Vec<String>,
 }
 
 /// A fallback with its message, as printed.
@@ -225,6 +228,7 @@ impl ReconstructReport {
                     message: f.to_string(),
                 })
                 .collect(),
+            warnings: fit.warnings(),
         }
     }
 }
