@@ -150,12 +150,9 @@ impl Source {
 impl AdaptArgs {
     /// The validated refiner parameters.
     pub fn params(&self, domain: Domain) -> Result<RefineParams, CliError> {
-        let family = super::BasisSpec {
+        let family = super::FilterSpec {
             p: self.p,
             family: self.family,
-            coarse: None,
-            fine: 0,
-            domain: String::new(),
         }
         .family();
         let base_layout: Layout = self

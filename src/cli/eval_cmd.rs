@@ -1,35 +1,8 @@
 //! `rkwave eval`: every nonzero basis function at the given positions.
 
-use rkwave::basis::{FunctionKind, Side};
-use serde::Serialize;
+use rkwave::report::basis::{BasisValue as EvalEntry, BasisValuesAt as EvalPoint};
 
 use super::{CliError, EvalArgs};
-
-/// One basis function's value at a position.
-#[derive(Debug, Serialize)]
-pub struct EvalEntry {
-    /// "scaling" or "wavelet".
-    pub kind: FunctionKind,
-    /// "left", "interior" or "right".
-    pub side: Side,
-    /// Level j.
-    pub level: u32,
-    /// Index within the level (`0..2^j`).
-    pub index: usize,
-    /// Global index in `Psi(n, N)`.
-    pub global: usize,
-    /// The value.
-    pub value: f64,
-}
-
-/// All functions at one position.
-#[derive(Debug, Serialize)]
-pub struct EvalPoint {
-    /// The position.
-    pub x: f64,
-    /// The nonzero functions, ascending global index.
-    pub functions: Vec<EvalEntry>,
-}
 
 /// Runs `rkwave eval`: each position is evaluated and printed before the next (JSON
 /// streamed too), so memory stays that of one position whatever the number of positions.

@@ -73,55 +73,85 @@ pub enum FamilyArg {
     Sym,
 }
 
-/// The basis: `p`, family, levels and domain.
-#[derive(Args, Debug, Clone)]
-pub struct BasisSpec {
+/// The filter bank: vanishing moments `p` and the interior family.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct FilterSpec {
     /// Vanishing moments p (1 = Haar, up to 10).
     #[arg(long, default_value_t = 3)]
     pub p: usize,
     /// Interior filter family; default CDV's choice (db for p <= 3, sym for p >= 4).
     #[arg(long, value_enum)]
     pub family: Option<FamilyArg>,
+}
+
+impl FilterSpec {
+    /// The family given, if any (`None`: CDV's choice for `p`).
+    pub fn family_given(&self) -> Option<FilterFamily> {
+        self.family.map(|f| match f {
+            FamilyArg::Db => FilterFamily::Extremal,
+            FamilyArg::Sym => FilterFamily::LeastAsymmetric,
+        })
+    }
+    /// The family (CDV's default when not given).
+    pub fn family(&self) -> FilterFamily {
+        self.family_given()
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
+    }
+}
+
+/// The levels: coarse scaling level `n` and finest wavelet level `N`.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct LevelSpec {
     /// Coarse scaling level n (default j_min(p)).
     #[arg(long)]
     pub coarse: Option<u32>,
     /// Finest wavelet level N.
     #[arg(long, default_value_t = 8)]
     pub fine: u32,
+}
+
+impl LevelSpec {
+    /// The coarse level (`j_min(p)` when not given).
+    pub fn coarse(&self, p: usize) -> u32 {
+        self.coarse
+            .unwrap_or_else(|| rkwave::basis::minimum_level(p.max(1)))
+    }
+}
+
+/// The basis: `p`, family, levels and domain.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct BasisSpec {
+    /// Filter bank.
+    #[command(flatten)]
+    pub filter: FilterSpec,
+    /// Levels.
+    #[command(flatten)]
+    pub levels: LevelSpec,
     /// Domain `a,b`.
     #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
-    pub domain: String,
+    pub domain: Domain,
 }
 
 impl BasisSpec {
-    /// The family (CDV's default when not given).
-    pub fn family(&self) -> FilterFamily {
-        match self.family {
-            Some(FamilyArg::Db) => FilterFamily::Extremal,
-            Some(FamilyArg::Sym) => FilterFamily::LeastAsymmetric,
-            None => FilterFamily::cdv_default(self.p),
-        }
-    }
-    /// The coarse level (`j_min(p)` when not given).
-    pub fn coarse(&self) -> u32 {
-        self.coarse
-            .unwrap_or_else(|| rkwave::basis::minimum_level(self.p.max(1)))
-    }
-    /// The validated domain.
-    pub fn domain(&self) -> Result<Domain, CliError> {
-        Ok(self.domain.parse::<Domain>()?)
-    }
     /// Builds the basis, validating every parameter.
     pub fn build(&self) -> Result<rkwave::basis::CdvBasis, CliError> {
-        let domain = self.domain()?;
-        Ok(rkwave::basis::CdvBasis::new(
-            self.p,
-            self.family(),
-            self.coarse(),
-            self.fine,
-            domain,
-        )?)
+        build_basis(&self.filter, &self.levels, self.domain)
     }
+}
+
+/// Builds the basis of `filter` and `levels` on `domain`, validating every parameter.
+pub fn build_basis(
+    filter: &FilterSpec,
+    levels: &LevelSpec,
+    domain: Domain,
+) -> Result<rkwave::basis::CdvBasis, CliError> {
+    Ok(rkwave::basis::CdvBasis::new(
+        filter.p,
+        filter.family(),
+        levels.coarse(filter.p),
+        levels.fine,
+        domain,
+    )?)
 }
 
 /// `rkwave basis`.
@@ -189,6 +219,9 @@ pub enum CliError {
     /// Reconstruction.
     #[error(transparent)]
     Reconstruct(#[from] rkwave::reconstruct::ReconstructError),
+    /// A scaling measurement.
+    #[error(transparent)]
+    Scaling(#[from] rkwave::report::scaling::ScalingError),
     /// A figure could not be drawn or written.
     #[error(transparent)]
     Plot(#[from] PlotError),

@@ -1,18 +1,19 @@
-//! `rkwave reconstruct`: a user's samples onto a grid.
+//! `rkwave reconstruct`: a user's samples onto a grid ([`rkwave::report::reconstruction`]).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use rkwave::io::csv_string;
 use rkwave::io::output::{check_output, write_new};
-use rkwave::io::{csv_string, read_samples, validate_positions, SampleSet};
-use rkwave::reconstruct::{fit, FitParams, SolveReport};
+use rkwave::io::{read_samples, validate_positions};
+use rkwave::reconstruct::{fit, FitParams};
+use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
 use rkwave::sampling::Domain;
-use serde_json::json;
 
 use super::solve_args::{MethodArg, SolveArgs};
-use super::{CliError, FamilyArg};
+use super::{CliError, FilterSpec};
 
 /// `rkwave reconstruct`.
 #[derive(Args, Debug)]
@@ -22,13 +23,10 @@ pub struct ReconstructArgs {
     pub input: PathBuf,
     /// Domain `a,b` (default: the smallest and largest sample position).
     #[arg(long, allow_hyphen_values = true)]
-    pub domain: Option<String>,
-    /// Vanishing moments p.
-    #[arg(long, default_value_t = 3)]
-    pub p: usize,
-    /// Interior filter family (default CDV's choice).
-    #[arg(long, value_enum)]
-    pub family: Option<FamilyArg>,
+    pub domain: Option<Domain>,
+    /// Filter bank.
+    #[command(flatten)]
+    pub filter: FilterSpec,
     /// Solve method.
     #[arg(long, value_enum, default_value_t = MethodArg::Single)]
     pub method: MethodArg,
@@ -76,8 +74,8 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     bar.set_message("reading samples");
     let set = read_samples(&args.input)?;
     let read_s = started.elapsed().as_secs_f64();
-    let domain = match &args.domain {
-        Some(d) => d.parse::<Domain>()?,
+    let domain = match args.domain {
+        Some(d) => d,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
             Domain::new(a, b).map_err(|e| match e {
@@ -94,17 +92,9 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         }
     };
     validate_positions(&set, domain)?;
-    let family = super::BasisSpec {
-        p: args.p,
-        family: args.family,
-        coarse: None,
-        fine: 0,
-        domain: String::new(),
-    }
-    .family();
     let params = FitParams {
-        p: args.p,
-        family: Some(family),
+        p: args.filter.p,
+        family: args.filter.family_given(),
         levels: args.solve.levels()?,
         method: args.solve.method(args.method)?,
     };
@@ -112,95 +102,51 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let channels: Vec<&[f64]> = set.values.iter().map(|v| v.as_slice()).collect();
     let fitted = fit(&set.positions, &channels, domain, &params)?;
     bar.set_message("evaluating");
-    let t_eval = Instant::now();
-    let grid: Vec<f64> = (0..args.grid)
-        .map(|i| domain.from_unit(i as f64 / (args.grid - 1) as f64))
-        .collect();
-    let values = fitted.evaluate(&grid)?;
-    let evaluate_s = t_eval.elapsed().as_secs_f64();
-    let at_samples = fitted.evaluate(&set.positions)?;
-    let residual_rms: Vec<f64> = at_samples
-        .iter()
-        .zip(&set.values)
-        .map(|(r, f)| rkwave::norms::rms_difference(r, f))
-        .collect();
+    let rec = onto_grid(fitted, &set, domain, args.grid)?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    let out = SampleSet::new(grid, values)?.with_names(set.names_or_default())?;
-    write_new(&args.output, csv_string(&out)?.as_bytes(), args.force)?;
+    write_new(&args.output, csv_string(&rec.grid)?.as_bytes(), args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let total = started.elapsed().as_secs_f64();
-    let report = json!({
-        "input": args.input,
-        "output": args.output,
-        "samples": set.len(),
-        "channels": set.channels(),
-        "domain": [domain.a(), domain.b()],
-        "p": args.p,
-        "method": format!("{:?}", args.method).to_lowercase(),
-        "functions": fitted.active.len(),
-        "coarse": fitted.levels.coarse,
-        "fine": fitted.levels.fine,
-        "oversampling": fitted.levels.oversampling,
-        "grid": args.grid,
-        "residual_rms": if residual_rms.len() == 1 { json!(residual_rms[0]) } else { json!(residual_rms) },
-        "time_s": {
-            "read": read_s,
-            "kernel": fitted.timings.kernel_s,
-            "solve": fitted.timings.solve_s,
-            "evaluate": evaluate_s,
-            "write": write_s,
-            "total": total,
+    let report = ReconstructReport::new(
+        args.input.clone(),
+        args.output.clone(),
+        &set,
+        &params.method,
+        &rec,
+        ReconstructTimes {
+            read: read_s,
+            write: write_s,
+            total: started.elapsed().as_secs_f64(),
+            ..ReconstructTimes::default()
         },
-        "local": match &fitted.solve {
-            SolveReport::Local(s) => json!({
-                "groups": s.n_groups,
-                "cut_groups": s.cut_groups,
-                "condition": s.condition_summary(),
-            }),
-            _ => json!(null),
-        },
-        "single_scale": match &fitted.solve {
-            SolveReport::SingleScale(rep) => json!(rep),
-            _ => json!(null),
-        },
-        "fallbacks": fitted
-            .fallbacks
-            .iter()
-            .map(|f| json!({ "fallback": f, "message": f.to_string() }))
-            .collect::<Vec<_>>(),
-        "warnings": fitted.warnings(),
-    });
+    );
     if args.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&report).expect("plain data")
         );
     } else {
-        for w in fitted.warnings() {
+        for w in &report.warnings {
             eprintln!("warning: {w}");
         }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
              residual RMS [{}], {:.3} s; wrote {}",
-            set.len(),
-            set.channels(),
-            fitted.active.len(),
-            fitted.levels.coarse,
-            fitted.levels.fine,
-            fitted.levels.oversampling,
-            residual_rms
+            report.samples,
+            report.channels,
+            report.functions,
+            report.coarse,
+            report.fine,
+            report.oversampling,
+            rec.residual_rms
                 .iter()
                 .map(|r| format!("{r:.3e}"))
                 .collect::<Vec<_>>()
                 .join(", "),
-            total,
+            report.time_s.total,
             args.output.display()
         );
-        for f in &fitted.fallbacks {
-            println!("note: {f}");
-        }
     }
     Ok(())
 }

@@ -5,6 +5,20 @@
 //! inversion against the dense `K^+` (element-wise `max |K~ - K^+|`, RMS, relative Frobenius
 //! error), the reconstructions `K~ f` and `K^+ f` against each other and against the true signal
 //! (RMS on a fine grid), submatrix sizes, local condition numbers, cut-offs and times.
+//!
+//! The experiments around it, each a function returning a typed `Serialize` report that the
+//! command line renders as text, JSON, CSV or a figure:
+//! - [`sweep`]: this report over a grid of knobs;
+//! - [`scaling`]: time, memory and accuracy of one fit against the number of samples;
+//! - [`basis`]: a basis' measured identities and its functions at given positions;
+//! - [`reconstruction`]: a user's samples onto a grid, with residuals;
+//! - [`figures`]: the data of the basis and kernel figures.
+
+pub mod basis;
+pub mod figures;
+pub mod reconstruction;
+pub mod scaling;
+pub mod sweep;
 
 use std::time::Instant;
 
@@ -130,8 +144,17 @@ pub struct LocalGlobalReport {
     pub time_s: ReportTimes,
 }
 
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
+/// The one RMS of the crate: `sqrt( sum_i (a_i - b_i)^2 / n )`.
+pub(crate) use crate::norms::rms_difference as rms;
+
+/// The demo's summary: the measured identities of every basis and the local-vs-global
+/// reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct DemoSummary {
+    /// One report per basis.
+    pub bases: Vec<basis::BasisReport>,
+    /// Local inversion against the global pseudo-inverse.
+    pub local_vs_global: Vec<LocalGlobalReport>,
 }
 
 /// Runs one report.
@@ -244,3 +267,6 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
         },
     })
 }
+
+#[cfg(test)]
+mod tests;
