@@ -110,7 +110,10 @@ fn duplicates_edges_and_dyadic_points_stay_finite_and_exact() {
         if exact {
             assert!(err < 1e-9, "{method:?}: {err:e}");
         } else {
-            assert!(err < 1.0, "{method:?}: {err:e}");
+            // Rings 0 solves each pattern's block without its neighbouring columns: measured
+            // 3.5e-2 on this signal of range 2; 0.1 (5 % of the range) leaves room for
+            // rounding differences and still fails for a broken block solve (an O(1) error).
+            assert!(err < 0.1, "{method:?}: {err:e}");
         }
     }
 }
