@@ -6,11 +6,15 @@
 //! single-scale `V_{N+1}` coefficients and then evaluates only `2p - 1` (plus edge) scaling
 //! functions per position.
 
+mod banded_qr;
 mod kernels;
 mod single_scale;
 
 pub use kernels::{dual_kernel, reproducing_kernel};
-pub use single_scale::{single_scale_ls, NormalEquations, SingleScaleReport, PIVOT_TOLERANCE};
+pub use single_scale::{
+    single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
+    SingleScaleSolver, PIVOT_TOLERANCE,
+};
 
 use std::time::Instant;
 
@@ -45,12 +49,15 @@ pub enum Levels {
 /// How `c = K^+ f` is computed.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub enum Method {
-    /// Global least squares through the single-scale basis `V_{N+1}` (banded normal
-    /// equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for uniform
-    /// levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
+    /// Global least squares through the single-scale basis `V_{N+1}` (banded QR or banded
+    /// normal equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for
+    /// uniform levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
     SingleScale {
         /// Relative ridge (e.g. 1e-13).
         ridge: f64,
+        /// Factorization: QR (accuracy of `cond(K)`, default) or normal equations
+        /// (`cond(K)^2`, cheaper per sample).
+        solver: SingleScaleSolver,
     },
     /// Local inversion (DESIGN §4): fast, local, approximate.
     Local(LocalInversionParams),
@@ -83,7 +90,10 @@ impl Default for FitParams {
             p: 3,
             family: FilterFamily::cdv_default(3),
             levels: Levels::Auto(LevelParams::default()),
-            method: Method::SingleScale { ridge: 0.0 },
+            method: Method::SingleScale {
+                ridge: 0.0,
+                solver: SingleScaleSolver::default(),
+            },
         }
     }
 }
@@ -209,7 +219,7 @@ pub fn fit(
     check_values(m, values)?;
     let mut levels = choose_levels(m, params);
     let mut dropped = 0;
-    if let (Levels::Auto(_), Method::SingleScale { ridge }) = (params.levels, params.method) {
+    if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method) {
         // Automatic levels: while the samples leave single-scale directions undetermined,
         // drop the finest level (doubling the oversampling) rather than solve an ill-posed
         // problem; the normal equations are coarsened, not accumulated again. At most three
@@ -230,11 +240,11 @@ pub fn fit(
         let first = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
-            let mut ne = NormalEquations::accumulate(&first, positions, values)?;
+            let mut ne = SingleScaleProblem::new(&first, positions, values, solver)?;
             while dropped <= 3 && levels.fine >= levels.coarse {
                 let basis =
                     CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
-                let (c, rep) = ne.solve(&basis, ridge);
+                let (c, rep) = ne.solve(&basis, ridge)?;
                 if rep.deficient == 0 {
                     return Ok(Fit {
                         active: ActiveSet::uniform(basis),
@@ -323,8 +333,13 @@ pub fn fit_active(
     let mut single_scale = None;
     let mut fallback = None;
     let (coefficients, local, global) = match (method, k) {
-        (Method::SingleScale { ridge }, None) => {
-            let (c, rep) = single_scale_ls(active.basis(), positions, values, ridge)?;
+        (Method::SingleScale { ridge, solver }, None) => {
+            let (c, rep) = match solver {
+                SingleScaleSolver::Qr => single_scale_qr(active.basis(), positions, values, ridge)?,
+                SingleScaleSolver::NormalEquations => {
+                    single_scale_ls(active.basis(), positions, values, ridge)?
+                }
+            };
             if rep.deficient > 0 {
                 // Undetermined directions: truncated local pseudo-inverses instead.
                 fallback = Some(format!(
@@ -406,20 +421,24 @@ impl Fit {
                 .map(|c| fwt::synthesis(basis.bank(), basis.coarse(), basis.fine(), c))
                 .collect();
             let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, domain)?;
-            xs.par_chunks(CHUNK)
-                .map(|chunk| {
-                    let mut ev = scale.evaluator();
-                    let mut out: Vec<BasisValue> = Vec::with_capacity(64);
-                    let mut vals = Vec::with_capacity(chunk.len() * channels);
-                    for &x in chunk {
-                        ev.eval_scaling_unit_into(domain.to_unit(x), &mut out);
-                        for s in &single {
-                            vals.push(out.iter().map(|v| s[v.index] * v.value).sum::<f64>());
-                        }
+            let work = |chunk: &[f64]| {
+                let mut ev = scale.single_level_evaluator();
+                let mut vals = Vec::with_capacity(chunk.len() * channels);
+                for &x in chunk {
+                    let (first, row) = ev.row_unit(domain.to_unit(x));
+                    for s in &single {
+                        let coef = &s[first..first + row.len()];
+                        vals.push(coef.iter().zip(row).map(|(c, v)| c * v).sum::<f64>());
                     }
-                    vals
-                })
-                .collect()
+                }
+                vals
+            };
+            // Small grids on the calling thread (no thread pool is started for them).
+            if xs.len() <= CHUNK {
+                vec![work(xs)]
+            } else {
+                xs.par_chunks(CHUNK).map(work).collect()
+            }
         } else {
             xs.par_chunks(CHUNK)
                 .map(|chunk| {
