@@ -48,7 +48,13 @@ fn methods(c: &mut Criterion) {
     let (xs, values, _) = data(COMPARE, 1);
     let refs: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
     let cases = [
-        ("single_scale", Method::SingleScale { ridge: 0.0, solver: Default::default() }),
+        (
+            "single_scale",
+            Method::SingleScale {
+                ridge: 0.0,
+                solver: Default::default(),
+            },
+        ),
         (
             "global_sparse_cholesky",
             Method::Global(GlobalLsParams::default()),

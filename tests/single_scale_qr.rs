@@ -17,7 +17,9 @@ fn basis(p: usize, coarse: u32, fine: u32) -> CdvBasis {
 
 /// `q(x) = sum_k (2x - 1)^k / (k + 1)`, `k < p`: in the span of every `V_j`, `|q| <= 2.93`.
 fn poly(p: usize, x: f64) -> f64 {
-    (0..p).map(|k| (2.0 * x - 1.0).powi(k as i32) / (k + 1) as f64).sum()
+    (0..p)
+        .map(|k| (2.0 * x - 1.0).powi(k as i32) / (k + 1) as f64)
+        .sum()
 }
 
 /// Polynomials of degree `< p` are reproduced from random samples to 1e-13 relative (max
@@ -113,7 +115,9 @@ fn ill_conditioned_sample_sets_match_the_dense_svd() {
     let cells = (b.dimension()) as f64; // V_{N+1} has 2^{N+1} = P cells
     let mut sets: Vec<(&str, Vec<f64>)> = Vec::new();
     // Dense cluster in [0.40, 0.42] beside a stretch with about 4 samples per cell.
-    let mut cluster: Vec<f64> = (0..3_000).map(|_| 0.40 + 0.02 * rng.random::<f64>()).collect();
+    let mut cluster: Vec<f64> = (0..3_000)
+        .map(|_| 0.40 + 0.02 * rng.random::<f64>())
+        .collect();
     cluster.extend((0..(4.0 * cells) as usize).map(|_| rng.random::<f64>()));
     sets.push(("cluster beside sparse stretch", cluster));
     // Groups of 8 samples one ulp apart at 3 random points per cell.
@@ -158,7 +162,10 @@ fn ill_conditioned_sample_sets_match_the_dense_svd() {
              (deficient {}), QR bound {bound:.2e}",
             nrep.deficient
         );
-        assert!(e_qr <= bound, "{name}: QR {e_qr:e} > {bound:e} (cond {cond:e})");
+        assert!(
+            e_qr <= bound,
+            "{name}: QR {e_qr:e} > {bound:e} (cond {cond:e})"
+        );
         if nrep.deficient == 0 {
             assert!(e_ne <= 20.0 * eps * cond * cond, "{name}: NE {e_ne:e}");
         }

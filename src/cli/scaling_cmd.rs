@@ -68,7 +68,10 @@ pub struct ScalingRow {
 
 fn method(name: &str) -> Result<Method, CliError> {
     Ok(match name {
-        "single" => Method::SingleScale { ridge: 0.0, solver: Default::default() },
+        "single" => Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         "global" => Method::Global(GlobalLsParams::default()),
         // SVD: the Cholesky solver squares the blocks' condition numbers (up to 3e7 for
         // random samples), which ruins accuracy.

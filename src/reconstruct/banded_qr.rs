@@ -289,7 +289,9 @@ mod tests {
                         .map(|i| {
                             let at = |c: usize| {
                                 let l = t.len[i] as usize;
-                                (c >= i && c - i < l).then(|| t.r[i * w + c - i]).unwrap_or(0.0)
+                                (c >= i && c - i < l)
+                                    .then(|| t.r[i * w + c - i])
+                                    .unwrap_or(0.0)
                             };
                             at(j) * at(k)
                         })
@@ -300,7 +302,9 @@ mod tests {
                     let ktf: f64 = rows
                         .iter()
                         .map(|(f0, v, f)| {
-                            j.checked_sub(*f0).and_then(|d| v.get(d)).map_or(0.0, |x| x * f[c])
+                            j.checked_sub(*f0)
+                                .and_then(|d| v.get(d))
+                                .map_or(0.0, |x| x * f[c])
                         })
                         .sum();
                     let rtz: f64 = (0..n)
@@ -310,7 +314,10 @@ mod tests {
                             r.unwrap_or(0.0) * t.z[i * 2 + c]
                         })
                         .sum();
-                    assert!((ktf - rtz).abs() < 1e-13, "K^T f [{j}, {c}]: {ktf} vs {rtz}");
+                    assert!(
+                        (ktf - rtz).abs() < 1e-13,
+                        "K^T f [{j}, {c}]: {ktf} vs {rtz}"
+                    );
                 }
             }
         }

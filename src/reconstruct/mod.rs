@@ -219,7 +219,8 @@ pub fn fit(
     check_values(m, values)?;
     let mut levels = choose_levels(m, params);
     let mut dropped = 0;
-    if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method) {
+    if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method)
+    {
         // Automatic levels: while the samples leave single-scale directions undetermined,
         // drop the finest level (doubling the oversampling) rather than solve an ill-posed
         // problem; the normal equations are coarsened, not accumulated again. At most three

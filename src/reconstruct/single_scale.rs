@@ -100,28 +100,28 @@ fn normal_equations(
         .map(|(c, x)| (c * per, x))
         .collect();
     let work = |&(start, xs): &(usize, &[f64])| {
-            let mut band = Band::zeros(n, b);
-            let mut rhs = vec![vec![0.0; n]; channels];
-            {
-                let mut ev = scale.single_level_evaluator();
-                let bw = b + 1;
-                for (off, &x) in xs.iter().enumerate() {
-                    let (first, row) = ev.row_unit(domain.to_unit(x));
-                    for (k, &vk) in row.iter().enumerate() {
-                        let i = first + k;
-                        let dst = &mut band.data[i * bw..i * bw + k + 1];
-                        // A[i, i - d] += v_k v_{k - d}, d = 0..=k.
-                        for (a, &vl) in dst.iter_mut().zip(row[..=k].iter().rev()) {
-                            *a += vk * vl;
-                        }
-                        for (c, f) in values.iter().enumerate() {
-                            rhs[c][i] += vk * f[start + off];
-                        }
+        let mut band = Band::zeros(n, b);
+        let mut rhs = vec![vec![0.0; n]; channels];
+        {
+            let mut ev = scale.single_level_evaluator();
+            let bw = b + 1;
+            for (off, &x) in xs.iter().enumerate() {
+                let (first, row) = ev.row_unit(domain.to_unit(x));
+                for (k, &vk) in row.iter().enumerate() {
+                    let i = first + k;
+                    let dst = &mut band.data[i * bw..i * bw + k + 1];
+                    // A[i, i - d] += v_k v_{k - d}, d = 0..=k.
+                    for (a, &vl) in dst.iter_mut().zip(row[..=k].iter().rev()) {
+                        *a += vk * vl;
+                    }
+                    for (c, f) in values.iter().enumerate() {
+                        rhs[c][i] += vk * f[start + off];
                     }
                 }
             }
-            (band, rhs)
-        };
+        }
+        (band, rhs)
+    };
     if chunks.len() == 1 {
         return work(&chunks[0]);
     }
