@@ -5,13 +5,16 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::io::{read_samples, validate_positions, write_csv, SampleSet};
+use rkwave::io::{read_samples, validate_positions, GridWriter};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::sampling::Domain;
 use serde_json::json;
 
 use super::solve_args::{MethodArg, SolveArgs};
 use super::{check_writable, CliError, FamilyArg};
+
+/// Grid points evaluated and written per block.
+const GRID_BLOCK: usize = 1 << 16;
 
 /// `rkwave reconstruct`.
 #[derive(Args, Debug)]
@@ -37,7 +40,8 @@ pub struct ReconstructArgs {
     /// Grid points of the output (uniform, both ends included).
     #[arg(long, default_value_t = 1000)]
     pub grid: usize,
-    /// Output CSV (`x,<channels>`).
+    /// Output: `.npy` (NumPy float64, G x (1 + channels)) or CSV (`x,<channels>`) otherwise;
+    /// written while the grid is evaluated.
     #[arg(long)]
     pub output: PathBuf,
     /// Overwrite an existing output.
@@ -92,14 +96,28 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     bar.set_message("fitting");
     let channels: Vec<&[f64]> = set.values.iter().map(|v| v.as_slice()).collect();
     let fitted = fit(&set.positions, &channels, domain, &params)?;
-    bar.set_message("evaluating");
-    let t_eval = Instant::now();
-    let grid: Vec<f64> = (0..args.grid)
-        .map(|i| domain.from_unit(i as f64 / (args.grid - 1) as f64))
-        .collect();
-    let values = fitted.evaluate(&grid)?;
-    let evaluate_s = t_eval.elapsed().as_secs_f64();
-    let at_samples = fitted.evaluate(&set.positions)?;
+    bar.set_message("evaluating and writing");
+    // The grid is evaluated and written block by block (never held whole).
+    let evaluator = fitted.evaluator()?;
+    let names = set.names_or_default();
+    let mut writer = GridWriter::create(&args.output, &names, args.grid)?;
+    let (mut evaluate_s, mut write_s) = (0.0, 0.0);
+    let last = (args.grid - 1) as f64;
+    for start in (0..args.grid).step_by(GRID_BLOCK) {
+        let t = Instant::now();
+        let xs: Vec<f64> = (start..(start + GRID_BLOCK).min(args.grid))
+            .map(|i| domain.from_unit(i as f64 / last))
+            .collect();
+        let values = evaluator.evaluate(&xs)?;
+        evaluate_s += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        writer.write_block(&xs, &values)?;
+        write_s += t.elapsed().as_secs_f64();
+    }
+    let t = Instant::now();
+    writer.finish()?;
+    write_s += t.elapsed().as_secs_f64();
+    let at_samples = evaluator.evaluate(&set.positions)?;
     let residual_rms: Vec<f64> = at_samples
         .iter()
         .zip(&set.values)
@@ -107,11 +125,6 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             (r.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / f.len() as f64).sqrt()
         })
         .collect();
-    bar.set_message("writing");
-    let t_write = Instant::now();
-    let out = SampleSet::new(grid, values)?.with_names(set.names_or_default())?;
-    write_csv(&args.output, &out)?;
-    let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let total = started.elapsed().as_secs_f64();
     let report = json!({

@@ -180,23 +180,22 @@ impl GivensTriangle {
     /// component is set to 0.
     pub fn solve(&self, tolerance: f64) -> TriangleSolution {
         let (n, w, ch) = (self.n, self.w, self.channels);
-        let mut deficient = vec![false; n];
         let mut min_pivot = f64::INFINITY;
         let mut unsampled = 0;
-        for j in 0..n {
-            if self.colsq[j] == 0.0 {
-                unsampled += 1;
-                deficient[j] = true;
-                continue;
-            }
-            let rjj = if self.len[j] > 0 { self.r[j * w] } else { 0.0 };
-            let pivot = rjj * rjj / self.colsq[j];
-            if pivot <= tolerance {
-                deficient[j] = true;
-            } else {
-                min_pivot = min_pivot.min(pivot);
-            }
-        }
+        let deficient: Vec<bool> = (0..n)
+            .map(|j| {
+                if self.colsq[j] == 0.0 {
+                    unsampled += 1;
+                    return true;
+                }
+                let rjj = if self.len[j] > 0 { self.r[j * w] } else { 0.0 };
+                let pivot = rjj * rjj / self.colsq[j];
+                if pivot > tolerance {
+                    min_pivot = min_pivot.min(pivot);
+                }
+                pivot <= tolerance
+            })
+            .collect();
         let mut v = vec![vec![0.0; n]; ch];
         for j in (0..n).rev() {
             if deficient[j] {

@@ -7,9 +7,11 @@
 //! functions per position.
 
 mod banded_qr;
+mod evaluate;
 mod kernels;
 mod single_scale;
 
+pub use evaluate::FitEvaluator;
 pub use kernels::{dual_kernel, reproducing_kernel};
 pub use single_scale::{
     single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
@@ -18,11 +20,10 @@ pub use single_scale::{
 
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::basis::{fwt, BasisError, BasisValue, CdvBasis, FilterFamily};
+use crate::basis::{BasisError, CdvBasis, FilterFamily};
 use crate::kernel::{
     check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
 };
@@ -395,79 +396,10 @@ pub fn fit_active(
     })
 }
 
-/// Positions evaluated per parallel work item.
-const CHUNK: usize = 8192;
-
 impl Fit {
-    /// The reconstruction at `xs`, one vector per channel.
+    /// The reconstruction at `xs`, one vector per channel (see [`Fit::evaluator`] to evaluate
+    /// many batches).
     pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<Vec<f64>>, ReconstructError> {
-        let basis = self.active.basis();
-        let domain = basis.domain();
-        if let Some(&x) = xs.iter().find(|x| !domain.contains(**x)) {
-            return Err(BasisError::PositionOutside {
-                x,
-                a: domain.a(),
-                b: domain.b(),
-            }
-            .into());
-        }
-        let channels = self.coefficients.len();
-        let uniform = self.active.len() == basis.dimension();
-        let per_point: Vec<Vec<f64>> = if uniform {
-            // Single scale: V_{N+1} coefficients by FWT synthesis.
-            let top = basis.fine() + 1;
-            let single: Vec<Vec<f64>> = self
-                .coefficients
-                .iter()
-                .map(|c| fwt::synthesis(basis.bank(), basis.coarse(), basis.fine(), c))
-                .collect();
-            let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, domain)?;
-            let work = |chunk: &[f64]| {
-                let mut ev = scale.single_level_evaluator();
-                let mut vals = Vec::with_capacity(chunk.len() * channels);
-                for &x in chunk {
-                    let (first, row) = ev.row_unit(domain.to_unit(x));
-                    for s in &single {
-                        let coef = &s[first..first + row.len()];
-                        vals.push(coef.iter().zip(row).map(|(c, v)| c * v).sum::<f64>());
-                    }
-                }
-                vals
-            };
-            // Small grids on the calling thread (no thread pool is started for them).
-            if xs.len() <= CHUNK {
-                vec![work(xs)]
-            } else {
-                xs.par_chunks(CHUNK).map(work).collect()
-            }
-        } else {
-            xs.par_chunks(CHUNK)
-                .map(|chunk| {
-                    let mut ev = basis.evaluator();
-                    let mut out: Vec<BasisValue> = Vec::with_capacity(256);
-                    let mut vals = Vec::with_capacity(chunk.len() * channels);
-                    for &x in chunk {
-                        ev.eval_unit_into(domain.to_unit(x), &mut out);
-                        for c in &self.coefficients {
-                            vals.push(
-                                out.iter()
-                                    .filter_map(|v| {
-                                        self.active.column(v.index).map(|col| c[col] * v.value)
-                                    })
-                                    .sum::<f64>(),
-                            );
-                        }
-                    }
-                    vals
-                })
-                .collect()
-        };
-        let mut result = vec![Vec::with_capacity(xs.len()); channels];
-        for block in per_point {
-            for (i, v) in block.into_iter().enumerate() {
-                result[i % channels].push(v);
-            }
-        }
-        Ok(result)
+        self.evaluator()?.evaluate(xs)
     }
 }
