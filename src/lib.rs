@@ -9,6 +9,8 @@
 //! - [`sampling`]: domains, sample layouts and built-in test signals;
 //! - [`refine`]: the adaptive refiner ([`refine::refine`]): a wavelet tree and samples grown
 //!   together where the signal needs them;
+//! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
+//!   filters and image-plane reconstruction;
 //! - [`io`]: reading and writing samples (CSV, NumPy `.npy`);
 //! - [`plot`] draws the figures.
 //!
@@ -25,6 +27,7 @@
 #![deny(missing_docs)]
 
 pub mod basis;
+pub mod image;
 pub mod io;
 pub mod kernel;
 #[cfg(feature = "plot")]

@@ -16,6 +16,7 @@ pub mod filters;
 pub mod fwt;
 mod index;
 pub mod single_level;
+pub mod tensor;
 
 pub use bank::FilterBank;
 pub use eval::{BasisValue, Evaluator};

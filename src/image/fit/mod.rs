@@ -1,0 +1,491 @@
+//! The 2D least-squares reconstruction on the image plane (DESIGN §7; the 1D single-scale
+//! solve of [`crate::reconstruct::single_scale_ls`] with a second axis).
+//!
+//! `min_z ||K z - f_c||^2` over the single-scale space `V_Jx (x) V_Jy` of a
+//! [`TensorBasis`], per channel `c`, through the normal equations `G z = b_c`
+//! (`G = K^T K`, `b_c = K^T f_c`, accumulated sample by sample, see [`normal`]) solved by
+//! sparse Cholesky or preconditioned CG ([`system`]). The result is a function:
+//! `f_c(x, y) = sum_{ky,kx} z_c[ky nx + kx] phi_{Jx,kx}(x) phi_{Jy,ky}(y)`
+//! ([`ImageFit::evaluate`]); the multilevel coefficients are one 2D FWT away
+//! ([`TensorBasis::analysis`]).
+
+pub mod normal;
+mod precondition;
+pub mod system;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::basis::tensor::{TensorBasis, TensorError, TensorLevelParams, TensorValue};
+use crate::basis::{CdvBasis, FilterFamily};
+use crate::solve::SolveError;
+
+pub use normal::{NormalEquations2d, StencilPattern};
+pub use precondition::kernel_matrix_2d;
+pub use system::{CgReport, FactorReport, NormalSolver, NormalSystem, Preconditioner};
+
+/// How the levels are chosen per axis.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub enum ImageLevels {
+    /// From the resolution and the samples ([`crate::basis::tensor::auto_level`]).
+    Auto(TensorLevelParams),
+    /// Single-scale levels `(Jx, Jy)`.
+    Fixed(u32, u32),
+}
+
+/// Parameters of an image fit.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ImageFitParams {
+    /// Vanishing moments `p`: 2 costs `(2p - 1)^4 / 2 = 41` updates per sample, 3 costs 313
+    /// and reproduces quadratics.
+    pub p: usize,
+    /// Interior filter family.
+    #[serde(skip)]
+    pub family: FilterFamily,
+    /// Levels per axis.
+    pub levels: ImageLevels,
+    /// The solver of the normal equations.
+    pub solver: NormalSolver,
+    /// Relative ridge `lambda` on the equilibrated normal matrix: bounds the amplification
+    /// of directions the samples barely determine (`~ 1 / (2 sqrt(lambda))`) at a bias of
+    /// about `lambda / sigma^2` on well-determined ones; 0 for the exact least squares.
+    pub ridge: f64,
+}
+
+impl Default for ImageFitParams {
+    fn default() -> Self {
+        Self {
+            p: 2,
+            family: FilterFamily::cdv_default(2),
+            levels: ImageLevels::Auto(TensorLevelParams::default()),
+            solver: NormalSolver::Cholesky,
+            ridge: 1e-9,
+        }
+    }
+}
+
+/// Errors of the image fit: each names the value at fault and the way out.
+#[derive(Debug, Error)]
+pub enum ImageFitError {
+    /// The basis (resolution, levels, positions).
+    #[error(transparent)]
+    Tensor(#[from] TensorError),
+    /// Sample `index` (0-based) lies outside the image.
+    #[error(
+        "sample {index} at ({x}, {y}) is outside the image [0, {width}] x [0, {height}] (or not \
+         finite): give positions in pixel units within the image"
+    )]
+    SampleOutside {
+        /// 0-based sample index.
+        index: usize,
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+    },
+    /// Positions and values disagree in length.
+    #[error("{what} has {found} entries for {expected} samples: give one value per sample")]
+    LengthMismatch {
+        /// Which input (`"ys"`, `"channel 2"`, ...).
+        what: String,
+        /// Samples.
+        expected: usize,
+        /// Found.
+        found: usize,
+    },
+    /// No channel given, or no sample.
+    #[error("no {what} given: give at least one sample with at least one channel")]
+    Empty {
+        /// `"samples"` or `"channels"`.
+        what: &'static str,
+    },
+    /// A value is NaN or infinite.
+    #[error("sample {index}, channel {channel}: value {value} is not finite: fix or drop it")]
+    NonFiniteValue {
+        /// 0-based sample.
+        index: usize,
+        /// 0-based channel.
+        channel: usize,
+        /// The value.
+        value: f64,
+    },
+    /// The solve failed (an internal error or an impossible system).
+    #[error("the 2D normal equations could not be solved: {0}")]
+    Solve(String),
+    /// Local inversion (preconditioner) failed.
+    #[error(transparent)]
+    Local(#[from] SolveError),
+}
+
+/// Seconds per stage.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct ImageTimings {
+    /// Stencil pattern (symbolic, once per basis).
+    pub pattern_s: f64,
+    /// Accumulating `G` and `b` over the samples.
+    pub accumulate_s: f64,
+    /// Cholesky (symbolic + numeric) or preconditioner setup.
+    pub factor_s: f64,
+    /// Triangular solves or CG iterations, all channels.
+    pub solve_s: f64,
+}
+
+/// What the image solve did.
+#[derive(Clone, Debug, Serialize)]
+pub struct ImageSolveReport {
+    /// Single-scale levels `(Jx, Jy)`.
+    pub levels: (u32, u32),
+    /// Functions per axis `(nx, ny)`.
+    pub dims: (usize, usize),
+    /// Unknowns `nx ny`.
+    pub functions: usize,
+    /// Samples `m`.
+    pub samples: usize,
+    /// `m / (nx ny)`.
+    pub oversampling: f64,
+    /// Stored entries of `G` (lower triangle).
+    pub normal_nnz: usize,
+    /// Solver used.
+    pub solver: NormalSolver,
+    /// Relative ridge used.
+    pub ridge: f64,
+    /// Functions with no sample in their support (coefficient pinned to 0).
+    pub unsampled: usize,
+    /// Functions with fewer than `(2p - 1)^2` samples (fewer than their own neighbours).
+    pub undersampled: usize,
+    /// Cholesky facts (Cholesky solver).
+    pub factor: Option<FactorReport>,
+    /// CG facts (CG solver).
+    pub cg: Option<CgReport>,
+    /// Stage times.
+    pub timings: ImageTimings,
+}
+
+/// A fitted image: the reconstruction as a function on `[0, W] x [0, H]`.
+#[derive(Clone, Debug)]
+pub struct ImageFit {
+    basis: TensorBasis,
+    /// Single-scale coefficients per channel, `nx ny` each, index `ky * nx + kx`.
+    pub coefficients: Vec<Vec<f64>>,
+    /// What the solve did.
+    pub report: ImageSolveReport,
+    system: Arc<NormalSystem>,
+    params: ImageFitParams,
+}
+
+fn check_input(
+    width: usize,
+    height: usize,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+) -> Result<(), ImageFitError> {
+    if xs.is_empty() {
+        return Err(ImageFitError::Empty { what: "samples" });
+    }
+    if values.is_empty() {
+        return Err(ImageFitError::Empty { what: "channels" });
+    }
+    if ys.len() != xs.len() {
+        return Err(ImageFitError::LengthMismatch {
+            what: "ys".into(),
+            expected: xs.len(),
+            found: ys.len(),
+        });
+    }
+    for (c, v) in values.iter().enumerate() {
+        if v.len() != xs.len() {
+            return Err(ImageFitError::LengthMismatch {
+                what: format!("channel {c}"),
+                expected: xs.len(),
+                found: v.len(),
+            });
+        }
+        if let Some((index, &value)) = v.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(ImageFitError::NonFiniteValue {
+                index,
+                channel: c,
+                value,
+            });
+        }
+    }
+    let (w, h) = (width as f64, height as f64);
+    if let Some(index) =
+        (0..xs.len()).find(|&i| !(0.0..=w).contains(&xs[i]) || !(0.0..=h).contains(&ys[i]))
+    {
+        return Err(ImageFitError::SampleOutside {
+            index,
+            x: xs[index],
+            y: ys[index],
+            width,
+            height,
+        });
+    }
+    Ok(())
+}
+
+/// Fits every channel on a `width x height` image from samples `(xs[i], ys[i])` (pixel
+/// units) with values `values[c][i]`.
+pub fn fit_image(
+    width: usize,
+    height: usize,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+    params: &ImageFitParams,
+) -> Result<ImageFit, ImageFitError> {
+    if width == 0 || height == 0 {
+        let (axis, value) = if width == 0 {
+            ("width", width)
+        } else {
+            ("height", height)
+        };
+        return Err(TensorError::ZeroResolution { axis, value }.into());
+    }
+    check_input(width, height, xs, ys, values)?;
+    let basis = match params.levels {
+        ImageLevels::Auto(lp) => {
+            TensorBasis::auto(params.p, params.family, width, height, xs.len(), lp)?
+        }
+        ImageLevels::Fixed(jx, jy) => {
+            TensorBasis::new(params.p, params.family, width, height, (jx, jy))?
+        }
+    };
+    let mut timings = ImageTimings::default();
+    let t = Instant::now();
+    let pattern = StencilPattern::new(&basis);
+    timings.pattern_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let ne = normal::accumulate(&basis, &pattern, xs, ys, values);
+    timings.accumulate_s = t.elapsed().as_secs_f64();
+    let full = (2 * params.p - 1).pow(2) as u32;
+    let unsampled = ne.support_samples.iter().filter(|&&c| c == 0).count();
+    let undersampled = ne.support_samples.iter().filter(|&&c| c < full).count();
+    let normal_nnz = pattern.nnz();
+    let mut system = NormalSystem::new(pattern, ne.values, params.ridge);
+    let rhs: Vec<&[f64]> = ne.rhs.iter().map(|r| r.as_slice()).collect();
+    let (coefficients, factor, cg) = match params.solver {
+        NormalSolver::Cholesky => {
+            let t = Instant::now();
+            let f = system.factor().map_err(ImageFitError::Solve)?;
+            timings.factor_s = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let z = system.solve_factored(&rhs);
+            timings.solve_s = t.elapsed().as_secs_f64();
+            (z, Some(f), None)
+        }
+        NormalSolver::Cg {
+            preconditioner,
+            tolerance,
+            max_iterations,
+        } => {
+            let t = Instant::now();
+            let local = match preconditioner {
+                Preconditioner::Local => Some(precondition::local_preconditioner(&basis, xs, ys)?),
+                _ => None,
+            };
+            let setup_s = t.elapsed().as_secs_f64();
+            timings.factor_s = setup_s;
+            let t = Instant::now();
+            let mut report = CgReport {
+                preconditioner,
+                iterations: Vec::new(),
+                residual: Vec::new(),
+                converged: true,
+                setup_s,
+            };
+            let z = rhs
+                .iter()
+                .map(|b| {
+                    let (z, it, res) = system.solve_cg(
+                        b,
+                        preconditioner,
+                        local.as_ref(),
+                        tolerance,
+                        max_iterations,
+                    );
+                    report.iterations.push(it);
+                    report.residual.push(res);
+                    report.converged &= res <= tolerance;
+                    z
+                })
+                .collect();
+            timings.solve_s = t.elapsed().as_secs_f64();
+            (z, None, Some(report))
+        }
+    };
+    if let Some((c, _)) = coefficients
+        .iter()
+        .enumerate()
+        .find(|(_, z)| z.iter().any(|v: &f64| !v.is_finite()))
+    {
+        return Err(ImageFitError::Solve(format!(
+            "channel {c} has non-finite coefficients (an internal error: please report)"
+        )));
+    }
+    let (nx, ny) = basis.dims();
+    let report = ImageSolveReport {
+        levels: basis.levels(),
+        dims: (nx, ny),
+        functions: nx * ny,
+        samples: xs.len(),
+        oversampling: xs.len() as f64 / (nx * ny) as f64,
+        normal_nnz,
+        solver: params.solver,
+        ridge: system.ridge(),
+        unsampled,
+        undersampled,
+        factor,
+        cg,
+        timings,
+    };
+    Ok(ImageFit {
+        basis,
+        coefficients,
+        report,
+        system: Arc::new(system),
+        params: *params,
+    })
+}
+
+/// [`fit_image`] on validated [`super::ImageSamples`].
+pub fn fit_samples(
+    samples: &super::ImageSamples,
+    params: &ImageFitParams,
+) -> Result<ImageFit, ImageFitError> {
+    let plane = samples.plane();
+    let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
+    fit_image(
+        plane.width(),
+        plane.height(),
+        samples.xs(),
+        samples.ys(),
+        &values,
+        params,
+    )
+}
+
+/// Positions evaluated per parallel work item.
+const CHUNK: usize = 4096;
+
+impl ImageFit {
+    /// The tensor basis.
+    pub fn basis(&self) -> &TensorBasis {
+        &self.basis
+    }
+    /// The x axis single-scale basis `Psi(Jx, Jx)` on `[0, W]` (scaling part `V_Jx`).
+    pub fn scale_x(&self) -> &CdvBasis {
+        self.basis.scale_x()
+    }
+    /// The y axis single-scale basis `Psi(Jy, Jy)` on `[0, H]`.
+    pub fn scale_y(&self) -> &CdvBasis {
+        self.basis.scale_y()
+    }
+    /// `(nx, ny)`.
+    pub fn dims(&self) -> (usize, usize) {
+        self.basis.dims()
+    }
+    /// Number of channels.
+    pub fn channels(&self) -> usize {
+        self.coefficients.len()
+    }
+    /// The parameters of the fit.
+    pub fn params(&self) -> &ImageFitParams {
+        &self.params
+    }
+    /// The assembled normal system (and its factor, for the Cholesky solver).
+    pub fn system(&self) -> &NormalSystem {
+        &self.system
+    }
+
+    /// The reconstruction at `(x, y)`, one value per channel.
+    pub fn evaluate(&self, x: f64, y: f64) -> Result<Vec<f64>, ImageFitError> {
+        let mut ev = self.basis.evaluator();
+        let mut row = Vec::new();
+        ev.eval_into(x, y, &mut row)?;
+        Ok(self.combine(&row))
+    }
+
+    fn combine(&self, row: &[TensorValue]) -> Vec<f64> {
+        self.coefficients
+            .iter()
+            .map(|z| row.iter().map(|v| z[v.index] * v.value).sum())
+            .collect()
+    }
+
+    /// The reconstruction at many points (in parallel), one vector per channel.
+    pub fn evaluate_many(&self, xs: &[f64], ys: &[f64]) -> Result<Vec<Vec<f64>>, ImageFitError> {
+        use rayon::prelude::*;
+        if xs.len() != ys.len() {
+            return Err(ImageFitError::LengthMismatch {
+                what: "ys".into(),
+                expected: xs.len(),
+                found: ys.len(),
+            });
+        }
+        let blocks: Vec<Vec<Vec<f64>>> = xs
+            .par_chunks(CHUNK)
+            .zip(ys.par_chunks(CHUNK))
+            .map(|(cx, cy)| {
+                let mut ev = self.basis.evaluator();
+                let mut row = Vec::new();
+                cx.iter()
+                    .zip(cy)
+                    .map(|(&x, &y)| {
+                        ev.eval_into(x, y, &mut row)?;
+                        Ok(self.combine(&row))
+                    })
+                    .collect::<Result<Vec<_>, ImageFitError>>()
+            })
+            .collect::<Result<_, _>>()?;
+        let mut out = vec![Vec::with_capacity(xs.len()); self.channels()];
+        for point in blocks.into_iter().flatten() {
+            for (c, v) in point.into_iter().enumerate() {
+                out[c].push(v);
+            }
+        }
+        Ok(out)
+    }
+
+    /// The sample row `K_i`: every nonzero single-scale function at `(x, y)` (index
+    /// `ky * nx + kx`) and its value.
+    pub fn sample_row(&self, x: f64, y: f64) -> Result<Vec<TensorValue>, ImageFitError> {
+        let mut row = Vec::new();
+        self.basis.evaluator().eval_into(x, y, &mut row)?;
+        Ok(row)
+    }
+
+    /// Solves `(G + lambda D^{-2}) z = b` with the fit's factor (Cholesky solver), or by
+    /// Jacobi PCG to a relative residual of `1e-12` (CG solver): `z` such that
+    /// `K_i . z` is the weight of sample `i` in the functional `b . coefficients`.
+    pub fn solve_normal(&self, b: &[f64]) -> Result<Vec<f64>, ImageFitError> {
+        let n = self.basis.len();
+        if b.len() != n {
+            return Err(ImageFitError::LengthMismatch {
+                what: "b".into(),
+                expected: n,
+                found: b.len(),
+            });
+        }
+        if self.system.is_factored() {
+            Ok(self.system.solve_factored(&[b]).remove(0))
+        } else {
+            Ok(self
+                .system
+                .solve_cg(b, Preconditioner::Jacobi, None, 1e-12, 100 * n.max(10))
+                .0)
+        }
+    }
+
+    /// The multilevel (non-standard) coefficients of channel `c` (2D FWT analysis).
+    pub fn multilevel_coefficients(&self, c: usize) -> Vec<f64> {
+        self.basis.analysis(&self.coefficients[c])
+    }
+}

@@ -1,0 +1,362 @@
+//! The tensor basis and the 2D solves: identities with justified tolerances.
+//!
+//! Tolerances: every quantity below is a short sum of products of `O(1)` values (basis values
+//! are at most `2^{J/2} (2p)` in size, coefficients `O(1)`), so exact identities hold to a few
+//! hundred ulps (`1e-12`); least-squares solutions of consistent data are exact up to
+//! `cond(A) eps` with `cond(A) <~ 1e4` for these well-sampled problems (`1e-9`).
+
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+
+use rkwave::basis::facts::orthonormality_error;
+use rkwave::basis::tensor::{TensorBasis, TensorError};
+use rkwave::basis::FilterFamily;
+use rkwave::image::fit::{NormalSolver, Preconditioner};
+use rkwave::image::{fit_image, ImageFitError, ImageFitParams, ImageLevels};
+
+const SEED: u64 = 0x1a2b_3c4d;
+
+fn basis(p: usize, w: usize, h: usize, levels: (u32, u32)) -> TensorBasis {
+    TensorBasis::new(p, FilterFamily::cdv_default(p), w, h, levels).unwrap()
+}
+
+/// `spp` uniform samples per pixel plus every corner and samples along the four edges.
+fn samples(w: usize, h: usize, spp: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let (wf, hf) = (w as f64, h as f64);
+    let mut xs = Vec::new();
+    let mut ys = Vec::new();
+    for _ in 0..w * h * spp {
+        xs.push(rng.random::<f64>() * wf);
+        ys.push(rng.random::<f64>() * hf);
+    }
+    for (x, y) in [(0.0, 0.0), (wf, 0.0), (0.0, hf), (wf, hf)] {
+        xs.push(x);
+        ys.push(y);
+    }
+    for _ in 0..w + h {
+        let (t, s) = (rng.random::<f64>(), rng.random::<f64>());
+        xs.extend([t * wf, t * wf, 0.0, wf]);
+        ys.extend([0.0, hf, s * hf, s * hf]);
+    }
+    (xs, ys)
+}
+
+fn params(p: usize, levels: (u32, u32), solver: NormalSolver) -> ImageFitParams {
+    ImageFitParams {
+        p,
+        family: FilterFamily::cdv_default(p),
+        levels: ImageLevels::Fixed(levels.0, levels.1),
+        solver,
+        ridge: 0.0,
+    }
+}
+
+#[test]
+fn fwt_round_trip_and_orthogonality() {
+    let mut rng = Pcg64::seed_from_u64(SEED);
+    for (p, w, h, levels) in [(2, 20, 12, (5, 4)), (3, 16, 40, (5, 6)), (1, 8, 8, (3, 3))] {
+        let b = basis(p, w, h, levels);
+        let v: Vec<f64> = (0..b.len()).map(|_| rng.random::<f64>() - 0.5).collect();
+        let c = b.analysis(&v);
+        let back = b.synthesis(&c);
+        let err = v
+            .iter()
+            .zip(&back)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-12, "p = {p}: round trip error {err:e}");
+        let (n1, n2) = (
+            v.iter().map(|x| x * x).sum::<f64>(),
+            c.iter().map(|x| x * x).sum::<f64>(),
+        );
+        assert!((n1 - n2).abs() < 1e-12 * n1, "p = {p}: norm {n1} -> {n2}");
+    }
+}
+
+/// The multilevel basis is orthonormal: its Gram matrix is `W (Gx (x) Gy) W^T` with `W` the
+/// 2D FWT; `W` is orthogonal (checked column by column on unit vectors) and each axis' single
+/// scale Gram deviation is measured exactly by `facts::orthonormality_error` (refinement
+/// algebra, no quadrature), so `|G_2D - I| <= ex + ey + ex ey`.
+#[test]
+fn orthonormality_at_a_small_level() {
+    for p in [2, 3] {
+        let j = rkwave::basis::minimum_level(p) + 1;
+        // 512 (p = 2) and 1024 (p = 3) functions: n^3 / 2 flops for the dot products
+        let b = basis(p, 7, 5, (j, j + (p == 2) as u32));
+        let n = b.len();
+        let columns: Vec<Vec<f64>> = (0..n)
+            .map(|k| {
+                let mut e = vec![0.0; n];
+                e[k] = 1.0;
+                b.analysis(&e)
+            })
+            .collect();
+        let mut worst: f64 = 0.0;
+        for a in 0..n {
+            for c in a..n {
+                let dot: f64 = columns[a].iter().zip(&columns[c]).map(|(x, y)| x * y).sum();
+                let target = if a == c { 1.0 } else { 0.0 };
+                worst = worst.max((dot - target).abs());
+            }
+        }
+        assert!(worst < 1e-12, "p = {p}: W W^T - I = {worst:e}");
+        let ex = orthonormality_error(b.scale_x());
+        let ey = orthonormality_error(b.scale_y());
+        assert!(
+            ex + ey + ex * ey < 1e-10,
+            "p = {p}: axis Gram errors {ex:e} {ey:e}"
+        );
+    }
+}
+
+/// Synthesis followed by single-scale evaluation equals direct evaluation of the multilevel
+/// basis (Mallat layout, from the 1D evaluations of each axis).
+#[test]
+fn multilevel_evaluation_matches_synthesis() {
+    let mut rng = Pcg64::seed_from_u64(SEED + 1);
+    for (p, w, h, levels) in [(2, 11, 6, (5, 4)), (3, 9, 9, (5, 6))] {
+        let b = basis(p, w, h, levels);
+        let c: Vec<f64> = (0..b.len()).map(|_| rng.random::<f64>() - 0.5).collect();
+        let single = b.synthesis(&c);
+        let mut ev = b.evaluator();
+        let mut mev = b.multilevel_evaluator();
+        let (mut r1, mut r2) = (Vec::new(), Vec::new());
+        for i in 0..400 {
+            let (x, y) = if i < 4 {
+                ((i % 2) as f64 * w as f64, (i / 2) as f64 * h as f64)
+            } else {
+                (
+                    rng.random::<f64>() * w as f64,
+                    rng.random::<f64>() * h as f64,
+                )
+            };
+            ev.eval_into(x, y, &mut r1).unwrap();
+            mev.eval_into(x, y, &mut r2).unwrap();
+            let f1: f64 = r1.iter().map(|v| single[v.index] * v.value).sum();
+            let f2: f64 = r2.iter().map(|v| c[v.index] * v.value).sum();
+            let scale = 1.0 + f1.abs();
+            assert!(
+                (f1 - f2).abs() < 1e-10 * scale,
+                "p = {p} at ({x}, {y}): {f1} vs {f2}"
+            );
+        }
+    }
+}
+
+/// Tensor polynomials `t^a s^b`, `a, b < p` (`t = x / W`, `s = y / H`) lie in the space: the
+/// least-squares fit of their samples reproduces them everywhere, edges and corners included.
+#[test]
+fn exact_reconstruction_of_tensor_polynomials() {
+    let mut rng = Pcg64::seed_from_u64(SEED + 2);
+    for (p, w, h, levels) in [(2, 13, 10, (4, 4)), (3, 24, 34, (5, 5))] {
+        let (xs, ys) = samples(w, h, 4, SEED + p as u64);
+        let (wf, hf) = (w as f64, h as f64);
+        let mut values = Vec::new();
+        let mut exps = Vec::new();
+        for a in 0..p {
+            for bb in 0..p {
+                exps.push((a as i32, bb as i32));
+                values.push(
+                    xs.iter()
+                        .zip(&ys)
+                        .map(|(x, y)| (x / wf).powi(a as i32) * (y / hf).powi(bb as i32))
+                        .collect::<Vec<f64>>(),
+                );
+            }
+        }
+        let refs: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
+        let fit = fit_image(
+            w,
+            h,
+            &xs,
+            &ys,
+            &refs,
+            &params(p, levels, NormalSolver::Cholesky),
+        )
+        .unwrap();
+        assert_eq!(fit.report.unsampled, 0);
+        for i in 0..500 {
+            let (x, y) = match i {
+                0..=3 => ((i % 2) as f64 * wf, (i / 2) as f64 * hf),
+                4..=99 => (rng.random::<f64>() * wf, [0.0, hf][i % 2]),
+                _ => (rng.random::<f64>() * wf, rng.random::<f64>() * hf),
+            };
+            let got = fit.evaluate(x, y).unwrap();
+            for (c, &(a, bb)) in exps.iter().enumerate() {
+                let want = (x / wf).powi(a) * (y / hf).powi(bb);
+                assert!(
+                    (got[c] - want).abs() < 1e-9,
+                    "p = {p}, t^{a} s^{bb} at ({x}, {y}): {} vs {want}",
+                    got[c]
+                );
+            }
+        }
+    }
+}
+
+/// Swapping the axes (samples `(y, x)` on an `H x W` image) transposes the solution.
+#[test]
+fn axis_swap_symmetry() {
+    let (w, h) = (26, 13);
+    let (xs, ys) = samples(w, h, 4, SEED + 3);
+    let f: Vec<f64> = xs
+        .iter()
+        .zip(&ys)
+        .map(|(x, y)| (0.7 * x).sin() + (x * y * 0.05).cos() + if x > y { 1.0 } else { 0.0 })
+        .collect();
+    let a = fit_image(
+        w,
+        h,
+        &xs,
+        &ys,
+        &[&f],
+        &params(2, (5, 4), NormalSolver::Cholesky),
+    )
+    .unwrap();
+    let b = fit_image(
+        h,
+        w,
+        &ys,
+        &xs,
+        &[&f],
+        &params(2, (4, 5), NormalSolver::Cholesky),
+    )
+    .unwrap();
+    let (nx, ny) = a.dims();
+    for ky in 0..ny {
+        for kx in 0..nx {
+            let (u, v) = (
+                a.coefficients[0][ky * nx + kx],
+                b.coefficients[0][kx * ny + ky],
+            );
+            assert!(
+                (u - v).abs() < 1e-9 * (1.0 + u.abs()),
+                "({kx}, {ky}): {u} vs {v}"
+            );
+        }
+    }
+}
+
+/// Cholesky and CG (every preconditioner, relative residual 1e-12) give the same
+/// coefficients; `solve_normal(K^T f)` gives them back too.
+#[test]
+fn cg_and_cholesky_agree() {
+    let (w, h) = (24, 20);
+    let (xs, ys) = samples(w, h, 4, SEED + 4);
+    let f: Vec<f64> = xs
+        .iter()
+        .zip(&ys)
+        .map(|(x, y)| (0.3 * x + 0.2 * y).sin())
+        .collect();
+    let g: Vec<f64> = xs
+        .iter()
+        .map(|x| if *x > 10.3 { 1.0 } else { 0.0 })
+        .collect();
+    let chol = fit_image(
+        w,
+        h,
+        &xs,
+        &ys,
+        &[&f, &g],
+        &params(2, (5, 4), NormalSolver::Cholesky),
+    )
+    .unwrap();
+    for pre in [
+        Preconditioner::None,
+        Preconditioner::Jacobi,
+        Preconditioner::Local,
+    ] {
+        let solver = NormalSolver::Cg {
+            preconditioner: pre,
+            tolerance: 1e-12,
+            max_iterations: 10_000,
+        };
+        let cg = fit_image(w, h, &xs, &ys, &[&f, &g], &params(2, (5, 4), solver)).unwrap();
+        let report = cg.report.cg.as_ref().unwrap();
+        assert!(report.converged, "{pre:?}: {report:?}");
+        for c in 0..2 {
+            let err = chol.coefficients[c]
+                .iter()
+                .zip(&cg.coefficients[c])
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            // residual 1e-12 times cond(G) <~ 1e4 times |z| ~ 10
+            assert!(err < 1e-7, "{pre:?} channel {c}: {err:e}");
+        }
+    }
+    // G z = K^T f  <=>  z = coefficients
+    let n = chol.basis().len();
+    let mut b = vec![0.0; n];
+    for (i, (&x, &y)) in xs.iter().zip(&ys).enumerate() {
+        for v in chol.sample_row(x, y).unwrap() {
+            b[v.index] += v.value * f[i];
+        }
+    }
+    let z = chol.solve_normal(&b).unwrap();
+    let err = z
+        .iter()
+        .zip(&chol.coefficients[0])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-9, "solve_normal: {err:e}");
+}
+
+/// A hole (no sample in a disc) and a sample-free border: detected, reported, finite.
+#[test]
+fn holes_are_reported_never_nan() {
+    let (w, h) = (32, 32);
+    let (xs0, ys0) = samples(w, h, 4, SEED + 5);
+    let (xs, ys): (Vec<f64>, Vec<f64>) = xs0
+        .iter()
+        .zip(&ys0)
+        .filter(|(x, y)| (*x - 12.0).powi(2) + (*y - 16.0).powi(2) > 36.0 && **x < 28.0)
+        .map(|(x, y)| (*x, *y))
+        .unzip();
+    let f: Vec<f64> = xs.iter().map(|x| x * 0.1).collect();
+    let mut prm = params(2, (5, 5), NormalSolver::Cholesky);
+    prm.ridge = 1e-9;
+    let fit = fit_image(w, h, &xs, &ys, &[&f], &prm).unwrap();
+    assert!(fit.report.unsampled > 0, "{:?}", fit.report);
+    assert!(fit.coefficients[0].iter().all(|v| v.is_finite()));
+    let far = fit.evaluate(31.0, 5.0).unwrap();
+    assert!(far[0].is_finite());
+    // away from the hole the fit is still the linear function
+    let v = fit.evaluate(20.0, 4.0).unwrap()[0];
+    assert!((v - 2.0).abs() < 1e-6, "{v}");
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let xs = [1.0, 2.0, 3.5];
+    let ys = [1.0, 2.0, 1.0];
+    let f = [1.0, 2.0, 3.0];
+    let prm = ImageFitParams::default();
+    assert!(matches!(
+        fit_image(3, 4, &xs, &ys, &[&f], &prm),
+        Err(ImageFitError::SampleOutside { index: 2, .. })
+    ));
+    assert!(matches!(
+        fit_image(0, 4, &xs, &ys, &[&f], &prm),
+        Err(ImageFitError::Tensor(TensorError::ZeroResolution {
+            axis: "width",
+            ..
+        }))
+    ));
+    assert!(matches!(
+        fit_image(8, 8, &xs, &ys, &[&[1.0, f64::NAN, 0.0]], &prm),
+        Err(ImageFitError::NonFiniteValue { index: 1, .. })
+    ));
+    assert!(matches!(
+        fit_image(8, 8, &xs, &ys, &[&[1.0]], &prm),
+        Err(ImageFitError::LengthMismatch { .. })
+    ));
+    assert!(matches!(
+        TensorBasis::new(2, FilterFamily::Extremal, 8, 8, (2, 5)),
+        Err(TensorError::LevelOutOfRange { axis: "x", .. })
+    ));
+    let msg = fit_image(3, 4, &xs, &ys, &[&f], &prm)
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("3.5") && msg.contains("outside"), "{msg}");
+}
