@@ -288,9 +288,11 @@ mod tests {
                         .map(|i| {
                             let at = |c: usize| {
                                 let l = t.len[i] as usize;
-                                (c >= i && c - i < l)
-                                    .then(|| t.r[i * w + c - i])
-                                    .unwrap_or(0.0)
+                                if c >= i && c - i < l {
+                                    t.r[i * w + c - i]
+                                } else {
+                                    0.0
+                                }
                             };
                             at(j) * at(k)
                         })
