@@ -15,7 +15,8 @@
 //!
 //! so every active function has at least `rho` samples per slot of its support. One round:
 //!
-//! 1. fit `c = argmin ||K c - f||` on the active set (sparse Cholesky of `K^T K`);
+//! 1. fit `c = argmin ||K c - f||` on the active set (sparse Cholesky of `K^T K`, kept up
+//!    to date between rounds);
 //! 2. indicate ([`Indicator`]): predict the coefficient of every missing child `psi_{j+1,k'}`
 //!    of an active wavelet from the coefficients near its parent and their decay
 //!    `r = |c_j| / |c_{j-1}|` across levels (`|c~| = r |c_j| / sqrt(1 - r^2)`, the norm of the
@@ -29,11 +30,13 @@
 //!
 //! Between rounds the refiner keeps and reuses: the sample values (every oracle call is a
 //! sample, made once), the pointwise evaluation of every basis function of `Psi(n, D)` at every
-//! sample (each round's `K` is filtered from these cached rows, [`Refinement::rebuild`] checks
-//! it against a fresh build), the sorted positions (leaf counts by binary search) and the
-//! random stream. Rebuilt each round: the tree's coverage and leaves (`O(P)`) and the global
-//! solve, which dominates a round (~80 % at 4096 samples: forming `K^T K` and its Cholesky).
-//!
+//! sample (cached rows), the rows of `K` restricted to the tree and the normal equations
+//! `K^T K c = K^T f` themselves, updated by what the round added (new samples, new functions:
+//! module `normal`, cost in the number of new samples and functions), the sorted positions
+//! (leaf counts by binary search) and the random stream. [`Refinement::rebuild`] recomputes
+//! all of it from scratch as a check. Rebuilt each round: the tree's coverage and leaves
+//! (`O(P)`) and the sparse Cholesky factor of `K^T K` (finest level eliminated first).
+
 //! Columns are kept as a sorted list of global indices ([`WaveletTree::columns`], looked up by
 //! [`column_of`]), so trees go to level [`MAX_DEPTH_LIMIT`]; [`WaveletTree::active_set`] and
 //! [`Refinement::fit`] convert to the crate's [`crate::kernel::ActiveSet`] and
@@ -52,6 +55,7 @@
 mod error;
 mod indicator;
 mod measure;
+mod normal;
 mod oracle;
 mod params;
 mod refiner;

@@ -10,6 +10,7 @@ use sprs::CsMat;
 
 use super::indicator::{coefficient_indication, residual_indication, Indication};
 use super::measure::{grid, ErrorFigures};
+use super::normal::{level_of, NormalEquations, TrackedPoints};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
 use super::tree::{column_of, Leaf, WaveletTree};
 use super::{Indicator, RefineError, RefineParams, Sample, SampleOracle};
@@ -18,7 +19,7 @@ use rayon::prelude::*;
 use crate::basis::{BasisError, BasisValue, CdvBasis, FilterBank};
 use crate::kernel::LevelChoice;
 use crate::reconstruct::{Fit, ReconstructError, Timings};
-use crate::solve::{global_ls, GlobalReport};
+use crate::solve::{global_ls, GlobalMethod, GlobalReport};
 
 /// Why the refiner stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -253,7 +254,8 @@ pub(crate) fn from_reconstruct(e: ReconstructError) -> RefineError {
 struct Current {
     columns: Vec<usize>,
     coefficients: Vec<f64>,
-    kernel: CsMat<f64>,
+    /// Rows of `K` in this fit.
+    samples: usize,
     solve: GlobalReport,
     error: Option<ErrorFigures>,
     new_samples: usize,
@@ -297,7 +299,10 @@ pub struct Refiner<'o, O: SampleOracle + ?Sized> {
     current: Current,
     rounds: Vec<RoundLog>,
     stop: Option<StopReason>,
-    reference: Option<(Vec<f64>, Vec<f64>)>,
+    /// The normal equations, updated round by round.
+    normal: NormalEquations,
+    /// The diagnostic reference grid (tracked rows) and the truth there.
+    reference: Option<(TrackedPoints, Vec<f64>)>,
     base_depth: u32,
 }
 
@@ -341,12 +346,22 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         }
         store.add(&xs, oracle, &full, 0)?;
         let sample_s = t0.elapsed().as_secs_f64();
-        let reference = (params.reference_grid > 0).then(|| {
+        let mut reference = (params.reference_grid > 0).then(|| {
             let g = grid(domain, params.reference_grid);
             let truth = g.iter().map(|&x| oracle.sample(x)).collect();
-            (g, truth)
+            let ts = g.iter().map(|&x| domain.to_unit(x)).collect();
+            (TrackedPoints::new(&full, ts), truth)
         });
-        let current = fit_round(&tree, &store, params, xs.len(), sample_s, &reference)?;
+        let mut normal = NormalEquations::default();
+        let current = fit_round(
+            &tree,
+            &store,
+            &mut normal,
+            &mut reference,
+            params,
+            xs.len(),
+            sample_s,
+        )?;
         Ok(Self {
             oracle,
             params: *params,
@@ -358,6 +373,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             current,
             rounds: Vec::new(),
             stop: None,
+            normal,
             reference,
             base_depth,
         })
@@ -388,9 +404,14 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             xs,
         )
     }
-    /// The current kernel matrix.
-    pub fn kernel(&self) -> &CsMat<f64> {
-        &self.current.kernel
+    /// The current kernel matrix (assembled from the active rows on each call).
+    pub fn kernel(&self) -> CsMat<f64> {
+        self.normal.kernel(&self.current.columns)
+    }
+    /// The normal equations as kept between rounds (tests).
+    #[cfg(test)]
+    pub(crate) fn normal(&self) -> &NormalEquations {
+        &self.normal
     }
     /// The rounds logged so far.
     pub fn rounds(&self) -> &[RoundLog] {
@@ -452,10 +473,11 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
                     self.current = fit_round(
                         &self.tree,
                         &self.store,
+                        &mut self.normal,
+                        &mut self.reference,
                         &self.params,
                         probed.probes,
                         0.0,
-                        &self.reference,
                     )?;
                     let leaves = self.tree.leaves();
                     let min_leaf = self.min_leaf_samples(&leaves);
@@ -594,10 +616,11 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         self.current = fit_round(
             &self.tree,
             &self.store,
+            &mut self.normal,
+            &mut self.reference,
             &self.params,
             xs.len() + probes,
             sample_s,
-            &self.reference,
         )?;
         Ok(())
     }
@@ -629,7 +652,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         times.total_s = times.sample_s + times.kernel_s + times.solve_s + indicate_s + mark_s;
         RoundLog {
             round: self.round,
-            samples: c.kernel.rows(),
+            samples: c.samples,
             new_samples: c.new_samples,
             basis_size: c.columns.len(),
             depth: self.tree.depth(),
@@ -646,12 +669,13 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
 
     /// The result (runs no further round).
     pub fn into_result(self) -> Refinement {
+        let kernel = self.kernel();
         Refinement {
             tree: self.tree,
             samples: self.store.samples,
             columns: self.current.columns,
             coefficients: self.current.coefficients,
-            kernel: self.current.kernel,
+            kernel,
             solve: self.current.solve,
             rounds: self.rounds,
             stop: self.stop.unwrap_or(StopReason::MaxRounds),
@@ -661,37 +685,56 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
     }
 }
 
-/// Builds `K` from the cached evaluations and solves.
+/// Brings the normal equations to the current tree and samples and solves them (or, for
+/// CGLS, solves from `K` assembled from the active rows); the reference error if asked.
 fn fit_round(
     tree: &WaveletTree,
     store: &SampleStore,
+    normal: &mut NormalEquations,
+    reference: &mut Option<(TrackedPoints, Vec<f64>)>,
     params: &RefineParams,
     new_samples: usize,
     sample_s: f64,
-    reference: &Option<(Vec<f64>, Vec<f64>)>,
 ) -> Result<Current, RefineError> {
     let t0 = Instant::now();
     let columns = tree.columns();
-    let kernel = store.kernel(&columns);
+    let coarse = tree.coarse();
+    normal.update(
+        &store.rows,
+        &store.samples,
+        &columns,
+        |a| tree.support_unit(a),
+        |a| level_of(tree.function(a), coarse),
+    );
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let values = store.values();
-    let mut solved = global_ls(&kernel, &[&values], &params.solve)?;
-    let solve_s = t1.elapsed().as_secs_f64();
-    let coefficients = solved.coefficients.swap_remove(0);
-    let error = match reference {
-        Some((xs, truth)) => {
-            let basis = tree.basis()?;
-            let got = evaluate_sparse(&basis, &columns, &coefficients, xs)?;
-            Some(ErrorFigures::between(&got, truth))
+    let (by_slot, solve) = if params.solve.method == GlobalMethod::Cholesky {
+        let mut solved = normal.solve(&params.solve)?;
+        (solved.coefficients.swap_remove(0), solved.report)
+    } else {
+        let kernel = normal.kernel(&columns);
+        let values = store.values();
+        let mut solved = global_ls(&kernel, &[&values], &params.solve)?;
+        let by_column = solved.coefficients.swap_remove(0);
+        let mut by_slot = vec![0.0; columns.len()];
+        for (c, &a) in columns.iter().enumerate() {
+            by_slot[normal.slot(a).expect("every column is active")] = by_column[c];
         }
-        None => None,
+        (by_slot, solved.report)
     };
+    let solve_s = t1.elapsed().as_secs_f64();
+    let coefficients: Vec<f64> = columns
+        .iter()
+        .map(|&a| by_slot[normal.slot(a).expect("every column is active")])
+        .collect();
+    let error = reference
+        .as_mut()
+        .map(|(points, truth)| ErrorFigures::between(&points.values(normal, &by_slot), truth));
     Ok(Current {
         columns,
         coefficients,
-        kernel,
-        solve: solved.report,
+        samples: store.len(),
+        solve,
         error,
         new_samples,
         times: RoundTimes {

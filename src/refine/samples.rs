@@ -4,17 +4,13 @@
 
 use rand::Rng;
 use rand_pcg::Pcg64;
-use rayon::prelude::*;
 use serde::Serialize;
-use sprs::CsMat;
 
-use super::tree::{column_of, Leaf};
+use super::normal::CachedRows;
+use super::tree::Leaf;
 use super::{RefineError, SampleOracle};
-use crate::basis::{BasisValue, CdvBasis};
+use crate::basis::CdvBasis;
 use crate::sampling::Domain;
-
-/// Samples per parallel evaluation work item.
-const CHUNK: usize = 1024;
 
 /// Whether a sample belongs to the base sampling or was added by refinement.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -56,9 +52,8 @@ pub(crate) struct SampleStore {
     pub samples: Vec<Sample>,
     /// Unit positions, ascending (for counting per leaf).
     sorted: Vec<f64>,
-    row_ptr: Vec<usize>,
-    row_index: Vec<usize>,
-    row_value: Vec<f64>,
+    /// The evaluation of `Psi(n, D)` at every sample.
+    pub rows: CachedRows,
 }
 
 impl SampleStore {
@@ -66,9 +61,7 @@ impl SampleStore {
         Self {
             samples: Vec::new(),
             sorted: Vec::new(),
-            row_ptr: vec![0],
-            row_index: Vec::new(),
-            row_value: Vec::new(),
+            rows: CachedRows::new(),
         }
     }
 
@@ -103,31 +96,8 @@ impl SampleStore {
                 round,
             });
         }
-        let rows: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = new
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut ev = basis.evaluator();
-                let mut out: Vec<BasisValue> = Vec::with_capacity(256);
-                let mut counts = Vec::with_capacity(chunk.len());
-                let mut index = Vec::new();
-                let mut value = Vec::new();
-                for s in chunk {
-                    ev.eval_unit_into(s.t, &mut out);
-                    counts.push(out.len());
-                    index.extend(out.iter().map(|v| v.index));
-                    value.extend(out.iter().map(|v| v.value));
-                }
-                (counts, index, value)
-            })
-            .collect();
-        for (counts, index, value) in rows {
-            for c in counts {
-                let last = *self.row_ptr.last().unwrap_or(&0);
-                self.row_ptr.push(last + c);
-            }
-            self.row_index.extend(index);
-            self.row_value.extend(value);
-        }
+        let ts: Vec<f64> = new.iter().map(|s| s.t).collect();
+        self.rows.push(basis, &ts);
         self.sorted.extend(new.iter().map(|s| s.t));
         self.sorted.sort_by(f64::total_cmp);
         self.samples.extend(new);
@@ -147,26 +117,6 @@ impl SampleStore {
     /// The sorted unit positions inside `leaf`.
     pub fn range_in(&self, leaf: &Leaf) -> &[f64] {
         range_in(&self.sorted, leaf)
-    }
-
-    /// `K` for the active `columns` (ascending global indices) from the cached evaluations:
-    /// row `i` is sample `i`.
-    pub fn kernel(&self, columns: &[usize]) -> CsMat<f64> {
-        let m = self.samples.len();
-        let mut indptr = Vec::with_capacity(m + 1);
-        let mut indices = Vec::with_capacity(self.row_index.len() / 2);
-        let mut data = Vec::with_capacity(self.row_index.len() / 2);
-        indptr.push(0);
-        for i in 0..m {
-            for t in self.row_ptr[i]..self.row_ptr[i + 1] {
-                if let Some(c) = column_of(columns, self.row_index[t]) {
-                    indices.push(c);
-                    data.push(self.row_value[t]);
-                }
-            }
-            indptr.push(indices.len());
-        }
-        CsMat::new((m, columns.len()), indptr, indices, data)
     }
 }
 

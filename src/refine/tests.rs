@@ -161,3 +161,56 @@ fn expressions_follow_the_documented_semantics() {
         .to_string()
         .contains("unknown name `y`"));
 }
+
+/// The normal equations kept up to date round by round equal `K^T K` and `K^T f` of a `K`
+/// built from scratch by `kernel::kernel_matrix` (an independent evaluation): entry by entry
+/// to the rounding of a sum of `m` products, `|dG_ab| <= m eps sum_i |K_ia K_ib|`.
+#[test]
+fn incremental_normal_equations_equal_a_fresh_k_transpose_k() {
+    use crate::kernel::kernel_matrix;
+    use crate::refine::{RefineParams, Refiner, SignalOracle, Step};
+    use crate::sampling::Signal;
+    let oracle = SignalOracle::new(Signal::Jumps, Domain::UNIT);
+    let params = RefineParams {
+        max_depth: 16,
+        tolerance: 1e-9,
+        budget: 1500,
+        seed: 7,
+        ..RefineParams::default()
+    };
+    let mut refiner = Refiner::new(&oracle, &params).unwrap();
+    let mut rounds = 0;
+    while rounds < 12 && refiner.refine_once().unwrap() == Step::Refined {
+        rounds += 1;
+    }
+    assert!(rounds >= 5, "the test must see several rounds");
+    let tree = refiner.tree();
+    let positions: Vec<f64> = refiner.samples().iter().map(|s| s.x).collect();
+    let values: Vec<f64> = refiner.samples().iter().map(|s| s.value).collect();
+    let active = tree.active_set().unwrap();
+    let k = kernel_matrix(&active, &positions).unwrap().to_dense();
+    let (g, rhs) = refiner.normal().dense(refiner.columns());
+    let (m, p) = (k.nrows(), k.ncols());
+    assert_eq!(p, refiner.columns().len());
+    let eps = f64::EPSILON * m as f64;
+    for a in 0..p {
+        let (mut f, mut fs) = (0.0, 0.0);
+        for i in 0..m {
+            f += k[[i, a]] * values[i];
+            fs += (k[[i, a]] * values[i]).abs();
+        }
+        assert!((rhs[a] - f).abs() <= eps * fs, "K^T f at {a}");
+        for b in 0..p {
+            let (mut s, mut abs) = (0.0, 0.0);
+            for i in 0..m {
+                s += k[[i, a]] * k[[i, b]];
+                abs += (k[[i, a]] * k[[i, b]]).abs();
+            }
+            assert!(
+                (g[a][b] - s).abs() <= eps * abs,
+                "G[{a}][{b}] = {} against {s}",
+                g[a][b]
+            );
+        }
+    }
+}

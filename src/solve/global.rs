@@ -16,19 +16,14 @@
 //!   variables; zero on never-sampled columns).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::linalg::svd::{pseudoinverse_from_svd_scratch, pseudoinverse_from_svd_with_tolerance};
 use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, simplicial::SimplicialLltRef, supernodal::SupernodalLltRef,
-    SymbolicCholeskyRaw, SymmetricOrdering,
-};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, Par, Side};
+use faer::{Mat, Par};
 use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
+use super::normal::factor_solve;
 use super::params::{GlobalLsParams, GlobalMethod, RankPolicy};
 use super::sparse::{check_finite_output, check_values, ldexp, normal_matrix, prepare, raw, spmm};
 use super::SolveError;
@@ -300,7 +295,11 @@ fn normal_residuals(
 
 /// Column scaling `d_a = 1 / ||K_s[:, a]||` (1 for an empty column in Cholesky, where the
 /// zero pivot is then detected; 0 in CGLS, which keeps that coefficient at 0).
-fn column_scaling(normal_diag: impl Fn(usize) -> f64 + Sync, p: usize, empty: f64) -> Vec<f64> {
+pub(super) fn column_scaling(
+    normal_diag: impl Fn(usize) -> f64 + Sync,
+    p: usize,
+    empty: f64,
+) -> Vec<f64> {
     (0..p)
         .into_par_iter()
         .map(|a| {
@@ -326,115 +325,14 @@ fn cholesky_ls(
     }
     let prep = prepare(k)?;
     let g = normal_matrix(&prep.k, &prep.kt);
-    let (gp, gi, gd) = raw(&g);
-    let diag_of = |a: usize| {
-        gi[gp[a]..gp[a + 1]]
-            .binary_search(&a)
-            .map(|t| gd[gp[a] + t])
-            .unwrap_or(0.0)
-    };
-    let d = column_scaling(diag_of, p, 1.0);
-    // Equilibrated G with the diagonal always stored (so a ridge keeps the pattern).
-    let mut col_ptr = Vec::with_capacity(p + 1);
-    let mut row_idx = Vec::with_capacity(gi.len() + p);
-    let mut vals = Vec::with_capacity(gi.len() + p);
-    let mut diag_pos = vec![0usize; p];
-    col_ptr.push(0usize);
-    for a in 0..p {
-        let mut has_diag = false;
-        for t in gp[a]..gp[a + 1] {
-            let b = gi[t];
-            if b > a && !has_diag {
-                diag_pos[a] = row_idx.len();
-                row_idx.push(a);
-                vals.push(0.0);
-                has_diag = true;
-            }
-            if b == a {
-                diag_pos[a] = row_idx.len();
-                has_diag = true;
-            }
-            row_idx.push(b);
-            vals.push(gd[t] * d[a] * d[b]);
-        }
-        if !has_diag {
-            diag_pos[a] = row_idx.len();
-            row_idx.push(a);
-            vals.push(0.0);
-        }
-        col_ptr.push(row_idx.len());
-    }
-    let normal_nnz = row_idx.len();
-    let sym = SymbolicSparseColMatRef::new_checked(p, p, &col_ptr, None, &row_idx);
-    let symbolic =
-        factorize_symbolic_cholesky(sym, Side::Lower, SymmetricOrdering::Amd, Default::default())
-            .map_err(|e| SolveError::Factorization {
-            what: format!("symbolic sparse Cholesky of K^T K ({p} x {p}): {e:?}"),
-        })?;
-    let perm_fwd: Vec<usize> = match symbolic.perm() {
-        Some(perm) => perm.arrays().0.to_vec(),
-        None => (0..p).collect(),
-    };
-    let par = Par::rayon(0);
-    let mut lvals = vec![0.0f64; symbolic.len_val()];
-    let mut mem = MemBuffer::new(
-        symbolic
-            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(ch.max(1), par)),
-    );
-    let col_samples = |a: usize| raw(&prep.kt).0[a + 1] - raw(&prep.kt).0[a];
-    let mut ridge = 0.0;
-    let mut min_pivot;
-    loop {
-        let a = SparseColMatRef::new(sym, &vals);
-        let res = symbolic.factorize_numeric_llt(
-            &mut lvals,
-            a,
-            Side::Lower,
-            LltRegularization::default(),
-            par,
-            MemStack::new(&mut mem),
-            Default::default(),
-        );
-        let failed_at = match res {
-            Ok(_) => {
-                let (q, piv) = min_diag(&symbolic, &lvals, p);
-                min_pivot = piv;
-                (piv < params.pivot_tol).then_some(q)
-            }
-            Err(faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index }) => {
-                min_pivot = 0.0;
-                Some(index)
-            }
-        };
-        let Some(q) = failed_at else { break };
-        let column = perm_fwd.get(q).copied().unwrap_or(q);
-        if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
-            if m < p {
-                return Err(SolveError::Undersampled { rows: m, cols: p });
-            }
-            return Err(SolveError::RankDeficient {
-                column,
-                pivot: min_pivot,
-                threshold: params.pivot_tol,
-                column_samples: col_samples(column),
-            });
-        }
-        ridge = params.ridge;
-        for &t in &diag_pos {
-            vals[t] += ridge;
-        }
-    }
-    // Right-hand sides: D K_s^T f, col-major P x ch.
+    // Right-hand sides K_s^T f, row-major P x ch.
     let f = interleave(values, m);
     let mut ktf = vec![0.0; p * ch];
     spmm(&prep.kt, &f, &mut ktf, ch);
-    let mut rhs = Mat::<f64>::from_fn(p, ch, |a, c| d[a] * ktf[a * ch + c]);
-    let llt = faer::sparse::linalg::cholesky::LltRef::new(&symbolic, &lvals);
-    llt.solve_in_place_with_conj(Conj::No, rhs.as_mut(), par, MemStack::new(&mut mem));
-    let y: Vec<f64> = (0..p * ch).map(|t| rhs[(t / ch, t % ch)]).collect();
-    let residuals = normal_residuals(&prep.k, &prep.kt, &d, &f, &y, ch);
-    let coefficients = deinterleave(&y, &d, ch, prep.exponent);
+    let tp = raw(&prep.kt).0;
+    let solved = factor_solve(&g, &ktf, ch, m, &|a| tp[a + 1] - tp[a], None, params)?;
+    let residuals = normal_residuals(&prep.k, &prep.kt, &solved.d, &f, &solved.y, ch);
+    let coefficients = deinterleave(&solved.y, &solved.d, ch, prep.exponent);
     for (c, x) in coefficients.iter().enumerate() {
         check_finite_output(x, &format!("global Cholesky least squares, channel {c}"))?;
     }
@@ -444,46 +342,12 @@ fn cholesky_ls(
             method: GlobalMethod::Cholesky,
             iterations: vec![0; ch],
             residuals,
-            ridge,
-            min_pivot,
-            normal_nnz,
-            factor_nnz: lvals.len(),
+            ridge: solved.ridge,
+            min_pivot: solved.min_pivot,
+            normal_nnz: solved.normal_nnz,
+            factor_nnz: solved.factor_nnz,
         },
     })
-}
-
-/// Smallest `L_qq^2` (permuted index `q`) of a numeric sparse Cholesky factor.
-fn min_diag(
-    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
-    lvals: &[f64],
-    p: usize,
-) -> (usize, f64) {
-    let mut diag = vec![0.0f64; p];
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Simplicial(s) => {
-            let l = SimplicialLltRef::new(s, lvals);
-            let (cp, ri) = (s.col_ptr(), s.row_idx());
-            for (j, dj) in diag.iter_mut().enumerate() {
-                if let Some(t) = (cp[j]..cp[j + 1]).find(|&t| ri[t] == j) {
-                    *dj = l.values()[t];
-                }
-            }
-        }
-        SymbolicCholeskyRaw::Supernodal(s) => {
-            let l = SupernodalLltRef::new(s, lvals);
-            for sn in 0..s.n_supernodes() {
-                let node = l.supernode(sn);
-                let v = node.val();
-                for c in 0..v.ncols() {
-                    diag[node.start() + c] = v[(c, c)];
-                }
-            }
-        }
-    }
-    diag.iter()
-        .enumerate()
-        .map(|(q, &l)| (q, l * l))
-        .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
 }
 
 fn cgls(

@@ -9,7 +9,7 @@
 //!   [`Solver`]).
 //! * [`dense_pinv`]: dense `K^+` by faer's SVD, the truth for small problems.
 //! * [`global_ls`]: `argmin ||K c - f||` for large problems by sparse Cholesky of `K^T K`
-//!   or CGLS ([`GlobalLsParams`]).
+//!   or CGLS ([`GlobalLsParams`]); [`normal_ls`] the same Cholesky from a given `K^T K`.
 //! * [`compare_dense`], [`compare_sparse_dense`], [`compare_vectors`]: error figures.
 //!
 //! Every entry point validates its input, scales `K` by an exact power of two (so
@@ -21,6 +21,7 @@ mod error;
 mod global;
 mod kernel;
 mod local;
+mod normal;
 mod params;
 mod sparse;
 #[cfg(test)]
@@ -32,4 +33,5 @@ pub use global::{dense_pinv, global_ls, DensePinv, GlobalLs, GlobalReport, DENSE
 pub use local::{
     apply_local, local_inversion, GroupStats, LocalApply, LocalInversion, LocalStats, Summary,
 };
+pub use normal::normal_ls;
 pub use params::{GlobalLsParams, GlobalMethod, LocalInversionParams, RankPolicy, Solver};

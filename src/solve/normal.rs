@@ -1,0 +1,317 @@
+//! Least squares from the normal equations: `G c = K^T f` with `G = K^T K` given (for a
+//! caller that keeps `G` up to date itself, as the refiner does between rounds), solved as
+//! `D G D y = D K^T f`, `c = D y`, `D = diag(G)^{-1/2}`, by a sparse Cholesky
+//! `P (D G D) P^T = L L^T` (faer: symbolic step with AMD or a given ordering `P`, numeric
+//! step, triangular solves). The same factorization serves [`crate::solve::global_ls`].
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, simplicial::SimplicialLltRef, supernodal::SupernodalLltRef,
+    SymbolicCholeskyRaw, SymmetricOrdering,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Mat, Par, Side};
+use rayon::prelude::*;
+use sprs::CsMat;
+
+use super::global::{column_scaling, GlobalLs, GlobalReport};
+use super::params::{GlobalLsParams, GlobalMethod, RankPolicy};
+use super::sparse::{check_finite_output, check_values, raw};
+use super::SolveError;
+
+/// A factorized, solved normal system in the equilibrated variables.
+pub(crate) struct Factored {
+    /// `y`, row-major `P x ch`: `c = D y`.
+    pub y: Vec<f64>,
+    /// The equilibration `D = diag(G)^{-1/2}` (1 on an empty column).
+    pub d: Vec<f64>,
+    /// Ridge added (0 = none).
+    pub ridge: f64,
+    /// Smallest pivot `L_qq^2`.
+    pub min_pivot: f64,
+    /// Stored entries of the equilibrated `G` (diagonal always stored).
+    pub normal_nnz: usize,
+    /// Stored entries of `L`.
+    pub factor_nnz: usize,
+}
+
+/// Factorizes the equilibrated `G` (CSR, sorted, both triangles; symmetric so also CSC)
+/// and solves for the right-hand sides `ktf = K^T f` (row-major `P x ch`); `m` rows of `K`,
+/// `column_samples(a)` samples of column `a` (for the error message), `ordering` the
+/// fill-reducing order (`ordering[q]` = column eliminated `q`-th; `None` is AMD).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn factor_solve(
+    g: &CsMat<f64>,
+    ktf: &[f64],
+    ch: usize,
+    m: usize,
+    column_samples: &dyn Fn(usize) -> usize,
+    ordering: Option<&[usize]>,
+    params: &GlobalLsParams,
+) -> Result<Factored, SolveError> {
+    let p = g.rows();
+    let (gp, gi, gd) = raw(g);
+    let diag_of = |a: usize| {
+        gi[gp[a]..gp[a + 1]]
+            .binary_search(&a)
+            .map(|t| gd[gp[a] + t])
+            .unwrap_or(0.0)
+    };
+    let d = column_scaling(diag_of, p, 1.0);
+    // Equilibrated G with the diagonal always stored (so a ridge keeps the pattern).
+    let mut col_ptr = Vec::with_capacity(p + 1);
+    let mut row_idx = Vec::with_capacity(gi.len() + p);
+    let mut vals = Vec::with_capacity(gi.len() + p);
+    let mut diag_pos = vec![0usize; p];
+    col_ptr.push(0usize);
+    for a in 0..p {
+        let mut has_diag = false;
+        for t in gp[a]..gp[a + 1] {
+            let b = gi[t];
+            if b > a && !has_diag {
+                diag_pos[a] = row_idx.len();
+                row_idx.push(a);
+                vals.push(0.0);
+                has_diag = true;
+            }
+            if b == a {
+                diag_pos[a] = row_idx.len();
+                has_diag = true;
+            }
+            row_idx.push(b);
+            vals.push(gd[t] * d[a] * d[b]);
+        }
+        if !has_diag {
+            diag_pos[a] = row_idx.len();
+            row_idx.push(a);
+            vals.push(0.0);
+        }
+        col_ptr.push(row_idx.len());
+    }
+    let normal_nnz = row_idx.len();
+    let sym = SymbolicSparseColMatRef::new_checked(p, p, &col_ptr, None, &row_idx);
+    let inverse: Vec<usize> = ordering.map_or_else(Vec::new, |fwd| {
+        let mut inv = vec![0usize; p];
+        for (q, &a) in fwd.iter().enumerate() {
+            inv[a] = q;
+        }
+        inv
+    });
+    let order = match ordering {
+        Some(fwd) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, &inverse, p)),
+        None => SymmetricOrdering::Amd,
+    };
+    let symbolic = factorize_symbolic_cholesky(sym, Side::Lower, order, Default::default())
+        .map_err(|e| SolveError::Factorization {
+            what: format!("symbolic sparse Cholesky of K^T K ({p} x {p}): {e:?}"),
+        })?;
+    let perm_fwd: Vec<usize> = match symbolic.perm() {
+        Some(perm) => perm.arrays().0.to_vec(),
+        None => (0..p).collect(),
+    };
+    let par = Par::rayon(0);
+    let mut lvals = vec![0.0f64; symbolic.len_val()];
+    let mut mem = MemBuffer::new(
+        symbolic
+            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+            .or(symbolic.solve_in_place_scratch::<f64>(ch.max(1), par)),
+    );
+    let mut ridge = 0.0;
+    let mut min_pivot;
+    loop {
+        let a = SparseColMatRef::new(sym, &vals);
+        let res = symbolic.factorize_numeric_llt(
+            &mut lvals,
+            a,
+            Side::Lower,
+            LltRegularization::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        let failed_at = match res {
+            Ok(_) => {
+                let (q, piv) = min_diag(&symbolic, &lvals, p);
+                min_pivot = piv;
+                (piv < params.pivot_tol).then_some(q)
+            }
+            Err(faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index }) => {
+                min_pivot = 0.0;
+                Some(index)
+            }
+        };
+        let Some(q) = failed_at else { break };
+        let column = perm_fwd.get(q).copied().unwrap_or(q);
+        if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
+            if m < p {
+                return Err(SolveError::Undersampled { rows: m, cols: p });
+            }
+            return Err(SolveError::RankDeficient {
+                column,
+                pivot: min_pivot,
+                threshold: params.pivot_tol,
+                column_samples: column_samples(column),
+            });
+        }
+        ridge = params.ridge;
+        for &t in &diag_pos {
+            vals[t] += ridge;
+        }
+    }
+    let mut rhs = Mat::<f64>::from_fn(p, ch, |a, c| d[a] * ktf[a * ch + c]);
+    let llt = faer::sparse::linalg::cholesky::LltRef::new(&symbolic, &lvals);
+    llt.solve_in_place_with_conj(Conj::No, rhs.as_mut(), par, MemStack::new(&mut mem));
+    let y: Vec<f64> = (0..p * ch).map(|t| rhs[(t / ch, t % ch)]).collect();
+    Ok(Factored {
+        y,
+        d,
+        ridge,
+        min_pivot,
+        normal_nnz,
+        factor_nnz: lvals.len(),
+    })
+}
+
+/// `c = argmin ||K c - f||` for every channel from the normal equations alone: `gram` is
+/// `G = K^T K` (`P x P` CSR, sorted indices, both triangles), `rhs[ch]` is `K^T f[ch]`,
+/// `rows` the number of samples `m`, `column_samples[a]` the samples in column `a`, and
+/// `ordering` an elimination order (`None`: AMD). Always the sparse Cholesky of
+/// [`GlobalMethod::Cholesky`] (with its rank policy); the residual reported is
+/// `||D (K^T f - G c)|| / ||D K^T f||`, the equilibrated normal-equation residual.
+pub fn normal_ls(
+    gram: &CsMat<f64>,
+    rhs: &[&[f64]],
+    rows: usize,
+    column_samples: &[usize],
+    ordering: Option<&[usize]>,
+    params: &GlobalLsParams,
+) -> Result<GlobalLs, SolveError> {
+    params.validate()?;
+    let p = gram.rows();
+    check_values(rhs, p)?;
+    if gram.cols() != p || !gram.is_csr() || column_samples.len() != p {
+        return Err(SolveError::DimensionMismatch {
+            what: "normal matrix (square CSR) and column samples",
+            expected: p,
+            found: column_samples.len(),
+        });
+    }
+    if let Some(order) = ordering {
+        let mut seen = vec![false; p];
+        if order.len() != p
+            || order
+                .iter()
+                .any(|&a| a >= p || std::mem::replace(&mut seen[a], true))
+        {
+            return Err(SolveError::DimensionMismatch {
+                what: "elimination order (a permutation of the columns)",
+                expected: p,
+                found: order.len(),
+            });
+        }
+    }
+    let ch = rhs.len();
+    if ch == 0 || p == 0 {
+        return Ok(GlobalLs {
+            coefficients: vec![vec![0.0; p]; ch],
+            report: GlobalReport {
+                method: GlobalMethod::Cholesky,
+                iterations: vec![],
+                residuals: vec![],
+                ridge: 0.0,
+                min_pivot: 0.0,
+                normal_nnz: 0,
+                factor_nnz: 0,
+            },
+        });
+    }
+    let mut ktf = vec![0.0; p * ch];
+    for (c, r) in rhs.iter().enumerate() {
+        for (a, v) in r.iter().enumerate() {
+            ktf[a * ch + c] = *v;
+        }
+    }
+    let solved = factor_solve(
+        gram,
+        &ktf,
+        ch,
+        rows,
+        &|a| column_samples[a],
+        ordering,
+        params,
+    )?;
+    let (gp, gi, gd) = raw(gram);
+    let coefficients: Vec<Vec<f64>> = (0..ch)
+        .map(|c| (0..p).map(|a| solved.d[a] * solved.y[a * ch + c]).collect())
+        .collect();
+    let residuals = coefficients
+        .iter()
+        .zip(rhs)
+        .map(|(x, b)| {
+            let (num, den) = (0..p)
+                .into_par_iter()
+                .map(|a| {
+                    let gx: f64 = (gp[a]..gp[a + 1]).map(|t| gd[t] * x[gi[t]]).sum();
+                    let (r, s) = (solved.d[a] * (b[a] - gx), solved.d[a] * b[a]);
+                    (r * r, s * s)
+                })
+                .reduce(|| (0.0, 0.0), |u, v| (u.0 + v.0, u.1 + v.1));
+            if den > 0.0 {
+                (num / den).sqrt()
+            } else {
+                num.sqrt()
+            }
+        })
+        .collect();
+    for (c, x) in coefficients.iter().enumerate() {
+        check_finite_output(x, &format!("normal-equation least squares, channel {c}"))?;
+    }
+    Ok(GlobalLs {
+        coefficients,
+        report: GlobalReport {
+            method: GlobalMethod::Cholesky,
+            iterations: vec![0; ch],
+            residuals,
+            ridge: solved.ridge,
+            min_pivot: solved.min_pivot,
+            normal_nnz: solved.normal_nnz,
+            factor_nnz: solved.factor_nnz,
+        },
+    })
+}
+
+/// Smallest `L_qq^2` (permuted index `q`) of a numeric sparse Cholesky factor.
+fn min_diag(
+    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    lvals: &[f64],
+    p: usize,
+) -> (usize, f64) {
+    let mut diag = vec![0.0f64; p];
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => {
+            let l = SimplicialLltRef::new(s, lvals);
+            let (cp, ri) = (s.col_ptr(), s.row_idx());
+            for (j, dj) in diag.iter_mut().enumerate() {
+                if let Some(t) = (cp[j]..cp[j + 1]).find(|&t| ri[t] == j) {
+                    *dj = l.values()[t];
+                }
+            }
+        }
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let l = SupernodalLltRef::new(s, lvals);
+            for sn in 0..s.n_supernodes() {
+                let node = l.supernode(sn);
+                let v = node.val();
+                for c in 0..v.ncols() {
+                    diag[node.start() + c] = v[(c, c)];
+                }
+            }
+        }
+    }
+    diag.iter()
+        .enumerate()
+        .map(|(q, &l)| (q, l * l))
+        .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+}
