@@ -39,7 +39,7 @@ fn end_to_end(c: &mut Criterion) {
             ] {
                 let params = FitParams {
                     p,
-                    family: rkwave::basis::FilterFamily::cdv_default(p),
+                    family: None,
                     method: Method::SingleScale { ridge: 0.0, solver },
                     ..FitParams::default()
                 };

@@ -4,7 +4,9 @@
 
 use rkwave::basis::{minimum_level, CdvBasis, FilterFamily};
 use rkwave::kernel::{kernel_matrix, ActiveSet, LevelChoice};
-use rkwave::reconstruct::{fit, fit_active, FitParams, Levels, Method, ReconstructError};
+use rkwave::reconstruct::{
+    fit, fit_active, Fallback, FitParams, Levels, Method, ReconstructError, SolveReport,
+};
 use rkwave::sampling::{Domain, Layout, Signal};
 use rkwave::solve::{dense_pinv, local_inversion, LocalInversionParams, Solver};
 
@@ -155,15 +157,24 @@ fn locally_undersampled_cells_are_reported_not_blown_up() {
     )
     .unwrap();
     assert!(all_finite(&fit.coefficients));
-    let rep = fit.single_scale.clone().unwrap();
+    let [Fallback::LocalInversion {
+        deficient,
+        unsampled,
+    }] = fit.fallbacks[..]
+    else {
+        panic!(
+            "the fallback to local inversion is reported: {:?}",
+            fit.fallbacks
+        );
+    };
     assert!(
-        rep.unsampled > 0,
-        "gaps leave single-scale functions without samples: {rep:?}"
+        unsampled > 0,
+        "gaps leave single-scale functions without samples"
     );
-    assert!(rep.deficient >= rep.unsampled, "{rep:?}");
+    assert!(deficient >= unsampled, "{deficient} < {unsampled}");
     assert!(
-        fit.fallback.is_some() && fit.local.is_some(),
-        "the fallback is reported"
+        matches!(fit.solve, SolveReport::Local(_)),
+        "local inversion produced the coefficients"
     );
     // The samples themselves are still fitted (the least-squares residual is small).
     let at = fit.evaluate(&xs).unwrap();
@@ -322,4 +333,47 @@ fn dense_reference_is_a_pseudo_inverse() {
     let s_kept = d.singular_values[d.rank - 1];
     let tol = 1e-15 * s_max * s_max / s_kept * (km.ncols() as f64).sqrt() + 1e-10 * s_max;
     assert!(err < tol, "K K+ K - K = {err:e} (tolerance {tol:e})");
+}
+
+/// `FitParams { p, ..Default::default() }` takes CDV's filter family for that `p`
+/// (extremal phase `dbP` for `p <= 3`, least asymmetric `symP` above), not the default's
+/// `p = 3` family: for every `p` the fitted basis's family is `FilterFamily::cdv_default(p)`.
+/// (`FitParams::default()` once fixed `db3`'s family, so `p = 6` silently used `db6`.)
+#[test]
+fn fit_params_family_follows_p() {
+    let xs: Vec<f64> = (0..2000).map(|i| (i as f64 + 0.5) / 2000.0).collect();
+    let f = Signal::Smooth.sample(Domain::UNIT, &xs);
+    for p in 1..=8 {
+        let params = FitParams {
+            p,
+            ..Default::default()
+        };
+        assert_eq!(params.family(), FilterFamily::cdv_default(p), "p = {p}");
+        let fitted = fit(&xs, &[&f], Domain::UNIT, &params).unwrap();
+        assert_eq!(
+            fitted.active.basis().bank().family(),
+            FilterFamily::cdv_default(p),
+            "p = {p}"
+        );
+    }
+    assert_eq!(
+        FitParams {
+            p: 6,
+            ..Default::default()
+        }
+        .family(),
+        FilterFamily::LeastAsymmetric,
+        "p = 6 is sym6"
+    );
+    // An explicit family is kept.
+    let explicit = FitParams {
+        p: 6,
+        family: Some(FilterFamily::Extremal),
+        ..Default::default()
+    };
+    let fitted = fit(&xs, &[&f], Domain::UNIT, &explicit).unwrap();
+    assert_eq!(
+        fitted.active.basis().bank().family(),
+        FilterFamily::Extremal
+    );
 }

@@ -26,7 +26,7 @@ pub use single_level::SingleLevelEvaluator;
 
 use std::sync::Arc;
 
-use crate::sampling::Domain;
+pub use crate::domain::Domain;
 
 use thiserror::Error;
 
@@ -35,7 +35,8 @@ use thiserror::Error;
 pub const MAX_LEVEL: u32 = 60;
 
 /// Errors of basis construction and evaluation: each names the value at fault and the fix.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum BasisError {
     /// `p` outside the supported range.
     #[error("p = {p} vanishing moments is not supported: choose p in 1..={max}")]

@@ -260,7 +260,7 @@ fn uniform(
     }
     let fp = FitParams {
         p: params.p,
-        family: params.family(),
+        family: Some(params.family()),
         ..FitParams::default()
     };
     let fitted = fit(&xs, &[&values], domain, &fp)?;

@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::io::{read_samples, validate_positions, GridWriter};
-use rkwave::reconstruct::{fit, FitParams};
+use rkwave::reconstruct::{fit, FitParams, SolveReport};
 use rkwave::sampling::Domain;
 use serde_json::json;
 
@@ -89,7 +89,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     .family();
     let params = FitParams {
         p: args.p,
-        family,
+        family: Some(family),
         levels: args.solve.levels()?,
         method: args.solve.method(args.method)?,
     };
@@ -149,13 +149,23 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             "write": write_s,
             "total": total,
         },
-        "local": fitted.local.as_ref().map(|s| json!({
-            "groups": s.n_groups,
-            "cut_groups": s.cut_groups,
-            "condition": s.condition_summary(),
-        })),
-        "single_scale": fitted.single_scale,
-        "fallback": fitted.fallback,
+        "local": match &fitted.solve {
+            SolveReport::Local(s) => json!({
+                "groups": s.n_groups,
+                "cut_groups": s.cut_groups,
+                "condition": s.condition_summary(),
+            }),
+            _ => json!(null),
+        },
+        "single_scale": match &fitted.solve {
+            SolveReport::SingleScale(rep) => json!(rep),
+            _ => json!(null),
+        },
+        "fallbacks": fitted
+            .fallbacks
+            .iter()
+            .map(|f| json!({ "fallback": f, "message": f.to_string() }))
+            .collect::<Vec<_>>(),
     });
     if args.json {
         println!(
@@ -176,6 +186,9 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             total,
             args.output.display()
         );
+        for f in &fitted.fallbacks {
+            println!("note: {f}");
+        }
     }
     Ok(())
 }

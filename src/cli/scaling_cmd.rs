@@ -147,7 +147,10 @@ fn run_one(m: usize, channels: usize, name: &str, grid_n: usize) -> Result<Scali
         ns_per_sample: time_s / m as f64 * 1e9,
         peak_mb: peak_mb(),
         rms_error,
-        fallback: fitted.fallback,
+        fallback: (!fitted.fallbacks.is_empty()).then(|| {
+            let notes: Vec<String> = fitted.fallbacks.iter().map(ToString::to_string).collect();
+            notes.join("; ")
+        }),
     })
 }
 

@@ -28,6 +28,7 @@ pub const MAX_CHANNELS: usize = 4;
 
 /// Why an [`ImagePlane`] or [`ImageSamples`] could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ImageError {
     /// The width or the height is zero.
     #[error(

@@ -160,6 +160,7 @@ fn line_part(line: &Option<usize>) -> String {
 /// For CSV files `line` counts every physical line of the file and `row`
 /// counts data rows only (no header, comments or blank lines).
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum IoError {
     /// The file could not be opened or read.
     #[error("cannot read `{}`: {source}; check that the path exists and is readable", .file.display())]
@@ -397,6 +398,21 @@ pub fn validate_positions(set: &SampleSet, domain: Domain) -> Result<(), IoError
 }
 
 /// Reads a sample file, `.npy` (by extension, any case) or otherwise CSV.
+///
+/// ```
+/// use rkwave::io::{read_samples, write_samples, SampleSet};
+///
+/// let dir = std::env::temp_dir().join(format!("rkwave-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let set = SampleSet::new(vec![0.0, 0.5, 1.0], vec![vec![1.0, 2.0, 3.0]])?;
+/// for name in ["s.csv", "s.npy"] {
+///     write_samples(dir.join(name), &set)?;
+///     assert_eq!(read_samples(dir.join(name))?.values, set.values);
+/// }
+/// assert!(read_samples(dir.join("missing.csv")).is_err()); // a clear error, not a panic
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// # Ok::<(), rkwave::io::IoError>(())
+/// ```
 pub fn read_samples(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
     let path = path.as_ref();
     if is_npy(path) {

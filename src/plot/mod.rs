@@ -72,7 +72,8 @@ use plotters::prelude::*;
 use plotters::style::register_font;
 
 /// Error returned when a figure cannot be rendered or written.
-#[derive(thiserror::Error, Debug)]
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlotError {
     /// The figure could not be drawn (invalid description or a backend failure).
     #[error("cannot draw figure {path}: {message}")]

@@ -8,11 +8,13 @@
 
 mod banded_qr;
 mod evaluate;
-mod kernels;
+mod kernel_functions;
+mod outcome;
 mod single_scale;
 
 pub use evaluate::FitEvaluator;
-pub use kernels::{dual_kernel, reproducing_kernel};
+pub use kernel_functions::{dual_kernel, reproducing_kernel};
+pub use outcome::{Fallback, SolveReport};
 pub use single_scale::{
     single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
     SingleScaleSolver, PIVOT_TOLERANCE,
@@ -29,8 +31,7 @@ use crate::kernel::{
 };
 use crate::sampling::Domain;
 use crate::solve::{
-    apply_local, dense_pinv, global_ls, GlobalLsParams, GlobalReport, LocalInversionParams,
-    LocalStats, SolveError,
+    apply_local, dense_pinv, global_ls, GlobalLsParams, LocalInversionParams, SolveError,
 };
 
 /// How the levels are chosen.
@@ -72,24 +73,52 @@ pub enum Method {
 }
 
 /// Parameters of a fit.
+///
+/// The default is `p = 3`, CDV's filter family, automatic levels and the single-scale
+/// solve. Change one field and keep the rest:
+///
+/// ```
+/// use rkwave::basis::FilterFamily;
+/// use rkwave::reconstruct::{FitParams, Levels, Method};
+/// use rkwave::solve::LocalInversionParams;
+///
+/// let params = FitParams { p: 6, ..FitParams::default() };
+/// assert_eq!(params.family(), FilterFamily::LeastAsymmetric); // sym6, CDV's choice
+///
+/// let fixed = FitParams {
+///     levels: Levels::Fixed { coarse: 4, fine: 7 },
+///     method: Method::Local(LocalInversionParams::default()),
+///     ..FitParams::default()
+/// };
+/// assert_eq!(fixed.family(), FilterFamily::Extremal); // db3
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct FitParams {
     /// Vanishing moments `p`: higher reproduces smoother signals with fewer samples, costs
     /// `O(p^2)` per sample.
     pub p: usize,
-    /// Interior filter family.
-    pub family: FilterFamily,
+    /// Interior filter family; `None` is CDV's choice for `p`
+    /// ([`FilterFamily::cdv_default`]: extremal phase for `p <= 3`, least asymmetric above).
+    pub family: Option<FilterFamily>,
     /// Levels.
     pub levels: Levels,
     /// Solver.
     pub method: Method,
 }
 
+impl FitParams {
+    /// The interior filter family: the given one, or CDV's choice for `p`.
+    pub fn family(&self) -> FilterFamily {
+        self.family
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
+    }
+}
+
 impl Default for FitParams {
     fn default() -> Self {
         Self {
             p: 3,
-            family: FilterFamily::cdv_default(3),
+            family: None,
             levels: Levels::Auto(LevelParams::default()),
             method: Method::SingleScale {
                 ridge: 0.0,
@@ -100,7 +129,8 @@ impl Default for FitParams {
 }
 
 /// Errors of reconstruction.
-#[derive(Debug, Error)]
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ReconstructError {
     /// Basis parameters.
     #[error(transparent)]
@@ -113,13 +143,13 @@ pub enum ReconstructError {
     Solve(#[from] SolveError),
     /// Fewer samples than basis functions.
     #[error(
-        "{samples} samples cannot determine {functions} basis functions: give more samples, \
-         a smaller fine level N, or automatic levels"
+        "{samples} samples cannot determine {functions} basis functions: give more samples \
+         (rho = samples / functions >= 2), a smaller fine level N, or automatic levels"
     )]
     Undersampled {
-        /// Samples `m`.
+        /// Samples `m` (rows of `K`).
         samples: usize,
-        /// Basis functions `P`.
+        /// Basis functions `P` (columns of `K`).
         functions: usize,
     },
     /// A sample value is NaN or infinite.
@@ -155,7 +185,23 @@ pub struct Timings {
     pub solve_s: f64,
 }
 
-/// A fitted reconstruction.
+/// A fitted reconstruction: `f~(x) = sum_a c_a Psi_a(x)` over the active set, per channel.
+///
+/// ```
+/// use rkwave::reconstruct::{fit, FitParams};
+/// use rkwave::sampling::{Domain, Layout};
+///
+/// let xs = Layout::Random.generate(1000, Domain::UNIT, 3);
+/// let line: Vec<f64> = xs.iter().map(|x| 2.0 * x - 1.0).collect();
+/// let square: Vec<f64> = xs.iter().map(|x| x * x).collect();
+/// let f = fit(&xs, &[&line, &square], Domain::UNIT, &FitParams::default())?;
+/// assert_eq!(f.coefficients.len(), 2); // two channels
+/// assert_eq!(f.coefficients[0].len(), f.active.len());
+/// // p = 3 reproduces polynomials of degree < 3 exactly (up to rounding).
+/// let v = f.evaluate(&[0.25])?;
+/// assert!((v[0][0] + 0.5).abs() < 1e-9 && (v[1][0] - 0.0625).abs() < 1e-9);
+/// # Ok::<(), rkwave::reconstruct::ReconstructError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Fit {
     /// The active basis.
@@ -166,15 +212,11 @@ pub struct Fit {
     pub levels: LevelChoice,
     /// Stage times.
     pub timings: Timings,
-    /// Local inversion statistics (local method).
-    pub local: Option<LocalStats>,
-    /// Single-scale solve report.
-    pub single_scale: Option<SingleScaleReport>,
-    /// Why the requested method was replaced, if it was (e.g. the single-scale normal
-    /// equations were rank deficient and local inversion took over).
-    pub fallback: Option<String>,
-    /// Global solve report (global method).
-    pub global: Option<GlobalReport>,
+    /// The report of the solve that produced the coefficients.
+    pub solve: SolveReport,
+    /// Every departure from the requested levels or method, in the order taken (empty when
+    /// the fit is exactly what was asked for).
+    pub fallbacks: Vec<Fallback>,
 }
 
 fn check_values(m: usize, values: &[&[f64]]) -> Result<(), ReconstructError> {
@@ -210,6 +252,21 @@ pub fn choose_levels(m: usize, params: &FitParams) -> LevelChoice {
 }
 
 /// Fits `values` (one slice per channel) at `positions` on `domain`.
+///
+/// Errors: a value that is not finite ([`ReconstructError::NonFiniteValue`]), channels of the
+/// wrong length, positions outside `domain`, invalid basis parameters, fewer samples than
+/// functions at fixed levels, or a failed solve. With automatic levels and the single-scale
+/// solve, levels the samples do not determine are lowered (recorded in [`Fit::fallbacks`]).
+///
+/// ```
+/// use rkwave::reconstruct::{fit, FitParams, ReconstructError};
+/// use rkwave::sampling::Domain;
+///
+/// let xs = [0.1, 0.5, 0.9];
+/// let bad = [1.0, f64::NAN, 2.0];
+/// let err = fit(&xs, &[&bad], Domain::UNIT, &FitParams::default()).unwrap_err();
+/// assert!(matches!(err, ReconstructError::NonFiniteValue { row: 2, .. }));
+/// ```
 pub fn fit(
     positions: &[f64],
     values: &[&[f64]],
@@ -219,7 +276,7 @@ pub fn fit(
     let m = positions.len();
     check_values(m, values)?;
     let mut levels = choose_levels(m, params);
-    let mut dropped = 0;
+    let mut dropped = 0u32;
     if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method)
     {
         // Automatic levels: while the samples leave single-scale directions undetermined,
@@ -239,13 +296,24 @@ pub fn fit(
             levels.oversampling *= 2.0;
             dropped += 1;
         }
-        let first = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+        let first = CdvBasis::new(
+            params.p,
+            params.family(),
+            levels.coarse,
+            levels.fine,
+            domain,
+        )?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
             let mut ne = SingleScaleProblem::new(&first, positions, values, solver)?;
             while dropped <= 3 && levels.fine >= levels.coarse {
-                let basis =
-                    CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+                let basis = CdvBasis::new(
+                    params.p,
+                    params.family(),
+                    levels.coarse,
+                    levels.fine,
+                    domain,
+                )?;
                 let (c, rep) = ne.solve(&basis, ridge)?;
                 if rep.deficient == 0 {
                     return Ok(Fit {
@@ -256,15 +324,8 @@ pub fn fit(
                             kernel_s: 0.0,
                             solve_s: t0.elapsed().as_secs_f64(),
                         },
-                        local: None,
-                        global: None,
-                        single_scale: Some(rep),
-                        fallback: (dropped > 0).then(|| {
-                            format!(
-                                "finest level lowered by {dropped}: the samples left \
-                                 single-scale directions undetermined at the automatic level"
-                            )
-                        }),
+                        solve: SolveReport::SingleScale(rep),
+                        fallbacks: lowered(dropped),
                     });
                 }
                 if levels.fine == levels.coarse {
@@ -277,9 +338,26 @@ pub fn fit(
             }
         }
     }
-    let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+    let basis = CdvBasis::new(
+        params.p,
+        params.family(),
+        levels.coarse,
+        levels.fine,
+        domain,
+    )?;
     let active = ActiveSet::uniform(basis);
-    fit_active(active, positions, values, params.method, levels)
+    let mut fitted = fit_active(active, positions, values, params.method, levels)?;
+    fitted.fallbacks.splice(0..0, lowered(dropped));
+    Ok(fitted)
+}
+
+/// The fallback record of `dropped` lowered levels (none if zero).
+fn lowered(dropped: u32) -> Vec<Fallback> {
+    if dropped > 0 {
+        vec![Fallback::FinestLevelLowered { by: dropped }]
+    } else {
+        Vec::new()
+    }
 }
 
 /// The fewest samples in the support of any function of `V_level` (windows of `2p - 1`
@@ -332,9 +410,8 @@ pub fn fit_active(
     };
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let mut single_scale = None;
-    let mut fallback = None;
-    let (coefficients, local, global) = match (method, k) {
+    let mut fallbacks = Vec::new();
+    let (coefficients, solve) = match (method, k) {
         (Method::SingleScale { ridge, solver }, None) => {
             let (c, rep) = match solver {
                 SingleScaleSolver::Qr => single_scale_qr(active.basis(), positions, values, ridge)?,
@@ -344,23 +421,20 @@ pub fn fit_active(
             };
             if rep.deficient > 0 {
                 // Undetermined directions: truncated local pseudo-inverses instead.
-                fallback = Some(format!(
-                    "single-scale normal equations have {} undetermined directions \
-                     ({} functions without samples): local inversion used instead",
-                    rep.deficient, rep.unsampled
-                ));
-                single_scale = Some(rep);
+                fallbacks.push(Fallback::LocalInversion {
+                    deficient: rep.deficient,
+                    unsampled: rep.unsampled,
+                });
                 let k = kernel_matrix(&active, positions)?;
                 let out = apply_local(&k, values, &LocalInversionParams::default())?;
-                (out.coefficients, Some(out.stats), None)
+                (out.coefficients, SolveReport::Local(out.stats))
             } else {
-                single_scale = Some(rep);
-                (c, None, None)
+                (c, SolveReport::SingleScale(rep))
             }
         }
         (Method::Local(lp), Some(k)) => {
             let out = apply_local(&k, values, &lp)?;
-            (out.coefficients, Some(out.stats), None)
+            (out.coefficients, SolveReport::Local(out.stats))
         }
         (Method::Dense { cutoff }, Some(k)) => {
             let pinv = dense_pinv(&k, cutoff)?;
@@ -368,7 +442,7 @@ pub fn fit_active(
                 .iter()
                 .map(|f| pinv.apply(f))
                 .collect::<Result<Vec<_>, _>>()?;
-            (c, None, None)
+            (c, SolveReport::Dense { cutoff })
         }
         // Global, or single scale on an adaptive set (no single-scale equivalent).
         (m, Some(k)) => {
@@ -377,7 +451,7 @@ pub fn fit_active(
                 _ => GlobalLsParams::default(),
             };
             let out = global_ls(&k, values, &gp)?;
-            (out.coefficients, None, Some(out.report))
+            (out.coefficients, SolveReport::Global(out.report))
         }
         (_, None) => unreachable!("K is formed for every method but the uniform single scale"),
     };
@@ -389,10 +463,8 @@ pub fn fit_active(
             kernel_s,
             solve_s: t1.elapsed().as_secs_f64(),
         },
-        local,
-        global,
-        single_scale,
-        fallback,
+        solve,
+        fallbacks,
     })
 }
 

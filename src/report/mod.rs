@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::basis::{CdvBasis, FilterFamily};
 use crate::kernel::{kernel_matrix, ActiveSet, LevelChoice};
-use crate::reconstruct::{Fit, ReconstructError, Timings};
+use crate::reconstruct::{Fit, ReconstructError, SolveReport, Timings};
 use crate::sampling::{Domain, Layout, Signal};
 use crate::solve::{
     compare_sparse_dense, dense_pinv, global_ls, local_inversion, Comparison, GlobalLsParams,
@@ -192,10 +192,8 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
             coefficients: vec![c],
             levels,
             timings: Timings::default(),
-            local: None,
-            global: None,
-            single_scale: None,
-            fallback: None,
+            solve: SolveReport::Given,
+            fallbacks: Vec::new(),
         };
         Ok(fit.evaluate(&grid)?.remove(0))
     };

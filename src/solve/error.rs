@@ -14,15 +14,15 @@ pub enum SolveError {
     /// Fewer samples than basis functions where the method needs full column rank
     /// (a sparse Cholesky of `K^T K` with [`crate::solve::RankPolicy::Error`]).
     #[error(
-        "undersampled: {rows} samples for {cols} basis functions; K^T K is singular. \
-         Add samples (rho = rows / cols should be >= 2), drop basis functions, or use \
-         RankPolicy::Regularize / the iterative solver"
+        "{samples} samples cannot determine {functions} basis functions (K^T K is \
+         singular): give more samples (rho = samples / functions >= 2), fewer basis \
+         functions, or use RankPolicy::Regularize / the iterative solver"
     )]
     Undersampled {
-        /// Number of rows (samples) of `K`.
-        rows: usize,
-        /// Number of columns (basis functions) of `K`.
-        cols: usize,
+        /// Samples `m` (rows of `K`).
+        samples: usize,
+        /// Basis functions `P` (columns of `K`).
+        functions: usize,
     },
 
     /// The normal matrix is numerically singular although `rows >= cols`.
@@ -62,12 +62,12 @@ pub enum SolveError {
     },
 
     /// A parameter is out of its range.
-    #[error("invalid parameter {name} = {value}: {fix}")]
+    #[error("invalid {name} = {value}: {fix}")]
     InvalidParameter {
         /// Parameter name.
         name: &'static str,
-        /// Value given.
-        value: f64,
+        /// Its value, as given.
+        value: String,
         /// Allowed range / what to pass instead.
         fix: &'static str,
     },

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::kernel::{cholesky_columns, qr_columns, svd_columns, BlockOut};
+use super::block::{cholesky_columns, qr_columns, svd_columns, BlockOut};
 use super::params::{LocalInversionParams, Solver};
 use super::sparse::{check_values, ldexp, normal_matrix, prepare, raw, Prepared};
 use super::SolveError;

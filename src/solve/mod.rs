@@ -16,10 +16,10 @@
 //! magnitudes `1e±300` are safe), reports cut-offs, shifts and condition numbers, and
 //! returns [`SolveError`] instead of panicking or returning NaN.
 
+mod block;
 mod compare;
 mod error;
 mod global;
-mod kernel;
 mod local;
 mod normal;
 mod params;

@@ -146,7 +146,10 @@ pub(crate) fn factor_solve(
         let column = perm_fwd.get(q).copied().unwrap_or(q);
         if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
             if m < p {
-                return Err(SolveError::Undersampled { rows: m, cols: p });
+                return Err(SolveError::Undersampled {
+                    samples: m,
+                    functions: p,
+                });
             }
             return Err(SolveError::RankDeficient {
                 column,

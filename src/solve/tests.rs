@@ -331,7 +331,13 @@ fn global_rank_deficient_is_reported_never_nan() {
     let f = vec![1.0; 20];
     let err = global_ls(&k, &[&f], &GlobalLsParams::default()).unwrap_err();
     assert!(
-        matches!(err, SolveError::Undersampled { rows: 20, cols: 40 }),
+        matches!(
+            err,
+            SolveError::Undersampled {
+                samples: 20,
+                functions: 40
+            }
+        ),
         "{err}"
     );
 }

@@ -69,6 +69,7 @@ impl Default for ImageFitParams {
 
 /// Errors of the image fit: each names the value at fault and the way out.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ImageFitError {
     /// The basis (resolution, levels, positions).
     #[error(transparent)]

@@ -1,6 +1,7 @@
-//! Dense block kernels: `X = K1^+ E_R`, the columns of the pseudo-inverse of one local block
-//! `K1` (`r x n`) for the pivot rows `R` (`E_R` = identity columns), by SVD, column-pivoted
-//! QR or Cholesky of the normal matrix.
+//! Dense block solves of local inversion (kernel *matrices* are [`crate::kernel`]):
+//! `X = K1^+ E_R`, the columns of the pseudo-inverse of one local block `K1` (`r x n`) for
+//! the pivot rows `R` (`E_R` = identity columns), by SVD, column-pivoted QR or Cholesky of the
+//! normal matrix.
 //!
 //! All faer calls here take `Par::Seq` explicitly: the blocks are small (tens to a few
 //! hundred rows) and thousands of them run concurrently on the rayon pool, so faer's own
