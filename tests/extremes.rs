@@ -54,7 +54,10 @@ fn all_methods_match_the_dense_solve_when_well_posed() {
     )
     .unwrap();
     for method in [
-        Method::SingleScale { ridge: 0.0 },
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         Method::Global(Default::default()),
         Method::Local(LocalInversionParams::default()),
     ] {
@@ -86,7 +89,10 @@ fn duplicates_edges_and_dyadic_points_stay_finite_and_exact() {
     let f: Vec<f64> = xs.iter().map(|x| 2.0 * x - 0.5).collect();
     let lv = levels(&active, xs.len());
     for method in [
-        Method::SingleScale { ridge: 0.0 },
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         Method::Local(LocalInversionParams::default()),
         Method::Local(LocalInversionParams {
             rings: 0,
@@ -142,7 +148,17 @@ fn locally_undersampled_cells_are_reported_not_blown_up() {
         assert!(loc.stats.condition_summary().max > 1e6, "{solver:?}");
     }
     let lv = levels(&active, xs.len());
-    let fit = fit_active(active, &xs, &[&f], Method::SingleScale { ridge: 0.0 }, lv).unwrap();
+    let fit = fit_active(
+        active,
+        &xs,
+        &[&f],
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
+        lv,
+    )
+    .unwrap();
     assert!(all_finite(&fit.coefficients));
     let [Fallback::LocalInversion {
         deficient,
@@ -190,7 +206,17 @@ fn top_p_and_deep_levels() {
         lv,
     )
     .unwrap();
-    let single = fit_active(active, &xs, &[&f], Method::SingleScale { ridge: 0.0 }, lv).unwrap();
+    let single = fit_active(
+        active,
+        &xs,
+        &[&f],
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
+        lv,
+    )
+    .unwrap();
     assert!(diff(&dense.coefficients[0], &single.coefficients[0]) < 1e-9);
     // Deep: levels 18..20 on a short stretch of samples (2^21 functions, most unsampled is an
     // error: fewer samples than functions).
@@ -200,7 +226,10 @@ fn top_p_and_deep_levels() {
         ActiveSet::uniform(deep),
         &xs,
         &[&xs],
-        Method::SingleScale { ridge: 0.0 },
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         lv,
     );
     assert!(matches!(err, Err(ReconstructError::Undersampled { .. })));
@@ -223,7 +252,10 @@ fn huge_and_tiny_magnitudes() {
     ] {
         let g: Vec<f64> = f.iter().map(|v| v * s).collect();
         for method in [
-            Method::SingleScale { ridge: 0.0 },
+            Method::SingleScale {
+                ridge: 0.0,
+                solver: Default::default(),
+            },
             Method::Local(LocalInversionParams::default()),
         ] {
             let p = FitParams { method, ..params };

@@ -16,12 +16,14 @@ pub mod filters;
 pub mod fwt;
 mod index;
 pub mod integral;
+pub mod single_level;
 pub mod tensor;
 
 pub use bank::FilterBank;
 pub use eval::{BasisValue, Evaluator};
 pub use filters::{FilterFamily, MAX_VANISHING_MOMENTS};
 pub use index::{FunctionId, FunctionKind, Side};
+pub use single_level::SingleLevelEvaluator;
 
 use std::sync::Arc;
 
@@ -207,6 +209,11 @@ impl CdvBasis {
     /// An evaluator with its own scratch space (one per thread).
     pub fn evaluator(&self) -> Evaluator<'_> {
         Evaluator::new(self)
+    }
+    /// An evaluator of the scaling functions of `V_n` alone (`n` = the coarse level), one per
+    /// thread: the single-scale rows of least squares and of evaluation after FWT synthesis.
+    pub fn single_level_evaluator(&self) -> SingleLevelEvaluator<'_> {
+        SingleLevelEvaluator::new(self)
     }
     /// Describes global function index `a` of `Psi(n, N)`.
     pub fn function(&self, a: usize) -> FunctionId {

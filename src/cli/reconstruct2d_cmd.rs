@@ -32,7 +32,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         }
     };
     let wavelet = WaveletParams {
-        p: check_p(args.p)?,
+        p: check_p(args.filter.p)?,
         pixel_filter: None,
     };
     let bar = spinner("reading samples");

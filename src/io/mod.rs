@@ -22,11 +22,13 @@ use thiserror::Error;
 use crate::sampling::Domain;
 
 mod csv;
+mod grid_output;
 pub mod image_file;
 mod npy;
 pub mod output;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
+pub use self::grid_output::{GridFormat, GridWriter};
 pub use self::npy::{npy_bytes, parse_npy, read_npy, write_npy};
 
 #[cfg(test)]

@@ -6,21 +6,26 @@
 //! single-scale `V_{N+1}` coefficients and then evaluates only `2p - 1` (plus edge) scaling
 //! functions per position.
 
+mod banded_qr;
+mod evaluate;
 mod kernel_functions;
 mod outcome;
 mod single_scale;
 
+pub use evaluate::FitEvaluator;
 pub use kernel_functions::{dual_kernel, reproducing_kernel};
 pub use outcome::{Fallback, SolveReport};
-pub use single_scale::{single_scale_ls, NormalEquations, SingleScaleReport, PIVOT_TOLERANCE};
+pub use single_scale::{
+    single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
+    SingleScaleSolver, PIVOT_TOLERANCE,
+};
 
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::basis::{fwt, BasisError, BasisValue, CdvBasis, FilterFamily};
+use crate::basis::{BasisError, CdvBasis, FilterFamily};
 use crate::kernel::{
     check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
 };
@@ -46,12 +51,15 @@ pub enum Levels {
 /// How `c = K^+ f` is computed.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub enum Method {
-    /// Global least squares through the single-scale basis `V_{N+1}` (banded normal
-    /// equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for uniform
-    /// levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
+    /// Global least squares through the single-scale basis `V_{N+1}` (banded QR or banded
+    /// normal equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for
+    /// uniform levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
     SingleScale {
         /// Relative ridge (e.g. 1e-13).
         ridge: f64,
+        /// Factorization: QR (accuracy of `cond(K)`, default) or normal equations
+        /// (`cond(K)^2`, cheaper per sample).
+        solver: SingleScaleSolver,
     },
     /// Local inversion (DESIGN §4): fast, local, approximate.
     Local(LocalInversionParams),
@@ -112,7 +120,10 @@ impl Default for FitParams {
             p: 3,
             family: None,
             levels: Levels::Auto(LevelParams::default()),
-            method: Method::SingleScale { ridge: 0.0 },
+            method: Method::SingleScale {
+                ridge: 0.0,
+                solver: SingleScaleSolver::default(),
+            },
         }
     }
 }
@@ -271,7 +282,8 @@ pub fn fit(
     let mut levels = choose_levels(m, params);
     guard_uniform(m, values.len(), params, &levels)?;
     let mut dropped = 0u32;
-    if let (Levels::Auto(_), Method::SingleScale { ridge }) = (params.levels, params.method) {
+    if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method)
+    {
         // Automatic levels: while the samples leave single-scale directions undetermined,
         // drop the finest level (doubling the oversampling) rather than solve an ill-posed
         // problem; the normal equations are coarsened, not accumulated again. At most three
@@ -298,7 +310,7 @@ pub fn fit(
         )?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
-            let mut ne = NormalEquations::accumulate(&first, positions, values)?;
+            let mut ne = SingleScaleProblem::new(&first, positions, values, solver)?;
             while dropped <= 3 && levels.fine >= levels.coarse {
                 let basis = CdvBasis::new(
                     params.p,
@@ -307,7 +319,7 @@ pub fn fit(
                     levels.fine,
                     domain,
                 )?;
-                let (c, rep) = ne.solve(&basis, ridge);
+                let (c, rep) = ne.solve(&basis, ridge)?;
                 if rep.deficient == 0 {
                     return Ok(Fit {
                         active: ActiveSet::uniform(basis),
@@ -465,8 +477,13 @@ pub fn fit_active(
     let t1 = Instant::now();
     let mut fallbacks = Vec::new();
     let (coefficients, solve) = match (method, k) {
-        (Method::SingleScale { ridge }, None) => {
-            let (c, rep) = single_scale_ls(active.basis(), positions, values, ridge)?;
+        (Method::SingleScale { ridge, solver }, None) => {
+            let (c, rep) = match solver {
+                SingleScaleSolver::Qr => single_scale_qr(active.basis(), positions, values, ridge)?,
+                SingleScaleSolver::NormalEquations => {
+                    single_scale_ls(active.basis(), positions, values, ridge)?
+                }
+            };
             if rep.deficient > 0 {
                 // Undetermined directions: truncated local pseudo-inverses instead.
                 fallbacks.push(Fallback::LocalInversion {
@@ -516,9 +533,6 @@ pub fn fit_active(
     })
 }
 
-/// Positions evaluated per parallel work item.
-const CHUNK: usize = 8192;
-
 impl Fit {
     /// Every fallback and warning of the fit, one sentence each, for text and JSON output:
     /// the replaced method or lowered level ([`Fit::fallbacks`]) and the local inversion's
@@ -532,71 +546,9 @@ impl Fit {
         w
     }
 
-    /// The reconstruction at `xs`, one vector per channel.
+    /// The reconstruction at `xs`, one vector per channel (see [`Fit::evaluator`] to evaluate
+    /// many batches).
     pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<Vec<f64>>, ReconstructError> {
-        let basis = self.active.basis();
-        let domain = basis.domain();
-        if let Some(&x) = xs.iter().find(|x| !domain.contains(**x)) {
-            return Err(BasisError::PositionOutside {
-                x,
-                a: domain.a(),
-                b: domain.b(),
-            }
-            .into());
-        }
-        let channels = self.coefficients.len();
-        let uniform = self.active.len() == basis.dimension();
-        let per_point: Vec<Vec<f64>> = if uniform {
-            // Single scale: V_{N+1} coefficients by FWT synthesis.
-            let top = basis.fine() + 1;
-            let single: Vec<Vec<f64>> = self
-                .coefficients
-                .iter()
-                .map(|c| fwt::synthesis(basis.bank(), basis.coarse(), basis.fine(), c))
-                .collect();
-            let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, domain)?;
-            xs.par_chunks(CHUNK)
-                .map(|chunk| {
-                    let mut ev = scale.evaluator();
-                    let mut out: Vec<BasisValue> = Vec::with_capacity(64);
-                    let mut vals = Vec::with_capacity(chunk.len() * channels);
-                    for &x in chunk {
-                        ev.eval_scaling_unit_into(domain.to_unit(x), &mut out);
-                        for s in &single {
-                            vals.push(out.iter().map(|v| s[v.index] * v.value).sum::<f64>());
-                        }
-                    }
-                    vals
-                })
-                .collect()
-        } else {
-            xs.par_chunks(CHUNK)
-                .map(|chunk| {
-                    let mut ev = basis.evaluator();
-                    let mut out: Vec<BasisValue> = Vec::with_capacity(256);
-                    let mut vals = Vec::with_capacity(chunk.len() * channels);
-                    for &x in chunk {
-                        ev.eval_unit_into(domain.to_unit(x), &mut out);
-                        for c in &self.coefficients {
-                            vals.push(
-                                out.iter()
-                                    .filter_map(|v| {
-                                        self.active.column(v.index).map(|col| c[col] * v.value)
-                                    })
-                                    .sum::<f64>(),
-                            );
-                        }
-                    }
-                    vals
-                })
-                .collect()
-        };
-        let mut result = vec![Vec::with_capacity(xs.len()); channels];
-        for block in per_point {
-            for (i, v) in block.into_iter().enumerate() {
-                result[i % channels].push(v);
-            }
-        }
-        Ok(result)
+        self.evaluator()?.evaluate(xs)
     }
 }

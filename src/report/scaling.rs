@@ -50,7 +50,10 @@ impl ScalingMethod {
     /// blocks' condition numbers (up to 3e7 for random samples), which ruins accuracy.
     pub fn method(self) -> Method {
         match self {
-            ScalingMethod::Single => Method::SingleScale { ridge: 0.0 },
+            ScalingMethod::Single => Method::SingleScale {
+                ridge: 0.0,
+                solver: crate::reconstruct::SingleScaleSolver::default(),
+            },
             ScalingMethod::Global => Method::Global(GlobalLsParams::default()),
             ScalingMethod::Local0 | ScalingMethod::Local1 => Method::Local(LocalInversionParams {
                 rings: usize::from(self == ScalingMethod::Local1),
