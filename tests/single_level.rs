@@ -20,10 +20,12 @@ fn probes(level: u32, seed: u64) -> Vec<f64> {
     t.into_iter().map(|x| x.clamp(0.0, 1.0)).collect()
 }
 
-/// Agreement to 1e-13 relative to `sum_k |v_k phi_{J,k}(t)|` (the size of the terms; the two
-/// sides sum different terms, so this is the scale of their rounding), for `p = 1..10` and
+/// Agreement to 1e-13 relative to the larger of `sum_k |v_k phi_{J,k}(t)|` and
+/// `sum_a |c_a Psi_a(t)|` (the sizes of the terms; the two sides sum different terms, so this
+/// is the scale of their rounding), for `p = 1..10` and
 /// levels from `j_min(p) + 1` to `j_min(p) + 6`. The single-level row also equals the
-/// multilevel evaluator's scaling-function output of `V_J` to 1e-14 relative per entry.
+/// multilevel evaluator's scaling-function output of `V_J` to 1e-13 relative per entry (the
+/// issue's target; the two digit recursions round in a different order).
 #[test]
 fn single_level_evaluation_agrees_with_multilevel() {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(10);
@@ -51,6 +53,9 @@ fn single_level_evaluation_agrees_with_multilevel() {
                     .max(1e-300);
                 all.eval_unit_into(t, &mut out);
                 let rhs: f64 = out.iter().map(|b| b.value * c[b.index]).sum();
+                // The multilevel side sums its own terms, which can be larger than the
+                // single-level ones (Haar: one scaling term against N - n + 1 wavelet terms).
+                let scale = scale.max(out.iter().map(|b| (b.value * c[b.index]).abs()).sum());
                 assert!(
                     (lhs - rhs).abs() <= 1e-13 * scale,
                     "p = {p}, J = {level}, t = {t:e}: {lhs} vs {rhs} (scale {scale:e})"
@@ -59,7 +64,7 @@ fn single_level_evaluation_agrees_with_multilevel() {
                 assert_eq!(out.len(), row.len(), "p = {p}, J = {level}, t = {t:e}");
                 for (k, b) in out.iter().enumerate() {
                     assert_eq!(b.index, first + k);
-                    let tol = 1e-14 * b.value.abs().max(1.0);
+                    let tol = 1e-13 * b.value.abs().max(1.0);
                     assert!(
                         (b.value - row[k]).abs() <= tol,
                         "p = {p}, J = {level}, t = {t:e}, k = {k}: {} vs {}",
