@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::io::csv_string;
 use rkwave::io::output::{check_output, write_new};
+use rkwave::io::{csv_string, npy_bytes};
 use rkwave::io::{read_samples, validate_positions};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
@@ -36,7 +36,7 @@ pub struct ReconstructArgs {
     /// Grid points of the output (uniform, both ends included).
     #[arg(long, default_value_t = 1000, value_parser = super::limits::grid)]
     pub grid: usize,
-    /// Output CSV (`x,<channels>`).
+    /// Output: `.npy` (NumPy float64, `G x (1 + channels)`) or CSV (`x,<channels>`) otherwise.
     #[arg(long)]
     pub output: PathBuf,
     /// Overwrite an existing output.
@@ -105,7 +105,17 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let rec = onto_grid(fitted, &set, domain, args.grid)?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    write_new(&args.output, csv_string(&rec.grid)?.as_bytes(), args.force)?;
+    // `.npy` (NumPy float64, G x (1 + channels)) for readers with numpy, CSV otherwise.
+    let bytes = if args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+    {
+        npy_bytes(&rec.grid)?
+    } else {
+        csv_string(&rec.grid)?.into_bytes()
+    };
+    write_new(&args.output, &bytes, args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let report = ReconstructReport::new(
