@@ -96,11 +96,13 @@ pub mod domain;
 pub mod image;
 pub mod io;
 pub mod kernel;
+pub mod norms;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod reconstruct;
 pub mod refine;
 pub mod report;
+pub mod resources;
 pub mod sampling;
 pub mod solve;
 

@@ -19,7 +19,7 @@ fn grid_written_in_blocks_reads_back_exactly() {
             let block = vec![a[start..end].to_vec(), b[start..end].to_vec()];
             w.write_block(&xs[start..end], &block).unwrap();
         }
-        w.finish().unwrap();
+        w.finish(false).unwrap();
         let back = if file.ends_with("npy") {
             read_npy(&path).unwrap()
         } else {

@@ -15,6 +15,7 @@ pub mod facts;
 pub mod filters;
 pub mod fwt;
 mod index;
+pub mod integral;
 pub mod single_level;
 pub mod tensor;
 

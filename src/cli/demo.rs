@@ -142,6 +142,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::Invalid(e.to_string()))?;
         super::run(cli)?;
     }
+    super::demo_image::run(out, &mut summary)?;
     let md = out.join("summary.md");
     std::fs::write(&md, &summary).map_err(|source| CliError::Write {
         path: md.clone(),

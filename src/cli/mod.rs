@@ -3,9 +3,14 @@
 
 pub mod adapt_cmd;
 pub mod basis_cmd;
+pub mod compare_cmd;
 pub mod demo;
+pub mod demo_image;
 pub mod eval_cmd;
 pub mod figures;
+pub mod image_cmd;
+pub mod limits;
+pub mod reconstruct2d_cmd;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
@@ -28,6 +33,10 @@ pub struct Cli {
     /// `out/`.
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// Memory a request may use, e.g. `4G` (default: 3/4 of the machine's memory); larger
+    /// requests are refused before allocating, with what they would need.
+    #[arg(long, global = true, value_parser = memory_limit)]
+    pub memory_limit: Option<u64>,
 }
 
 /// The subcommands.
@@ -49,6 +58,10 @@ pub enum Command {
     Scaling(scaling_cmd::ScalingArgs),
     /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
     Adapt(adapt_cmd::AdaptArgs),
+    /// Render a scene's pixels from image-plane samples by one method, measured against the truth.
+    Image(image_cmd::ImageArgs),
+    /// Every image-plane method on the same samples: figures and a table.
+    Compare(compare_cmd::CompareArgs),
 }
 
 /// Interior filter family on the command line.
@@ -124,7 +137,7 @@ pub struct BasisArgs {
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Positions at which polynomial reproduction is checked.
-    #[arg(long, default_value_t = 20_000)]
+    #[arg(long, default_value_t = 20_000, value_parser = limits::samples)]
     pub points: usize,
     /// Seed of the random test data.
     #[arg(long, default_value_t = 1)]
@@ -193,6 +206,9 @@ pub enum CliError {
         /// The file.
         path: PathBuf,
     },
+    /// An output that cannot or must not be written (checked before computing).
+    #[error(transparent)]
+    Output(#[from] rkwave::io::output::OutputError),
     /// Other invalid input.
     #[error("{0}")]
     Invalid(String),
@@ -209,18 +225,51 @@ impl CliError {
     }
 }
 
-/// Refuses to overwrite `path` unless `force`.
+/// Before computing: refuses to overwrite `path` unless `force`, and checks that its
+/// directory (or, when the command will create it, the nearest existing ancestor) takes a
+/// new file, so an unwritable output fails at once with exit code 2.
 pub fn check_writable(path: &std::path::Path, force: bool) -> Result<(), CliError> {
-    if path.exists() && !force {
+    if std::fs::symlink_metadata(path).is_ok() && !force {
         return Err(CliError::WouldOverwrite {
             path: path.to_path_buf(),
         });
     }
+    let mut dir = path.parent().map(std::path::Path::to_path_buf);
+    while let Some(d) = &dir {
+        if d.as_os_str().is_empty() || d.is_dir() {
+            break;
+        }
+        dir = d.parent().map(std::path::Path::to_path_buf);
+    }
+    let probe_dir = match dir {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => PathBuf::from("."),
+    };
+    if probe_dir.join(path.file_name().unwrap_or_default()) == path {
+        rkwave::io::output::check_output(path, true, &[])?;
+    } else {
+        rkwave::io::output::check_output(&probe_dir.join(".rkwave-probe"), true, &[]).map_err(
+            |e| {
+                CliError::Invalid(format!(
+                    "cannot write {}: its directory would be created in {}, which refuses \
+                     new files ({e})",
+                    path.display(),
+                    probe_dir.display()
+                ))
+            },
+        )?;
+    }
     Ok(())
+}
+
+/// `--memory-limit`: bytes or a size such as `4G`.
+fn memory_limit(text: &str) -> Result<u64, String> {
+    rkwave::resources::parse_size(text).map_err(|e| e.to_string())
 }
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    rkwave::resources::set_memory_limit(cli.memory_limit);
     match cli.command {
         None => demo::run(&DemoArgs {
             out: PathBuf::from("out"),
@@ -233,5 +282,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Sweep(args)) => sweep_cmd::run(&args),
         Some(Command::Adapt(args)) => adapt_cmd::run(&args),
         Some(Command::Scaling(args)) => scaling_cmd::run(&args),
+        Some(Command::Image(args)) => image_cmd::run(&args),
+        Some(Command::Compare(args)) => compare_cmd::run(&args),
     }
 }

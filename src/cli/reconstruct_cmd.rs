@@ -5,13 +5,14 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use rkwave::io::output::check_output;
 use rkwave::io::{read_samples, validate_positions, GridWriter};
 use rkwave::reconstruct::{fit, FitParams, SolveReport};
 use rkwave::sampling::Domain;
 use serde_json::json;
 
 use super::solve_args::{MethodArg, SolveArgs};
-use super::{check_writable, CliError, FamilyArg};
+use super::{CliError, FamilyArg};
 
 /// Grid points evaluated and written per block.
 const GRID_BLOCK: usize = 1 << 16;
@@ -38,7 +39,7 @@ pub struct ReconstructArgs {
     #[command(flatten)]
     pub solve: SolveArgs,
     /// Grid points of the output (uniform, both ends included).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = super::limits::grid)]
     pub grid: usize,
     /// Output: `.npy` (NumPy float64, G x (1 + channels)) or CSV (`x,<channels>`) otherwise;
     /// written while the grid is evaluated.
@@ -50,12 +51,24 @@ pub struct ReconstructArgs {
     /// Print a JSON report.
     #[arg(long)]
     pub json: bool,
+    /// Dimension of the sample positions: 1 (`x,value...`) or 2 (image plane, `x,y,c1...`,
+    /// see `reconstruct2d_cmd`).
+    #[arg(long, default_value_t = 1)]
+    pub dim: usize,
+    /// Image resolution `WxH` (with `--dim 2`).
+    #[arg(long)]
+    pub resolution: Option<String>,
 }
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
+    match args.dim {
+        1 => {}
+        2 => return super::reconstruct2d_cmd::run(args),
+        d => return Err(CliError::Invalid(format!("--dim {d}: expected 1 or 2"))),
+    }
     let started = Instant::now();
-    check_writable(&args.output, args.force)?;
+    check_output(&args.output, args.force, &[&args.input])?;
     if args.grid < 2 {
         return Err(CliError::Invalid(format!(
             "--grid {} is too small: give at least 2 points",
@@ -71,10 +84,16 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         Some(d) => d.parse::<Domain>()?,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            Domain::new(a, b).map_err(|_| {
-                CliError::Invalid(format!(
-                    "all samples sit at x = {a}: give --domain a,b explicitly"
-                ))
+            Domain::new(a, b).map_err(|e| match e {
+                rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
+                    "all samples sit at x = {}: give --domain a,b explicitly",
+                    rkwave::norms::show(a)
+                )),
+                other => CliError::Invalid(format!(
+                    "the samples span [{}, {}], which is no usable domain: {other}",
+                    rkwave::norms::show(a),
+                    rkwave::norms::show(b)
+                )),
             })?
         }
     };
@@ -115,15 +134,13 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         write_s += t.elapsed().as_secs_f64();
     }
     let t = Instant::now();
-    writer.finish()?;
+    writer.finish(args.force)?;
     write_s += t.elapsed().as_secs_f64();
     let at_samples = evaluator.evaluate(&set.positions)?;
     let residual_rms: Vec<f64> = at_samples
         .iter()
         .zip(&set.values)
-        .map(|(r, f)| {
-            (r.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / f.len() as f64).sqrt()
-        })
+        .map(|(r, f)| rkwave::norms::rms_difference(r, f))
         .collect();
     bar.finish_and_clear();
     let total = started.elapsed().as_secs_f64();
@@ -166,6 +183,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             .iter()
             .map(|f| json!({ "fallback": f, "message": f.to_string() }))
             .collect::<Vec<_>>(),
+        "warnings": fitted.warnings(),
     });
     if args.json {
         println!(
@@ -173,16 +191,23 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             serde_json::to_string_pretty(&report).expect("plain data")
         );
     } else {
+        for w in fitted.warnings() {
+            eprintln!("warning: {w}");
+        }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
-             residual RMS {:?}, {:.3} s; wrote {}",
+             residual RMS [{}], {:.3} s; wrote {}",
             set.len(),
             set.channels(),
             fitted.active.len(),
             fitted.levels.coarse,
             fitted.levels.fine,
             fitted.levels.oversampling,
-            residual_rms,
+            residual_rms
+                .iter()
+                .map(|r| format!("{r:.3e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
             total,
             args.output.display()
         );

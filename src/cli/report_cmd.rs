@@ -23,7 +23,7 @@ pub struct ReportArgs {
     #[arg(long, default_value_t = 8)]
     pub fine: u32,
     /// Number of samples.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, value_parser = super::limits::samples)]
     pub samples: usize,
     /// Sample layout: uniform, endpoints, jittered, random, lowdiscrepancy, clustered.
     #[arg(long, default_value = "uniform")]
@@ -35,7 +35,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "smooth")]
     pub signal: String,
     /// Neighbourhood rings.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::limits::rings)]
     pub rings: usize,
     /// Local solver.
     #[arg(long, value_enum, default_value_t = SolverArg::Svd)]
@@ -44,7 +44,7 @@ pub struct ReportArgs {
     #[arg(long, default_value_t = 1e-12)]
     pub cutoff: f64,
     /// Grid points on which reconstructions are compared.
-    #[arg(long, default_value_t = 8192)]
+    #[arg(long, default_value_t = 8192, value_parser = super::limits::grid)]
     pub grid: usize,
     /// Print JSON.
     #[arg(long)]

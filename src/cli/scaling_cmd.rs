@@ -18,16 +18,16 @@ use super::CliError;
 #[derive(Args, Debug)]
 pub struct ScalingArgs {
     /// Sample counts (e.g. 1e4,1e5,1e6,1e7).
-    #[arg(long, value_delimiter = ',', default_value = "1e4,1e5,1e6")]
+    #[arg(long, value_delimiter = ',', default_value = "1e4,1e5,1e6", value_parser = super::limits::size)]
     pub sizes: Vec<f64>,
     /// Channel counts.
-    #[arg(long, value_delimiter = ',', default_value = "1,3")]
+    #[arg(long, value_delimiter = ',', default_value = "1,3", value_parser = super::limits::channels)]
     pub channels: Vec<usize>,
     /// Methods: single, global, local0 (rings 0, SVD), local1 (rings 1, SVD).
     #[arg(long, value_delimiter = ',', default_value = "single")]
     pub methods: Vec<String>,
     /// Evaluation grid (points); 0 means as many points as samples.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = 1_000_000, value_parser = super::limits::grid_or_zero)]
     pub grid: usize,
     /// Print JSON rows.
     #[arg(long)]

@@ -72,7 +72,7 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 256.0)]
     pub coarse_samples: f64,
     /// Neighbourhood rings of local inversion.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::limits::rings)]
     pub rings: usize,
     /// Local solver.
     #[arg(long, value_enum, default_value_t = SolverArg::Svd)]

@@ -21,7 +21,7 @@ pub struct SweepArgs {
     #[command(flatten)]
     pub base: ReportArgs,
     /// Rings to sweep.
-    #[arg(long, value_delimiter = ',', default_value = "0,1,2")]
+    #[arg(long, value_delimiter = ',', default_value = "0,1,2", value_parser = super::limits::rings)]
     pub sweep_rings: Vec<usize>,
     /// Vanishing moments to sweep (coarse level follows j_min(p) when it would be too small).
     #[arg(long, value_delimiter = ',', default_value = "2,3,4,5")]
@@ -30,7 +30,7 @@ pub struct SweepArgs {
     #[arg(long, value_delimiter = ',', default_value = "1,2,3,4")]
     pub sweep_depth: Vec<u32>,
     /// Sample counts to sweep (oversampling m / P).
-    #[arg(long, value_delimiter = ',', default_value = "640,1024,2048,4096")]
+    #[arg(long, value_delimiter = ',', default_value = "640,1024,2048,4096", value_parser = super::limits::samples)]
     pub sweep_samples: Vec<usize>,
     /// Output folder for sweep.csv and sweep.png.
     #[arg(long, default_value = "out/sweep")]

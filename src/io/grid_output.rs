@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use npyz::WriterBuilder;
 
+use super::output::{persist, temporary, OutputError};
 use super::IoError;
 
 /// Output buffer size: large writes, few system calls.
@@ -44,6 +45,7 @@ enum Sink {
 /// Writes `rows` grid rows of `x` and the channels, block by block.
 pub struct GridWriter {
     path: PathBuf,
+    tmp: PathBuf,
     sink: Sink,
     channels: usize,
     rows: usize,
@@ -52,9 +54,10 @@ pub struct GridWriter {
 }
 
 impl GridWriter {
-    /// Creates the file (replacing an existing one: the caller decides whether that is
-    /// allowed) for `rows` rows of `x` and one column per channel name.
+    /// Starts the file for `rows` rows of `x` and one column per channel name: the rows go to
+    /// a temporary file beside `path`, moved into place by [`GridWriter::finish`].
     pub fn create(path: &Path, names: &[String], rows: usize) -> Result<Self, IoError> {
+        let tmp = temporary(path);
         let write_err = |source: std::io::Error| IoError::Write {
             file: path.to_path_buf(),
             source,
@@ -64,7 +67,7 @@ impl GridWriter {
                 problem: "no value channels; a grid file needs at least one".to_string(),
             });
         }
-        let file = BufWriter::with_capacity(BUFFER, File::create(path).map_err(write_err)?);
+        let file = BufWriter::with_capacity(BUFFER, File::create(&tmp).map_err(write_err)?);
         let sink = match GridFormat::from_path(path) {
             GridFormat::Npy => Sink::Npy(
                 npyz::WriteOptions::new()
@@ -93,6 +96,7 @@ impl GridWriter {
         };
         Ok(Self {
             path: path.to_path_buf(),
+            tmp,
             sink,
             channels: names.len(),
             rows,
@@ -156,16 +160,21 @@ impl GridWriter {
         Ok(())
     }
 
-    /// Flushes the file; every declared row must have been written.
-    pub fn finish(self) -> Result<(), IoError> {
+    /// Flushes the rows and moves the file into place; without `overwrite`, an existing target
+    /// is left alone (an error). Every declared row must have been written.
+    pub fn finish(self, overwrite: bool) -> Result<(), OutputError> {
         assert_eq!(self.written, self.rows, "every declared row written");
-        let write_err = |source: std::io::Error| IoError::Write {
-            file: self.path.clone(),
-            source,
+        let flushed = match self.sink {
+            Sink::Npy(w) => w.finish(),
+            Sink::Csv(mut w) => w.flush(),
         };
-        match self.sink {
-            Sink::Npy(w) => w.finish().map_err(write_err),
-            Sink::Csv(mut w) => w.flush().map_err(write_err),
+        if let Err(source) = flushed {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(OutputError::NotWritable {
+                file: self.path.clone(),
+                source,
+            });
         }
+        persist(&self.tmp, &self.path, overwrite)
     }
 }

@@ -23,7 +23,9 @@ use crate::sampling::Domain;
 
 mod csv;
 mod grid_output;
+pub mod image_file;
 mod npy;
+pub mod output;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
 pub use self::grid_output::{GridFormat, GridWriter};

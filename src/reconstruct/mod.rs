@@ -143,8 +143,9 @@ pub enum ReconstructError {
     Solve(#[from] SolveError),
     /// Fewer samples than basis functions.
     #[error(
-        "{samples} samples cannot determine {functions} basis functions: give more samples \
-         (rho = samples / functions >= 2), a smaller fine level N, or automatic levels"
+        "{samples} samples cannot determine {functions} basis functions: give at least \
+         {functions} samples or a smaller fine level N (automatic levels: a larger \
+         oversampling rho)"
     )]
     Undersampled {
         /// Samples `m` (rows of `K`).
@@ -152,6 +153,9 @@ pub enum ReconstructError {
         /// Basis functions `P` (columns of `K`).
         functions: usize,
     },
+    /// The request would need more memory than the limit.
+    #[error(transparent)]
+    Resources(#[from] crate::resources::ResourceError),
     /// A sample value is NaN or infinite.
     #[error(
         "sample {row} (1-based), channel {channel}: value {value} is not finite: fix or remove it"
@@ -276,6 +280,7 @@ pub fn fit(
     let m = positions.len();
     check_values(m, values)?;
     let mut levels = choose_levels(m, params);
+    guard_uniform(m, values.len(), params, &levels)?;
     let mut dropped = 0u32;
     if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method)
     {
@@ -360,6 +365,53 @@ fn lowered(dropped: u32) -> Vec<Fallback> {
     }
 }
 
+/// Refuses, before anything of size `P` is allocated, a uniform fit that cannot work: basis
+/// parameters out of range, fewer samples than functions (with automatic levels, fewer than
+/// `P / 8`: at most three levels are dropped), or more memory than
+/// [`crate::resources::memory_limit`] (basis, normal equations, and `K` unless single-scale).
+fn guard_uniform(
+    m: usize,
+    channels: usize,
+    params: &FitParams,
+    levels: &LevelChoice,
+) -> Result<(), ReconstructError> {
+    use crate::resources;
+    // Parameter errors first: their messages are more precise than a size.
+    CdvBasis::new(
+        params.p,
+        params.family(),
+        levels.coarse,
+        levels.fine,
+        Domain::UNIT,
+    )?;
+    let functions = resources::dimension(levels.fine);
+    let reach = match params.levels {
+        Levels::Auto(_) => 8.0,
+        Levels::Fixed { .. } => 1.0,
+    };
+    if (m as f64) * reach < functions {
+        return Err(ReconstructError::Undersampled {
+            samples: m,
+            functions: functions.min(usize::MAX as f64) as usize,
+        });
+    }
+    let mut needed = resources::uniform_basis_bytes(params.p, levels.fine, channels);
+    if !matches!(params.method, Method::SingleScale { .. }) {
+        needed += resources::kernel_bytes(m, params.p, levels.coarse, levels.fine);
+    }
+    resources::check(
+        || {
+            format!(
+                "a fit of {m} samples on levels {}..{} (P = {functions:e} functions, p = {})",
+                levels.coarse, levels.fine, params.p
+            )
+        },
+        needed,
+        || "lower the fine level N (automatic levels: raise rho)".to_string(),
+    )?;
+    Ok(())
+}
+
 /// The fewest samples in the support of any function of `V_level` (windows of `2p - 1`
 /// cells of width `2^-level`, and the `p` cells at each end).
 fn min_support_samples(positions: &[f64], domain: Domain, level: u32, p: usize) -> usize {
@@ -401,6 +453,19 @@ pub fn fit_active(
     check_positions(active.basis().domain(), positions)?;
     let uniform = active.len() == active.basis().dimension();
     let single = matches!(method, Method::SingleScale { .. }) && uniform;
+    if !single {
+        let basis = active.basis();
+        crate::resources::check(
+            || {
+                format!(
+                    "the kernel matrix of {m} samples x {} functions",
+                    active.len()
+                )
+            },
+            crate::resources::kernel_bytes(m, basis.p(), basis.coarse(), basis.fine()),
+            || "use fewer samples or a smaller fine level N".into(),
+        )?;
+    }
     let t0 = Instant::now();
     // The single-scale path never forms K.
     let k = if single {
@@ -469,6 +534,18 @@ pub fn fit_active(
 }
 
 impl Fit {
+    /// Every fallback and warning of the fit, one sentence each, for text and JSON output:
+    /// the replaced method or lowered level ([`Fit::fallbacks`]) and the local inversion's
+    /// cut directions, solver fallbacks and weakly supported blocks
+    /// ([`LocalStats::warnings`]).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w: Vec<String> = self.fallbacks.iter().map(|f| f.to_string()).collect();
+        if let SolveReport::Local(local) = &self.solve {
+            w.extend(local.warnings());
+        }
+        w
+    }
+
     /// The reconstruction at `xs`, one vector per channel (see [`Fit::evaluator`] to evaluate
     /// many batches).
     pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<Vec<f64>>, ReconstructError> {

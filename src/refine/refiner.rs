@@ -562,12 +562,15 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         let Some(indication) = &probed.indication else {
             return Err(StopReason::Budget);
         };
-        if (indication.total_sq / length).sqrt() <= params.tolerance {
+        // A NaN estimate never satisfies a stop test (`NaN <= t` is false; kept explicit).
+        let below = |sq: f64| {
+            let e = (sq / length).sqrt();
+            e.is_finite() && e <= params.tolerance
+        };
+        if below(indication.total_sq) {
             return Err(StopReason::Tolerance);
         }
-        if indication.units.is_empty()
-            || (indication.markable_sq / length).sqrt() <= params.tolerance
-        {
+        if indication.units.is_empty() || below(indication.markable_sq) {
             return Err(StopReason::DepthLimit);
         }
         if self.round + 1 >= params.max_rounds {

@@ -144,6 +144,24 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
         setting.fine,
         domain,
     )?;
+    // Refused before allocating: the basis, the samples and K (with its transpose).
+    crate::resources::check(
+        || {
+            format!(
+                "a report of {} samples on levels {}..{}",
+                setting.samples, setting.coarse, setting.fine
+            )
+        },
+        crate::resources::uniform_basis_bytes(setting.p, setting.fine, 1)
+            + crate::resources::grid_bytes(setting.samples, 1)
+            + crate::resources::kernel_bytes(
+                setting.samples,
+                setting.p,
+                setting.coarse,
+                setting.fine,
+            ),
+        || "use fewer samples or a smaller fine level N".into(),
+    )?;
     let active = ActiveSet::uniform(basis);
     let xs = setting
         .layout

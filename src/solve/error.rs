@@ -29,8 +29,8 @@ pub enum SolveError {
     #[error(
         "rank deficient: pivot {pivot:.3e} of the equilibrated normal matrix at column \
          {column} is below the threshold {threshold:.3e} (column has {column_samples} \
-         nonzero samples). Add samples where that basis function lives, or use \
-         RankPolicy::Regularize, the iterative solver, or the dense SVD"
+         nonzero samples). Add samples where that basis function lives, lower the fine \
+         level N, or use local inversion or the dense SVD"
     )]
     RankDeficient {
         /// A column (basis function) at which the factorization found the deficiency.
@@ -42,6 +42,10 @@ pub enum SolveError {
         /// Structural nonzeros of that column of `K`.
         column_samples: usize,
     },
+
+    /// The request would need more memory than the limit.
+    #[error(transparent)]
+    Resources(#[from] crate::resources::ResourceError),
 
     /// A factorization failed outright.
     #[error("factorization failed: {what}")]

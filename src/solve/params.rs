@@ -27,6 +27,11 @@ pub enum Solver {
     Cholesky,
 }
 
+/// Most neighbourhood rings the command line accepts: rings 1 already reaches 1e-9..1e-16
+/// (DESIGN §4) and each ring widens every block (up to 8x the factorization); the library
+/// takes any number and stops growing a neighbourhood once it no longer changes.
+pub const MAX_RINGS: usize = 10;
+
 /// Parameters of the local inversion (`crate::solve::local_inversion`, `apply_local`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LocalInversionParams {
