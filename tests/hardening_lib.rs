@@ -47,7 +47,14 @@ fn levels_at_the_documented_limit_are_refused_not_allocated() {
         &xs,
         &[&f],
         Domain::UNIT,
-        &params(3, fixed, Method::SingleScale { ridge: 0.0 }),
+        &params(
+            3,
+            fixed,
+            Method::SingleScale {
+                ridge: 0.0,
+                solver: Default::default(),
+            },
+        ),
     )
     .unwrap_err();
     assert!(
@@ -63,7 +70,14 @@ fn levels_at_the_documented_limit_are_refused_not_allocated() {
         &xs,
         &[&f],
         Domain::UNIT,
-        &params(3, tiny_rho, Method::SingleScale { ridge: 0.0 }),
+        &params(
+            3,
+            tiny_rho,
+            Method::SingleScale {
+                ridge: 0.0,
+                solver: Default::default(),
+            },
+        ),
     )
     .unwrap_err();
     assert!(err.to_string().contains("rho"), "{err}");
