@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use npyz::WriterBuilder;
 
+use super::output::{persist, temporary, OutputError};
 use super::IoError;
 
 /// Output buffer size: large writes, few system calls.
@@ -44,7 +45,10 @@ enum Sink {
 /// Writes `rows` grid rows of `x` and the channels, block by block.
 pub struct GridWriter {
     path: PathBuf,
-    sink: Sink,
+    tmp: PathBuf,
+    /// `None` once finished; a writer dropped before [`GridWriter::finish`] removes its
+    /// temporary file (the target is never touched).
+    sink: Option<Sink>,
     channels: usize,
     rows: usize,
     written: usize,
@@ -52,9 +56,10 @@ pub struct GridWriter {
 }
 
 impl GridWriter {
-    /// Creates the file (replacing an existing one: the caller decides whether that is
-    /// allowed) for `rows` rows of `x` and one column per channel name.
+    /// Starts the file for `rows` rows of `x` and one column per channel name: the rows go to
+    /// a temporary file beside `path`, moved into place by [`GridWriter::finish`].
     pub fn create(path: &Path, names: &[String], rows: usize) -> Result<Self, IoError> {
+        let tmp = temporary(path);
         let write_err = |source: std::io::Error| IoError::Write {
             file: path.to_path_buf(),
             source,
@@ -64,7 +69,7 @@ impl GridWriter {
                 problem: "no value channels; a grid file needs at least one".to_string(),
             });
         }
-        let file = BufWriter::with_capacity(BUFFER, File::create(path).map_err(write_err)?);
+        let file = BufWriter::with_capacity(BUFFER, File::create(&tmp).map_err(write_err)?);
         let sink = match GridFormat::from_path(path) {
             GridFormat::Npy => Sink::Npy(
                 npyz::WriteOptions::new()
@@ -93,7 +98,8 @@ impl GridWriter {
         };
         Ok(Self {
             path: path.to_path_buf(),
-            sink,
+            tmp,
+            sink: Some(sink),
             channels: names.len(),
             rows,
             written: 0,
@@ -137,7 +143,7 @@ impl GridWriter {
                         value: v,
                     });
                 }
-                match &mut self.sink {
+                match self.sink.as_mut().expect("not finished") {
                     Sink::Npy(w) => w.push(&v).map_err(write_err)?,
                     Sink::Csv(_) => {
                         if j > 0 {
@@ -147,7 +153,7 @@ impl GridWriter {
                     }
                 }
             }
-            if let Sink::Csv(w) = &mut self.sink {
+            if let Some(Sink::Csv(w)) = &mut self.sink {
                 self.line.push(b'\n');
                 w.write_all(&self.line).map_err(write_err)?;
             }
@@ -156,16 +162,29 @@ impl GridWriter {
         Ok(())
     }
 
-    /// Flushes the file; every declared row must have been written.
-    pub fn finish(self) -> Result<(), IoError> {
+    /// Flushes the rows and moves the file into place; without `overwrite`, an existing target
+    /// is left alone (an error). Every declared row must have been written.
+    pub fn finish(mut self, overwrite: bool) -> Result<(), OutputError> {
         assert_eq!(self.written, self.rows, "every declared row written");
-        let write_err = |source: std::io::Error| IoError::Write {
-            file: self.path.clone(),
-            source,
+        let flushed = match self.sink.take().expect("finished once") {
+            Sink::Npy(w) => w.finish(),
+            Sink::Csv(mut w) => w.flush(),
         };
-        match self.sink {
-            Sink::Npy(w) => w.finish().map_err(write_err),
-            Sink::Csv(mut w) => w.flush().map_err(write_err),
+        if let Err(source) = flushed {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(OutputError::NotWritable {
+                file: self.path.clone(),
+                source,
+            });
+        }
+        persist(&self.tmp, &self.path, overwrite)
+    }
+}
+
+impl Drop for GridWriter {
+    fn drop(&mut self) {
+        if self.sink.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
         }
     }
 }
