@@ -51,7 +51,7 @@ pub struct AdaptArgs {
     /// Target RMS error (as estimated by the indicator).
     #[arg(long, default_value_t = 1e-6)]
     pub tolerance: f64,
-    /// Depth limit: finest wavelet level (at most 40).
+    /// Depth limit: finest wavelet level (at most 52; refinement stops earlier where f64 runs out of resolution).
     #[arg(long, default_value_t = 32)]
     pub max_depth: u32,
     /// Sample budget (base samples included).

@@ -7,10 +7,11 @@ use crate::basis::{minimum_level, FilterFamily, MAX_VANISHING_MOMENTS};
 use crate::sampling::{Domain, Layout};
 use crate::solve::GlobalLsParams;
 
-/// Deepest wavelet level the refiner accepts. Positions are `f64`: a level-40 leaf of the unit
-/// interval is `9e-13` wide, still ~4000 ulps near 1; every sample caches the values of its
-/// `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
-pub const MAX_DEPTH_LIMIT: u32 = 40;
+/// Deepest wavelet level the refiner accepts: a level-52 leaf of the unit interval is
+/// `2^-52`, two ulps near 1, so the resolution of `f64` ends the refinement before (stop
+/// reason `Resolution`: near `t = 0.6` at depth ~48, nearer to 0 deeper). Every sample caches
+/// the values of its `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
+pub const MAX_DEPTH_LIMIT: u32 = 52;
 
 /// How the refiner decides where the signal is not yet resolved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -131,7 +132,8 @@ impl RefineParams {
         self.base_depth.unwrap_or_else(|| {
             let need = self.per_leaf() as f64;
             let mut d = n;
-            while d < 40 && need * 2f64.powi(d as i32 + 2) <= self.base_samples as f64 {
+            while d < MAX_DEPTH_LIMIT && need * 2f64.powi(d as i32 + 2) <= self.base_samples as f64
+            {
                 d += 1;
             }
             d
@@ -193,7 +195,7 @@ impl RefineParams {
             return bad(
                 "max depth",
                 self.max_depth.to_string(),
-                "choose a depth limit of at most 40",
+                "choose a depth limit of at most 52",
             );
         }
         let base = self.base_depth();

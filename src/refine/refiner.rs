@@ -8,7 +8,7 @@ use rand_pcg::Pcg64;
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::indicator::{coefficient_indication, residual_indication, Indication};
+use super::indicator::{coefficient_indication, residual_indication, Indication, Unit};
 use super::measure::{grid, ErrorFigures};
 use super::normal::{level_of, NormalEquations, TrackedPoints};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
@@ -31,6 +31,9 @@ pub enum StopReason {
     DepthLimit,
     /// The next marked refinement would exceed the sample budget.
     Budget,
+    /// What is left of the estimated error sits where a deeper leaf could not hold `ceil(rho)`
+    /// distinct `f64` positions (the resolution of `f64` near that position).
+    Resolution,
     /// The safety limit on rounds.
     MaxRounds,
 }
@@ -199,6 +202,10 @@ impl Refinement {
 
 /// Samples per parallel evaluation work item.
 const CHUNK: usize = 4096;
+
+/// Ulps a sampling stratum of a new leaf must span (jittered points in the middle 80 % of
+/// the stratum stay distinct and inside their leaf after the domain map).
+const RESOLUTION_ULPS: f64 = 16.0;
 
 /// `sum_c coefficients[c] Psi_{columns[c]}(x)` for every `x` of `xs`, `basis` holding them all.
 pub(crate) fn evaluate_sparse(
@@ -559,6 +566,27 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         {
             return Err(StopReason::DepthLimit);
         }
+        // Marks whose new leaves f64 cannot sample are dropped; if nothing else is left,
+        // refinement has reached the resolution of f64.
+        let resolvable: Vec<Unit> = indication
+            .units
+            .iter()
+            .filter(|u| u.wavelets.iter().all(|&a| self.resolvable(a)))
+            .cloned()
+            .collect();
+        if resolvable.is_empty() {
+            return Err(StopReason::Resolution);
+        }
+        let filtered;
+        let indication = if resolvable.len() < indication.units.len() {
+            filtered = Indication {
+                units: resolvable,
+                ..indication.clone()
+            };
+            &filtered
+        } else {
+            indication
+        };
         if self.round + 1 >= params.max_rounds {
             return Err(StopReason::MaxRounds);
         }
@@ -598,6 +626,22 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             return Err(StopReason::Budget);
         }
         Ok(trial(lo))
+    }
+
+    /// Whether the leaves that wavelet `a` (level `j`) creates, cells of level `j + 1`, can
+    /// hold `ceil(rho)` samples in distinct strata: a stratum `2^-(j+1) / ceil(rho)` wide must
+    /// span at least [`RESOLUTION_ULPS`] ulps of the positions there, in unit coordinates and
+    /// in the domain.
+    fn resolvable(&self, a: usize) -> bool {
+        let (level, _, _) = self.tree.support(a);
+        let (lo, hi) = self.tree.support_unit(a);
+        let domain = self.params.domain;
+        let stratum = (-(level as f64 + 1.0)).exp2() / self.params.per_leaf() as f64;
+        let ulp = |v: f64| v.abs().max(f64::MIN_POSITIVE) * f64::EPSILON;
+        let unit_ulp = ulp(lo).max(ulp(hi.min(1.0)));
+        let domain_ulp = ulp(domain.from_unit(lo)).max(ulp(domain.from_unit(hi.min(1.0))));
+        stratum >= RESOLUTION_ULPS * unit_ulp
+            && stratum * domain.length() >= RESOLUTION_ULPS * domain_ulp
     }
 
     /// Brings every leaf to `ceil(rho)` samples and refits (the next round).
