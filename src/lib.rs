@@ -1,18 +1,83 @@
 //! # rkwave
 //!
 //! Least-squares reconstruction of functions from scattered point samples in sparse, adaptive
-//! CDV interval wavelet bases.
+//! CDV interval wavelet bases: given samples `f_i = f(lambda_i)` at arbitrary positions
+//! `lambda_i` of an interval `[a, b]`, the coefficients `c = K^+ f` of
+//! `f~(x) = sum_a c_a Psi_a(x)`, `K[i, a] = Psi_a(lambda_i)`, and `f~` anywhere.
 //!
-//! The modules follow the pipeline:
-//! - [`basis`]: Daubechies filters, the CDV edge construction, exact pointwise evaluation of
-//!   `Psi(n, N)` ([`basis::CdvBasis`], [`basis::Evaluator`]) and the interval FWT;
-//! - [`sampling`]: domains, sample layouts and built-in test signals;
-//! - [`refine`]: the adaptive refiner ([`refine::refine`]): a wavelet tree and samples grown
-//!   together where the signal needs them;
+//! ## Fit samples in five lines
+//!
+//! ```
+//! use rkwave::reconstruct::{fit, FitParams};
+//! use rkwave::sampling::Domain;
+//!
+//! // 2000 scattered samples of a smooth signal on [0, 1] (a deterministic scatter here).
+//! let xs: Vec<f64> = (0..2000).map(|i| (i as f64 * 0.618_033_988_75).fract()).collect();
+//! let ys: Vec<f64> = xs.iter().map(|x| (6.0 * x).sin()).collect();
+//!
+//! let f = fit(&xs, &[&ys], Domain::UNIT, &FitParams::default())?; // p = 3, automatic levels
+//! let grid: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
+//! let values = f.evaluate(&grid)?; // one Vec per channel
+//!
+//! // Cell width h = 2^-(N+1) ~ 1/256 here: the p = 3 error ~ h^3 max|f'''| ~ 1e-5
+//! // (checked with a margin).
+//! let err = grid.iter().zip(&values[0]).map(|(x, v)| (v - (6.0 * x).sin()).abs());
+//! assert!(err.fold(0.0, f64::max) < 1e-3);
+//! assert!(f.fallbacks.is_empty()); // nothing had to be lowered or replaced
+//! # Ok::<(), rkwave::reconstruct::ReconstructError>(())
+//! ```
+//!
+//! [`reconstruct::FitParams`] chooses the vanishing moments `p` (the filter family follows
+//! CDV's rule unless given), the levels and the solver; [`reconstruct::Fit`] carries the
+//! coefficients, the levels used, the solver's report and every fallback taken.
+//!
+//! ## The pipeline, one module a stage
+//!
+//! - [`domain`]: the interval `[a, b]` and its map to `[0, 1]` (shared by every stage);
+//! - [`sampling`]: sample layouts and built-in test signals (the input);
+//! - [`basis`]: Daubechies filters, the CDV edge construction, exact evaluation of every
+//!   function of `Psi(n, N)` at any position, and the interval FWT;
+//! - [`kernel`]: active basis sets, automatic levels and the sparse kernel matrix
+//!   `K[i, a] = Psi_a(lambda_i)`;
+//! - [`solve`]: `c = K^+ f` by local inversion, sparse global least squares or the dense
+//!   pseudo-inverse;
+//! - [`reconstruct`]: samples to coefficients to values ([`reconstruct::fit`]), by default
+//!   through the single-scale normal equations of `V_{N+1}`; dual and reproducing kernels;
+//! - [`refine`]: the adaptive refiner: a wavelet tree and its samples grown together where
+//!   the signal needs them ([`refine::refine`]);
 //! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
 //!   filters and image-plane reconstruction;
-//! - [`io`]: reading and writing samples (CSV, NumPy `.npy`);
-//! - [`plot`] draws the figures.
+//! - [`report`]: the local-vs-global comparison of DESIGN §5 as typed data;
+//! - [`io`] (at the edge): reading and writing samples (CSV, NumPy `.npy`);
+//! - `plot` (at the edge, feature `plot`): the figures.
+//!
+//! Without default features (`cargo build --lib --no-default-features`) the engine builds with
+//! no command-line, plotting or image crates in its tree.
+//!
+//! ## Errors and panics
+//!
+//! - **Errors.** Everything a caller can get wrong is a typed error (`thiserror`), never a
+//!   panic, a NaN or a silent cut: parameters out of range, positions outside the domain or
+//!   not finite, non-finite values, too few samples, unreadable files, a solve that does not
+//!   converge. Each module has one error enum ([`basis::BasisError`],
+//!   [`kernel::KernelError`], [`solve::SolveError`], [`reconstruct::ReconstructError`],
+//!   [`refine::RefineError`], [`io::IoError`], [`sampling::DomainError`]); each variant names
+//!   the value at fault in its fields and its message says what to pass instead.
+//! - **Messages speak of parameters**, in the library's terms (`p`, the domain, the max depth,
+//!   `cutoff`), never of command-line flags: the command line maps them to its flags.
+//! - **Consistent shapes.** Every error enum derives `Debug` and `Error`, and also `Clone` and
+//!   `PartialEq` unless it carries an operating-system or image error; every one is
+//!   `#[non_exhaustive]`. A parameter out of range is `InvalidParameter { name, value, fix }`
+//!   with the value as given (`String`); too few samples is
+//!   `Undersampled { samples, functions }`.
+//! - **Panics** are only for broken internal contracts (an index the library computed itself
+//!   out of range, a factorization of a matrix the library built to be definite): a panic is
+//!   a bug to report, never a way to signal bad input.
+//! - **Fallbacks are reported.** A departure from what was asked (a lowered level, another
+//!   solver, a cut-off) is recorded in the result ([`reconstruct::Fallback`],
+//!   [`solve::LocalStats`]) and printed by the command line in text and JSON.
+//!
+//! ## Evaluating the basis itself
 //!
 //! ```
 //! use rkwave::basis::{CdvBasis, FilterFamily};
@@ -27,13 +92,21 @@
 #![deny(missing_docs)]
 
 pub mod basis;
+pub mod domain;
 pub mod image;
 pub mod io;
 pub mod kernel;
+pub mod norms;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod reconstruct;
 pub mod refine;
 pub mod report;
+pub mod resources;
 pub mod sampling;
 pub mod solve;
+
+/// The README's Rust examples, compiled and run as doctests (its shell blocks are not Rust).
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

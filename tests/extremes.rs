@@ -4,7 +4,9 @@
 
 use rkwave::basis::{minimum_level, CdvBasis, FilterFamily};
 use rkwave::kernel::{kernel_matrix, ActiveSet, LevelChoice};
-use rkwave::reconstruct::{fit, fit_active, FitParams, Levels, Method, ReconstructError};
+use rkwave::reconstruct::{
+    fit, fit_active, Fallback, FitParams, Levels, Method, ReconstructError, SolveReport,
+};
 use rkwave::sampling::{Domain, Layout, Signal};
 use rkwave::solve::{dense_pinv, local_inversion, LocalInversionParams, Solver};
 
@@ -52,7 +54,10 @@ fn all_methods_match_the_dense_solve_when_well_posed() {
     )
     .unwrap();
     for method in [
-        Method::SingleScale { ridge: 0.0 },
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         Method::Global(Default::default()),
         Method::Local(LocalInversionParams::default()),
     ] {
@@ -84,7 +89,10 @@ fn duplicates_edges_and_dyadic_points_stay_finite_and_exact() {
     let f: Vec<f64> = xs.iter().map(|x| 2.0 * x - 0.5).collect();
     let lv = levels(&active, xs.len());
     for method in [
-        Method::SingleScale { ridge: 0.0 },
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         Method::Local(LocalInversionParams::default()),
         Method::Local(LocalInversionParams {
             rings: 0,
@@ -108,7 +116,10 @@ fn duplicates_edges_and_dyadic_points_stay_finite_and_exact() {
         if exact {
             assert!(err < 1e-9, "{method:?}: {err:e}");
         } else {
-            assert!(err < 1.0, "{method:?}: {err:e}");
+            // Rings 0 solves each pattern's block without its neighbouring columns: measured
+            // 3.5e-2 on this signal of range 2; 0.1 (5 % of the range) leaves room for
+            // rounding differences and still fails for a broken block solve (an O(1) error).
+            assert!(err < 0.1, "{method:?}: {err:e}");
         }
     }
 }
@@ -137,17 +148,36 @@ fn locally_undersampled_cells_are_reported_not_blown_up() {
         assert!(loc.stats.condition_summary().max > 1e6, "{solver:?}");
     }
     let lv = levels(&active, xs.len());
-    let fit = fit_active(active, &xs, &[&f], Method::SingleScale { ridge: 0.0 }, lv).unwrap();
+    let fit = fit_active(
+        active,
+        &xs,
+        &[&f],
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
+        lv,
+    )
+    .unwrap();
     assert!(all_finite(&fit.coefficients));
-    let rep = fit.single_scale.clone().unwrap();
+    let [Fallback::LocalInversion {
+        deficient,
+        unsampled,
+    }] = fit.fallbacks[..]
+    else {
+        panic!(
+            "the fallback to local inversion is reported: {:?}",
+            fit.fallbacks
+        );
+    };
     assert!(
-        rep.unsampled > 0,
-        "gaps leave single-scale functions without samples: {rep:?}"
+        unsampled > 0,
+        "gaps leave single-scale functions without samples"
     );
-    assert!(rep.deficient >= rep.unsampled, "{rep:?}");
+    assert!(deficient >= unsampled, "{deficient} < {unsampled}");
     assert!(
-        fit.fallback.is_some() && fit.local.is_some(),
-        "the fallback is reported"
+        matches!(fit.solve, SolveReport::Local(_)),
+        "local inversion produced the coefficients"
     );
     // The samples themselves are still fitted (the least-squares residual is small).
     let at = fit.evaluate(&xs).unwrap();
@@ -176,7 +206,17 @@ fn top_p_and_deep_levels() {
         lv,
     )
     .unwrap();
-    let single = fit_active(active, &xs, &[&f], Method::SingleScale { ridge: 0.0 }, lv).unwrap();
+    let single = fit_active(
+        active,
+        &xs,
+        &[&f],
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
+        lv,
+    )
+    .unwrap();
     assert!(diff(&dense.coefficients[0], &single.coefficients[0]) < 1e-9);
     // Deep: levels 18..20 on a short stretch of samples (2^21 functions, most unsampled is an
     // error: fewer samples than functions).
@@ -186,7 +226,10 @@ fn top_p_and_deep_levels() {
         ActiveSet::uniform(deep),
         &xs,
         &[&xs],
-        Method::SingleScale { ridge: 0.0 },
+        Method::SingleScale {
+            ridge: 0.0,
+            solver: Default::default(),
+        },
         lv,
     );
     assert!(matches!(err, Err(ReconstructError::Undersampled { .. })));
@@ -209,7 +252,10 @@ fn huge_and_tiny_magnitudes() {
     ] {
         let g: Vec<f64> = f.iter().map(|v| v * s).collect();
         for method in [
-            Method::SingleScale { ridge: 0.0 },
+            Method::SingleScale {
+                ridge: 0.0,
+                solver: Default::default(),
+            },
             Method::Local(LocalInversionParams::default()),
         ] {
             let p = FitParams { method, ..params };
@@ -290,4 +336,47 @@ fn dense_reference_is_a_pseudo_inverse() {
     let s_kept = d.singular_values[d.rank - 1];
     let tol = 1e-15 * s_max * s_max / s_kept * (km.ncols() as f64).sqrt() + 1e-10 * s_max;
     assert!(err < tol, "K K+ K - K = {err:e} (tolerance {tol:e})");
+}
+
+/// `FitParams { p, ..Default::default() }` takes CDV's filter family for that `p`
+/// (extremal phase `dbP` for `p <= 3`, least asymmetric `symP` above), not the default's
+/// `p = 3` family: for every `p` the fitted basis's family is `FilterFamily::cdv_default(p)`.
+/// (`FitParams::default()` once fixed `db3`'s family, so `p = 6` silently used `db6`.)
+#[test]
+fn fit_params_family_follows_p() {
+    let xs: Vec<f64> = (0..2000).map(|i| (i as f64 + 0.5) / 2000.0).collect();
+    let f = Signal::Smooth.sample(Domain::UNIT, &xs);
+    for p in 1..=8 {
+        let params = FitParams {
+            p,
+            ..Default::default()
+        };
+        assert_eq!(params.family(), FilterFamily::cdv_default(p), "p = {p}");
+        let fitted = fit(&xs, &[&f], Domain::UNIT, &params).unwrap();
+        assert_eq!(
+            fitted.active.basis().bank().family(),
+            FilterFamily::cdv_default(p),
+            "p = {p}"
+        );
+    }
+    assert_eq!(
+        FitParams {
+            p: 6,
+            ..Default::default()
+        }
+        .family(),
+        FilterFamily::LeastAsymmetric,
+        "p = 6 is sym6"
+    );
+    // An explicit family is kept.
+    let explicit = FitParams {
+        p: 6,
+        family: Some(FilterFamily::Extremal),
+        ..Default::default()
+    };
+    let fitted = fit(&xs, &[&f], Domain::UNIT, &explicit).unwrap();
+    assert_eq!(
+        fitted.active.basis().bank().family(),
+        FilterFamily::Extremal
+    );
 }

@@ -20,9 +20,12 @@ from scipy.interpolate import LSQUnivariateSpline
 
 
 def signal(name, x):
-    """The test signal: "smooth" or "jumps" (steps of +1 at 0.29, 0.53, 0.81)."""
+    """The test signal: "smooth", "sinexp" (sin(20x) + exp(x), issue 11's accuracy signal)
+    or "jumps" (steps of +1 at 0.29, 0.53, 0.81)."""
     if name == "smooth":
         return np.sin(2 * np.pi * x) + 0.5 * np.cos(5 * np.pi * x)
+    if name == "sinexp":
+        return np.sin(20 * x) + np.exp(x)
     steps = sum((x >= c).astype(np.float64) for c in (0.29, 0.53, 0.81))
     return 0.5 * np.sin(2 * np.pi * x) + steps
 
@@ -51,12 +54,14 @@ def rkwave_problem(binary):
     return None
 
 
-def run_rkwave(binary, npy, grid, out_csv, name, p=3):
-    """Runs `rkwave reconstruct`; returns (its JSON, wall seconds, grid RMS error).
+def run_rkwave(binary, npy, grid, out_npy, name, p=3, factorization="qr"):
+    """Runs `rkwave reconstruct` (grid written as .npy); returns (its JSON, wall seconds,
+    grid RMS error).
 
     Raises RuntimeError with a readable message when it fails or its output is unexpected."""
     cmd = [binary, "reconstruct", "--input", npy, "--domain", "0,1", "--p", str(p),
-           "--levels", "auto", "--grid", str(grid), "--output", out_csv, "--json"]
+           "--levels", "auto", "--grid", str(grid), "--output", out_npy, "--force", "--json",
+           "--factorization", factorization]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
@@ -69,38 +74,44 @@ def run_rkwave(binary, npy, grid, out_csv, name, p=3):
         [float(report["time_s"][k]) for k in ("kernel", "solve", "evaluate", "total")]
     except (ValueError, KeyError, TypeError) as err:
         raise RuntimeError(f"unexpected JSON from rkwave ({err!r}):\n{proc.stdout[:500]}")
-    out = np.loadtxt(out_csv, delimiter=",", skiprows=1, dtype=np.float64, ndmin=2)
+    out = np.load(out_npy)
     if out.shape != (grid, 2):
-        raise RuntimeError(f"{out_csv}: expected {grid} rows of x,value, got {out.shape}")
+        raise RuntimeError(f"{out_npy}: expected {grid} rows of x,value, got {out.shape}")
     return report, wall, rms(out[:, 1], signal(name, out[:, 0]))
 
 
-def run_scipy(data, n_coef, grid, name):
-    """Cubic LSQ spline with n_coef coefficients (n_coef - 4 equally spaced interior knots).
+def run_scipy(data, n_coef, grid, name, knots="uniform"):
+    """Cubic LSQ spline with n_coef coefficients: n_coef - 4 interior knots, equally spaced
+    (knots="uniform") or at sample quantiles (knots="quantile").
 
     The samples are sorted before the clock starts (FITPACK needs increasing x; rkwave does
     not). Timed: fit, then evaluation on np.linspace(0, 1, grid).
     Returns (fit seconds, evaluation seconds, RMS error)."""
     order = np.argsort(data[:, 0], kind="stable")
     xs, ys = data[order, 0].copy(), data[order, 1].copy()
-    knots = np.linspace(0.0, 1.0, n_coef - 2)[1:-1]
+    if knots == "quantile":
+        inner = np.quantile(xs, np.linspace(0.0, 1.0, n_coef - 2)[1:-1])
+    else:
+        inner = np.linspace(0.0, 1.0, n_coef - 2)[1:-1]
     xg = np.linspace(0.0, 1.0, grid)
     t0 = time.perf_counter()
-    spline = LSQUnivariateSpline(xs, ys, knots, k=3, bbox=[0.0, 1.0])
+    spline = LSQUnivariateSpline(xs, ys, inner, k=3, bbox=[0.0, 1.0])
     t1 = time.perf_counter()
     yg = spline(xg)
     t2 = time.perf_counter()
     return t1 - t0, t2 - t1, rms(yg, signal(name, xg))
 
 
-def compare(args, m, seed, tmp, use_rkwave):
-    """One row: same data for both; P from rkwave, or the largest power of two <= m/2."""
-    npy, out_csv = os.path.join(tmp, f"s{m}_{seed}.npy"), os.path.join(tmp, f"r{m}_{seed}.csv")
+def compare(args, m, seed, p, fact, tmp, use_rkwave, scipy_cache):
+    """One row: same data for both; P from rkwave, or the largest power of two <= m/2.
+    FITPACK runs once per (m, seed, P) and is reused by the rows that share them."""
+    npy, out = os.path.join(tmp, f"s{m}_{seed}.npy"), os.path.join(tmp, f"r{m}_{seed}.npy")
     data = make_samples(m, seed, args.signal, npy)
-    row = {"m": m, "seed": seed, "signal": args.signal, "grid": args.grid}
+    row = {"m": m, "seed": seed, "p": p, "factorization": fact, "signal": args.signal,
+           "grid": args.grid}
     if use_rkwave:
         try:
-            report, wall, err = run_rkwave(args.rkwave, npy, args.grid, out_csv, args.signal, args.p)
+            report, wall, err = run_rkwave(args.rkwave, npy, args.grid, out, args.signal, p, fact)
             ts = report["time_s"]  # total may include reading input and writing the CSV
             row.update(P=int(report["functions"]), rkwave_total_s=ts["total"],
                        rkwave_fit_eval_s=ts["kernel"] + ts["solve"] + ts["evaluate"],
@@ -111,7 +122,10 @@ def compare(args, m, seed, tmp, use_rkwave):
             row["rkwave_error"] = str(exc)
     row.setdefault("P", 1 << int(math.log2(m // 2)))
     try:
-        fit, ev, row["scipy_rms"] = run_scipy(data, row["P"], args.grid, args.signal)
+        key = (m, seed, row["P"])
+        if key not in scipy_cache:
+            scipy_cache[key] = run_scipy(data, row["P"], args.grid, args.signal, args.knots)
+        fit, ev, row["scipy_rms"] = scipy_cache[key]
         row.update(scipy_s=fit + ev, scipy_fit_s=fit, scipy_eval_s=ev)
     except ValueError as exc:  # FITPACK's fpchec: with these knots, only Schoenberg-Whitney
         row["scipy_error"] = str(exc).splitlines()[0]  # can fail (too few samples somewhere)
@@ -127,7 +141,7 @@ def compare(args, m, seed, tmp, use_rkwave):
 def print_table(rows):
     def f(row, key, fmt):
         return format(row[key], fmt) if key in row else "n/a"
-    cols = (("m", "m", "d"), ("P", "P", "d"), ("rk fit+ev", "rkwave_fit_eval_s", ".4f"),
+    cols = (("m", "m", "d"), ("p", "p", "d"), ("solve", "factorization", "s"), ("P", "P", "d"), ("rk fit+ev", "rkwave_fit_eval_s", ".4f"),
             ("rk total", "rkwave_total_s", ".4f"), ("rk wall", "rkwave_wall_s", ".4f"),
             ("scipy", "scipy_s", ".4f"), ("sp/rk f+e", "ratio_fit_eval", ".2f"),
             ("sp/rk tot", "ratio_total", ".2f"), ("sp/rk wal", "ratio_wall", ".2f"),
@@ -148,9 +162,14 @@ def main():
     ap.add_argument("--sizes", type=ints, default=[10**4, 10**5, 10**6],
                     help="comma-separated sample counts m (default 1e4,1e5,1e6)")
     ap.add_argument("--seeds", type=ints, default=[0], help="comma-separated seeds (default 0)")
-    ap.add_argument("--signal", choices=["smooth", "jumps"], default="smooth")
-    ap.add_argument("--p", type=int, default=3,
-                    help="rkwave's vanishing moments (3: order 3; 4 matches the cubic spline's order 4)")
+    ap.add_argument("--signal", choices=["smooth", "sinexp", "jumps"], default="smooth")
+    ap.add_argument("--p", type=ints, default=[3],
+                    help="comma-separated vanishing moments of rkwave (3: order 3; 4 matches "
+                         "the cubic spline's order 4)")
+    ap.add_argument("--factorization", default="qr",
+                    help="comma-separated rkwave single-scale factorizations: qr, normal")
+    ap.add_argument("--knots", choices=["uniform", "quantile"], default="uniform",
+                    help="FITPACK interior knots: equally spaced or at sample quantiles")
     ap.add_argument("--grid", type=int, default=1_000_000,
                     help="evaluation grid points G (default 1000000)")
     ap.add_argument("--scipy-only", action="store_true",
@@ -163,8 +182,10 @@ def main():
     if problem:
         print(f"{problem}\n-> scipy only (P = largest power of two <= m/2)", file=sys.stderr)
     with tempfile.TemporaryDirectory(prefix="rkwave-scipy-") as tmp:
-        rows = [compare(args, m, seed, tmp, not (args.scipy_only or problem))
-                for m in args.sizes for seed in args.seeds]
+        cache = {}
+        facts = [f for f in args.factorization.split(",") if f]
+        rows = [compare(args, m, seed, p, fact, tmp, not (args.scipy_only or problem), cache)
+                for m in args.sizes for seed in args.seeds for p in args.p for fact in facts]
     if args.json:
         print(json.dumps(rows, indent=2))
     else:

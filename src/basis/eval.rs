@@ -35,14 +35,14 @@ pub struct BasisValue {
 
 /// A position `t = m 2^-k` in `[0, 1]` (`m` odd, or `m = 0`), or the right end.
 #[derive(Clone, Copy, Debug)]
-struct Position {
-    m: u64,
-    k: u32,
-    one: bool,
+pub(super) struct Position {
+    pub(super) m: u64,
+    pub(super) k: u32,
+    pub(super) one: bool,
 }
 
 impl Position {
-    fn new(t: f64) -> Self {
+    pub(super) fn new(t: f64) -> Self {
         if t >= 1.0 {
             return Self {
                 m: 0,
@@ -76,7 +76,7 @@ impl Position {
     }
 
     /// `floor(2^j t)` (the last cell `2^j - 1` at `t = 1`).
-    fn cell(&self, j: u32) -> u64 {
+    pub(super) fn cell(&self, j: u32) -> u64 {
         if self.one {
             return (1u64 << j) - 1;
         }
@@ -106,7 +106,7 @@ impl Position {
     }
 
     /// Eight digits `d_{i..i+7}` as a byte (`d_i` most significant).
-    fn byte(&self, i: u32) -> usize {
+    pub(super) fn byte(&self, i: u32) -> usize {
         let s = self.k as i64 - (i as i64 + 7);
         if s >= 64 {
             0

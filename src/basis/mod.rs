@@ -15,16 +15,19 @@ pub mod facts;
 pub mod filters;
 pub mod fwt;
 mod index;
+pub mod integral;
+pub mod single_level;
 pub mod tensor;
 
 pub use bank::FilterBank;
 pub use eval::{BasisValue, Evaluator};
 pub use filters::{FilterFamily, MAX_VANISHING_MOMENTS};
 pub use index::{FunctionId, FunctionKind, Side};
+pub use single_level::SingleLevelEvaluator;
 
 use std::sync::Arc;
 
-use crate::sampling::Domain;
+pub use crate::domain::Domain;
 
 use thiserror::Error;
 
@@ -33,7 +36,8 @@ use thiserror::Error;
 pub const MAX_LEVEL: u32 = 60;
 
 /// Errors of basis construction and evaluation: each names the value at fault and the fix.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum BasisError {
     /// `p` outside the supported range.
     #[error("p = {p} vanishing moments is not supported: choose p in 1..={max}")]
@@ -205,6 +209,11 @@ impl CdvBasis {
     /// An evaluator with its own scratch space (one per thread).
     pub fn evaluator(&self) -> Evaluator<'_> {
         Evaluator::new(self)
+    }
+    /// An evaluator of the scaling functions of `V_n` alone (`n` = the coarse level), one per
+    /// thread: the single-scale rows of least squares and of evaluation after FWT synthesis.
+    pub fn single_level_evaluator(&self) -> SingleLevelEvaluator<'_> {
+        SingleLevelEvaluator::new(self)
     }
     /// Describes global function index `a` of `Psi(n, N)`.
     pub fn function(&self, a: usize) -> FunctionId {

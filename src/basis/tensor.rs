@@ -27,10 +27,11 @@ use thiserror::Error;
 
 use super::{fwt, minimum_level, BasisError, BasisValue, CdvBasis, Evaluator, FilterBank};
 use super::{FilterFamily, MAX_LEVEL};
-use crate::sampling::Domain;
+use crate::domain::Domain;
 
 /// Errors of the tensor basis: each names the value at fault and the way out.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum TensorError {
     /// The image has no pixels along an axis.
     #[error("image {axis} is {value} pixels: give a width and height of at least 1 pixel")]

@@ -55,13 +55,13 @@ pub struct AdaptArgs {
     #[arg(long, default_value_t = 32)]
     pub max_depth: u32,
     /// Sample budget (base samples included).
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, value_parser = super::limits::samples)]
     pub budget: usize,
     /// Seed of the base layout and the jitter.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Base samples.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = super::limits::samples)]
     pub base_samples: usize,
     /// Base depth (default: the deepest the base samples fill with rho per leaf).
     #[arg(long)]
@@ -79,20 +79,20 @@ pub struct AdaptArgs {
     #[arg(long, value_enum, default_value_t = IndicatorArg::Coefficients)]
     pub indicator: IndicatorArg,
     /// Probe points per leaf and round (residual indicator).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::limits::probes)]
     pub probes: usize,
     /// Points of the uniform grid on which errors are measured.
-    #[arg(long, default_value_t = 65_536)]
+    #[arg(long, default_value_t = 65_536, value_parser = super::limits::grid)]
     pub grid: usize,
     /// Points of the grid on which every round's error is logged (0 = off; these oracle calls
     /// are not samples).
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = 4096, value_parser = super::limits::grid_or_zero)]
     pub round_grid: usize,
     /// Run adaptive and uniform over a range of sample counts and print both errors.
     #[arg(long)]
     pub compare_uniform: bool,
     /// Sample counts for --compare-uniform (default: 512, 1024, ... up to the budget).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = super::limits::samples)]
     pub counts: Vec<usize>,
     /// Figure (PNG, or SVG by extension): figure 4 of the supplement, or with
     /// --compare-uniform the error against samples.
@@ -150,12 +150,9 @@ impl Source {
 impl AdaptArgs {
     /// The validated refiner parameters.
     pub fn params(&self, domain: Domain) -> Result<RefineParams, CliError> {
-        let family = super::BasisSpec {
+        let family = super::FilterSpec {
             p: self.p,
             family: self.family,
-            coarse: None,
-            fine: 0,
-            domain: String::new(),
         }
         .family();
         let base_layout: Layout = self
@@ -260,7 +257,7 @@ fn uniform(
     }
     let fp = FitParams {
         p: params.p,
-        family: params.family(),
+        family: Some(params.family()),
         ..FitParams::default()
     };
     let fitted = fit(&xs, &[&values], domain, &fp)?;
@@ -297,7 +294,8 @@ pub fn run(args: &AdaptArgs) -> Result<(), CliError> {
         .map(|l| l.times.total_s)
         .collect();
     let mean_round = refined_rounds.iter().sum::<f64>() / refined_rounds.len().max(1) as f64;
-    let last = r.rounds.last();
+    // The last round that computed an estimate (the final fit after a stop has none).
+    let rounds_estimate = r.rounds.iter().rev().find_map(|l| l.estimated_error);
     let report = json!({
         "signal": source.name(),
         "domain": [domain.a(), domain.b()],
@@ -315,7 +313,7 @@ pub fn run(args: &AdaptArgs) -> Result<(), CliError> {
         "error_max": adaptive.grid.max,
         "error_grid_points": adaptive.grid.points,
         "error_l2_quadrature": adaptive.quadrature.l2,
-        "estimated_error": last.and_then(|l| l.estimated_error),
+        "estimated_error": rounds_estimate,
         "stop": r.stop,
         "rounds": r.rounds,
         "uniform": {

@@ -7,7 +7,10 @@ use std::time::Instant;
 use rkwave::basis::{minimum_level, CdvBasis, FilterFamily, MAX_VANISHING_MOMENTS};
 use rkwave::sampling::Domain;
 
-use super::{basis_cmd, figures, CliError, DemoArgs};
+use rkwave::report::basis::basis_report;
+use rkwave::report::DemoSummary;
+
+use super::{figures, CliError, DemoArgs};
 
 /// Finest level of the demo's basis table.
 const DEMO_FINE: u32 = 12;
@@ -40,7 +43,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             DEMO_FINE,
             Domain::UNIT,
         )?;
-        let r = basis_cmd::report(&basis, 20_000, 1, started);
+        let r = basis_report(&basis, 20_000, 1, started);
         let _ = writeln!(
             summary,
             "| {} | {}{} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.2} |",
@@ -142,6 +145,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::Invalid(e.to_string()))?;
         super::run(cli)?;
     }
+    super::demo_image::run(out, &mut summary)?;
     let md = out.join("summary.md");
     std::fs::write(&md, &summary).map_err(|source| CliError::Write {
         path: md.clone(),
@@ -150,9 +154,10 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let json = out.join("summary.json");
     std::fs::write(
         &json,
-        serde_json::to_string_pretty(
-            &serde_json::json!({ "bases": reports, "local_vs_global": reports_lg }),
-        )
+        serde_json::to_string_pretty(&DemoSummary {
+            bases: reports,
+            local_vs_global: reports_lg,
+        })
         .expect("plain data serializes"),
     )
     .map_err(|source| CliError::Write {

@@ -3,9 +3,14 @@
 
 pub mod adapt_cmd;
 pub mod basis_cmd;
+pub mod compare_cmd;
 pub mod demo;
+pub mod demo_image;
 pub mod eval_cmd;
 pub mod figures;
+pub mod image_cmd;
+pub mod limits;
+pub mod reconstruct2d_cmd;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
@@ -28,6 +33,10 @@ pub struct Cli {
     /// `out/`.
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// Memory a request may use, e.g. `4G` (default: 3/4 of the machine's memory); larger
+    /// requests are refused before allocating, with what they would need.
+    #[arg(long, global = true, value_parser = memory_limit)]
+    pub memory_limit: Option<u64>,
 }
 
 /// The subcommands.
@@ -49,6 +58,10 @@ pub enum Command {
     Scaling(scaling_cmd::ScalingArgs),
     /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
     Adapt(adapt_cmd::AdaptArgs),
+    /// Render a scene's pixels from image-plane samples by one method, measured against the truth.
+    Image(image_cmd::ImageArgs),
+    /// Every image-plane method on the same samples: figures and a table.
+    Compare(compare_cmd::CompareArgs),
 }
 
 /// Interior filter family on the command line.
@@ -60,55 +73,85 @@ pub enum FamilyArg {
     Sym,
 }
 
-/// The basis: `p`, family, levels and domain.
-#[derive(Args, Debug, Clone)]
-pub struct BasisSpec {
+/// The filter bank: vanishing moments `p` and the interior family.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct FilterSpec {
     /// Vanishing moments p (1 = Haar, up to 10).
     #[arg(long, default_value_t = 3)]
     pub p: usize,
     /// Interior filter family; default CDV's choice (db for p <= 3, sym for p >= 4).
     #[arg(long, value_enum)]
     pub family: Option<FamilyArg>,
+}
+
+impl FilterSpec {
+    /// The family given, if any (`None`: CDV's choice for `p`).
+    pub fn family_given(&self) -> Option<FilterFamily> {
+        self.family.map(|f| match f {
+            FamilyArg::Db => FilterFamily::Extremal,
+            FamilyArg::Sym => FilterFamily::LeastAsymmetric,
+        })
+    }
+    /// The family (CDV's default when not given).
+    pub fn family(&self) -> FilterFamily {
+        self.family_given()
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
+    }
+}
+
+/// The levels: coarse scaling level `n` and finest wavelet level `N`.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct LevelSpec {
     /// Coarse scaling level n (default j_min(p)).
     #[arg(long)]
     pub coarse: Option<u32>,
     /// Finest wavelet level N.
     #[arg(long, default_value_t = 8)]
     pub fine: u32,
+}
+
+impl LevelSpec {
+    /// The coarse level (`j_min(p)` when not given).
+    pub fn coarse(&self, p: usize) -> u32 {
+        self.coarse
+            .unwrap_or_else(|| rkwave::basis::minimum_level(p.max(1)))
+    }
+}
+
+/// The basis: `p`, family, levels and domain.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct BasisSpec {
+    /// Filter bank.
+    #[command(flatten)]
+    pub filter: FilterSpec,
+    /// Levels.
+    #[command(flatten)]
+    pub levels: LevelSpec,
     /// Domain `a,b`.
     #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
-    pub domain: String,
+    pub domain: Domain,
 }
 
 impl BasisSpec {
-    /// The family (CDV's default when not given).
-    pub fn family(&self) -> FilterFamily {
-        match self.family {
-            Some(FamilyArg::Db) => FilterFamily::Extremal,
-            Some(FamilyArg::Sym) => FilterFamily::LeastAsymmetric,
-            None => FilterFamily::cdv_default(self.p),
-        }
-    }
-    /// The coarse level (`j_min(p)` when not given).
-    pub fn coarse(&self) -> u32 {
-        self.coarse
-            .unwrap_or_else(|| rkwave::basis::minimum_level(self.p.max(1)))
-    }
-    /// The validated domain.
-    pub fn domain(&self) -> Result<Domain, CliError> {
-        Ok(self.domain.parse::<Domain>()?)
-    }
     /// Builds the basis, validating every parameter.
     pub fn build(&self) -> Result<rkwave::basis::CdvBasis, CliError> {
-        let domain = self.domain()?;
-        Ok(rkwave::basis::CdvBasis::new(
-            self.p,
-            self.family(),
-            self.coarse(),
-            self.fine,
-            domain,
-        )?)
+        build_basis(&self.filter, &self.levels, self.domain)
     }
+}
+
+/// Builds the basis of `filter` and `levels` on `domain`, validating every parameter.
+pub fn build_basis(
+    filter: &FilterSpec,
+    levels: &LevelSpec,
+    domain: Domain,
+) -> Result<rkwave::basis::CdvBasis, CliError> {
+    Ok(rkwave::basis::CdvBasis::new(
+        filter.p,
+        filter.family(),
+        levels.coarse(filter.p),
+        levels.fine,
+        domain,
+    )?)
 }
 
 /// `rkwave basis`.
@@ -124,7 +167,7 @@ pub struct BasisArgs {
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Positions at which polynomial reproduction is checked.
-    #[arg(long, default_value_t = 20_000)]
+    #[arg(long, default_value_t = 20_000, value_parser = limits::samples)]
     pub points: usize,
     /// Seed of the random test data.
     #[arg(long, default_value_t = 1)]
@@ -176,6 +219,9 @@ pub enum CliError {
     /// Reconstruction.
     #[error(transparent)]
     Reconstruct(#[from] rkwave::reconstruct::ReconstructError),
+    /// A scaling measurement.
+    #[error(transparent)]
+    Scaling(#[from] rkwave::report::scaling::ScalingError),
     /// A figure could not be drawn or written.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -193,6 +239,9 @@ pub enum CliError {
         /// The file.
         path: PathBuf,
     },
+    /// An output that cannot or must not be written (checked before computing).
+    #[error(transparent)]
+    Output(#[from] rkwave::io::output::OutputError),
     /// Other invalid input.
     #[error("{0}")]
     Invalid(String),
@@ -209,18 +258,51 @@ impl CliError {
     }
 }
 
-/// Refuses to overwrite `path` unless `force`.
+/// Before computing: refuses to overwrite `path` unless `force`, and checks that its
+/// directory (or, when the command will create it, the nearest existing ancestor) takes a
+/// new file, so an unwritable output fails at once with exit code 2.
 pub fn check_writable(path: &std::path::Path, force: bool) -> Result<(), CliError> {
-    if path.exists() && !force {
+    if std::fs::symlink_metadata(path).is_ok() && !force {
         return Err(CliError::WouldOverwrite {
             path: path.to_path_buf(),
         });
     }
+    let mut dir = path.parent().map(std::path::Path::to_path_buf);
+    while let Some(d) = &dir {
+        if d.as_os_str().is_empty() || d.is_dir() {
+            break;
+        }
+        dir = d.parent().map(std::path::Path::to_path_buf);
+    }
+    let probe_dir = match dir {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => PathBuf::from("."),
+    };
+    if probe_dir.join(path.file_name().unwrap_or_default()) == path {
+        rkwave::io::output::check_output(path, true, &[])?;
+    } else {
+        rkwave::io::output::check_output(&probe_dir.join(".rkwave-probe"), true, &[]).map_err(
+            |e| {
+                CliError::Invalid(format!(
+                    "cannot write {}: its directory would be created in {}, which refuses \
+                     new files ({e})",
+                    path.display(),
+                    probe_dir.display()
+                ))
+            },
+        )?;
+    }
     Ok(())
+}
+
+/// `--memory-limit`: bytes or a size such as `4G`.
+fn memory_limit(text: &str) -> Result<u64, String> {
+    rkwave::resources::parse_size(text).map_err(|e| e.to_string())
 }
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    rkwave::resources::set_memory_limit(cli.memory_limit);
     match cli.command {
         None => demo::run(&DemoArgs {
             out: PathBuf::from("out"),
@@ -233,5 +315,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Sweep(args)) => sweep_cmd::run(&args),
         Some(Command::Adapt(args)) => adapt_cmd::run(&args),
         Some(Command::Scaling(args)) => scaling_cmd::run(&args),
+        Some(Command::Image(args)) => image_cmd::run(&args),
+        Some(Command::Compare(args)) => compare_cmd::run(&args),
     }
 }

@@ -1,17 +1,19 @@
-//! `rkwave reconstruct`: a user's samples onto a grid.
+//! `rkwave reconstruct`: a user's samples onto a grid ([`rkwave::report::reconstruction`]).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::io::{read_samples, validate_positions, write_csv, SampleSet};
+use rkwave::io::output::{check_output, write_new};
+use rkwave::io::{csv_string, npy_bytes};
+use rkwave::io::{read_samples, validate_positions};
 use rkwave::reconstruct::{fit, FitParams};
+use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
 use rkwave::sampling::Domain;
-use serde_json::json;
 
 use super::solve_args::{MethodArg, SolveArgs};
-use super::{check_writable, CliError, FamilyArg};
+use super::{CliError, FilterSpec};
 
 /// `rkwave reconstruct`.
 #[derive(Args, Debug)]
@@ -21,13 +23,10 @@ pub struct ReconstructArgs {
     pub input: PathBuf,
     /// Domain `a,b` (default: the smallest and largest sample position).
     #[arg(long, allow_hyphen_values = true)]
-    pub domain: Option<String>,
-    /// Vanishing moments p.
-    #[arg(long, default_value_t = 3)]
-    pub p: usize,
-    /// Interior filter family (default CDV's choice).
-    #[arg(long, value_enum)]
-    pub family: Option<FamilyArg>,
+    pub domain: Option<Domain>,
+    /// Filter bank.
+    #[command(flatten)]
+    pub filter: FilterSpec,
     /// Solve method.
     #[arg(long, value_enum, default_value_t = MethodArg::Single)]
     pub method: MethodArg,
@@ -35,9 +34,9 @@ pub struct ReconstructArgs {
     #[command(flatten)]
     pub solve: SolveArgs,
     /// Grid points of the output (uniform, both ends included).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = super::limits::grid)]
     pub grid: usize,
-    /// Output CSV (`x,<channels>`).
+    /// Output: `.npy` (NumPy float64, `G x (1 + channels)`) or CSV (`x,<channels>`) otherwise.
     #[arg(long)]
     pub output: PathBuf,
     /// Overwrite an existing output.
@@ -46,12 +45,24 @@ pub struct ReconstructArgs {
     /// Print a JSON report.
     #[arg(long)]
     pub json: bool,
+    /// Dimension of the sample positions: 1 (`x,value...`) or 2 (image plane, `x,y,c1...`,
+    /// see `reconstruct2d_cmd`).
+    #[arg(long, default_value_t = 1)]
+    pub dim: usize,
+    /// Image resolution `WxH` (with `--dim 2`).
+    #[arg(long)]
+    pub resolution: Option<String>,
 }
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
+    match args.dim {
+        1 => {}
+        2 => return super::reconstruct2d_cmd::run(args),
+        d => return Err(CliError::Invalid(format!("--dim {d}: expected 1 or 2"))),
+    }
     let started = Instant::now();
-    check_writable(&args.output, args.force)?;
+    check_output(&args.output, args.force, &[&args.input])?;
     if args.grid < 2 {
         return Err(CliError::Invalid(format!(
             "--grid {} is too small: give at least 2 points",
@@ -63,29 +74,27 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     bar.set_message("reading samples");
     let set = read_samples(&args.input)?;
     let read_s = started.elapsed().as_secs_f64();
-    let domain = match &args.domain {
-        Some(d) => d.parse::<Domain>()?,
+    let domain = match args.domain {
+        Some(d) => d,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            Domain::new(a, b).map_err(|_| {
-                CliError::Invalid(format!(
-                    "all samples sit at x = {a}: give --domain a,b explicitly"
-                ))
+            Domain::new(a, b).map_err(|e| match e {
+                rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
+                    "all samples sit at x = {}: give --domain a,b explicitly",
+                    rkwave::norms::show(a)
+                )),
+                other => CliError::Invalid(format!(
+                    "the samples span [{}, {}], which is no usable domain: {other}",
+                    rkwave::norms::show(a),
+                    rkwave::norms::show(b)
+                )),
             })?
         }
     };
     validate_positions(&set, domain)?;
-    let family = super::BasisSpec {
-        p: args.p,
-        family: args.family,
-        coarse: None,
-        fine: 0,
-        domain: String::new(),
-    }
-    .family();
     let params = FitParams {
-        p: args.p,
-        family,
+        p: args.filter.p,
+        family: args.filter.family_given(),
         levels: args.solve.levels()?,
         method: args.solve.method(args.method)?,
     };
@@ -93,74 +102,59 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let channels: Vec<&[f64]> = set.values.iter().map(|v| v.as_slice()).collect();
     let fitted = fit(&set.positions, &channels, domain, &params)?;
     bar.set_message("evaluating");
-    let t_eval = Instant::now();
-    let grid: Vec<f64> = (0..args.grid)
-        .map(|i| domain.from_unit(i as f64 / (args.grid - 1) as f64))
-        .collect();
-    let values = fitted.evaluate(&grid)?;
-    let evaluate_s = t_eval.elapsed().as_secs_f64();
-    let at_samples = fitted.evaluate(&set.positions)?;
-    let residual_rms: Vec<f64> = at_samples
-        .iter()
-        .zip(&set.values)
-        .map(|(r, f)| {
-            (r.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / f.len() as f64).sqrt()
-        })
-        .collect();
+    let rec = onto_grid(fitted, &set, domain, args.grid)?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    let out = SampleSet::new(grid, values)?.with_names(set.names_or_default())?;
-    write_csv(&args.output, &out)?;
+    // `.npy` (NumPy float64, G x (1 + channels)) for readers with numpy, CSV otherwise.
+    let bytes = if args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+    {
+        npy_bytes(&rec.grid)?
+    } else {
+        csv_string(&rec.grid)?.into_bytes()
+    };
+    write_new(&args.output, &bytes, args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let total = started.elapsed().as_secs_f64();
-    let report = json!({
-        "input": args.input,
-        "output": args.output,
-        "samples": set.len(),
-        "channels": set.channels(),
-        "domain": [domain.a(), domain.b()],
-        "p": args.p,
-        "method": format!("{:?}", args.method).to_lowercase(),
-        "functions": fitted.active.len(),
-        "coarse": fitted.levels.coarse,
-        "fine": fitted.levels.fine,
-        "oversampling": fitted.levels.oversampling,
-        "grid": args.grid,
-        "residual_rms": if residual_rms.len() == 1 { json!(residual_rms[0]) } else { json!(residual_rms) },
-        "time_s": {
-            "read": read_s,
-            "kernel": fitted.timings.kernel_s,
-            "solve": fitted.timings.solve_s,
-            "evaluate": evaluate_s,
-            "write": write_s,
-            "total": total,
+    let report = ReconstructReport::new(
+        args.input.clone(),
+        args.output.clone(),
+        &set,
+        &params.method,
+        &rec,
+        ReconstructTimes {
+            read: read_s,
+            write: write_s,
+            total: started.elapsed().as_secs_f64(),
+            ..ReconstructTimes::default()
         },
-        "local": fitted.local.as_ref().map(|s| json!({
-            "groups": s.n_groups,
-            "cut_groups": s.cut_groups,
-            "condition": s.condition_summary(),
-        })),
-        "single_scale": fitted.single_scale,
-        "fallback": fitted.fallback,
-    });
+    );
     if args.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&report).expect("plain data")
         );
     } else {
+        for w in &report.warnings {
+            eprintln!("warning: {w}");
+        }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
-             residual RMS {:?}, {:.3} s; wrote {}",
-            set.len(),
-            set.channels(),
-            fitted.active.len(),
-            fitted.levels.coarse,
-            fitted.levels.fine,
-            fitted.levels.oversampling,
-            residual_rms,
-            total,
+             residual RMS [{}], {:.3} s; wrote {}",
+            report.samples,
+            report.channels,
+            report.functions,
+            report.coarse,
+            report.fine,
+            report.oversampling,
+            rec.residual_rms
+                .iter()
+                .map(|r| format!("{r:.3e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            report.time_s.total,
             args.output.display()
         );
     }

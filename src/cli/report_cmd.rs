@@ -2,40 +2,34 @@
 
 use clap::Args;
 use rkwave::report::{local_vs_global, LocalGlobalReport, ReportSetting};
-use rkwave::sampling::{Layout, Signal};
+use rkwave::sampling::{Domain, Layout, Signal};
 
 use super::solve_args::SolverArg;
-use super::{CliError, FamilyArg};
+use super::{build_basis, CliError, FilterSpec, LevelSpec};
 
 /// `rkwave report`.
 #[derive(Args, Debug, Clone)]
 pub struct ReportArgs {
-    /// Vanishing moments p.
-    #[arg(long, default_value_t = 3)]
-    pub p: usize,
-    /// Interior filter family (default CDV's choice).
-    #[arg(long, value_enum)]
-    pub family: Option<FamilyArg>,
-    /// Coarse level n (default j_min(p)).
-    #[arg(long)]
-    pub coarse: Option<u32>,
-    /// Finest wavelet level N.
-    #[arg(long, default_value_t = 8)]
-    pub fine: u32,
+    /// Filter bank.
+    #[command(flatten)]
+    pub filter: FilterSpec,
+    /// Levels.
+    #[command(flatten)]
+    pub levels: LevelSpec,
     /// Number of samples.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, value_parser = super::limits::samples)]
     pub samples: usize,
     /// Sample layout: uniform, endpoints, jittered, random, lowdiscrepancy, clustered.
     #[arg(long, default_value = "uniform")]
-    pub layout: String,
+    pub layout: Layout,
     /// Seed of random layouts.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Test signal: smooth, polynomialD, jumps, kink, cusp, blocks, bumps, heavisine, doppler.
     #[arg(long, default_value = "smooth")]
-    pub signal: String,
+    pub signal: Signal,
     /// Neighbourhood rings.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::limits::rings)]
     pub rings: usize,
     /// Local solver.
     #[arg(long, value_enum, default_value_t = SolverArg::Svd)]
@@ -44,7 +38,7 @@ pub struct ReportArgs {
     #[arg(long, default_value_t = 1e-12)]
     pub cutoff: f64,
     /// Grid points on which reconstructions are compared.
-    #[arg(long, default_value_t = 8192)]
+    #[arg(long, default_value_t = 8192, value_parser = super::limits::grid)]
     pub grid: usize,
     /// Print JSON.
     #[arg(long)]
@@ -54,14 +48,8 @@ pub struct ReportArgs {
 impl ReportArgs {
     /// The validated setting.
     pub fn setting(&self) -> Result<ReportSetting, CliError> {
-        let spec = super::BasisSpec {
-            p: self.p,
-            family: self.family,
-            coarse: self.coarse,
-            fine: self.fine,
-            domain: "0,1".into(),
-        };
-        spec.build()?; // validates p, levels
+        // Validates p and the levels (the report's domain is [0, 1]).
+        build_basis(&self.filter, &self.levels, Domain::UNIT)?;
         if self.samples == 0 {
             return Err(CliError::Invalid(
                 "--samples 0: give at least one sample".into(),
@@ -71,23 +59,15 @@ impl ReportArgs {
             return Err(CliError::Invalid("--grid must be at least 2".into()));
         }
         super::solve_args::check_cutoff(self.cutoff)?;
-        let layout: Layout = self
-            .layout
-            .parse()
-            .map_err(|e: rkwave::sampling::ParseLayoutError| CliError::Invalid(e.to_string()))?;
-        let signal: Signal = self
-            .signal
-            .parse()
-            .map_err(|e: rkwave::sampling::ParseSignalError| CliError::Invalid(e.to_string()))?;
         Ok(ReportSetting {
-            p: self.p,
-            family: spec.family(),
-            coarse: spec.coarse(),
-            fine: self.fine,
+            p: self.filter.p,
+            family: self.filter.family(),
+            coarse: self.levels.coarse(self.filter.p),
+            fine: self.levels.fine,
             samples: self.samples,
-            layout,
+            layout: self.layout,
             seed: self.seed,
-            signal,
+            signal: self.signal,
             local: rkwave::solve::LocalInversionParams {
                 rings: self.rings,
                 solver: self.solver.into(),

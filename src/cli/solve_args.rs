@@ -2,7 +2,7 @@
 
 use clap::{Args, ValueEnum};
 use rkwave::kernel::LevelParams;
-use rkwave::reconstruct::{Levels, Method};
+use rkwave::reconstruct::{Levels, Method, SingleScaleSolver};
 use rkwave::solve::{GlobalLsParams, LocalInversionParams, Solver};
 
 use super::CliError;
@@ -41,6 +41,24 @@ impl From<SolverArg> for Solver {
     }
 }
 
+/// Factorization of the single-scale least squares on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum FactorizationArg {
+    /// Banded QR by Givens rotations: accuracy of cond(K).
+    Qr,
+    /// Banded normal equations and Cholesky: accuracy of cond(K)^2, less work per sample.
+    Normal,
+}
+
+impl From<FactorizationArg> for SingleScaleSolver {
+    fn from(f: FactorizationArg) -> Self {
+        match f {
+            FactorizationArg::Qr => SingleScaleSolver::Qr,
+            FactorizationArg::Normal => SingleScaleSolver::NormalEquations,
+        }
+    }
+}
+
 /// Solve knobs.
 #[derive(Args, Debug, Clone)]
 pub struct SolveArgs {
@@ -54,7 +72,7 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 256.0)]
     pub coarse_samples: f64,
     /// Neighbourhood rings of local inversion.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::limits::rings)]
     pub rings: usize,
     /// Local solver.
     #[arg(long, value_enum, default_value_t = SolverArg::Svd)]
@@ -66,6 +84,9 @@ pub struct SolveArgs {
     /// ridge x cond(K)^2; undetermined directions are handled without it).
     #[arg(long, default_value_t = 0.0)]
     pub ridge: f64,
+    /// Factorization of the single-scale least squares (`--method single`).
+    #[arg(long, value_enum, default_value_t = FactorizationArg::Qr)]
+    pub factorization: FactorizationArg,
 }
 
 /// A relative singular value cut-off must lie in `[0, 1)`.
@@ -122,7 +143,10 @@ impl SolveArgs {
             )));
         }
         Ok(match which {
-            MethodArg::Single => Method::SingleScale { ridge: self.ridge },
+            MethodArg::Single => Method::SingleScale {
+                ridge: self.ridge,
+                solver: self.factorization.into(),
+            },
             MethodArg::Local => Method::Local(self.local()),
             MethodArg::Global => Method::Global(GlobalLsParams::default()),
             MethodArg::Dense => Method::Dense {

@@ -7,8 +7,18 @@
 //!
 //! * [`ImagePlane`] is a validated resolution `W x H`.
 //! * [`ImageSamples`] are validated scattered samples on a plane, stored per channel.
+//! * [`pixels`]: pixel values of a reconstruction as exact integrals against a pixel filter;
+//!   [`equivalent_filter`]: the weight of each sample in one pixel's value.
+//! * [`PixelImage`] is a grid of pixel values, per channel, row-major (`Y * W + X`).
+//! * [`filters`]: the film filters renderers ship; [`splat`]: their weighted-average
+//!   reconstruction; [`wavelet`]: the wavelet method's pixels.
+//! * [`scene`]: scenes from JSON; [`sampler`]: where samples go; [`truth`]: box-filtered
+//!   ground truth; [`metrics`]: PSNR, RMSE, relative MSE, SSIM.
+//! * [`experiment`]: every method on the same samples, measured; `figure` draws it.
 
+pub mod equivalent_filter;
 pub mod fit;
+pub mod pixels;
 
 pub use fit::{
     fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
@@ -16,6 +26,17 @@ pub use fit::{
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
+
+pub mod experiment;
+#[cfg(feature = "plot")]
+pub mod figure;
+pub mod filters;
+pub mod metrics;
+pub mod sampler;
+pub mod scene;
+pub mod splat;
+pub mod truth;
+pub mod wavelet;
 
 /// The largest accepted side of an image, in pixels (`2^16`).
 ///
@@ -28,6 +49,7 @@ pub const MAX_CHANNELS: usize = 4;
 
 /// Why an [`ImagePlane`] or [`ImageSamples`] could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ImageError {
     /// The width or the height is zero.
     #[error(
@@ -327,6 +349,36 @@ impl ImageSamples {
     /// Channel `c` of every sample.
     pub fn channel(&self, c: usize) -> &[f64] {
         &self.values[c]
+    }
+}
+
+/// Pixel values on an [`ImagePlane`]: `channels[c][Y * W + X]` is channel `c` of pixel
+/// `(X, Y)` (row `Y` from the top).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PixelImage {
+    /// The resolution.
+    pub plane: ImagePlane,
+    /// Per channel, `W H` values in row-major order.
+    pub channels: Vec<Vec<f64>>,
+}
+
+impl PixelImage {
+    /// A zero image with `channels` channels.
+    pub fn zeros(plane: ImagePlane, channels: usize) -> Self {
+        Self {
+            plane,
+            channels: vec![vec![0.0; plane.pixels()]; channels],
+        }
+    }
+
+    /// Channel `c` of pixel `(X, Y)`.
+    pub fn get(&self, c: usize, x: usize, y: usize) -> f64 {
+        self.channels[c][y * self.plane.width() + x]
+    }
+
+    /// Number of channels.
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
     }
 }
 

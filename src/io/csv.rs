@@ -31,6 +31,14 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
 pub fn parse_csv(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoError> {
     let file = file.as_ref();
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    // Line ends `\n`, `\r\n` and a lone `\r` (old Mac) all end a line.
+    let unified;
+    let bytes = if bytes.contains(&b'\r') {
+        unified = unify_line_ends(bytes);
+        unified.as_slice()
+    } else {
+        bytes
+    };
     let mut names: Option<Vec<String>> = None;
     let mut positions = Vec::new();
     let mut values: Vec<Vec<f64>> = Vec::new();
@@ -104,6 +112,24 @@ pub fn parse_csv(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
             file: file.to_path_buf(),
         }),
     }
+}
+
+/// `\r\n` and lone `\r` replaced by `\n`.
+fn unify_line_ends(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'\r' {
+            out.push(b'\n');
+            if bytes.get(i + 1) == Some(&b'\n') {
+                i += 1;
+            }
+        } else {
+            out.push(bytes[i]);
+        }
+        i += 1;
+    }
+    out
 }
 
 /// Validates the header fields and returns the channel names.

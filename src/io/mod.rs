@@ -22,9 +22,13 @@ use thiserror::Error;
 use crate::sampling::Domain;
 
 mod csv;
+mod grid_output;
+pub mod image_file;
 mod npy;
+pub mod output;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
+pub use self::grid_output::{GridFormat, GridWriter};
 pub use self::npy::{npy_bytes, parse_npy, read_npy, write_npy};
 
 #[cfg(test)]
@@ -158,6 +162,7 @@ fn line_part(line: &Option<usize>) -> String {
 /// For CSV files `line` counts every physical line of the file and `row`
 /// counts data rows only (no header, comments or blank lines).
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum IoError {
     /// The file could not be opened or read.
     #[error("cannot read `{}`: {source}; check that the path exists and is readable", .file.display())]
@@ -395,6 +400,21 @@ pub fn validate_positions(set: &SampleSet, domain: Domain) -> Result<(), IoError
 }
 
 /// Reads a sample file, `.npy` (by extension, any case) or otherwise CSV.
+///
+/// ```
+/// use rkwave::io::{read_samples, write_samples, SampleSet};
+///
+/// let dir = std::env::temp_dir().join(format!("rkwave-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let set = SampleSet::new(vec![0.0, 0.5, 1.0], vec![vec![1.0, 2.0, 3.0]])?;
+/// for name in ["s.csv", "s.npy"] {
+///     write_samples(dir.join(name), &set)?;
+///     assert_eq!(read_samples(dir.join(name))?.values, set.values);
+/// }
+/// assert!(read_samples(dir.join("missing.csv")).is_err()); // a clear error, not a panic
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// # Ok::<(), rkwave::io::IoError>(())
+/// ```
 pub fn read_samples(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
     let path = path.as_ref();
     if is_npy(path) {

@@ -12,6 +12,20 @@ const DENSE_MAP_LIMIT: usize = 1 << 24;
 /// A set of active functions of an enclosing `Psi(n, N)`: uniformly all of them, or (for the
 /// adaptive tree of the refiner) any subset; column `c` of `K` is the `c`-th active function in
 /// ascending global index.
+///
+/// ```
+/// use rkwave::basis::{CdvBasis, FilterFamily};
+/// use rkwave::kernel::{kernel_matrix, ActiveSet};
+/// use rkwave::sampling::Domain;
+///
+/// let basis = CdvBasis::new(2, FilterFamily::Extremal, 3, 5, Domain::UNIT).unwrap();
+/// let active = ActiveSet::uniform(basis); // Psi(3, 5): 2^6 = 64 functions
+/// assert_eq!(active.len(), 64);
+/// let xs: Vec<f64> = (0..200).map(|i| i as f64 / 199.0).collect();
+/// let k = kernel_matrix(&active, &xs)?; // K[i, a] = Psi_a(x_i), CSR
+/// assert_eq!(k.shape(), (200, 64));
+/// # Ok::<(), rkwave::kernel::KernelError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct ActiveSet {
     basis: CdvBasis,

@@ -32,6 +32,15 @@ impl Default for LevelParams {
 }
 
 /// A choice of levels and why.
+///
+/// ```
+/// use rkwave::kernel::{LevelChoice, LevelParams};
+///
+/// // 10_000 samples, p = 3: the finest level N with 2^{N+1} <= m / rho.
+/// let l = LevelChoice::auto(10_000, 3, LevelParams::default());
+/// assert!(l.coarse <= l.fine);
+/// assert!(l.oversampling >= LevelParams::default().rho);
+/// ```
 #[derive(Clone, Copy, Debug, Serialize, PartialEq)]
 pub struct LevelChoice {
     /// Coarse scaling level `n`.

@@ -6,18 +6,19 @@ use thiserror::Error;
 
 use super::ActiveSet;
 use crate::basis::BasisValue;
-use crate::sampling::Domain;
+use crate::domain::Domain;
 
 /// Samples per parallel work item.
 const CHUNK: usize = 4096;
 
 /// Errors of kernel matrix construction.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum KernelError {
     /// A sample position is outside the domain or not finite.
     #[error(
         "sample {row} (1-based) at x = {x} is outside the domain [{a}, {b}] or not finite: \
-         remove it or widen --domain"
+         remove it or widen the domain"
     )]
     PositionOutside {
         /// 1-based sample number.

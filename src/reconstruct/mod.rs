@@ -6,26 +6,32 @@
 //! single-scale `V_{N+1}` coefficients and then evaluates only `2p - 1` (plus edge) scaling
 //! functions per position.
 
-mod kernels;
+mod banded_qr;
+mod evaluate;
+mod kernel_functions;
+mod outcome;
 mod single_scale;
 
-pub use kernels::{dual_kernel, reproducing_kernel};
-pub use single_scale::{single_scale_ls, NormalEquations, SingleScaleReport, PIVOT_TOLERANCE};
+pub use evaluate::FitEvaluator;
+pub use kernel_functions::{dual_kernel, reproducing_kernel};
+pub use outcome::{Fallback, SolveReport};
+pub use single_scale::{
+    single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
+    SingleScaleSolver, PIVOT_TOLERANCE,
+};
 
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::basis::{fwt, BasisError, BasisValue, CdvBasis, FilterFamily};
+use crate::basis::{BasisError, CdvBasis, FilterFamily};
 use crate::kernel::{
     check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
 };
 use crate::sampling::Domain;
 use crate::solve::{
-    apply_local, dense_pinv, global_ls, GlobalLsParams, GlobalReport, LocalInversionParams,
-    LocalStats, SolveError,
+    apply_local, dense_pinv, global_ls, GlobalLsParams, LocalInversionParams, SolveError,
 };
 
 /// How the levels are chosen.
@@ -45,12 +51,15 @@ pub enum Levels {
 /// How `c = K^+ f` is computed.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub enum Method {
-    /// Global least squares through the single-scale basis `V_{N+1}` (banded normal
-    /// equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for uniform
-    /// levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
+    /// Global least squares through the single-scale basis `V_{N+1}` (banded QR or banded
+    /// normal equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for
+    /// uniform levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
     SingleScale {
         /// Relative ridge (e.g. 1e-13).
         ridge: f64,
+        /// Factorization: QR (accuracy of `cond(K)`, default) or normal equations
+        /// (`cond(K)^2`, cheaper per sample).
+        solver: SingleScaleSolver,
     },
     /// Local inversion (DESIGN §4): fast, local, approximate.
     Local(LocalInversionParams),
@@ -64,32 +73,64 @@ pub enum Method {
 }
 
 /// Parameters of a fit.
+///
+/// The default is `p = 3`, CDV's filter family, automatic levels and the single-scale
+/// solve. Change one field and keep the rest:
+///
+/// ```
+/// use rkwave::basis::FilterFamily;
+/// use rkwave::reconstruct::{FitParams, Levels, Method};
+/// use rkwave::solve::LocalInversionParams;
+///
+/// let params = FitParams { p: 6, ..FitParams::default() };
+/// assert_eq!(params.family(), FilterFamily::LeastAsymmetric); // sym6, CDV's choice
+///
+/// let fixed = FitParams {
+///     levels: Levels::Fixed { coarse: 4, fine: 7 },
+///     method: Method::Local(LocalInversionParams::default()),
+///     ..FitParams::default()
+/// };
+/// assert_eq!(fixed.family(), FilterFamily::Extremal); // db3
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct FitParams {
     /// Vanishing moments `p`: higher reproduces smoother signals with fewer samples, costs
     /// `O(p^2)` per sample.
     pub p: usize,
-    /// Interior filter family.
-    pub family: FilterFamily,
+    /// Interior filter family; `None` is CDV's choice for `p`
+    /// ([`FilterFamily::cdv_default`]: extremal phase for `p <= 3`, least asymmetric above).
+    pub family: Option<FilterFamily>,
     /// Levels.
     pub levels: Levels,
     /// Solver.
     pub method: Method,
 }
 
+impl FitParams {
+    /// The interior filter family: the given one, or CDV's choice for `p`.
+    pub fn family(&self) -> FilterFamily {
+        self.family
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
+    }
+}
+
 impl Default for FitParams {
     fn default() -> Self {
         Self {
             p: 3,
-            family: FilterFamily::cdv_default(3),
+            family: None,
             levels: Levels::Auto(LevelParams::default()),
-            method: Method::SingleScale { ridge: 0.0 },
+            method: Method::SingleScale {
+                ridge: 0.0,
+                solver: SingleScaleSolver::default(),
+            },
         }
     }
 }
 
 /// Errors of reconstruction.
-#[derive(Debug, Error)]
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ReconstructError {
     /// Basis parameters.
     #[error(transparent)]
@@ -102,15 +143,19 @@ pub enum ReconstructError {
     Solve(#[from] SolveError),
     /// Fewer samples than basis functions.
     #[error(
-        "{samples} samples cannot determine {functions} basis functions: give more samples, \
-         a smaller fine level N, or automatic levels"
+        "{samples} samples cannot determine {functions} basis functions: give at least \
+         {functions} samples or a smaller fine level N (automatic levels: a larger \
+         oversampling rho)"
     )]
     Undersampled {
-        /// Samples `m`.
+        /// Samples `m` (rows of `K`).
         samples: usize,
-        /// Basis functions `P`.
+        /// Basis functions `P` (columns of `K`).
         functions: usize,
     },
+    /// The request would need more memory than the limit.
+    #[error(transparent)]
+    Resources(#[from] crate::resources::ResourceError),
     /// A sample value is NaN or infinite.
     #[error(
         "sample {row} (1-based), channel {channel}: value {value} is not finite: fix or remove it"
@@ -144,7 +189,23 @@ pub struct Timings {
     pub solve_s: f64,
 }
 
-/// A fitted reconstruction.
+/// A fitted reconstruction: `f~(x) = sum_a c_a Psi_a(x)` over the active set, per channel.
+///
+/// ```
+/// use rkwave::reconstruct::{fit, FitParams};
+/// use rkwave::sampling::{Domain, Layout};
+///
+/// let xs = Layout::Random.generate(1000, Domain::UNIT, 3);
+/// let line: Vec<f64> = xs.iter().map(|x| 2.0 * x - 1.0).collect();
+/// let square: Vec<f64> = xs.iter().map(|x| x * x).collect();
+/// let f = fit(&xs, &[&line, &square], Domain::UNIT, &FitParams::default())?;
+/// assert_eq!(f.coefficients.len(), 2); // two channels
+/// assert_eq!(f.coefficients[0].len(), f.active.len());
+/// // p = 3 reproduces polynomials of degree < 3 exactly (up to rounding).
+/// let v = f.evaluate(&[0.25])?;
+/// assert!((v[0][0] + 0.5).abs() < 1e-9 && (v[1][0] - 0.0625).abs() < 1e-9);
+/// # Ok::<(), rkwave::reconstruct::ReconstructError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Fit {
     /// The active basis.
@@ -155,15 +216,11 @@ pub struct Fit {
     pub levels: LevelChoice,
     /// Stage times.
     pub timings: Timings,
-    /// Local inversion statistics (local method).
-    pub local: Option<LocalStats>,
-    /// Single-scale solve report.
-    pub single_scale: Option<SingleScaleReport>,
-    /// Why the requested method was replaced, if it was (e.g. the single-scale normal
-    /// equations were rank deficient and local inversion took over).
-    pub fallback: Option<String>,
-    /// Global solve report (global method).
-    pub global: Option<GlobalReport>,
+    /// The report of the solve that produced the coefficients.
+    pub solve: SolveReport,
+    /// Every departure from the requested levels or method, in the order taken (empty when
+    /// the fit is exactly what was asked for).
+    pub fallbacks: Vec<Fallback>,
 }
 
 fn check_values(m: usize, values: &[&[f64]]) -> Result<(), ReconstructError> {
@@ -199,6 +256,21 @@ pub fn choose_levels(m: usize, params: &FitParams) -> LevelChoice {
 }
 
 /// Fits `values` (one slice per channel) at `positions` on `domain`.
+///
+/// Errors: a value that is not finite ([`ReconstructError::NonFiniteValue`]), channels of the
+/// wrong length, positions outside `domain`, invalid basis parameters, fewer samples than
+/// functions at fixed levels, or a failed solve. With automatic levels and the single-scale
+/// solve, levels the samples do not determine are lowered (recorded in [`Fit::fallbacks`]).
+///
+/// ```
+/// use rkwave::reconstruct::{fit, FitParams, ReconstructError};
+/// use rkwave::sampling::Domain;
+///
+/// let xs = [0.1, 0.5, 0.9];
+/// let bad = [1.0, f64::NAN, 2.0];
+/// let err = fit(&xs, &[&bad], Domain::UNIT, &FitParams::default()).unwrap_err();
+/// assert!(matches!(err, ReconstructError::NonFiniteValue { row: 2, .. }));
+/// ```
 pub fn fit(
     positions: &[f64],
     values: &[&[f64]],
@@ -208,8 +280,10 @@ pub fn fit(
     let m = positions.len();
     check_values(m, values)?;
     let mut levels = choose_levels(m, params);
-    let mut dropped = 0;
-    if let (Levels::Auto(_), Method::SingleScale { ridge }) = (params.levels, params.method) {
+    guard_uniform(m, values.len(), params, &levels)?;
+    let mut dropped = 0u32;
+    if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method)
+    {
         // Automatic levels: while the samples leave single-scale directions undetermined,
         // drop the finest level (doubling the oversampling) rather than solve an ill-posed
         // problem; the normal equations are coarsened, not accumulated again. At most three
@@ -227,14 +301,25 @@ pub fn fit(
             levels.oversampling *= 2.0;
             dropped += 1;
         }
-        let first = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+        let first = CdvBasis::new(
+            params.p,
+            params.family(),
+            levels.coarse,
+            levels.fine,
+            domain,
+        )?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
-            let mut ne = NormalEquations::accumulate(&first, positions, values)?;
+            let mut ne = SingleScaleProblem::new(&first, positions, values, solver)?;
             while dropped <= 3 && levels.fine >= levels.coarse {
-                let basis =
-                    CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
-                let (c, rep) = ne.solve(&basis, ridge);
+                let basis = CdvBasis::new(
+                    params.p,
+                    params.family(),
+                    levels.coarse,
+                    levels.fine,
+                    domain,
+                )?;
+                let (c, rep) = ne.solve(&basis, ridge)?;
                 if rep.deficient == 0 {
                     return Ok(Fit {
                         active: ActiveSet::uniform(basis),
@@ -244,15 +329,8 @@ pub fn fit(
                             kernel_s: 0.0,
                             solve_s: t0.elapsed().as_secs_f64(),
                         },
-                        local: None,
-                        global: None,
-                        single_scale: Some(rep),
-                        fallback: (dropped > 0).then(|| {
-                            format!(
-                                "finest level lowered by {dropped}: the samples left \
-                                 single-scale directions undetermined at the automatic level"
-                            )
-                        }),
+                        solve: SolveReport::SingleScale(rep),
+                        fallbacks: lowered(dropped),
                     });
                 }
                 if levels.fine == levels.coarse {
@@ -265,9 +343,73 @@ pub fn fit(
             }
         }
     }
-    let basis = CdvBasis::new(params.p, params.family, levels.coarse, levels.fine, domain)?;
+    let basis = CdvBasis::new(
+        params.p,
+        params.family(),
+        levels.coarse,
+        levels.fine,
+        domain,
+    )?;
     let active = ActiveSet::uniform(basis);
-    fit_active(active, positions, values, params.method, levels)
+    let mut fitted = fit_active(active, positions, values, params.method, levels)?;
+    fitted.fallbacks.splice(0..0, lowered(dropped));
+    Ok(fitted)
+}
+
+/// The fallback record of `dropped` lowered levels (none if zero).
+fn lowered(dropped: u32) -> Vec<Fallback> {
+    if dropped > 0 {
+        vec![Fallback::FinestLevelLowered { by: dropped }]
+    } else {
+        Vec::new()
+    }
+}
+
+/// Refuses, before anything of size `P` is allocated, a uniform fit that cannot work: basis
+/// parameters out of range, fewer samples than functions (with automatic levels, fewer than
+/// `P / 8`: at most three levels are dropped), or more memory than
+/// [`crate::resources::memory_limit`] (basis, normal equations, and `K` unless single-scale).
+fn guard_uniform(
+    m: usize,
+    channels: usize,
+    params: &FitParams,
+    levels: &LevelChoice,
+) -> Result<(), ReconstructError> {
+    use crate::resources;
+    // Parameter errors first: their messages are more precise than a size.
+    CdvBasis::new(
+        params.p,
+        params.family(),
+        levels.coarse,
+        levels.fine,
+        Domain::UNIT,
+    )?;
+    let functions = resources::dimension(levels.fine);
+    let reach = match params.levels {
+        Levels::Auto(_) => 8.0,
+        Levels::Fixed { .. } => 1.0,
+    };
+    if (m as f64) * reach < functions {
+        return Err(ReconstructError::Undersampled {
+            samples: m,
+            functions: functions.min(usize::MAX as f64) as usize,
+        });
+    }
+    let mut needed = resources::uniform_basis_bytes(params.p, levels.fine, channels);
+    if !matches!(params.method, Method::SingleScale { .. }) {
+        needed += resources::kernel_bytes(m, params.p, levels.coarse, levels.fine);
+    }
+    resources::check(
+        || {
+            format!(
+                "a fit of {m} samples on levels {}..{} (P = {functions:e} functions, p = {})",
+                levels.coarse, levels.fine, params.p
+            )
+        },
+        needed,
+        || "lower the fine level N (automatic levels: raise rho)".to_string(),
+    )?;
+    Ok(())
 }
 
 /// The fewest samples in the support of any function of `V_level` (windows of `2p - 1`
@@ -311,6 +453,19 @@ pub fn fit_active(
     check_positions(active.basis().domain(), positions)?;
     let uniform = active.len() == active.basis().dimension();
     let single = matches!(method, Method::SingleScale { .. }) && uniform;
+    if !single {
+        let basis = active.basis();
+        crate::resources::check(
+            || {
+                format!(
+                    "the kernel matrix of {m} samples x {} functions",
+                    active.len()
+                )
+            },
+            crate::resources::kernel_bytes(m, basis.p(), basis.coarse(), basis.fine()),
+            || "use fewer samples or a smaller fine level N".into(),
+        )?;
+    }
     let t0 = Instant::now();
     // The single-scale path never forms K.
     let k = if single {
@@ -320,30 +475,31 @@ pub fn fit_active(
     };
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let mut single_scale = None;
-    let mut fallback = None;
-    let (coefficients, local, global) = match (method, k) {
-        (Method::SingleScale { ridge }, None) => {
-            let (c, rep) = single_scale_ls(active.basis(), positions, values, ridge)?;
+    let mut fallbacks = Vec::new();
+    let (coefficients, solve) = match (method, k) {
+        (Method::SingleScale { ridge, solver }, None) => {
+            let (c, rep) = match solver {
+                SingleScaleSolver::Qr => single_scale_qr(active.basis(), positions, values, ridge)?,
+                SingleScaleSolver::NormalEquations => {
+                    single_scale_ls(active.basis(), positions, values, ridge)?
+                }
+            };
             if rep.deficient > 0 {
                 // Undetermined directions: truncated local pseudo-inverses instead.
-                fallback = Some(format!(
-                    "single-scale normal equations have {} undetermined directions \
-                     ({} functions without samples): local inversion used instead",
-                    rep.deficient, rep.unsampled
-                ));
-                single_scale = Some(rep);
+                fallbacks.push(Fallback::LocalInversion {
+                    deficient: rep.deficient,
+                    unsampled: rep.unsampled,
+                });
                 let k = kernel_matrix(&active, positions)?;
                 let out = apply_local(&k, values, &LocalInversionParams::default())?;
-                (out.coefficients, Some(out.stats), None)
+                (out.coefficients, SolveReport::Local(out.stats))
             } else {
-                single_scale = Some(rep);
-                (c, None, None)
+                (c, SolveReport::SingleScale(rep))
             }
         }
         (Method::Local(lp), Some(k)) => {
             let out = apply_local(&k, values, &lp)?;
-            (out.coefficients, Some(out.stats), None)
+            (out.coefficients, SolveReport::Local(out.stats))
         }
         (Method::Dense { cutoff }, Some(k)) => {
             let pinv = dense_pinv(&k, cutoff)?;
@@ -351,7 +507,7 @@ pub fn fit_active(
                 .iter()
                 .map(|f| pinv.apply(f))
                 .collect::<Result<Vec<_>, _>>()?;
-            (c, None, None)
+            (c, SolveReport::Dense { cutoff })
         }
         // Global, or single scale on an adaptive set (no single-scale equivalent).
         (m, Some(k)) => {
@@ -360,7 +516,7 @@ pub fn fit_active(
                 _ => GlobalLsParams::default(),
             };
             let out = global_ls(&k, values, &gp)?;
-            (out.coefficients, None, Some(out.report))
+            (out.coefficients, SolveReport::Global(out.report))
         }
         (_, None) => unreachable!("K is formed for every method but the uniform single scale"),
     };
@@ -372,82 +528,27 @@ pub fn fit_active(
             kernel_s,
             solve_s: t1.elapsed().as_secs_f64(),
         },
-        local,
-        global,
-        single_scale,
-        fallback,
+        solve,
+        fallbacks,
     })
 }
 
-/// Positions evaluated per parallel work item.
-const CHUNK: usize = 8192;
-
 impl Fit {
-    /// The reconstruction at `xs`, one vector per channel.
+    /// Every fallback and warning of the fit, one sentence each, for text and JSON output:
+    /// the replaced method or lowered level ([`Fit::fallbacks`]) and the local inversion's
+    /// cut directions, solver fallbacks and weakly supported blocks
+    /// ([`LocalStats::warnings`]).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w: Vec<String> = self.fallbacks.iter().map(|f| f.to_string()).collect();
+        if let SolveReport::Local(local) = &self.solve {
+            w.extend(local.warnings());
+        }
+        w
+    }
+
+    /// The reconstruction at `xs`, one vector per channel (see [`Fit::evaluator`] to evaluate
+    /// many batches).
     pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<Vec<f64>>, ReconstructError> {
-        let basis = self.active.basis();
-        let domain = basis.domain();
-        if let Some(&x) = xs.iter().find(|x| !domain.contains(**x)) {
-            return Err(BasisError::PositionOutside {
-                x,
-                a: domain.a(),
-                b: domain.b(),
-            }
-            .into());
-        }
-        let channels = self.coefficients.len();
-        let uniform = self.active.len() == basis.dimension();
-        let per_point: Vec<Vec<f64>> = if uniform {
-            // Single scale: V_{N+1} coefficients by FWT synthesis.
-            let top = basis.fine() + 1;
-            let single: Vec<Vec<f64>> = self
-                .coefficients
-                .iter()
-                .map(|c| fwt::synthesis(basis.bank(), basis.coarse(), basis.fine(), c))
-                .collect();
-            let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, domain)?;
-            xs.par_chunks(CHUNK)
-                .map(|chunk| {
-                    let mut ev = scale.evaluator();
-                    let mut out: Vec<BasisValue> = Vec::with_capacity(64);
-                    let mut vals = Vec::with_capacity(chunk.len() * channels);
-                    for &x in chunk {
-                        ev.eval_scaling_unit_into(domain.to_unit(x), &mut out);
-                        for s in &single {
-                            vals.push(out.iter().map(|v| s[v.index] * v.value).sum::<f64>());
-                        }
-                    }
-                    vals
-                })
-                .collect()
-        } else {
-            xs.par_chunks(CHUNK)
-                .map(|chunk| {
-                    let mut ev = basis.evaluator();
-                    let mut out: Vec<BasisValue> = Vec::with_capacity(256);
-                    let mut vals = Vec::with_capacity(chunk.len() * channels);
-                    for &x in chunk {
-                        ev.eval_unit_into(domain.to_unit(x), &mut out);
-                        for c in &self.coefficients {
-                            vals.push(
-                                out.iter()
-                                    .filter_map(|v| {
-                                        self.active.column(v.index).map(|col| c[col] * v.value)
-                                    })
-                                    .sum::<f64>(),
-                            );
-                        }
-                    }
-                    vals
-                })
-                .collect()
-        };
-        let mut result = vec![Vec::with_capacity(xs.len()); channels];
-        for block in per_point {
-            for (i, v) in block.into_iter().enumerate() {
-                result[i % channels].push(v);
-            }
-        }
-        Ok(result)
+        self.evaluator()?.evaluate(xs)
     }
 }

@@ -16,7 +16,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::basis::{fwt, BasisValue, CdvBasis};
+use crate::basis::{fwt, CdvBasis};
+
+use super::banded_qr::{cell_order, GivensTriangle};
 
 /// Samples per parallel work item.
 const CHUNK: usize = 16_384;
@@ -28,6 +30,8 @@ pub const PIVOT_TOLERANCE: f64 = 1e-10;
 /// What the single-scale solve did.
 #[derive(Clone, Debug, Serialize)]
 pub struct SingleScaleReport {
+    /// The factorization used.
+    pub solver: SingleScaleSolver,
     /// Half-bandwidth of the normal matrix.
     pub bandwidth: usize,
     /// Relative ridge added to the equilibrated diagonal.
@@ -80,38 +84,50 @@ fn normal_equations(
     let n = scale.dimension() / 2; // V_J has 2^J functions; Psi(J, J) has 2^{J+1}
     let domain = scale.domain();
     let channels = values.len();
-    // One accumulator per thread (not per work item: a band is O(P) memory).
-    let per = positions
-        .len()
-        .div_ceil(rayon::current_num_threads().max(1))
-        .max(CHUNK);
+    // One accumulator per thread (not per work item: a band is O(P) memory); small problems
+    // run on the calling thread (no thread pool is started for them).
+    let per = if positions.len() < 2 * CHUNK {
+        CHUNK.max(positions.len())
+    } else {
+        positions
+            .len()
+            .div_ceil(rayon::current_num_threads().max(1))
+            .max(CHUNK)
+    };
     let chunks: Vec<(usize, &[f64])> = positions
         .chunks(per)
         .enumerate()
         .map(|(c, x)| (c * per, x))
         .collect();
-    chunks
-        .par_iter()
-        .map(|&(start, xs)| {
-            let mut band = Band::zeros(n, b);
-            let mut rhs = vec![vec![0.0; n]; channels];
-            {
-                let mut ev = scale.evaluator();
-                let mut out: Vec<BasisValue> = Vec::with_capacity(32);
-                for (off, &x) in xs.iter().enumerate() {
-                    ev.eval_scaling_unit_into(domain.to_unit(x), &mut out);
-                    for (k, vk) in out.iter().enumerate() {
-                        for vl in &out[..=k] {
-                            *band.at(vk.index, vk.index - vl.index) += vk.value * vl.value;
-                        }
-                        for (c, f) in values.iter().enumerate() {
-                            rhs[c][vk.index] += vk.value * f[start + off];
-                        }
+    let work = |&(start, xs): &(usize, &[f64])| {
+        let mut band = Band::zeros(n, b);
+        let mut rhs = vec![vec![0.0; n]; channels];
+        {
+            let mut ev = scale.single_level_evaluator();
+            let bw = b + 1;
+            for (off, &x) in xs.iter().enumerate() {
+                let (first, row) = ev.row_unit(domain.to_unit(x));
+                for (k, &vk) in row.iter().enumerate() {
+                    let i = first + k;
+                    let dst = &mut band.data[i * bw..i * bw + k + 1];
+                    // A[i, i - d] += v_k v_{k - d}, d = 0..=k.
+                    for (a, &vl) in dst.iter_mut().zip(row[..=k].iter().rev()) {
+                        *a += vk * vl;
+                    }
+                    for (c, f) in values.iter().enumerate() {
+                        rhs[c][i] += vk * f[start + off];
                     }
                 }
             }
-            (band, rhs)
-        })
+        }
+        (band, rhs)
+    };
+    if chunks.len() == 1 {
+        return work(&chunks[0]);
+    }
+    chunks
+        .par_iter()
+        .map(work)
         .reduce_with(|(mut a, mut ra), (bb, rb)| {
             a.add(&bb);
             for (x, y) in ra.iter_mut().zip(rb) {
@@ -340,6 +356,7 @@ fn factor_and_solve(
     (
         coefficients,
         SingleScaleReport {
+            solver: SingleScaleSolver::NormalEquations,
             bandwidth: b,
             ridge,
             unsampled,
@@ -347,4 +364,172 @@ fn factor_and_solve(
             min_pivot,
         },
     )
+}
+
+/// How the single-scale least-squares problem `min ||K_J v - f||` is solved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum SingleScaleSolver {
+    /// Banded QR of `K_J` by Givens rotations, streamed in cell order (no `K_J` stored): the
+    /// accuracy of `cond(K_J)`; the default in 1D.
+    #[default]
+    Qr,
+    /// Banded normal equations `K_J^T K_J v = K_J^T f` and a banded Cholesky: the accuracy of
+    /// `cond(K_J)^2`, about half the work per sample, no sorting of the samples, and lowering
+    /// the finest level coarsens the equations without another pass over the samples.
+    NormalEquations,
+}
+
+/// Global least squares for every channel through `V_{N+1}` by a banded QR of `K_J`
+/// ([`SingleScaleSolver::Qr`]); returns the `Psi(n, N)` coefficients per channel.
+///
+/// The samples are put in ascending cell order at level `J` (a counting sort, skipped when
+/// they are already in that order), split into one contiguous chunk per thread, each chunk
+/// rotated into its own triangle, and the triangles merged in order. The ridge adds the rows
+/// `sqrt(ridge ||K_J e_j||^2) e_j^T`, the same shift as the normal equations' equilibrated
+/// `A + ridge I`; a pivot `R_jj^2 / ||K_J e_j||^2` below [`PIVOT_TOLERANCE`] (the pivot of the
+/// equilibrated Cholesky factor in exact arithmetic) counts as undetermined.
+pub fn single_scale_qr(
+    basis: &CdvBasis,
+    positions: &[f64],
+    values: &[&[f64]],
+    ridge: f64,
+) -> Result<(Vec<Vec<f64>>, SingleScaleReport), crate::basis::BasisError> {
+    let top = basis.fine() + 1;
+    let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, basis.domain())?;
+    let n = scale.dimension() / 2;
+    let b = bandwidth(basis);
+    let w = b + 1;
+    let domain = basis.domain();
+    let channels = values.len();
+    let m = positions.len();
+    let ts: Vec<f64> = positions.iter().map(|&x| domain.to_unit(x)).collect();
+    let order = cell_order(&ts, top);
+    let at = |i: usize| order.as_ref().map_or(i, |o| o[i]);
+    let fill = |tri: &mut GivensTriangle, range: std::ops::Range<usize>| {
+        let mut ev = scale.single_level_evaluator();
+        let mut f = vec![0.0; channels];
+        for i in range {
+            let s = at(i);
+            for (fc, vc) in f.iter_mut().zip(values) {
+                *fc = vc[s];
+            }
+            let (first, row) = ev.row_unit(ts[s]);
+            tri.add_row(first, row, &f);
+        }
+    };
+    let mut tri = GivensTriangle::new(0, n, w, channels);
+    if m < 2 * CHUNK {
+        fill(&mut tri, 0..m);
+    } else {
+        let per = m.div_ceil(rayon::current_num_threads().max(1)).max(CHUNK);
+        let starts: Vec<usize> = (0..m).step_by(per).collect();
+        let parts: Vec<GivensTriangle> = starts
+            .par_iter()
+            .map(|&s| {
+                let range = s..(s + per).min(m);
+                // Columns of the chunk: from the first row's first to the last row's last.
+                let mut ev = scale.single_level_evaluator();
+                let c0 = ev.row_unit(ts[at(range.start)]).0;
+                let (last, row) = ev.row_unit(ts[at(range.end - 1)]);
+                let mut part = GivensTriangle::new(c0, last + row.len() - c0, w, channels);
+                fill(&mut part, range);
+                part
+            })
+            .collect();
+        for part in &parts {
+            tri.absorb(part);
+        }
+    }
+    tri.add_ridge(ridge);
+    let sol = tri.solve(PIVOT_TOLERANCE);
+    let coefficients = sol
+        .coefficients
+        .into_iter()
+        .map(|v| fwt::analysis(basis.bank(), basis.coarse(), basis.fine(), &v))
+        .collect();
+    Ok((
+        coefficients,
+        SingleScaleReport {
+            solver: SingleScaleSolver::Qr,
+            bandwidth: b,
+            ridge,
+            unsampled: sol.unsampled,
+            deficient: sol.deficient,
+            min_pivot: sol.min_pivot,
+        },
+    ))
+}
+
+/// The single-scale problem at one level, ready to solve and to lower by one level: the
+/// automatic-level search of [`crate::reconstruct::fit`] solves, and while directions stay
+/// undetermined, coarsens. The normal equations coarsen in `O(P b p)` (`A' = H A H^T`); the
+/// QR path solves afresh at the coarser level (one more pass over the samples).
+pub enum SingleScaleProblem<'a> {
+    /// Accumulated normal equations.
+    Normal(NormalEquations),
+    /// The samples, for the banded QR at `level`.
+    Qr {
+        /// The single-scale level `J`.
+        level: u32,
+        /// Sample positions.
+        positions: &'a [f64],
+        /// Values per channel.
+        values: &'a [&'a [f64]],
+    },
+}
+
+impl<'a> SingleScaleProblem<'a> {
+    /// The problem of `V_{N+1}` for `basis = Psi(n, N)` with the chosen solver.
+    pub fn new(
+        basis: &CdvBasis,
+        positions: &'a [f64],
+        values: &'a [&'a [f64]],
+        solver: SingleScaleSolver,
+    ) -> Result<Self, crate::basis::BasisError> {
+        Ok(match solver {
+            SingleScaleSolver::NormalEquations => {
+                Self::Normal(NormalEquations::accumulate(basis, positions, values)?)
+            }
+            SingleScaleSolver::Qr => Self::Qr {
+                level: basis.fine() + 1,
+                positions,
+                values,
+            },
+        })
+    }
+
+    /// Solves for the `Psi(n, N)` coefficients (`basis.fine() + 1` must equal the level).
+    pub fn solve(
+        &self,
+        basis: &CdvBasis,
+        ridge: f64,
+    ) -> Result<(Vec<Vec<f64>>, SingleScaleReport), crate::basis::BasisError> {
+        match self {
+            Self::Normal(ne) => Ok(ne.solve(basis, ridge)),
+            Self::Qr {
+                level,
+                positions,
+                values,
+            } => {
+                debug_assert_eq!(basis.fine() + 1, *level);
+                single_scale_qr(basis, positions, values, ridge)
+            }
+        }
+    }
+
+    /// The same problem one level coarser.
+    pub fn coarsen(self, bank: &crate::basis::FilterBank) -> Self {
+        match self {
+            Self::Normal(ne) => Self::Normal(ne.coarsen(bank)),
+            Self::Qr {
+                level,
+                positions,
+                values,
+            } => Self::Qr {
+                level: level - 1,
+                positions,
+                values,
+            },
+        }
+    }
 }

@@ -8,6 +8,7 @@ use crate::solve::SolveError;
 
 /// Everything that can go wrong in `crate::refine`.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum RefineError {
     /// A parameter outside its range.
     #[error("invalid {name} = {value}: {fix}")]
@@ -21,7 +22,7 @@ pub enum RefineError {
     },
     /// The depth limit is below the base tree.
     #[error(
-        "max depth {max_depth} is below the base depth {base_depth}: raise --max-depth to at \
+        "max depth {max_depth} is below the base depth {base_depth}: raise the max depth to at \
          least {base_depth} or give fewer base samples"
     )]
     MaxDepthBelowBase {

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::basis::{BasisError, BasisValue, CdvBasis, FilterBank};
 use crate::kernel::LevelChoice;
-use crate::reconstruct::{Fit, ReconstructError, Timings};
+use crate::reconstruct::{Fit, ReconstructError, SolveReport, Timings};
 use crate::solve::{global_ls, GlobalMethod, GlobalReport};
 
 /// Why the refiner stopped.
@@ -192,10 +192,8 @@ impl Refinement {
             active,
             coefficients: vec![self.coefficients.clone()],
             timings: Timings::default(),
-            local: None,
-            single_scale: None,
-            fallback: None,
-            global: Some(self.solve.clone()),
+            solve: SolveReport::Global(self.solve.clone()),
+            fallbacks: Vec::new(),
         })
     }
 }
@@ -314,6 +312,19 @@ pub struct Refiner<'o, O: SampleOracle + ?Sized> {
 }
 
 /// Refines until a stop: [`Refiner::new`], [`Refiner::refine_once`] until it stops.
+///
+/// ```
+/// use rkwave::refine::{refine, RefineParams};
+///
+/// // A kink at x = 1/3: the tree deepens there and stays coarse elsewhere.
+/// let kink = |x: f64| (x - 1.0 / 3.0).abs();
+/// let params = RefineParams { tolerance: 1e-3, budget: 4000, ..RefineParams::default() };
+/// let r = refine(&kink, &params)?;
+/// assert!(r.samples.len() <= 4000);
+/// let v = r.evaluate(&[0.8])?;
+/// assert!((v[0] - (0.8 - 1.0 / 3.0)).abs() < 1e-2); // the smooth side, well within
+/// # Ok::<(), rkwave::refine::RefineError>(())
+/// ```
 pub fn refine<O: SampleOracle + ?Sized>(
     oracle: &O,
     params: &RefineParams,
@@ -558,12 +569,15 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         let Some(indication) = &probed.indication else {
             return Err(StopReason::Budget);
         };
-        if (indication.total_sq / length).sqrt() <= params.tolerance {
+        // A NaN estimate never satisfies a stop test (`NaN <= t` is false; kept explicit).
+        let below = |sq: f64| {
+            let e = (sq / length).sqrt();
+            e.is_finite() && e <= params.tolerance
+        };
+        if below(indication.total_sq) {
             return Err(StopReason::Tolerance);
         }
-        if indication.units.is_empty()
-            || (indication.markable_sq / length).sqrt() <= params.tolerance
-        {
+        if indication.units.is_empty() || below(indication.markable_sq) {
             return Err(StopReason::DepthLimit);
         }
         // Marks whose new leaves f64 cannot sample are dropped; if nothing else is left,

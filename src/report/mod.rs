@@ -5,6 +5,20 @@
 //! inversion against the dense `K^+` (element-wise `max |K~ - K^+|`, RMS, relative Frobenius
 //! error), the reconstructions `K~ f` and `K^+ f` against each other and against the true signal
 //! (RMS on a fine grid), submatrix sizes, local condition numbers, cut-offs and times.
+//!
+//! The experiments around it, each a function returning a typed `Serialize` report that the
+//! command line renders as text, JSON, CSV or a figure:
+//! - [`sweep`]: this report over a grid of knobs;
+//! - [`scaling`]: time, memory and accuracy of one fit against the number of samples;
+//! - [`basis`]: a basis' measured identities and its functions at given positions;
+//! - [`reconstruction`]: a user's samples onto a grid, with residuals;
+//! - [`figures`]: the data of the basis and kernel figures.
+
+pub mod basis;
+pub mod figures;
+pub mod reconstruction;
+pub mod scaling;
+pub mod sweep;
 
 use std::time::Instant;
 
@@ -12,7 +26,7 @@ use serde::Serialize;
 
 use crate::basis::{CdvBasis, FilterFamily};
 use crate::kernel::{kernel_matrix, ActiveSet, LevelChoice};
-use crate::reconstruct::{Fit, ReconstructError, Timings};
+use crate::reconstruct::{Fit, ReconstructError, SolveReport, Timings};
 use crate::sampling::{Domain, Layout, Signal};
 use crate::solve::{
     compare_sparse_dense, dense_pinv, global_ls, local_inversion, Comparison, GlobalLsParams,
@@ -130,8 +144,17 @@ pub struct LocalGlobalReport {
     pub time_s: ReportTimes,
 }
 
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
+/// The one RMS of the crate: `sqrt( sum_i (a_i - b_i)^2 / n )`.
+pub(crate) use crate::norms::rms_difference as rms;
+
+/// The demo's summary: the measured identities of every basis and the local-vs-global
+/// reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct DemoSummary {
+    /// One report per basis.
+    pub bases: Vec<basis::BasisReport>,
+    /// Local inversion against the global pseudo-inverse.
+    pub local_vs_global: Vec<LocalGlobalReport>,
 }
 
 /// Runs one report.
@@ -143,6 +166,24 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
         setting.coarse,
         setting.fine,
         domain,
+    )?;
+    // Refused before allocating: the basis, the samples and K (with its transpose).
+    crate::resources::check(
+        || {
+            format!(
+                "a report of {} samples on levels {}..{}",
+                setting.samples, setting.coarse, setting.fine
+            )
+        },
+        crate::resources::uniform_basis_bytes(setting.p, setting.fine, 1)
+            + crate::resources::grid_bytes(setting.samples, 1)
+            + crate::resources::kernel_bytes(
+                setting.samples,
+                setting.p,
+                setting.coarse,
+                setting.fine,
+            ),
+        || "use fewer samples or a smaller fine level N".into(),
     )?;
     let active = ActiveSet::uniform(basis);
     let xs = setting
@@ -192,10 +233,8 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
             coefficients: vec![c],
             levels,
             timings: Timings::default(),
-            local: None,
-            global: None,
-            single_scale: None,
-            fallback: None,
+            solve: SolveReport::Given,
+            fallbacks: Vec::new(),
         };
         Ok(fit.evaluate(&grid)?.remove(0))
     };
@@ -228,3 +267,6 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
         },
     })
 }
+
+#[cfg(test)]
+mod tests;

@@ -22,6 +22,15 @@ use super::Domain;
 /// Names (for [`FromStr`], [`fmt::Display`] and serde): `uniform`, `endpoints`,
 /// `jittered`, `random`, `lowdiscrepancy`, `clustered`. Parsing ignores case,
 /// `-` and `_`, and also accepts `uniformendpoints` and `golden`.
+///
+/// ```
+/// use rkwave::sampling::{Domain, Layout};
+///
+/// let xs = Layout::Random.generate(100, Domain::UNIT, 42);
+/// assert_eq!(xs, Layout::Random.generate(100, Domain::UNIT, 42)); // same seed, same positions
+/// assert!(xs.iter().all(|&x| Domain::UNIT.contains(x)));
+/// assert_eq!("jittered".parse::<Layout>().unwrap(), Layout::Jittered);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "String")]
 pub enum Layout {

@@ -25,6 +25,15 @@ use super::Domain;
 /// `bumps`, `heavisine`, `doppler`. Parsing ignores case, `-`, `_`, `:`,
 /// brackets and spaces, accepts `poly` for `polynomial`, and takes degree 3
 /// when the degree is left out.
+///
+/// ```
+/// use rkwave::sampling::{Domain, Signal};
+///
+/// let s: Signal = "doppler".parse().unwrap();
+/// let ys = s.sample(Domain::UNIT, &[0.25, 0.5]);
+/// assert_eq!(ys.len(), 2);
+/// assert!(ys.iter().all(|y| y.is_finite()));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "String")]
 pub enum Signal {

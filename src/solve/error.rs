@@ -14,23 +14,23 @@ pub enum SolveError {
     /// Fewer samples than basis functions where the method needs full column rank
     /// (a sparse Cholesky of `K^T K` with [`crate::solve::RankPolicy::Error`]).
     #[error(
-        "undersampled: {rows} samples for {cols} basis functions; K^T K is singular. \
-         Add samples (rho = rows / cols should be >= 2), drop basis functions, or use \
-         RankPolicy::Regularize / the iterative solver"
+        "{samples} samples cannot determine {functions} basis functions (K^T K is \
+         singular): give more samples (rho = samples / functions >= 2), fewer basis \
+         functions, or use RankPolicy::Regularize / the iterative solver"
     )]
     Undersampled {
-        /// Number of rows (samples) of `K`.
-        rows: usize,
-        /// Number of columns (basis functions) of `K`.
-        cols: usize,
+        /// Samples `m` (rows of `K`).
+        samples: usize,
+        /// Basis functions `P` (columns of `K`).
+        functions: usize,
     },
 
     /// The normal matrix is numerically singular although `rows >= cols`.
     #[error(
         "rank deficient: pivot {pivot:.3e} of the equilibrated normal matrix at column \
          {column} is below the threshold {threshold:.3e} (column has {column_samples} \
-         nonzero samples). Add samples where that basis function lives, or use \
-         RankPolicy::Regularize, the iterative solver, or the dense SVD"
+         nonzero samples). Add samples where that basis function lives, lower the fine \
+         level N, or use local inversion or the dense SVD"
     )]
     RankDeficient {
         /// A column (basis function) at which the factorization found the deficiency.
@@ -42,6 +42,10 @@ pub enum SolveError {
         /// Structural nonzeros of that column of `K`.
         column_samples: usize,
     },
+
+    /// The request would need more memory than the limit.
+    #[error(transparent)]
+    Resources(#[from] crate::resources::ResourceError),
 
     /// A factorization failed outright.
     #[error("factorization failed: {what}")]
@@ -62,12 +66,12 @@ pub enum SolveError {
     },
 
     /// A parameter is out of its range.
-    #[error("invalid parameter {name} = {value}: {fix}")]
+    #[error("invalid {name} = {value}: {fix}")]
     InvalidParameter {
         /// Parameter name.
         name: &'static str,
-        /// Value given.
-        value: f64,
+        /// Its value, as given.
+        value: String,
         /// Allowed range / what to pass instead.
         fix: &'static str,
     },

@@ -70,7 +70,7 @@ pub fn dense_pinv(k: &CsMat<f64>, cutoff: f64) -> Result<DensePinv, SolveError> 
     if !(cutoff.is_finite() && (0.0..1.0).contains(&cutoff)) {
         return Err(SolveError::InvalidParameter {
             name: "cutoff",
-            value: cutoff,
+            value: cutoff.to_string(),
             fix: "pass a relative singular value cut-off in [0, 1), e.g. 1e-12",
         });
     }
@@ -210,7 +210,10 @@ pub fn global_ls(
     check_values(values, k.rows())?;
     let (m, p) = k.shape();
     if m < p && params.method == GlobalMethod::Cholesky && params.rank_policy == RankPolicy::Error {
-        return Err(SolveError::Undersampled { rows: m, cols: p });
+        return Err(SolveError::Undersampled {
+            samples: m,
+            functions: p,
+        });
     }
     if values.is_empty() || p == 0 || m == 0 {
         return Ok(GlobalLs {
@@ -321,7 +324,10 @@ fn cholesky_ls(
     let (m, p) = k.shape();
     let ch = values.len();
     if m < p && params.rank_policy == RankPolicy::Error {
-        return Err(SolveError::Undersampled { rows: m, cols: p });
+        return Err(SolveError::Undersampled {
+            samples: m,
+            functions: p,
+        });
     }
     let prep = prepare(k)?;
     let g = normal_matrix(&prep.k, &prep.kt);

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::kernel::{cholesky_columns, qr_columns, svd_columns, BlockOut};
+use super::block::{cholesky_columns, qr_columns, svd_columns, BlockOut};
 use super::params::{LocalInversionParams, Solver};
 use super::sparse::{check_values, ldexp, normal_matrix, prepare, raw, Prepared};
 use super::SolveError;
@@ -44,7 +44,25 @@ pub struct GroupStats {
     pub shift: f64,
     /// The SVD did not converge and QR was used.
     pub svd_fallback: bool,
+    /// The chosen solver's block was ill-conditioned (Cholesky: estimated `cond(K1)` above
+    /// [`CHOLESKY_MAX_CONDITION`] or a shift was needed; QR: kept `|R_00 / R_kk|` above
+    /// [`WEAK_CONDITION`]) and the block was solved again by SVD.
+    pub solver_fallback: bool,
+    /// `s_max / s_kept` on the directions kept by the cut-off: how much the block amplifies
+    /// data errors into the answer.
+    pub kept_condition: f64,
 }
+
+/// Largest estimated `cond(K1)` a Cholesky block may have: the normal equations lose
+/// `cond(K1)^2 eps` relative accuracy, so a Cholesky block stays within
+/// `1e8 * eps ≈ 2.2e-8` (relative to the block's answer) of the SVD one; above it the block
+/// is solved by SVD (reported as a solver fallback).
+pub const CHOLESKY_MAX_CONDITION: f64 = 1e4;
+
+/// Kept condition `s_max / s_kept` above which a block's answer is reported as weakly
+/// supported by the data: data errors (and round-off, `eps` relative) are amplified by up
+/// to that factor, about 1e-6 relative already from round-off alone.
+pub const WEAK_CONDITION: f64 = 1e10;
 
 /// min / median / max / mean of a per-group quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -110,6 +128,15 @@ pub struct LocalStats {
     pub max_shift: f64,
     /// Groups whose SVD did not converge and used QR (fallback 2).
     pub svd_fallbacks: usize,
+    /// Groups re-solved by SVD because the chosen solver's block was ill-conditioned.
+    pub solver_fallbacks: usize,
+    /// Groups whose kept condition exceeds [`WEAK_CONDITION`]: their coefficients are not
+    /// well supported by the samples.
+    pub weak_groups: usize,
+    /// Largest kept condition over groups.
+    pub max_kept_condition: f64,
+    /// The relative cut-off used.
+    pub cutoff: f64,
     /// Whether `condition` is exact (SVD) or an estimate (QR, Cholesky).
     pub condition_is_estimate: bool,
     /// `K` was scaled by `2^-scale_exponent` internally (exact; undone in the results).
@@ -117,6 +144,40 @@ pub struct LocalStats {
 }
 
 impl LocalStats {
+    /// Every decision a reader must know about, one sentence each: directions cut,
+    /// solver fallbacks, Cholesky shifts, weakly supported blocks.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.cut_groups > 0 {
+            w.push(format!(
+                "local inversion: {} of {} blocks had {} directions below the relative cut-off \
+                 {:e}: the samples do not determine them (set to zero)",
+                self.cut_groups, self.n_groups, self.cut_total, self.cutoff
+            ));
+        }
+        if self.solver_fallbacks > 0 {
+            w.push(format!(
+                "local inversion: {} of {} blocks were too ill-conditioned for {:?} and were \
+                 solved by SVD",
+                self.solver_fallbacks, self.n_groups, self.solver
+            ));
+        }
+        if self.svd_fallbacks > 0 {
+            w.push(format!(
+                "local inversion: the SVD of {} blocks did not converge; QR was used",
+                self.svd_fallbacks
+            ));
+        }
+        if self.weak_groups > 0 {
+            w.push(format!(
+                "local inversion: {} of {} blocks have a kept condition up to {:.1e} \
+                 (above {:e}): the answer there is not supported by the data; give samples \
+                 where they are sparse, fewer levels, or a larger cut-off",
+                self.weak_groups, self.n_groups, self.max_kept_condition, WEAK_CONDITION
+            ));
+        }
+        w
+    }
     /// Block rows (`|jdx|`) over groups.
     pub fn rows_summary(&self) -> Summary {
         Summary::of(self.groups.iter().map(|g| g.rows as f64))
@@ -265,7 +326,12 @@ fn build_groups(prep: &Prepared, rings: usize) -> (Vec<Group>, usize, usize) {
             let mut idx = ki[kp[rep]..kp[rep + 1]].to_vec();
             let mut jdx = union_of(tp, ti, &idx);
             for _ in 0..rings {
-                idx = union_of(kp, ki, &jdx);
+                let grown = union_of(kp, ki, &jdx);
+                // A closed neighbourhood grows no further: more rings cost nothing.
+                if grown.len() == idx.len() {
+                    break;
+                }
+                idx = grown;
                 jdx = union_of(tp, ti, &idx);
             }
             Group { idx, jdx, pivots }
@@ -310,25 +376,51 @@ struct Context {
 fn solve_group(ctx: &Context, g: &Group) -> Result<(BlockOut, GroupStats), SolveError> {
     let (kp, ki, kd) = raw(&ctx.prep.k);
     let (n, r) = (g.idx.len(), g.jdx.len());
-    let out = match ctx.params.solver {
-        Solver::Svd | Solver::Qr => {
-            let mut k1 = Mat::<f64>::zeros(r, n);
-            for (ri, &j) in g.jdx.iter().enumerate() {
-                for t in kp[j]..kp[j + 1] {
-                    if let Ok(ci) = g.idx.binary_search(&ki[t]) {
-                        k1[(ri, ci)] += kd[t];
-                    }
+    // One block per thread at a time.
+    crate::resources::check(
+        || {
+            format!(
+                "a local inversion block of {r} x {n} (times {} threads)",
+                rayon::current_num_threads()
+            )
+        },
+        crate::resources::dense_block_bytes(r, n, g.pivots.len())
+            * rayon::current_num_threads() as f64,
+        || {
+            "spread the samples (clusters make large blocks), use fewer rings, or a global method"
+                .into()
+        },
+    )?;
+    let dense_block = || {
+        let mut k1 = Mat::<f64>::zeros(r, n);
+        for (ri, &j) in g.jdx.iter().enumerate() {
+            for t in kp[j]..kp[j + 1] {
+                if let Ok(ci) = g.idx.binary_search(&ki[t]) {
+                    k1[(ri, ci)] += kd[t];
                 }
             }
-            let piv: Vec<usize> = g
-                .pivots
-                .iter()
-                .map(|p| g.jdx.binary_search(p).unwrap_or(0))
-                .collect();
+        }
+        let piv: Vec<usize> = g
+            .pivots
+            .iter()
+            .map(|p| g.jdx.binary_search(p).unwrap_or(0))
+            .collect();
+        (k1, piv)
+    };
+    let mut solver_fallback = false;
+    let out = match ctx.params.solver {
+        Solver::Svd | Solver::Qr => {
+            let (k1, piv) = dense_block();
             if ctx.params.solver == Solver::Svd {
                 svd_columns(k1.as_ref(), &piv, ctx.params.cutoff)
             } else {
-                qr_columns(k1.as_ref(), &piv, ctx.params.cutoff)
+                let out = qr_columns(k1.as_ref(), &piv, ctx.params.cutoff);
+                if out.kept > WEAK_CONDITION {
+                    solver_fallback = true;
+                    svd_columns(k1.as_ref(), &piv, ctx.params.cutoff)
+                } else {
+                    out
+                }
             }
         }
         Solver::Cholesky => {
@@ -355,16 +447,15 @@ fn solve_group(ctx: &Context, g: &Group) -> Result<(BlockOut, GroupStats), Solve
                     }
                 }
             }
-            cholesky_columns(gm, b, ctx.params.cholesky_shift).ok_or_else(|| {
-                SolveError::Factorization {
-                    what: format!(
-                        "Cholesky of a {n} x {n} local normal matrix (pivot rows {:?}...) \
-                         failed even with a relative shift of {:e}; use Solver::Svd",
-                        &g.pivots[..g.pivots.len().min(4)],
-                        ctx.params.cholesky_shift * 1e8
-                    ),
+            match cholesky_columns(gm, b, ctx.params.cholesky_shift) {
+                Some(out) if out.shift == 0.0 && out.kept <= CHOLESKY_MAX_CONDITION => out,
+                // Shifted, failed, or too ill-conditioned for the normal equations.
+                _ => {
+                    solver_fallback = true;
+                    let (k1, piv) = dense_block();
+                    svd_columns(k1.as_ref(), &piv, ctx.params.cutoff)
                 }
-            })?
+            }
         }
     };
     let stats = GroupStats {
@@ -375,6 +466,8 @@ fn solve_group(ctx: &Context, g: &Group) -> Result<(BlockOut, GroupStats), Solve
         cut: out.cut,
         shift: out.shift,
         svd_fallback: out.fallback,
+        solver_fallback,
+        kept_condition: out.kept,
     };
     Ok((out, stats))
 }
@@ -436,6 +529,16 @@ fn run<T: Send>(
         cholesky_shifted: group_stats.iter().filter(|g| g.shift > 0.0).count(),
         max_shift: group_stats.iter().map(|g| g.shift).fold(0.0, f64::max),
         svd_fallbacks: group_stats.iter().filter(|g| g.svd_fallback).count(),
+        solver_fallbacks: group_stats.iter().filter(|g| g.solver_fallback).count(),
+        weak_groups: group_stats
+            .iter()
+            .filter(|g| g.kept_condition > WEAK_CONDITION)
+            .count(),
+        max_kept_condition: group_stats
+            .iter()
+            .map(|g| g.kept_condition)
+            .fold(0.0, f64::max),
+        cutoff: params.cutoff,
         condition_is_estimate: params.solver != Solver::Svd,
         scale_exponent: exponent,
         groups: group_stats,

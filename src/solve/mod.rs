@@ -16,10 +16,10 @@
 //! magnitudes `1e±300` are safe), reports cut-offs, shifts and condition numbers, and
 //! returns [`SolveError`] instead of panicking or returning NaN.
 
+mod block;
 mod compare;
 mod error;
 mod global;
-mod kernel;
 mod local;
 mod normal;
 mod params;
@@ -32,6 +32,9 @@ pub use error::SolveError;
 pub use global::{dense_pinv, global_ls, DensePinv, GlobalLs, GlobalReport, DENSE_LIMIT};
 pub use local::{
     apply_local, local_inversion, GroupStats, LocalApply, LocalInversion, LocalStats, Summary,
+    CHOLESKY_MAX_CONDITION, WEAK_CONDITION,
 };
 pub use normal::normal_ls;
-pub use params::{GlobalLsParams, GlobalMethod, LocalInversionParams, RankPolicy, Solver};
+pub use params::{
+    GlobalLsParams, GlobalMethod, LocalInversionParams, RankPolicy, Solver, MAX_RINGS,
+};

@@ -143,10 +143,18 @@ pub(crate) fn factor_solve(
             }
         };
         let Some(q) = failed_at else { break };
-        let column = perm_fwd.get(q).copied().unwrap_or(q);
+        // faer may report the failing pivot one past the end (a zero trailing block).
+        let column = perm_fwd
+            .get(q)
+            .copied()
+            .unwrap_or(q)
+            .min(p.saturating_sub(1));
         if params.rank_policy == RankPolicy::Error || ridge > 0.0 {
             if m < p {
-                return Err(SolveError::Undersampled { rows: m, cols: p });
+                return Err(SolveError::Undersampled {
+                    samples: m,
+                    functions: p,
+                });
             }
             return Err(SolveError::RankDeficient {
                 column,

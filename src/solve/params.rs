@@ -27,6 +27,11 @@ pub enum Solver {
     Cholesky,
 }
 
+/// Most neighbourhood rings the command line accepts: rings 1 already reaches 1e-9..1e-16
+/// (DESIGN §4) and each ring widens every block (up to 8x the factorization); the library
+/// takes any number and stops growing a neighbourhood once it no longer changes.
+pub const MAX_RINGS: usize = 10;
+
 /// Parameters of the local inversion (`crate::solve::local_inversion`, `apply_local`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LocalInversionParams {
@@ -65,7 +70,7 @@ impl LocalInversionParams {
         if !(self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff)) {
             return Err(SolveError::InvalidParameter {
                 name: "cutoff",
-                value: self.cutoff,
+                value: self.cutoff.to_string(),
                 fix: "pass a relative singular value cut-off in [0, 1), e.g. 1e-12",
             });
         }
@@ -75,7 +80,7 @@ impl LocalInversionParams {
         {
             return Err(SolveError::InvalidParameter {
                 name: "cholesky_shift",
-                value: self.cholesky_shift,
+                value: self.cholesky_shift.to_string(),
                 fix: "pass a relative shift in (0, 1), e.g. 1e-12",
             });
         }
@@ -151,7 +156,7 @@ impl GlobalLsParams {
             } else {
                 Err(SolveError::InvalidParameter {
                     name,
-                    value: v,
+                    value: v.to_string(),
                     fix,
                 })
             }
@@ -166,7 +171,7 @@ impl GlobalLsParams {
         if self.max_iter == 0 {
             return Err(SolveError::InvalidParameter {
                 name: "max_iter",
-                value: 0.0,
+                value: "0".into(),
                 fix: "pass at least 1 iteration",
             });
         }

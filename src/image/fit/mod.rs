@@ -25,7 +25,9 @@ use crate::solve::SolveError;
 
 pub use normal::{NormalEquations2d, StencilPattern};
 pub use precondition::kernel_matrix_2d;
-pub use system::{CgReport, FactorReport, NormalSolver, NormalSystem, Preconditioner};
+pub use system::{
+    CgReport, FactorReport, FillOrdering, NormalSolver, NormalSystem, Preconditioner,
+};
 
 /// How the levels are chosen per axis.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -49,6 +51,8 @@ pub struct ImageFitParams {
     pub levels: ImageLevels,
     /// The solver of the normal equations.
     pub solver: NormalSolver,
+    /// Fill-reducing ordering of the Cholesky solver (unused by CG).
+    pub ordering: FillOrdering,
     /// Relative ridge `lambda` on the equilibrated normal matrix: bounds the amplification
     /// of directions the samples barely determine (`~ 1 / (2 sqrt(lambda))`) at a bias of
     /// about `lambda / sigma^2` on well-determined ones; 0 for the exact least squares.
@@ -62,6 +66,7 @@ impl Default for ImageFitParams {
             family: FilterFamily::cdv_default(2),
             levels: ImageLevels::Auto(TensorLevelParams::default()),
             solver: NormalSolver::Cholesky,
+            ordering: FillOrdering::default(),
             ridge: 1e-9,
         }
     }
@@ -69,6 +74,7 @@ impl Default for ImageFitParams {
 
 /// Errors of the image fit: each names the value at fault and the way out.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ImageFitError {
     /// The basis (resolution, levels, positions).
     #[error(transparent)]
@@ -164,6 +170,8 @@ pub struct ImageSolveReport {
     pub factor: Option<FactorReport>,
     /// CG facts (CG solver).
     pub cg: Option<CgReport>,
+    /// Local inversion statistics (local solver).
+    pub local: Option<crate::solve::LocalStats>,
     /// Stage times.
     pub timings: ImageTimings,
 }
@@ -271,15 +279,26 @@ pub fn fit_image(
     let normal_nnz = pattern.nnz();
     let mut system = NormalSystem::new(pattern, ne.values, params.ridge);
     let rhs: Vec<&[f64]> = ne.rhs.iter().map(|r| r.as_slice()).collect();
+    let mut local_stats = None;
     let (coefficients, factor, cg) = match params.solver {
         NormalSolver::Cholesky => {
             let t = Instant::now();
-            let f = system.factor().map_err(ImageFitError::Solve)?;
+            let f = system
+                .factor(params.ordering)
+                .map_err(ImageFitError::Solve)?;
             timings.factor_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let z = system.solve_factored(&rhs);
             timings.solve_s = t.elapsed().as_secs_f64();
             (z, Some(f), None)
+        }
+        NormalSolver::Local(local) => {
+            let t = Instant::now();
+            let k = kernel_matrix_2d(&basis, xs, ys)?;
+            let applied = crate::solve::apply_local(&k, values, &local)?;
+            timings.factor_s = t.elapsed().as_secs_f64();
+            local_stats = Some(applied.stats);
+            (applied.coefficients, None, None)
         }
         NormalSolver::Cg {
             preconditioner,
@@ -301,22 +320,19 @@ pub fn fit_image(
                 converged: true,
                 setup_s,
             };
-            let z = rhs
-                .iter()
-                .map(|b| {
-                    let (z, it, res) = system.solve_cg(
-                        b,
-                        preconditioner,
-                        local.as_ref(),
-                        tolerance,
-                        max_iterations,
-                    );
-                    report.iterations.push(it);
-                    report.residual.push(res);
-                    report.converged &= res <= tolerance;
-                    z
-                })
-                .collect();
+            let mut z = Vec::with_capacity(rhs.len());
+            for (zc, it, res) in system.solve_cg(
+                &rhs,
+                preconditioner,
+                local.as_ref(),
+                tolerance,
+                max_iterations,
+            ) {
+                report.iterations.push(it);
+                report.residual.push(res);
+                report.converged &= res <= tolerance;
+                z.push(zc);
+            }
             timings.solve_s = t.elapsed().as_secs_f64();
             (z, None, Some(report))
         }
@@ -344,6 +360,7 @@ pub fn fit_image(
         undersampled,
         factor,
         cg,
+        local: local_stats,
         timings,
     };
     Ok(ImageFit {
@@ -479,7 +496,8 @@ impl ImageFit {
         } else {
             Ok(self
                 .system
-                .solve_cg(b, Preconditioner::Jacobi, None, 1e-12, 100 * n.max(10))
+                .solve_cg(&[b], Preconditioner::Jacobi, None, 1e-12, 100 * n.max(10))
+                .remove(0)
                 .0)
         }
     }

@@ -42,6 +42,17 @@ pub enum Preconditioner {
     Local,
 }
 
+/// Fill-reducing ordering of the sparse Cholesky.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum FillOrdering {
+    /// Nested dissection of the grid of unknowns (separators one 1D half-bandwidth wide):
+    /// `O(N log N)` fill and `O(N^{3/2})` flops on a 2D stencil, no graph search.
+    #[default]
+    NestedDissection,
+    /// faer's approximate minimum degree (a general graph heuristic).
+    Amd,
+}
+
 /// How the normal equations are solved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum NormalSolver {
@@ -56,6 +67,11 @@ pub enum NormalSolver {
         /// Give up (and report it) after this many iterations.
         max_iterations: usize,
     },
+    /// Local inversion instead of a global solve (DESIGN §4): `z_c = K~ f_c` with `K~ ≈ K^+`
+    /// from [`crate::solve::apply_local`] on the 2D kernel matrix: local, approximate (its
+    /// error against the global solve shrinks with `rings`), and `G` is still accumulated for
+    /// [`super::ImageFit::solve_normal`].
+    Local(crate::solve::LocalInversionParams),
 }
 
 /// What one CG solve did.
@@ -90,6 +106,8 @@ pub struct NormalSystem {
 /// What the Cholesky factorization found.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct FactorReport {
+    /// The fill-reducing ordering used.
+    pub ordering: FillOrdering,
     /// Stored entries of `L` (fill-in included).
     pub factor_nnz: usize,
     /// Pivots `L_jj^2` of the equilibrated matrix below [`PIVOT_TOLERANCE`] (directions the
@@ -150,8 +168,22 @@ impl NormalSystem {
 
     /// Factors `A = D G D + lambda I`: symbolic (AMD ordering, supernodal when worth it),
     /// then numeric with pivots below [`PIVOT_TOLERANCE`] replaced by 1.
-    pub fn factor(&mut self) -> Result<FactorReport, String> {
+    pub fn factor(&mut self, ordering: FillOrdering) -> Result<FactorReport, String> {
         let n = self.pattern.len();
+        let fwd = match ordering {
+            FillOrdering::NestedDissection => self.pattern.nested_dissection(),
+            FillOrdering::Amd => Vec::new(),
+        };
+        let mut inv = vec![0usize; fwd.len()];
+        for (new, &old) in fwd.iter().enumerate() {
+            inv[old] = new;
+        }
+        let ord = match ordering {
+            FillOrdering::NestedDissection => {
+                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(&fwd, &inv, n))
+            }
+            FillOrdering::Amd => SymmetricOrdering::Amd,
+        };
         let symbolic = SymbolicSparseColMatRef::new_checked(
             n,
             n,
@@ -159,13 +191,8 @@ impl NormalSystem {
             None,
             &self.pattern.row_idx,
         );
-        let sym = factorize_symbolic_cholesky(
-            symbolic,
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            Default::default(),
-        )
-        .map_err(|e| format!("symbolic Cholesky of the 2D normal matrix: {e:?}"))?;
+        let sym = factorize_symbolic_cholesky(symbolic, Side::Lower, ord, Default::default())
+            .map_err(|e| format!("symbolic Cholesky of the 2D normal matrix: {e:?}"))?;
         let par = Par::rayon(0);
         let mut values = vec![0.0; sym.len_val()];
         let mut mem =
@@ -215,6 +242,7 @@ impl NormalSystem {
         self.factor_nnz = values.len();
         self.factor = Some((sym, values));
         Ok(FactorReport {
+            ordering,
             factor_nnz: self.factor_nnz,
             replaced_pivots: ones.saturating_sub(pinned),
             min_pivot,
@@ -289,89 +317,119 @@ impl NormalSystem {
             .collect()
     }
 
-    /// `y = (G + lambda D^{-2}) x` (zero rows and columns where unsampled).
-    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+    /// `y_c = (G + lambda D^{-2}) x_c` for every vector (zero rows and columns where
+    /// unsampled).
+    pub fn apply(&self, x: &[&[f64]], y: &mut [Vec<f64>]) {
         symmetric_matvec(&self.pattern, &self.g, x, y);
         let r = self.ridge;
         if r > 0.0 {
-            y.par_iter_mut()
-                .zip(x.par_iter())
-                .zip(self.d.par_iter())
-                .for_each(|((yi, xi), di)| {
+            for (xc, yc) in x.iter().zip(y.iter_mut()) {
+                for ((yi, xi), di) in yc.iter_mut().zip(xc.iter()).zip(&self.d) {
                     if *di > 0.0 {
                         *yi += r * xi / (di * di)
                     }
-                });
+                }
+            }
         }
     }
 
-    /// PCG for `(G + lambda D^{-2}) z = b`; `local` is `K~` (CSC, `P x m`) and its CSR form
-    /// for [`Preconditioner::Local`].
+    /// PCG for `(G + lambda D^{-2}) z_c = b_c`, all right-hand sides together (one pass over
+    /// `G` per iteration serves every channel still iterating); `local` is `K~` (CSC,
+    /// `P x m`) and its CSR form for [`Preconditioner::Local`]. Returns per channel the
+    /// solution, the iterations and the final relative residual `||b - A z|| / ||b||`.
+    /// Vector operations are sequential (`O(N)` each, cheap beside the product): fewer
+    /// synchronisations, which matter on a shared machine.
     pub fn solve_cg(
         &self,
-        b: &[f64],
+        rhs: &[&[f64]],
         preconditioner: Preconditioner,
         local: Option<&(CsMat<f64>, CsMat<f64>)>,
         tolerance: f64,
         max_iterations: usize,
-    ) -> (Vec<f64>, usize, f64) {
+    ) -> Vec<(Vec<f64>, usize, f64)> {
         let n = self.pattern.len();
+        let k = rhs.len();
         let precondition = |r: &[f64], z: &mut [f64]| match (preconditioner, local) {
             (Preconditioner::Jacobi, _) => {
-                z.par_iter_mut()
-                    .zip(r.par_iter())
-                    .zip(self.d.par_iter())
-                    .for_each(|((zi, ri), di)| *zi = di * di * ri / (1.0 + self.ridge));
+                for ((zi, ri), di) in z.iter_mut().zip(r).zip(&self.d) {
+                    *zi = di * di * ri / (1.0 + self.ridge);
+                }
             }
             (Preconditioner::Local, Some((csc, csr))) => local_apply(csc, csr, r, z),
             _ => z.copy_from_slice(r),
         };
-        let dot = |a: &[f64], b: &[f64]| -> f64 { a.par_iter().zip(b).map(|(x, y)| x * y).sum() };
-        // unsampled components of b are structurally outside the range: drop them
-        let b: Vec<f64> = b
+        let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| x * y).sum() };
+        // unsampled components of b are outside the range of G: dropped
+        let r0: Vec<Vec<f64>> = rhs
             .iter()
-            .zip(&self.d)
-            .map(|(v, d)| if *d > 0.0 { *v } else { 0.0 })
+            .map(|b| {
+                b.iter()
+                    .zip(&self.d)
+                    .map(|(v, d)| if *d > 0.0 { *v } else { 0.0 })
+                    .collect()
+            })
             .collect();
-        let norm_b = dot(&b, &b).sqrt();
-        let mut x = vec![0.0; n];
-        if norm_b == 0.0 {
-            return (x, 0, 0.0);
+        let norm_b: Vec<f64> = r0.iter().map(|b| dot(b, b).sqrt()).collect();
+        let mut x = vec![vec![0.0; n]; k];
+        let mut r = r0;
+        let mut z = vec![vec![0.0; n]; k];
+        for c in 0..k {
+            precondition(&r[c], &mut z[c]);
         }
-        let mut r = b.clone();
-        let mut z = vec![0.0; n];
-        precondition(&r, &mut z);
         let mut p = z.clone();
-        let mut rz = dot(&r, &z);
-        let mut q = vec![0.0; n];
-        let mut res = 1.0;
+        let mut rz: Vec<f64> = (0..k).map(|c| dot(&r[c], &z[c])).collect();
+        let mut q = vec![vec![0.0; n]; k];
+        let mut res: Vec<f64> = norm_b
+            .iter()
+            .map(|&b| if b > 0.0 { 1.0 } else { 0.0 })
+            .collect();
+        let mut iterations = vec![0usize; k];
+        let mut active: Vec<usize> = (0..k).filter(|&c| norm_b[c] > 0.0).collect();
         for it in 0..max_iterations {
-            self.apply(&p, &mut q);
-            let pq = dot(&p, &q);
-            if pq <= 0.0 || !pq.is_finite() {
-                return (x, it, res);
+            if active.is_empty() {
+                break;
             }
-            let alpha = rz / pq;
-            x.par_iter_mut()
-                .zip(r.par_iter_mut())
-                .zip(p.par_iter().zip(q.par_iter()))
-                .for_each(|((xi, ri), (pi, qi))| {
-                    *xi += alpha * pi;
-                    *ri -= alpha * qi;
-                });
-            res = dot(&r, &r).sqrt() / norm_b;
-            if res <= tolerance {
-                return (x, it + 1, res);
+            {
+                let ps: Vec<&[f64]> = active.iter().map(|&c| p[c].as_slice()).collect();
+                let mut qs: Vec<Vec<f64>> =
+                    active.iter().map(|&c| std::mem::take(&mut q[c])).collect();
+                self.apply(&ps, &mut qs);
+                for (&c, qc) in active.iter().zip(qs) {
+                    q[c] = qc;
+                }
             }
-            precondition(&r, &mut z);
-            let rz_new = dot(&r, &z);
-            let beta = rz_new / rz;
-            rz = rz_new;
-            p.par_iter_mut()
-                .zip(z.par_iter())
-                .for_each(|(pi, zi)| *pi = zi + beta * *pi);
+            let mut still = Vec::with_capacity(active.len());
+            for &c in &active {
+                iterations[c] = it + 1;
+                let pq = dot(&p[c], &q[c]);
+                if pq <= 0.0 || !pq.is_finite() {
+                    continue; // breakdown: keep the iterate, report its residual
+                }
+                let alpha = rz[c] / pq;
+                for i in 0..n {
+                    x[c][i] += alpha * p[c][i];
+                    r[c][i] -= alpha * q[c][i];
+                }
+                res[c] = dot(&r[c], &r[c]).sqrt() / norm_b[c];
+                if res[c] <= tolerance {
+                    continue;
+                }
+                precondition(&r[c], &mut z[c]);
+                let rz_new = dot(&r[c], &z[c]);
+                let beta = rz_new / rz[c];
+                rz[c] = rz_new;
+                for i in 0..n {
+                    p[c][i] = z[c][i] + beta * p[c][i];
+                }
+                still.push(c);
+            }
+            active = still;
         }
-        (x, max_iterations, res)
+        x.into_iter()
+            .zip(iterations)
+            .zip(res)
+            .map(|((x, it), r)| (x, it, r))
+            .collect()
     }
 }
 

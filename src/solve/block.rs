@@ -1,6 +1,7 @@
-//! Dense block kernels: `X = K1^+ E_R`, the columns of the pseudo-inverse of one local block
-//! `K1` (`r x n`) for the pivot rows `R` (`E_R` = identity columns), by SVD, column-pivoted
-//! QR or Cholesky of the normal matrix.
+//! Dense block solves of local inversion (kernel *matrices* are [`crate::kernel`]):
+//! `X = K1^+ E_R`, the columns of the pseudo-inverse of one local block `K1` (`r x n`) for
+//! the pivot rows `R` (`E_R` = identity columns), by SVD, column-pivoted QR or Cholesky of the
+//! normal matrix.
 //!
 //! All faer calls here take `Par::Seq` explicitly: the blocks are small (tens to a few
 //! hundred rows) and thousands of them run concurrently on the rayon pool, so faer's own
@@ -12,6 +13,8 @@
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
 use faer::linalg::householder::{
+    apply_block_householder_sequence_on_the_left_in_place_scratch,
+    apply_block_householder_sequence_on_the_left_in_place_with_conj,
     apply_block_householder_sequence_transpose_on_the_left_in_place_scratch,
     apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj,
 };
@@ -36,6 +39,10 @@ pub(crate) struct BlockOut {
     pub shift: f64,
     /// The SVD did not converge and QR was used instead.
     pub fallback: bool,
+    /// `s_max / s_kept`: the condition of the block on the directions kept by the cut-off
+    /// (the amplification of data errors into the answer); Cholesky: its estimate of
+    /// `cond(K1)` (infinite when shifted).
+    pub kept: f64,
 }
 
 thread_local! {
@@ -78,6 +85,7 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
             cut: n,
             shift: 0.0,
             fallback: false,
+            kept: f64::INFINITY,
         };
     }
     // (matrix to decompose, right-hand side block it acts on: E_R or Q^T E_R)
@@ -85,9 +93,15 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
         let mut a = k1.to_owned();
         let bs = qr_block_size(r, n);
         let mut coeff = Mat::<f64>::zeros(bs, n);
-        let mut e = Mat::<f64>::zeros(r, g);
-        for (t, &p) in piv.iter().enumerate() {
-            e[(p, t)] = 1.0;
+        // Few pivots: Q^T applied to the identity columns E_R (r x g). Many pivots (up to
+        // every row, e.g. one block holding all samples of a cluster): E_R would be r x r,
+        // so the thin Q (r x n) is formed instead and its rows R read off.
+        let few = g <= n;
+        let mut e = Mat::<f64>::zeros(if few { r } else { 0 }, g);
+        if few {
+            for (t, &p) in piv.iter().enumerate() {
+                e[(p, t)] = 1.0;
+            }
         }
         with_stack(
             StackReq::any_of(&[
@@ -104,18 +118,25 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
                     stack,
                     Default::default(),
                 );
-                apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
-                    a.as_ref(),
-                    coeff.as_ref(),
-                    Conj::No,
-                    e.as_mut(),
-                    Par::Seq,
-                    stack,
-                );
+                if few {
+                    apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
+                        a.as_ref(),
+                        coeff.as_ref(),
+                        Conj::No,
+                        e.as_mut(),
+                        Par::Seq,
+                        stack,
+                    );
+                }
             },
         );
+        let rhs = if few {
+            e.get(..n, ..).to_owned()
+        } else {
+            q_rows_transposed(a.as_ref(), coeff.as_ref(), n, piv)
+        };
         let rr = Mat::<f64>::from_fn(n, n, |i, j| if i <= j { a[(i, j)] } else { 0.0 });
-        (rr, e.get(..n, ..).to_owned())
+        (rr, rhs)
     } else {
         let mut e = Mat::<f64>::zeros(r, g);
         for (t, &p) in piv.iter().enumerate() {
@@ -194,7 +215,46 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
         cut: n - rank,
         shift: 0.0,
         fallback: false,
+        kept: if rank > 0 {
+            smax / s[rank - 1]
+        } else {
+            f64::INFINITY
+        },
     }
+}
+
+/// `Q[R, :]^T` (`size x g`) for the thin `Q` (`r x size`) of a Householder QR held in
+/// `(a, coeff)`: equal to the first `size` rows of `Q^T E_R`, at `r x size` memory instead of
+/// `r x g`.
+fn q_rows_transposed(
+    a: MatRef<'_, f64>,
+    coeff: MatRef<'_, f64>,
+    size: usize,
+    piv: &[usize],
+) -> Mat<f64> {
+    let r = a.nrows();
+    let mut q = Mat::<f64>::zeros(r, size);
+    for k in 0..size {
+        q[(k, k)] = 1.0;
+    }
+    with_stack(
+        apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(
+            r,
+            coeff.nrows(),
+            size,
+        ),
+        |stack| {
+            apply_block_householder_sequence_on_the_left_in_place_with_conj(
+                a.get(.., ..size),
+                coeff,
+                Conj::No,
+                q.as_mut(),
+                Par::Seq,
+                stack,
+            )
+        },
+    );
+    Mat::from_fn(size, piv.len(), |k, t| q[(piv[t], k)])
 }
 
 fn qr_block_size(r: usize, n: usize) -> usize {
@@ -214,6 +274,7 @@ pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Blo
             cut: n,
             shift: 0.0,
             fallback: false,
+            kept: f64::INFINITY,
         };
     }
     let mut a = k1.to_owned();
@@ -221,10 +282,13 @@ pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Blo
     let mut coeff = Mat::<f64>::zeros(bs, size);
     let mut fwd = vec![0usize; n];
     let mut inv = vec![0usize; n];
-    // E_R, then Q^T E_R
-    let mut e = Mat::<f64>::zeros(r, g);
-    for (t, &p) in piv.iter().enumerate() {
-        e[(p, t)] = 1.0;
+    // E_R, then Q^T E_R (many pivots: rows of the thin Q instead, see `svd_columns`)
+    let few = g <= size;
+    let mut e = Mat::<f64>::zeros(if few { r } else { 0 }, g);
+    if few {
+        for (t, &p) in piv.iter().enumerate() {
+            e[(p, t)] = 1.0;
+        }
     }
     let perm_fwd: Vec<usize> = with_stack(
         StackReq::any_of(&[
@@ -244,17 +308,22 @@ pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Blo
                 Default::default(),
             );
             let perm_fwd = perm.arrays().0.to_vec();
-            apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
-                a.get(.., ..size),
-                coeff.as_ref(),
-                Conj::No,
-                e.as_mut(),
-                Par::Seq,
-                stack,
-            );
+            if few {
+                apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
+                    a.get(.., ..size),
+                    coeff.as_ref(),
+                    Conj::No,
+                    e.as_mut(),
+                    Par::Seq,
+                    stack,
+                );
+            }
             perm_fwd
         },
     );
+    if !few {
+        e = q_rows_transposed(a.as_ref(), coeff.as_ref(), size, piv);
+    }
     let r00 = a[(0, 0)].abs();
     let tol = cutoff * r00;
     let rank = (0..size)
@@ -275,6 +344,11 @@ pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Blo
         cut: n - rank,
         shift: 0.0,
         fallback: false,
+        kept: if rank > 0 {
+            r00 / a[(rank - 1, rank - 1)].abs()
+        } else {
+            f64::INFINITY
+        },
     }
 }
 
@@ -294,6 +368,7 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
             cut: 0,
             shift: 0.0,
             fallback: false,
+            kept: 1.0,
         });
     }
     let d: Vec<f64> = (0..n)
@@ -345,14 +420,37 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
         if lmin.is_nan() || lmin * lmin < thresh {
             continue;
         }
-        with_stack(StackReq::EMPTY, |stack| {
-            faer::linalg::cholesky::llt::solve::solve_in_place(
-                l.as_ref(),
-                b.as_mut(),
-                Par::Seq,
-                stack,
-            )
-        });
+        let solve = |rhs: faer::MatMut<'_, f64>| {
+            with_stack(StackReq::EMPTY, |stack| {
+                faer::linalg::cholesky::llt::solve::solve_in_place(l.as_ref(), rhs, Par::Seq, stack)
+            })
+        };
+        // cond(K1) estimate = sqrt(lambda_max / lambda_min) of the equilibrated G:
+        // lambda_max <= the largest absolute row sum (Gershgorin), lambda_min by five steps
+        // of inverse iteration with the factor (an upper bound on lambda_min, so the
+        // estimate errs low by the iteration's convergence only), O(n^2) each.
+        let row_max = (0..n)
+            .map(|i| (0..n).map(|j| gm[(i, j)].abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        let mut v = Mat::<f64>::from_fn(n, 1, |i, _| 1.0 + (i as f64 * 0.618_034).fract());
+        let mut lam_min = f64::INFINITY;
+        for _ in 0..5 {
+            let norm = v.norm_l2();
+            if !(norm > 0.0 && norm.is_finite()) {
+                break;
+            }
+            for i in 0..n {
+                v[(i, 0)] /= norm;
+            }
+            solve(v.as_mut());
+            lam_min = 1.0 / v.norm_l2();
+        }
+        let estimate = if shift > 0.0 {
+            f64::INFINITY
+        } else {
+            (row_max / lam_min).sqrt().max(lmax / lmin)
+        };
+        solve(b.as_mut());
         for t in 0..g {
             for i in 0..n {
                 b[(i, t)] *= d[i];
@@ -368,6 +466,11 @@ pub(crate) fn cholesky_columns(mut gm: Mat<f64>, mut b: Mat<f64>, shift0: f64) -
             cut: 0,
             shift,
             fallback: false,
+            kept: if estimate.is_nan() {
+                f64::INFINITY
+            } else {
+                estimate
+            },
         });
     }
     None

@@ -1,0 +1,189 @@
+//! `rkwave compare`: every method on the same samples of one or every built-in scene — a
+//! side-by-side figure with zoomed crops per run, a CSV and a Markdown table, and an
+//! error-against-time figure.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use rkwave::image::experiment::{
+    compare_methods, comparison_csv, comparison_markdown, Comparison, Method, SamplingParams,
+    TruthParams, WaveletParams, CSV_HEADER,
+};
+use rkwave::image::figure::{save_error_vs_time, save_side_by_side};
+use rkwave::image::scene::Scene;
+
+use super::image_cmd::{check_p, parse_resolution, parse_sampler, scene_path};
+use super::{check_writable, CliError};
+
+/// `rkwave compare`.
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// One scene: a JSON file or a built-in scene's name.
+    #[arg(long, conflicts_with = "scenes", required_unless_present = "scenes")]
+    pub scene: Option<String>,
+    /// `all`: every built-in scene (data/scenes/*.json).
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// Resolution `WxH`.
+    #[arg(long, default_value = "256x256")]
+    pub resolution: String,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 4)]
+    pub spp: usize,
+    /// Sampler: uniform, stratified or sobol.
+    #[arg(long, default_value = "stratified")]
+    pub sampler: String,
+    /// Noise levels (standard deviations), comma separated; each is a separate run.
+    #[arg(long, value_delimiter = ',', default_value = "0,0.05")]
+    pub noise: Vec<f64>,
+    /// Methods, comma separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// Vanishing moments p of the wavelet methods.
+    #[arg(long, default_value_t = 2)]
+    pub p: usize,
+    /// Seed of positions and noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Ground-truth supersampling rate n (n x n strata per pixel).
+    #[arg(long, default_value_t = rkwave::image::truth::DEFAULT_RATE)]
+    pub truth_rate: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out/compare")]
+    pub out: PathBuf,
+    /// Overwrite existing outputs.
+    #[arg(long)]
+    pub force: bool,
+    /// Print the comparisons as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `rkwave compare`.
+pub fn run(args: &CompareArgs) -> Result<(), CliError> {
+    let plane = parse_resolution(&args.resolution)?;
+    let sampler = parse_sampler(&args.sampler)?;
+    let p = check_p(args.p)?;
+    let methods: Vec<Method> = if args.methods.is_empty() {
+        Method::all()
+    } else {
+        args.methods
+            .iter()
+            .map(|m| {
+                m.parse()
+                    .map_err(|e| CliError::Invalid(format!("--methods: {e}")))
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let files = match (&args.scene, args.scenes.as_deref()) {
+        (Some(s), _) => vec![scene_path(s)?],
+        (None, Some("all")) => {
+            Scene::builtin_files().map_err(|e| CliError::Invalid(e.to_string()))?
+        }
+        (None, other) => {
+            return Err(CliError::Invalid(format!(
+                "--scenes {}: only `all` is accepted (or give one --scene FILE)",
+                other.unwrap_or("")
+            )))
+        }
+    };
+    let scenes = files
+        .iter()
+        .map(Scene::from_file)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let csv_path = args.out.join("compare.csv");
+    let md_path = args.out.join("compare.md");
+    let time_path = args.out.join("error_vs_time.png");
+    for path in [&csv_path, &md_path, &time_path] {
+        check_writable(path, args.force)?;
+    }
+    std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
+        path: args.out.clone(),
+        source,
+    })?;
+    let wavelet = WaveletParams {
+        p,
+        pixel_filter: None,
+    };
+    let truth = TruthParams {
+        rate: args.truth_rate,
+        cache: PathBuf::from("out/truth"),
+    };
+    let runs = scenes.len() * args.noise.len();
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::new(runs as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("template"),
+    );
+    let mut comparisons: Vec<Comparison> = Vec::with_capacity(runs);
+    for scene in &scenes {
+        for &noise in &args.noise {
+            bar.set_message(format!("{} noise {noise}", scene.name()));
+            let sampling = SamplingParams {
+                plane,
+                spp: args.spp,
+                sampler,
+                noise,
+                seed: args.seed,
+            };
+            let cmp = compare_methods(scene, &sampling, &methods, &wavelet, &truth)
+                .map_err(|e| CliError::Invalid(e.to_string()))?;
+            let fig = args
+                .out
+                .join(format!("{}_noise{}.png", scene.name(), noise));
+            check_writable(&fig, args.force)?;
+            save_side_by_side(&cmp, &fig)?;
+            comparisons.push(cmp);
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    let write = |path: &PathBuf, text: String| {
+        std::fs::write(path, text).map_err(|source| CliError::Write {
+            path: path.clone(),
+            source,
+        })
+    };
+    write(
+        &csv_path,
+        format!("{CSV_HEADER}\n{}", comparison_csv(&comparisons)),
+    )?;
+    let md = comparison_markdown(&comparisons);
+    write(&md_path, md.clone())?;
+    save_error_vs_time(&comparisons, &time_path)?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&comparisons).expect("comparisons serialise")
+        );
+    } else {
+        println!(
+            "PSNR (dB) against the box-filtered truth ({} x {} strata per pixel), {plane}, {} spp {sampler}:",
+            args.truth_rate, args.truth_rate, args.spp
+        );
+        print!("{md}");
+        for c in &comparisons {
+            for note in c
+                .notes
+                .iter()
+                .chain(c.results.iter().flat_map(|r| &r.notes))
+            {
+                println!("note ({} noise {}): {note}", c.scene, c.sampling.noise);
+            }
+        }
+        println!(
+            "wrote {}, {}, {} and one side-by-side figure per run in {}",
+            csv_path.display(),
+            md_path.display(),
+            time_path.display(),
+            args.out.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,283 @@
+//! Fuzzing under proptest: the sample readers (CSV, `.npy`), the expression and domain
+//! parsers, and the command line's argument space. Each property: no panic, and either a
+//! typed error or a valid result (finite positions, consistent lengths); the binary exits
+//! with 0, 1 or 2 and never prints a panic report. Case counts are fixed so the whole file
+//! runs in well under a minute on the CI machine.
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use proptest::prelude::*;
+use rkwave::io::{parse_csv, read_samples};
+use rkwave::refine::{ExpressionOracle, SampleOracle};
+use rkwave::sampling::Domain;
+
+/// Pieces CSV files are made of, hostile ones included.
+fn csv_piece() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("x".to_string()),
+        Just("y".to_string()),
+        Just(",".to_string()),
+        Just("\n".to_string()),
+        Just("\r".to_string()),
+        Just("\r\n".to_string()),
+        Just("#".to_string()),
+        Just(" ".to_string()),
+        Just("\"".to_string()),
+        Just("\u{feff}".to_string()),
+        Just("nan".to_string()),
+        Just("inf".to_string()),
+        Just("-1e308".to_string()),
+        Just("1e-320".to_string()),
+        Just("é".to_string()),
+        any::<f64>().prop_map(|v| format!("{v}")),
+        (0u32..100).prop_map(|v| v.to_string()),
+    ]
+}
+
+fn check_set(set: &rkwave::io::SampleSet) {
+    assert!(!set.positions.is_empty());
+    assert!(set.positions.iter().all(|x| x.is_finite()));
+    for ch in &set.values {
+        assert_eq!(ch.len(), set.positions.len());
+        assert!(ch.iter().all(|v| v.is_finite()));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn csv_reader_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..200)) {
+        if let Ok(set) = parse_csv(&bytes, "fuzz.csv") {
+            check_set(&set);
+        }
+    }
+
+    #[test]
+    fn csv_reader_on_csv_like_text(pieces in proptest::collection::vec(csv_piece(), 0..40)) {
+        let text: String = pieces.concat();
+        let text = format!("x,y\n{text}");
+        if let Ok(set) = parse_csv(text.as_bytes(), "fuzz.csv") {
+            check_set(&set);
+        }
+    }
+
+    #[test]
+    fn expression_parser_never_panics(
+        tokens in proptest::collection::vec(
+            prop_oneof![
+                Just("x"), Just("-"), Just("+"), Just("*"), Just("/"), Just("^"), Just("("),
+                Just(")"), Just(","), Just("1e3"), Just("2"), Just(".5"), Just("e"), Just("E"),
+                Just("PI"), Just("sin"), Just("exp"), Just("min"), Just("atan2"), Just("<"),
+                Just(">="), Just("=="), Just("!="), Just(" "), Just("1e"), Just("ä"),
+                Just("sqrt"), Just("y"), Just("1e400"),
+            ],
+            0..30,
+        ),
+        x in -10.0f64..10.0,
+    ) {
+        let text: String = tokens.concat();
+        match ExpressionOracle::parse(&text) {
+            Ok(e) => {
+                let _ = e.sample(x); // any f64, NaN included: the refiner reports those
+            }
+            Err(err) => {
+                let msg = err.to_string();
+                prop_assert!(!msg.is_empty() && msg.len() < 1000, "{}", msg);
+            }
+        }
+    }
+
+    #[test]
+    fn domain_parser_never_panics(text in "[-0-9.,e+ infa]{0,30}") {
+        if let Ok(d) = text.parse::<Domain>() {
+            prop_assert!(d.a().is_finite() && d.b().is_finite() && d.a() < d.b());
+        }
+    }
+}
+
+/// A little-endian `<f8` `.npy` file of shape `(rows, cols)`.
+fn npy(rows: usize, cols: usize, data: &[f64], descr: &str) -> Vec<u8> {
+    let mut header =
+        format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': ({rows}, {cols}), }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    for v in data {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+
+    /// Valid files with flipped bytes, truncations and odd shapes, through the public reader.
+    #[test]
+    fn npy_reader_never_panics(
+        rows in 0usize..6,
+        cols in 0usize..4,
+        data in proptest::collection::vec(any::<f64>(), 0..24),
+        flips in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..4),
+        cut in proptest::option::of(any::<usize>()),
+        descr in prop_oneof![Just("<f8"), Just(">f8"), Just("<f4"), Just("<i8"), Just("|u1")],
+    ) {
+        let mut bytes = npy(rows, cols, &data, descr);
+        for (at, b) in flips {
+            let i = at % bytes.len();
+            bytes[i] ^= b;
+        }
+        if let Some(c) = cut {
+            bytes.truncate(c % (bytes.len() + 1));
+        }
+        let path = std::env::temp_dir().join(format!(
+            "rkwave-fuzz-{}-{:?}.npy",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::write(&path, &bytes).unwrap();
+        if let Ok(set) = read_samples(&path) {
+            check_set(&set);
+        }
+        let _ = std::fs::remove_file(&path);
+    }
+}
+
+/// Values a flag may receive, the absurd included.
+fn value() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("0".to_string()),
+        Just("1".to_string()),
+        Just("2".to_string()),
+        Just("3".to_string()),
+        Just("8".to_string()),
+        Just("60".to_string()),
+        Just("-1".to_string()),
+        Just("18446744073709551615".to_string()),
+        Just("1e308".to_string()),
+        Just("1e-308".to_string()),
+        Just("nan".to_string()),
+        Just("inf".to_string()),
+        Just("0,1".to_string()),
+        Just("1,0".to_string()),
+        Just("-1e308,1e308".to_string()),
+        Just("4..9".to_string()),
+        Just("60..60".to_string()),
+        Just("auto".to_string()),
+        Just("".to_string()),
+        Just("smooth".to_string()),
+        Just("-x^2".to_string()),
+        Just("svd".to_string()),
+        Just("cholesky".to_string()),
+        Just("local".to_string()),
+        Just("/proc/rkwave-fuzz/o.png".to_string()),
+    ]
+}
+
+fn flag() -> impl Strategy<Value = &'static str> {
+    prop_oneof![
+        Just("--p"),
+        Just("--coarse"),
+        Just("--fine"),
+        Just("--domain"),
+        Just("--points"),
+        Just("--samples"),
+        Just("--rings"),
+        Just("--solver"),
+        Just("--cutoff"),
+        Just("--grid"),
+        Just("--levels"),
+        Just("--rho"),
+        Just("--signal"),
+        Just("--layout"),
+        Just("--probes"),
+        Just("--max-depth"),
+        Just("--budget"),
+        Just("--tolerance"),
+        Just("--x"),
+        Just("--plot"),
+        Just("--method"),
+        Just("--family"),
+        Just("--json"),
+        Just("--seed"),
+    ]
+}
+
+fn subcommand() -> impl Strategy<Value = &'static str> {
+    prop_oneof![
+        Just("basis"),
+        Just("eval"),
+        Just("report"),
+        Just("adapt"),
+        Just("reconstruct")
+    ]
+}
+
+/// Runs the binary with a deadline; `None` if it had to be killed.
+fn run_bounded(args: &[String], limit: Duration) -> Option<(i32, String)> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_rkwave"))
+        .args(args)
+        .args(["--memory-limit", "1G"])
+        .current_dir(std::env::temp_dir())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("binary starts");
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            let mut err = String::new();
+            use std::io::Read;
+            if let Some(mut e) = child.stderr.take() {
+                let _ = e.read_to_string(&mut err);
+            }
+            return Some((status.code().unwrap_or(-1), err));
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+proptest! {
+    // Each case starts the binary once (tens of milliseconds); 150 cases take ~10-30 s.
+    #![proptest_config(ProptestConfig::with_cases(150))]
+
+    #[test]
+    fn the_command_line_exits_0_1_or_2_and_never_panics(
+        sub in subcommand(),
+        pairs in proptest::collection::vec((flag(), value()), 0..5),
+    ) {
+        let mut args = vec![sub.to_string()];
+        if sub == "reconstruct" {
+            // an input that exists and an output that does not
+            let input = std::env::temp_dir().join("rkwave-fuzz-in.csv");
+            std::fs::write(&input, "x,y\n0.1,1\n0.3,2\n0.5,0\n0.7,1\n0.9,3\n").unwrap();
+            args.extend(["--input".into(), input.display().to_string()]);
+            args.extend(["--output".into(), "/proc/rkwave-fuzz/o.csv".into()]);
+        }
+        if sub == "adapt" {
+            // small runs (a repeated flag is itself a user error, exit 2)
+            args.extend(["--budget", "3000", "--grid", "2048", "--round-grid", "0"].map(String::from));
+        }
+        for (f, v) in pairs {
+            args.push(f.to_string());
+            if f != "--json" {
+                args.push(v);
+            }
+        }
+        let Some((code, err)) = run_bounded(&args, Duration::from_secs(30)) else {
+            return Err(TestCaseError::fail(format!("{args:?} ran past 30 s")));
+        };
+        prop_assert!(matches!(code, 0..=2), "{:?} exited {}: {}", args, code, err);
+        prop_assert!(!err.contains("panicked"), "{:?}: {}", args, err);
+    }
+}

@@ -1,0 +1,407 @@
+//! Issue 12 through the binary: every command of the hostile-user session that panicked,
+//! ran away, clobbered a file or misled, with the exit code and message it must give now.
+//! Exit codes: 0 success, 1 a failure of the machine, 2 a user error; never 101 (panic)
+//! or 134 (abort).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn rkwave(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_rkwave"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// A user error: exit code 2, a one-line `error:` message, no panic.
+#[track_caller]
+fn user_error(args: &[&str]) -> String {
+    let out = rkwave(args);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {all}");
+    assert!(!all.contains("panicked"), "{args:?}: {all}");
+    all
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rkwave-hardening-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(path: &Path, text: &str) -> String {
+    std::fs::write(path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+const MAX: &str = "18446744073709551615";
+
+#[test]
+fn levels_at_sixty_are_refused() {
+    let e = user_error(&["basis", "--fine", "60"]);
+    assert!(e.contains("memory") || e.contains("level"), "{e}");
+    let e = user_error(&["report", "--fine", "60"]);
+    assert!(e.contains("memory"), "{e}");
+    let d = scratch("levels");
+    let input = write(&d.join("in.csv"), "x,y\n0.1,1\n0.2,2\n");
+    let out = d.join("o.csv");
+    let e = user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+        "--levels",
+        "60..60",
+    ]);
+    assert!(e.contains("cannot determine"), "{e}");
+    user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+        "--levels",
+        "4..30",
+    ]);
+    user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+        "--rho",
+        "1e-308",
+    ]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn basis_levels_beyond_the_facts_are_refused_up_front() {
+    for args in [
+        &["basis", "--fine", "30"][..],
+        &["basis", "--coarse", "40", "--fine", "40"],
+    ] {
+        let e = user_error(args);
+        assert!(e.contains("memory") || e.contains("level"), "{e}");
+    }
+}
+
+#[test]
+fn haar_global_with_two_samples_is_an_error() {
+    let d = scratch("haar");
+    for body in ["x,y\n0.1,1\n0.2,2\n", "x,y\n0.1,1\n0.1,2\n"] {
+        let input = write(&d.join("in.csv"), body);
+        let out = d.join("o.csv");
+        let r = rkwave(&[
+            "reconstruct",
+            "--input",
+            &input,
+            "--output",
+            out.to_str().unwrap(),
+            "--force",
+            "--p",
+            "1",
+            "--method",
+            "global",
+            "--domain",
+            "0,1",
+        ]);
+        assert!(matches!(r.status.code(), Some(0 | 2)), "{}", text(&r));
+        assert!(!text(&r).contains("panicked"));
+    }
+}
+
+#[test]
+fn every_count_at_u64_max_is_refused_by_the_parser() {
+    for args in [
+        &["basis", "--points", MAX][..],
+        &["report", "--samples", MAX],
+        &["report", "--grid", MAX],
+        &["adapt", "--signal", "smooth", "--probes", MAX],
+        &["adapt", "--signal", "smooth", "--round-grid", MAX],
+        &["adapt", "--signal", "smooth", "--grid", MAX],
+        &["adapt", "--signal", "smooth", "--budget", MAX],
+        &["scaling", "--sizes", "1e308"],
+        &["scaling", "--sizes", "1e12"],
+        &["scaling", "--channels", MAX],
+        &["scaling", "--channels", "0"],
+        &["eval", "--x", "0.5", "--fine", MAX],
+    ] {
+        user_error(args);
+    }
+    let d = scratch("grid");
+    let input = write(&d.join("in.csv"), "x,y\n0.1,1\n0.2,2\n0.3,1\n");
+    user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        d.join("o.csv").to_str().unwrap(),
+        "--grid",
+        MAX,
+    ]);
+}
+
+#[test]
+fn rings_are_capped() {
+    let e = user_error(&["report", "--rings", "1000"]);
+    assert!(e.contains("rings"), "{e}");
+}
+
+#[test]
+fn a_memory_limit_refuses_with_what_it_would_need() {
+    let e = user_error(&[
+        "report",
+        "--fine",
+        "16",
+        "--samples",
+        "1000000",
+        "--memory-limit",
+        "64M",
+    ]);
+    assert!(e.contains("would need") && e.contains("limit"), "{e}");
+    user_error(&["basis", "--memory-limit", "lots"]);
+}
+
+#[test]
+fn outputs_are_never_clobbered() {
+    let d = scratch("clobber");
+    let body: String = std::iter::once("x,y\n".to_string())
+        .chain((0..80).map(|i| format!("{},{}\n", i as f64 / 79.0, (i % 7) as f64)))
+        .collect();
+    let input = write(&d.join("in.csv"), &body);
+    let before = std::fs::read(&input).unwrap();
+    // the input as output, even with --force, through another spelling and a symlink
+    let spelled = d.join(".").join("in.csv");
+    for out in [input.clone(), spelled.to_str().unwrap().to_string()] {
+        let e = user_error(&[
+            "reconstruct",
+            "--input",
+            &input,
+            "--output",
+            &out,
+            "--force",
+        ]);
+        assert!(e.contains("same file"), "{e}");
+    }
+    #[cfg(unix)]
+    {
+        let link = d.join("link.csv");
+        std::os::unix::fs::symlink(&input, &link).unwrap();
+        let e = user_error(&[
+            "reconstruct",
+            "--input",
+            &input,
+            "--output",
+            link.to_str().unwrap(),
+            "--force",
+        ]);
+        assert!(e.contains("same file"), "{e}");
+    }
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+    // an existing output without --force
+    let out = d.join("out.csv");
+    std::fs::write(&out, "precious").unwrap();
+    user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "precious");
+    // a fresh output is written whole, with no temporary file left beside it
+    let fresh = d.join("fresh.csv");
+    let r = rkwave(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        fresh.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+    assert!(std::fs::read_to_string(&fresh).unwrap().starts_with("x,"));
+    let leftovers = std::fs::read_dir(&d)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .ends_with(".tmp")
+        })
+        .count();
+    assert_eq!(leftovers, 0);
+}
+
+#[test]
+fn unwritable_outputs_fail_before_computing() {
+    let d = scratch("unwritable");
+    let input = write(&d.join("in.csv"), "x,y\n0.1,1\n0.2,2\n0.3,1\n");
+    // a directory as the output file
+    let e = user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        d.to_str().unwrap(),
+    ]);
+    assert!(e.contains("directory"), "{e}");
+    user_error(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        "/proc/rkwave-no/o.csv",
+    ]);
+    user_error(&["basis", "--plot", "/proc/rkwave-no/basis.png"]);
+    user_error(&[
+        "adapt",
+        "--signal",
+        "smooth",
+        "--plot",
+        "/proc/rkwave-no/a.png",
+    ]);
+}
+
+#[test]
+fn cr_only_line_ends_are_read() {
+    let d = scratch("cr");
+    let mut body = String::from("x,y\r");
+    for i in 0..40 {
+        let x = i as f64 / 39.0;
+        body.push_str(&format!("{x},{}\r", (3.0 * x).sin()));
+    }
+    let input = write(&d.join("in.csv"), &body);
+    let out = d.join("o.csv");
+    let r = rkwave(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+}
+
+#[test]
+fn fallbacks_and_warnings_are_printed_in_text_mode() {
+    let d = scratch("warn");
+    let mut body = String::from("x,y\n");
+    for (c, k) in [(0.1, 0), (0.5, 1), (0.9, 2)] {
+        for i in 0..300 {
+            let x: f64 = c + 0.02 * ((i * 37 + k * 11) % 300) as f64 / 300.0 - 0.01;
+            body.push_str(&format!("{x},{}\n", (8.0 * x).sin()));
+        }
+    }
+    let input = write(&d.join("in.csv"), &body);
+    let out = d.join("o.csv");
+    let r = rkwave(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+        "--domain",
+        "0,1",
+        "--method",
+        "local",
+    ]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+    assert!(
+        String::from_utf8_lossy(&r.stderr).contains("warning:"),
+        "{}",
+        text(&r)
+    );
+    let r = rkwave(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+        "--domain",
+        "0,1",
+        "--method",
+        "local",
+        "--force",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert!(!v["warnings"].as_array().unwrap().is_empty(), "{v}");
+}
+
+#[test]
+fn extreme_values_give_a_finite_residual() {
+    let d = scratch("extreme");
+    let mut body = String::from("x,y\n");
+    for i in 0..64 {
+        let x = i as f64 / 63.0;
+        body.push_str(&format!(
+            "{x},{:e}\n",
+            1.7e308 * if i % 2 == 0 { 1.0 } else { 0.9 }
+        ));
+    }
+    let input = write(&d.join("in.csv"), &body);
+    let out = d.join("o.csv");
+    let r = rkwave(&[
+        "reconstruct",
+        "--input",
+        &input,
+        "--output",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let all = text(&r);
+    assert!(matches!(r.status.code(), Some(0 | 2)), "{all}");
+    if r.status.code() == Some(0) {
+        let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+        assert!(v["residual_rms"].as_f64().is_some(), "{v}");
+    }
+}
+
+#[test]
+fn eval_json_streams_and_stays_valid() {
+    let xs: Vec<String> = (0..200).map(|i| format!("{}", i as f64 / 199.0)).collect();
+    let joined = xs.join(",");
+    let r = rkwave(&["eval", "--fine", "60", "--json", "--x", &joined]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert_eq!(v["points"].as_array().unwrap().len(), 200);
+    assert_eq!(v["fine"], 60);
+}
+
+#[test]
+fn expressions_with_scientific_notation_and_a_gaussian_work() {
+    let r = rkwave(&[
+        "adapt",
+        "--signal",
+        "exp(-((x-0.5)/0.05)^2)",
+        "--budget",
+        "3000",
+        "--json",
+    ]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert!(v["error_l2"].as_f64().unwrap() < 1e-2, "{v}");
+    let r = rkwave(&["adapt", "--signal", "1e3*x", "--budget", "2000"]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+    let e = user_error(&["adapt", "--signal", "x +* 2"]);
+    assert!(!e.contains("ops") && !e.contains("node"), "{e}");
+}
+
+#[test]
+fn adapt_residual_never_prints_a_nan_estimate() {
+    let r = rkwave(&["adapt", "--signal", "smooth", "--indicator", "residual"]);
+    assert_eq!(r.status.code(), Some(0), "{}", text(&r));
+    assert!(!text(&r).contains("NaN"), "{}", text(&r));
+}
