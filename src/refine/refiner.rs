@@ -8,8 +8,8 @@ use rand_pcg::Pcg64;
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::indicator::{coefficient_indication, residual_indication, Indication, Unit};
-use super::measure::{grid, ErrorFigures};
+use super::indicator::{coefficient_indication, residual_indication, Indication};
+use super::measure::{ErrorFigures, Reconstruction};
 use super::normal::{level_of, NormalEquations, TrackedPoints};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
 use super::tree::{column_of, Leaf, WaveletTree};
@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::basis::{BasisError, BasisValue, CdvBasis, FilterBank};
 use crate::kernel::LevelChoice;
-use crate::reconstruct::{Fit, ReconstructError, SolveReport, Timings};
+use crate::reconstruct::{Fit, SolveReport, Timings};
 use crate::solve::{global_ls, GlobalMethod, GlobalReport};
 
 /// Why the refiner stopped.
@@ -241,16 +241,9 @@ pub(crate) fn evaluate_sparse(
     Ok(blocks.concat())
 }
 
-pub(crate) fn from_reconstruct(e: ReconstructError) -> RefineError {
-    match e {
-        ReconstructError::Basis(b) => RefineError::Basis(b),
-        ReconstructError::Kernel(k) => RefineError::Kernel(k),
-        ReconstructError::Solve(s) => RefineError::Solve(s),
-        other => RefineError::InvalidParameter {
-            name: "reconstruction",
-            value: other.to_string(),
-            fix: "report this as a bug",
-        },
+impl Reconstruction for Refinement {
+    fn values_at(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
+        self.evaluate(xs)
     }
 }
 
@@ -359,13 +352,14 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         if xs.len() > params.budget {
             return Err(RefineError::BudgetBelowBase {
                 budget: params.budget,
-                required: xs.len(),
+                required: xs.len() as u64,
+                fix: format!("raise the budget to at least {}", xs.len()),
             });
         }
         store.add(&xs, oracle, &full, 0)?;
         let sample_s = t0.elapsed().as_secs_f64();
         let mut reference = (params.reference_grid > 0).then(|| {
-            let g = grid(domain, params.reference_grid);
+            let g = domain.uniform_grid(params.reference_grid);
             let truth = g.iter().map(|&x| oracle.sample(x)).collect();
             let ts = g.iter().map(|&x| domain.to_unit(x)).collect();
             (TrackedPoints::new(&full, ts), truth)
@@ -580,26 +574,36 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         if indication.units.is_empty() || below(indication.markable_sq) {
             return Err(StopReason::DepthLimit);
         }
-        // Marks whose new leaves f64 cannot sample are dropped; if nothing else is left,
-        // refinement has reached the resolution of f64.
-        let resolvable: Vec<Unit> = indication
+        // Dörfler's set on every markable unit; of it, the marks whose new leaves f64 cannot
+        // sample are dropped. If none is left, what is left of the error (a fraction `theta`
+        // of it at least) sits below the resolution of f64: refinement stops there.
+        let dorfler = indication.dorfler(params.theta);
+        let resolvable: Vec<bool> = indication
             .units
             .iter()
-            .filter(|u| u.wavelets.iter().all(|&a| self.resolvable(a)))
-            .cloned()
+            .map(|u| u.wavelets.iter().all(|&a| self.resolvable(a)))
             .collect();
-        if resolvable.is_empty() {
+        let wanted_marks = resolvable[..dorfler].iter().filter(|&&r| r).count();
+        if wanted_marks == 0 {
             return Err(StopReason::Resolution);
         }
         let filtered;
-        let indication = if resolvable.len() < indication.units.len() {
+        let indication = if resolvable.iter().all(|&r| r) {
+            indication
+        } else {
             filtered = Indication {
-                units: resolvable,
-                ..indication.clone()
+                units: indication
+                    .units
+                    .iter()
+                    .zip(&resolvable)
+                    .filter(|(_, &r)| r)
+                    .map(|(u, _)| u.clone())
+                    .collect(),
+                total_sq: indication.total_sq,
+                markable_sq: indication.markable_sq,
+                max: indication.max,
             };
             &filtered
-        } else {
-            indication
         };
         if self.round + 1 >= params.max_rounds {
             return Err(StopReason::MaxRounds);
@@ -622,7 +626,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
                 shortfall,
             }
         };
-        let wanted = trial(indication.dorfler(params.theta));
+        let wanted = trial(wanted_marks);
         if wanted.shortfall <= remaining {
             return Ok(wanted);
         }

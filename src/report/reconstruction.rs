@@ -38,10 +38,7 @@ pub struct GridReconstruction {
 
 /// The uniform grid of `points >= 2` points over `domain`, both ends included.
 pub fn uniform_grid(domain: Domain, points: usize) -> Vec<f64> {
-    let last = points.saturating_sub(1).max(1) as f64;
-    (0..points)
-        .map(|i| domain.from_unit(i as f64 / last))
-        .collect()
+    domain.uniform_grid(points)
 }
 
 /// Evaluates `fit` of `samples` on `points` uniform grid points over `domain` and measures
