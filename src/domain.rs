@@ -142,6 +142,27 @@ impl Domain {
         self.a <= x && x <= self.b
     }
 
+    /// The uniform grid of `points` positions `x_g = a + (b - a) g / (G - 1)`, both ends
+    /// included (`a` alone for one point, nothing for none): the crate's one grid for
+    /// plots, outputs and error measurements.
+    ///
+    /// ```
+    /// use rkwave::domain::Domain;
+    ///
+    /// let g = Domain::new(-1.0, 3.0)?.uniform_grid(5);
+    /// assert_eq!(g, vec![-1.0, 0.0, 1.0, 2.0, 3.0]);
+    /// # Ok::<(), rkwave::domain::DomainError>(())
+    /// ```
+    pub fn uniform_grid(&self, points: usize) -> Vec<f64> {
+        (0..points).map(|g| self.grid_point(points, g)).collect()
+    }
+
+    /// Point `g` of [`Domain::uniform_grid`]`(points)`, for grids made block by block.
+    pub fn grid_point(&self, points: usize, g: usize) -> f64 {
+        let last = points.saturating_sub(1).max(1) as f64;
+        self.from_unit(g as f64 / last)
+    }
+
     /// Maps `x` to the unit interval: `(x - a) / (b - a)`.
     ///
     /// `a` maps to exactly `0.0` and `b` to exactly `1.0`, and every `x` in

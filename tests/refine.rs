@@ -8,10 +8,11 @@ use std::process::Command;
 use rkwave::basis::minimum_level;
 use rkwave::kernel::kernel_matrix;
 use rkwave::refine::{
-    refine, ExpressionOracle, Indicator, RefineError, RefineParams, Refiner, SampleOracle,
-    SignalOracle, Step, StopReason,
+    quadrature_error, refine, ExpressionOracle, Indicator, RefineError, RefineParams, Refinement,
+    Refiner, SampleOracle, SignalOracle, Step, StopReason, MAX_DEPTH_LIMIT,
 };
 use rkwave::sampling::{Domain, Layout, Signal};
+use rkwave::solve::dense_pinv;
 
 /// Named seeds.
 const SEED_A: u64 = 7;
@@ -285,7 +286,7 @@ fn bad_input_is_a_clear_error() {
     );
     invalid(
         RefineParams {
-            max_depth: 41,
+            max_depth: 53,
             ..base
         },
         "max depth",
@@ -307,10 +308,13 @@ fn bad_input_is_a_clear_error() {
             ..base
         },
     ) {
-        Err(RefineError::MaxDepthBelowBase {
-            max_depth: 5,
-            base_depth: 6,
-        }) => {}
+        Err(
+            e @ RefineError::MaxDepthBelowBase {
+                max_depth: 5,
+                base_depth: 6,
+                ..
+            },
+        ) => assert!(e.to_string().contains("at least 6"), "{e}"),
         other => panic!("{other:?}"),
     }
     match refine(
@@ -406,4 +410,257 @@ fn adapt_reports_json_and_rejects_bad_input_with_exit_code_2() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.starts_with("error: "), "{bad:?}: {err}");
     }
+}
+
+/// Depth to the last bit: a unit jump at a non-dyadic position on a quadratic background
+/// (reproduced exactly by `p = 3`, so every refinement goes to the jump), depth allowed to 52.
+/// Near `sqrt(2) - 1` an ulp is `2^-54`, so the refiner stops with `Resolution` once a new
+/// leaf's sampling strata would span fewer than 16 ulps (depth 48); near `sqrt(2) / 1000` it
+/// reaches the limit 52. Either way: no NaN; every active function keeps `rho` samples per
+/// leaf of its support (column counts of an independently built `K`); the evaluation agrees
+/// with `K c` at the samples and with the crate's `Fit` evaluator; the quadrature error is
+/// finite and at the size of the unresolved cell (`sqrt(2^-d)`); and the coefficients equal the
+/// dense pseudo-inverse solution on the final `K` (a global SVD) to `1e-7` relative, the
+/// SVD's `cond(K) eps` with `cond(K) <~ 1e7` (a deep tree is as well conditioned as a shallow
+/// one: each level carries `rho` samples per function).
+#[test]
+fn refinement_reaches_the_resolution_of_f64_next_to_a_non_dyadic_jump() {
+    let (a, b) = (
+        std::f64::consts::SQRT_2 - 1.0,
+        std::f64::consts::SQRT_2 / 1000.0,
+    );
+    for (jump, deepest) in [(a, 47), (b, 52)] {
+        let oracle = ExpressionOracle::parse(&format!("x^2 - 2*x - (x > {jump:?})")).unwrap();
+        let params = RefineParams {
+            max_depth: MAX_DEPTH_LIMIT,
+            tolerance: 1e-14,
+            budget: 3000,
+            seed: SEED_A,
+            ..RefineParams::default()
+        };
+        let r = refine(&oracle, &params).unwrap();
+        deep_refinement_checks(&r, &oracle, jump, deepest);
+    }
+}
+
+fn deep_refinement_checks(r: &Refinement, oracle: &ExpressionOracle, jump: f64, deepest: i32) {
+    let depth = r.tree.depth();
+    assert!(depth >= deepest, "depth {depth}, stop {:?}", r.stop);
+    assert!(
+        matches!(r.stop, StopReason::Resolution | StopReason::DepthLimit),
+        "{:?} at depth {depth}",
+        r.stop
+    );
+    assert!(r.coefficients.iter().all(|c| c.is_finite()));
+    // Local oversampling on the final tree.
+    let active = r.tree.active_set().unwrap();
+    let positions: Vec<f64> = r.samples.iter().map(|s| s.x).collect();
+    let k = kernel_matrix(&active, &positions).unwrap();
+    let leaves = r.tree.leaves();
+    let mid: Vec<f64> = leaves
+        .iter()
+        .map(|l| {
+            let (a, b) = l.unit_bounds();
+            0.5 * (a + b)
+        })
+        .collect();
+    for (c, column) in k.to_csc().outer_iterator().enumerate() {
+        let (lo, hi) = r.tree.support_unit(active.global(c));
+        let slots = mid.iter().filter(|&&t| lo <= t && t <= hi).count();
+        assert!(column.nnz() >= 2 * slots, "function {}", active.global(c));
+    }
+    for leaf in &leaves {
+        let count = r.samples.iter().filter(|s| leaf.contains(s.t)).count();
+        assert!(count >= 2, "leaf {leaf:?} holds {count}");
+    }
+    // Kernel and evaluation: K c at the samples is the reconstruction there.
+    let at_samples = r.evaluate(&positions).unwrap();
+    let kc: Vec<f64> = k
+        .outer_iterator()
+        .map(|row| row.iter().map(|(c, v)| v * r.coefficients[c]).sum())
+        .collect();
+    let scale = at_samples.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+    for (i, (a, b)) in at_samples.iter().zip(&kc).enumerate() {
+        assert!(
+            (a - b).abs() <= 1e-12 * scale,
+            "sample {i}: {a} against K c = {b}"
+        );
+    }
+    // Values next to the jump, on both sides, within a few cells of the finest level.
+    let h = (-(depth as f64)).exp2();
+    let xs: Vec<f64> = [-64.0f64, -8.0, 8.0, 64.0, -1e-6, 1e-6, -1e-3, 1e-3]
+        .iter()
+        .map(|&d| jump + if d.abs() < 1.0 { d } else { d * h })
+        .collect();
+    let got = r.evaluate(&xs).unwrap();
+    assert!(got.iter().all(|v| v.is_finite()));
+    let via_fit = r.fit().unwrap().evaluate(&xs).unwrap().swap_remove(0);
+    for (a, b) in got.iter().zip(&via_fit) {
+        assert!((a - b).abs() <= 1e-12 * scale, "{a} against the Fit's {b}");
+    }
+    // Away from the jump the reconstruction follows the signal: within 1e-2 of the unit jump
+    // 8 cells away (the ringing of the unresolved cell decays over the supports), 1e-6 from
+    // 64 cells on.
+    for (i, (x, g)) in xs.iter().zip(&got).enumerate() {
+        let bound = if i == 1 || i == 2 { 1e-2 } else { 1e-6 };
+        let e = (g - oracle.sample(*x)).abs();
+        assert!(e < bound, "x = {x}: {g}, error {e:e}");
+    }
+    // Quadrature on the leaves and the jump: finite, at the size of the unresolved cell.
+    let mut breaks: Vec<f64> = leaves.iter().map(|l| l.unit_bounds().0).collect();
+    breaks.push(jump);
+    let q = quadrature_error(r, oracle, Domain::UNIT, &breaks, 2).unwrap();
+    assert!(q.l2.is_finite() && q.max.is_finite());
+    assert!(q.l2 < 64.0 * h.sqrt(), "L2 {} at depth {depth}", q.l2);
+    let reference = dense_pinv(&k, 1e-14).unwrap();
+    let values: Vec<f64> = r.samples.iter().map(|s| s.value).collect();
+    let reference = reference.apply(&values).unwrap();
+    let scale = reference.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    for (a, (x, y)) in r.coefficients.iter().zip(&reference).enumerate() {
+        assert!(
+            (x - y).abs() <= 1e-7 * scale,
+            "coefficient {a}: {x} against the dense {y}"
+        );
+    }
+}
+
+/// Far from 0 the resolution of `f64` runs out early: on `[1000, 1001]` an ulp is `1.1e-13`,
+/// so leaves below ~`2^-38` cannot hold two distinct positions. The refiner stops with
+/// `Resolution` there (not an error, not a collapsed sample), and every sample is distinct.
+#[test]
+fn refinement_stops_at_the_resolution_of_the_domain() {
+    let domain = Domain::new(1000.0, 1001.0).unwrap();
+    let oracle = ExpressionOracle::parse("x - (x > 1000.3183098861837)").unwrap();
+    let params = RefineParams {
+        domain,
+        max_depth: MAX_DEPTH_LIMIT,
+        tolerance: 1e-14,
+        budget: 3000,
+        seed: SEED_B,
+        ..RefineParams::default()
+    };
+    let r = refine(&oracle, &params).unwrap();
+    assert_eq!(r.stop, StopReason::Resolution, "depth {}", r.tree.depth());
+    let depth = r.tree.depth();
+    assert!((30..=40).contains(&depth), "depth {depth}");
+    let mut xs: Vec<f64> = r.samples.iter().map(|s| s.x).collect();
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    xs.dedup();
+    assert_eq!(xs.len(), n, "samples collapsed onto each other");
+    for leaf in r.tree.leaves() {
+        let count = r.samples.iter().filter(|s| leaf.contains(s.t)).count();
+        assert!(count >= 2, "leaf {leaf:?} holds {count}");
+    }
+    assert!(r.coefficients.iter().all(|c| c.is_finite()));
+}
+
+/// Every way out a depth or budget error names is a real parameter with a value that works:
+/// applying it makes the parameters valid (and never a depth above the limit of 52).
+#[test]
+fn depth_and_budget_hints_name_a_value_that_works() {
+    let base = RefineParams::default();
+    let cases = [
+        RefineParams {
+            coarse: Some(40),
+            max_depth: 40,
+            ..base
+        },
+        RefineParams {
+            coarse: Some(60),
+            max_depth: 52,
+            ..base
+        },
+        RefineParams {
+            coarse: Some(50),
+            max_depth: 40,
+            ..base
+        },
+        RefineParams {
+            base_depth: Some(51),
+            max_depth: 52,
+            ..base
+        },
+        RefineParams {
+            base_depth: Some(30),
+            max_depth: 20,
+            ..base
+        },
+        RefineParams {
+            base_samples: 100_000,
+            max_depth: 8,
+            ..base
+        },
+        RefineParams {
+            base_samples: 5000,
+            budget: 1000,
+            ..base
+        },
+        RefineParams { budget: 10, ..base },
+    ];
+    for bad in cases {
+        let err = bad.validate().expect_err("invalid");
+        let text = err.to_string();
+        let number = |key: &str| -> Option<u64> {
+            let rest = &text[text.find(key)? + key.len()..];
+            let digits: String = rest
+                .trim_start()
+                .chars()
+                .take_while(|c| c.is_ascii_digit())
+                .collect();
+            digits.parse().ok()
+        };
+        let fixed = if let Some(v) = number("raise the max depth to at least") {
+            assert!(v <= u64::from(MAX_DEPTH_LIMIT), "{text}");
+            RefineParams {
+                max_depth: v as u32,
+                ..bad
+            }
+        } else if let Some(v) = number("lower the coarse level n to at most") {
+            RefineParams {
+                coarse: Some(v as u32),
+                ..bad
+            }
+        } else if let Some(v) = number("lower the base depth to at most") {
+            RefineParams {
+                base_depth: Some(v as u32),
+                ..bad
+            }
+        } else if let Some(v) = number("lower the base samples to at most") {
+            RefineParams {
+                base_samples: v as usize,
+                ..bad
+            }
+        } else if let Some(v) = number("raise the budget to at least") {
+            RefineParams {
+                budget: v as usize,
+                ..bad
+            }
+        } else {
+            panic!("no parameter and value in: {text}");
+        };
+        fixed
+            .validate()
+            .unwrap_or_else(|e| panic!("{text}\n  applied, still: {e}"));
+    }
+}
+
+/// `rkwave adapt --coarse 40 --max-depth 40` is refused before anything of size `2^40` is
+/// allocated: exit 2 with a message naming the coarse level and a value that works.
+#[test]
+fn adapt_refuses_a_base_tree_above_the_budget_up_front() {
+    let out = rkwave(&[
+        "adapt",
+        "--signal",
+        "jumps",
+        "--coarse",
+        "40",
+        "--max-depth",
+        "40",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(err.contains("coarse level n to at most 14"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
 }

@@ -414,7 +414,12 @@ fn guard_uniform(
 
 /// The fewest samples in the support of any function of `V_level` (windows of `2p - 1`
 /// cells of width `2^-level`, and the `p` cells at each end).
-fn min_support_samples(positions: &[f64], domain: Domain, level: u32, p: usize) -> usize {
+pub(crate) fn min_support_samples(
+    positions: &[f64],
+    domain: Domain,
+    level: u32,
+    p: usize,
+) -> usize {
     let cells = 1usize << level;
     let mut counts = vec![0usize; cells];
     for &x in positions {

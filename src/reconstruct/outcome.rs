@@ -70,6 +70,27 @@ pub enum Fallback {
         /// Single-scale functions without a sample in their support.
         unsampled: usize,
     },
+    /// Automatic levels on strongly non-uniform samples: an adaptive tree whose local depth
+    /// follows the local sample count replaced the uniform levels
+    /// (`crate::refine::density`), solved by global least squares.
+    DensityTree {
+        /// Coarse scaling level of the tree.
+        coarse: u32,
+        /// Finest wavelet level of the tree.
+        fine: u32,
+        /// Active functions.
+        functions: usize,
+        /// Leaves (local slots) of the tree.
+        leaves: usize,
+        /// Ridge the solve added on numerically singular directions (0 = none).
+        ridge: f64,
+        /// Functions of the tree left out (coefficient 0): less than half of their mass
+        /// `int Psi^2` lies where samples are.
+        unseen: usize,
+        /// Sample-free intervals `[a, b]` (between the neighbouring samples) holding a whole
+        /// leaf without samples: the reconstruction there is the coarse functions' bridge.
+        empty: Vec<[f64; 2]>,
+    },
 }
 
 impl fmt::Display for Fallback {
@@ -88,6 +109,43 @@ impl fmt::Display for Fallback {
                 "single-scale normal equations have {deficient} undetermined directions \
                  ({unsampled} functions without samples): local inversion used instead"
             ),
+            Self::DensityTree {
+                coarse,
+                fine,
+                functions,
+                leaves,
+                ridge,
+                unseen,
+                empty,
+            } => {
+                write!(
+                    f,
+                    "sample density is strongly non-uniform: adaptive tree on levels \
+                     {coarse}..{fine} ({functions} functions, {leaves} leaves, local depth \
+                     following the sample count) instead of uniform levels"
+                )?;
+                if *unseen > 0 {
+                    write!(f, ", {unseen} functions the samples do not see left out")?;
+                }
+                if *ridge > 0.0 {
+                    write!(f, ", ridge {ridge:e} on singular directions")?;
+                }
+                if !empty.is_empty() {
+                    let list: Vec<String> = empty
+                        .iter()
+                        .map(|r| format!("[{}, {}]", significant(r[0]), significant(r[1])))
+                        .collect();
+                    write!(f, "; no samples in {}", list.join(", "))?;
+                }
+                Ok(())
+            }
         }
     }
+}
+
+/// `x` rounded to 6 significant digits, printed shortest.
+fn significant(x: f64) -> String {
+    format!("{x:.5e}")
+        .parse::<f64>()
+        .map_or_else(|_| x.to_string(), |v| v.to_string())
 }

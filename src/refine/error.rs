@@ -4,6 +4,7 @@ use thiserror::Error;
 
 use crate::basis::BasisError;
 use crate::kernel::KernelError;
+use crate::reconstruct::ReconstructError;
 use crate::solve::SolveError;
 
 /// Everything that can go wrong in `crate::refine`.
@@ -21,26 +22,24 @@ pub enum RefineError {
         fix: &'static str,
     },
     /// The depth limit is below the base tree.
-    #[error(
-        "max depth {max_depth} is below the base depth {base_depth}: raise the max depth to at \
-         least {base_depth} or give fewer base samples"
-    )]
+    #[error("max depth {max_depth} is below the base depth {base_depth}: {fix}")]
     MaxDepthBelowBase {
         /// The requested depth limit.
         max_depth: u32,
         /// The depth of the base tree.
         base_depth: u32,
+        /// A parameter and a value that work (never a depth above the limit of 52).
+        fix: String,
     },
     /// The base sampling alone needs more samples than the budget.
-    #[error(
-        "the base sampling needs {required} samples but the budget is {budget}: raise the \
-         budget or lower the base samples (or the base depth)"
-    )]
+    #[error("the base sampling needs {required} samples but the budget is {budget}: {fix}")]
     BudgetBelowBase {
         /// The budget.
         budget: usize,
-        /// Samples the base tree needs.
-        required: usize,
+        /// Samples the base tree needs (at least).
+        required: u64,
+        /// A parameter and a value that work.
+        fix: String,
     },
     /// The oracle returned NaN or an infinity.
     #[error("the signal is not finite at x = {x} (value {value}): fix the signal or the domain")]
@@ -70,4 +69,7 @@ pub enum RefineError {
     /// The least-squares solve.
     #[error(transparent)]
     Solve(#[from] SolveError),
+    /// A reconstruction the refiner measured or converted.
+    #[error(transparent)]
+    Reconstruct(#[from] ReconstructError),
 }

@@ -4,13 +4,12 @@
 
 use serde::Serialize;
 
-use super::refiner::from_reconstruct;
-use super::{RefineError, Refinement, SampleOracle};
+use super::{RefineError, SampleOracle};
 use crate::reconstruct::Fit;
-use crate::sampling::{Domain, Layout};
+use crate::sampling::Domain;
 
-/// A reconstruction that can be evaluated at domain positions: a uniform [`Fit`] (its first
-/// channel) or an adaptive [`Refinement`].
+/// A reconstruction that can be evaluated at domain positions: a [`Fit`] (its first channel)
+/// or an adaptive [`crate::refine::Refinement`]. Measurement knows nothing else of them.
 pub trait Reconstruction {
     /// `f~(x)` at every `x` of `xs`.
     fn values_at(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError>;
@@ -18,14 +17,8 @@ pub trait Reconstruction {
 
 impl Reconstruction for Fit {
     fn values_at(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
-        let mut v = self.evaluate(xs).map_err(from_reconstruct)?;
+        let mut v = self.evaluate(xs)?;
         Ok(v.swap_remove(0))
-    }
-}
-
-impl Reconstruction for Refinement {
-    fn values_at(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
-        self.evaluate(xs)
     }
 }
 
@@ -41,19 +34,15 @@ pub struct ErrorFigures {
     pub points: usize,
 }
 
-/// Midpoints `a + (i + 1/2) (b - a) / points` of a uniform grid.
-pub(crate) fn grid(domain: Domain, points: usize) -> Vec<f64> {
-    Layout::Uniform.generate(points, domain, 0)
-}
-
-/// Error of `fit` against `oracle` at the midpoints of a uniform grid of `points` cells.
+/// Error of `fit` against `oracle` on the uniform grid of `points` positions (both ends
+/// included, [`Domain::uniform_grid`]).
 pub fn grid_error<R: Reconstruction + ?Sized, O: SampleOracle + ?Sized>(
     fit: &R,
     oracle: &O,
     domain: Domain,
     points: usize,
 ) -> Result<ErrorFigures, RefineError> {
-    let xs = grid(domain, points.max(1));
+    let xs = domain.uniform_grid(points.max(1));
     let truth: Vec<f64> = xs.iter().map(|&x| oracle.sample(x)).collect();
     error_against(fit, &xs, &truth)
 }

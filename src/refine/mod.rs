@@ -52,7 +52,9 @@
 //! # Ok::<(), rkwave::refine::RefineError>(())
 //! ```
 
+pub mod density;
 mod error;
+pub mod experiment;
 mod indicator;
 mod measure;
 mod normal;

@@ -7,10 +7,11 @@ use crate::basis::{minimum_level, FilterFamily, MAX_VANISHING_MOMENTS};
 use crate::sampling::{Domain, Layout};
 use crate::solve::GlobalLsParams;
 
-/// Deepest wavelet level the refiner accepts. Positions are `f64`: a level-40 leaf of the unit
-/// interval is `9e-13` wide, still ~4000 ulps near 1; every sample caches the values of its
-/// `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
-pub const MAX_DEPTH_LIMIT: u32 = 40;
+/// Deepest wavelet level the refiner accepts: a level-52 leaf of the unit interval is
+/// `2^-52`, two ulps near 1, so the resolution of `f64` ends the refinement before (stop
+/// reason `Resolution`: near `t = 0.6` at depth ~48, nearer to 0 deeper). Every sample caches
+/// the values of its `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
+pub const MAX_DEPTH_LIMIT: u32 = 52;
 
 /// How the refiner decides where the signal is not yet resolved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -131,11 +132,72 @@ impl RefineParams {
         self.base_depth.unwrap_or_else(|| {
             let need = self.per_leaf() as f64;
             let mut d = n;
-            while d < 40 && need * 2f64.powi(d as i32 + 2) <= self.base_samples as f64 {
+            while d < MAX_DEPTH_LIMIT && need * 2f64.powi(d as i32 + 2) <= self.base_samples as f64
+            {
                 d += 1;
             }
             d
         })
+    }
+
+    /// Samples the leaves of a uniform base tree of depth `depth` need at the least:
+    /// `ceil(rho) 2^{depth + 1}` (as `f64`: no overflow at any depth).
+    pub fn base_leaf_samples(&self, depth: u32) -> f64 {
+        self.per_leaf() as f64 * 2f64.powi(depth as i32 + 1)
+    }
+
+    /// The way out of a max depth below the base depth: a value that works.
+    fn depth_fix(&self, base: u32) -> String {
+        if base <= MAX_DEPTH_LIMIT {
+            let mut fix = format!("raise the max depth to at least {base}");
+            if self.base_depth.is_none() && self.coarse() <= self.max_depth {
+                // The base depth came from the base samples: fewer make it shallower.
+                let most = self.base_leaf_samples(self.max_depth) * 2.0 - 1.0;
+                fix.push_str(&format!(" or give at most {most} base samples"));
+            }
+            fix
+        } else if self.base_depth.is_some() && self.coarse() <= self.max_depth {
+            format!("lower the base depth to at most {}", self.max_depth)
+        } else {
+            format!(
+                "lower the coarse level n to at most {}",
+                self.max_depth.min(MAX_DEPTH_LIMIT)
+            )
+        }
+    }
+
+    /// The way out of a base sampling above the budget: a value that works.
+    fn budget_fix(&self, base: u32) -> String {
+        let n = self.coarse();
+        let jmin = minimum_level(self.p.clamp(1, MAX_VANISHING_MOMENTS));
+        let budget = self.budget as f64;
+        if self.base_leaf_samples(n) > budget {
+            // Even the coarsest base tree this coarse level allows does not fit.
+            let fits = (jmin..n)
+                .rev()
+                .find(|&c| self.base_leaf_samples(c) <= budget);
+            return match fits {
+                Some(c) => format!("lower the coarse level n to at most {c}"),
+                None => format!(
+                    "raise the budget to at least {}",
+                    self.base_leaf_samples(jmin).max(self.base_samples as f64)
+                ),
+            };
+        }
+        if self.base_samples > self.budget {
+            return format!("lower the base samples to at most {}", self.budget);
+        }
+        // A given base depth too deep for the budget.
+        let fits = (n..base)
+            .rev()
+            .find(|&d| self.base_leaf_samples(d) <= budget);
+        match fits {
+            Some(d) => format!("lower the base depth to at most {d}"),
+            None => format!(
+                "raise the budget to at least {}",
+                self.base_leaf_samples(base)
+            ),
+        }
     }
 
     /// Checks every range; called by the refiner.
@@ -193,17 +255,29 @@ impl RefineParams {
             return bad(
                 "max depth",
                 self.max_depth.to_string(),
-                "choose a depth limit of at most 40",
+                "choose a depth limit of at most 52 (MAX_DEPTH_LIMIT)",
             );
         }
+        let n = self.coarse();
         let base = self.base_depth();
+        // The base tree has 2^{base+1} leaves of ceil(rho) samples each: refused here, before
+        // a tree or a sample of that size is allocated.
+        let required = self.base_leaf_samples(base);
+        if required > self.budget as f64 || self.base_samples > self.budget {
+            return Err(RefineError::BudgetBelowBase {
+                budget: self.budget,
+                required: required.max(self.base_samples as f64).min(u64::MAX as f64) as u64,
+                fix: self.budget_fix(base),
+            });
+        }
         if self.max_depth < base {
             return Err(RefineError::MaxDepthBelowBase {
                 max_depth: self.max_depth,
                 base_depth: base,
+                fix: self.depth_fix(base),
             });
         }
-        if base < self.coarse() {
+        if base < n {
             return bad(
                 "base depth",
                 base.to_string(),

@@ -9,7 +9,7 @@ use serde::Serialize;
 use sprs::CsMat;
 
 use super::indicator::{coefficient_indication, residual_indication, Indication};
-use super::measure::{grid, ErrorFigures};
+use super::measure::{ErrorFigures, Reconstruction};
 use super::normal::{level_of, NormalEquations, TrackedPoints};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
 use super::tree::{column_of, Leaf, WaveletTree};
@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::basis::{BasisError, BasisValue, CdvBasis, FilterBank};
 use crate::kernel::LevelChoice;
-use crate::reconstruct::{Fit, ReconstructError, SolveReport, Timings};
+use crate::reconstruct::{Fit, SolveReport, Timings};
 use crate::solve::{global_ls, GlobalMethod, GlobalReport};
 
 /// Why the refiner stopped.
@@ -31,6 +31,9 @@ pub enum StopReason {
     DepthLimit,
     /// The next marked refinement would exceed the sample budget.
     Budget,
+    /// What is left of the estimated error sits where a deeper leaf could not hold `ceil(rho)`
+    /// distinct `f64` positions (the resolution of `f64` near that position).
+    Resolution,
     /// The safety limit on rounds.
     MaxRounds,
 }
@@ -198,6 +201,10 @@ impl Refinement {
 /// Samples per parallel evaluation work item.
 const CHUNK: usize = 4096;
 
+/// Ulps a sampling stratum of a new leaf must span (jittered points in the middle 80 % of
+/// the stratum stay distinct and inside their leaf after the domain map).
+const RESOLUTION_ULPS: f64 = 16.0;
+
 /// `sum_c coefficients[c] Psi_{columns[c]}(x)` for every `x` of `xs`, `basis` holding them all.
 pub(crate) fn evaluate_sparse(
     basis: &CdvBasis,
@@ -234,16 +241,9 @@ pub(crate) fn evaluate_sparse(
     Ok(blocks.concat())
 }
 
-pub(crate) fn from_reconstruct(e: ReconstructError) -> RefineError {
-    match e {
-        ReconstructError::Basis(b) => RefineError::Basis(b),
-        ReconstructError::Kernel(k) => RefineError::Kernel(k),
-        ReconstructError::Solve(s) => RefineError::Solve(s),
-        other => RefineError::InvalidParameter {
-            name: "reconstruction",
-            value: other.to_string(),
-            fix: "report this as a bug",
-        },
+impl Reconstruction for Refinement {
+    fn values_at(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
+        self.evaluate(xs)
     }
 }
 
@@ -352,13 +352,14 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         if xs.len() > params.budget {
             return Err(RefineError::BudgetBelowBase {
                 budget: params.budget,
-                required: xs.len(),
+                required: xs.len() as u64,
+                fix: format!("raise the budget to at least {}", xs.len()),
             });
         }
         store.add(&xs, oracle, &full, 0)?;
         let sample_s = t0.elapsed().as_secs_f64();
         let mut reference = (params.reference_grid > 0).then(|| {
-            let g = grid(domain, params.reference_grid);
+            let g = domain.uniform_grid(params.reference_grid);
             let truth = g.iter().map(|&x| oracle.sample(x)).collect();
             let ts = g.iter().map(|&x| domain.to_unit(x)).collect();
             (TrackedPoints::new(&full, ts), truth)
@@ -573,6 +574,37 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         if indication.units.is_empty() || below(indication.markable_sq) {
             return Err(StopReason::DepthLimit);
         }
+        // Dörfler's set on every markable unit; of it, the marks whose new leaves f64 cannot
+        // sample are dropped. If none is left, what is left of the error (a fraction `theta`
+        // of it at least) sits below the resolution of f64: refinement stops there.
+        let dorfler = indication.dorfler(params.theta);
+        let resolvable: Vec<bool> = indication
+            .units
+            .iter()
+            .map(|u| u.wavelets.iter().all(|&a| self.resolvable(a)))
+            .collect();
+        let wanted_marks = resolvable[..dorfler].iter().filter(|&&r| r).count();
+        if wanted_marks == 0 {
+            return Err(StopReason::Resolution);
+        }
+        let filtered;
+        let indication = if resolvable.iter().all(|&r| r) {
+            indication
+        } else {
+            filtered = Indication {
+                units: indication
+                    .units
+                    .iter()
+                    .zip(&resolvable)
+                    .filter(|(_, &r)| r)
+                    .map(|(u, _)| u.clone())
+                    .collect(),
+                total_sq: indication.total_sq,
+                markable_sq: indication.markable_sq,
+                max: indication.max,
+            };
+            &filtered
+        };
         if self.round + 1 >= params.max_rounds {
             return Err(StopReason::MaxRounds);
         }
@@ -594,7 +626,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
                 shortfall,
             }
         };
-        let wanted = trial(indication.dorfler(params.theta));
+        let wanted = trial(wanted_marks);
         if wanted.shortfall <= remaining {
             return Ok(wanted);
         }
@@ -612,6 +644,22 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             return Err(StopReason::Budget);
         }
         Ok(trial(lo))
+    }
+
+    /// Whether the leaves that wavelet `a` (level `j`) creates, cells of level `j + 1`, can
+    /// hold `ceil(rho)` samples in distinct strata: a stratum `2^-(j+1) / ceil(rho)` wide must
+    /// span at least [`RESOLUTION_ULPS`] ulps of the positions there, in unit coordinates and
+    /// in the domain.
+    fn resolvable(&self, a: usize) -> bool {
+        let (level, _, _) = self.tree.support(a);
+        let (lo, hi) = self.tree.support_unit(a);
+        let domain = self.params.domain;
+        let stratum = (-(level as f64 + 1.0)).exp2() / self.params.per_leaf() as f64;
+        let ulp = |v: f64| v.abs().max(f64::MIN_POSITIVE) * f64::EPSILON;
+        let unit_ulp = ulp(lo).max(ulp(hi.min(1.0)));
+        let domain_ulp = ulp(domain.from_unit(lo)).max(ulp(domain.from_unit(hi.min(1.0))));
+        stratum >= RESOLUTION_ULPS * unit_ulp
+            && stratum * domain.length() >= RESOLUTION_ULPS * domain_ulp
     }
 
     /// Brings every leaf to `ceil(rho)` samples and refits (the next round).

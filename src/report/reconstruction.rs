@@ -42,19 +42,6 @@ pub struct GridReconstruction {
 /// evaluator's parallel dispatch, small enough (a few MB) never to hold the grid.
 pub const GRID_BLOCK: usize = 1 << 16;
 
-/// The point `x_g = a + (b - a) g / (G - 1)` of the uniform grid of `points` points over
-/// `domain` (both ends included; a single point sits at `a`).
-pub fn grid_point(domain: Domain, points: usize, g: usize) -> f64 {
-    let last = points.saturating_sub(1).max(1) as f64;
-    domain.from_unit(g as f64 / last)
-}
-
-/// The uniform grid of `points >= 2` points over `domain`, both ends included
-/// (see [`grid_point`]).
-pub fn uniform_grid(domain: Domain, points: usize) -> Vec<f64> {
-    (0..points).map(|g| grid_point(domain, points, g)).collect()
-}
-
 /// Evaluates `fit` (made from `samples`: their residual may come from the fit's own solve)
 /// on `points` uniform grid points over `domain`, handing the
 /// positions and values (one vector per channel) to `sink` block by block of
@@ -76,7 +63,7 @@ where
     for start in (0..points).step_by(GRID_BLOCK) {
         let t = std::time::Instant::now();
         let xs: Vec<f64> = (start..(start + GRID_BLOCK).min(points))
-            .map(|g| grid_point(domain, points, g))
+            .map(|g| domain.grid_point(points, g))
             .collect();
         let values = evaluator.evaluate(&xs)?;
         evaluate_s += t.elapsed().as_secs_f64();

@@ -14,7 +14,6 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::reconstruction::uniform_grid;
 use super::rms;
 use crate::reconstruct::{fit, FitParams, Method, ReconstructError};
 use crate::sampling::{Domain, Layout, Signal};
@@ -194,7 +193,7 @@ pub fn scaling_run(setting: &ScalingSetting) -> Result<ScalingRow, ScalingError>
         method: setting.method.method(),
         ..FitParams::default()
     };
-    let grid = uniform_grid(domain, setting.grid);
+    let grid = domain.uniform_grid(setting.grid);
     let t = Instant::now();
     let fitted = fit(&xs, &refs, domain, &params)?;
     let t_eval = Instant::now();

@@ -1,6 +1,6 @@
 //! Tests of the experiments: each report agrees with the direct computation it summarises.
 
-use super::reconstruction::{onto_grid, uniform_grid, PerChannel};
+use super::reconstruction::{onto_grid, PerChannel};
 use super::scaling::{scaling_run, ScalingMethod, ScalingSetting, SCALING_SIGNALS};
 use super::sweep::{sweep, sweep_points, Knob, SweepCsvRow, SweepKnobs};
 use super::{local_vs_global, rms, ReportSetting};
@@ -175,7 +175,7 @@ fn scaling_rms_matches_a_direct_fit() {
     assert_eq!(row.functions, direct.active.len());
     assert_eq!(row.levels, (direct.levels.coarse, direct.levels.fine));
     assert_eq!(row.method, ScalingMethod::Single);
-    let uni = uniform_grid(domain, 1001);
+    let uni = domain.uniform_grid(1001);
     assert_eq!(uni.len(), grid.len());
     assert!(uni.iter().zip(&grid).all(|(a, b)| (a - b).abs() <= 1e-15));
 }
@@ -231,7 +231,7 @@ fn reconstruction_onto_grid_reproduces_polynomials() {
     })
     .unwrap();
     assert_eq!(rec.points, 31);
-    assert_eq!(xs_seen, uniform_grid(domain, 31));
+    assert_eq!(xs_seen, domain.uniform_grid(31));
     assert_eq!(xs_seen.first(), Some(&-1.0));
     assert_eq!(xs_seen.last(), Some(&2.0));
     for r in &rec.residual_rms {
