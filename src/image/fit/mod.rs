@@ -44,9 +44,12 @@ pub struct ImageFitParams {
     /// Vanishing moments `p`: 2 costs `(2p - 1)^4 / 2 = 41` updates per sample, 3 costs 313
     /// and reproduces quadratics.
     pub p: usize,
-    /// Interior filter family.
+    /// Interior filter family; `None` is CDV's choice for `p`
+    /// ([`FilterFamily::cdv_default`]: extremal phase for `p <= 3`, least asymmetric above),
+    /// resolved by [`ImageFitParams::family`] as [`crate::reconstruct::FitParams::family`]
+    /// does in 1D.
     #[serde(skip)]
-    pub family: FilterFamily,
+    pub family: Option<FilterFamily>,
     /// Levels per axis.
     pub levels: ImageLevels,
     /// The solver of the normal equations.
@@ -59,11 +62,19 @@ pub struct ImageFitParams {
     pub ridge: f64,
 }
 
+impl ImageFitParams {
+    /// The interior filter family: the given one, or CDV's choice for `p`.
+    pub fn family(&self) -> FilterFamily {
+        self.family
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
+    }
+}
+
 impl Default for ImageFitParams {
     fn default() -> Self {
         Self {
             p: 2,
-            family: FilterFamily::cdv_default(2),
+            family: None,
             levels: ImageLevels::Auto(TensorLevelParams::default()),
             solver: NormalSolver::Cholesky,
             ordering: FillOrdering::default(),
@@ -164,6 +175,8 @@ pub struct ImageSolveReport {
     pub ridge: f64,
     /// Functions with no sample in their support (coefficient pinned to 0).
     pub unsampled: usize,
+    /// Where the pinned functions are (`None` when every function has a sample).
+    pub pinned: Option<PinnedRegion>,
     /// Functions with fewer than `(2p - 1)^2` samples (fewer than their own neighbours).
     pub undersampled: usize,
     /// Cholesky facts (Cholesky solver).
@@ -174,6 +187,51 @@ pub struct ImageSolveReport {
     pub local: Option<crate::solve::LocalStats>,
     /// Stage times.
     pub timings: ImageTimings,
+}
+
+/// Where the unsampled (pinned) functions lie. Single-scale function `(kx, ky)` is placed at
+/// its cell `[kx W / nx, (kx + 1) W / nx] x [ky H / ny, (ky + 1) H / ny]` (pixel units; its
+/// support is `2p - 1` cells wide around it); the reconstruction is 0 there, not a coarser
+/// fit.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PinnedRegion {
+    /// Total area of the pinned functions' cells, in pixels.
+    pub area_px: f64,
+    /// That area over the image's `W H`.
+    pub fraction: f64,
+    /// Bounding box of the pinned cells, `[x0, x1]` (pixels).
+    pub x: (f64, f64),
+    /// Bounding box of the pinned cells, `[y0, y1]` (pixels).
+    pub y: (f64, f64),
+}
+
+impl PinnedRegion {
+    /// The region of the functions with `support_samples[ky nx + kx] == 0`, or `None`.
+    pub fn of(
+        support_samples: &[u32],
+        dims: (usize, usize),
+        width: usize,
+        height: usize,
+    ) -> Option<Self> {
+        let (nx, ny) = dims;
+        let (cw, ch) = (width as f64 / nx as f64, height as f64 / ny as f64);
+        let mut count = 0usize;
+        let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);
+        for (k, _) in support_samples.iter().enumerate().filter(|(_, &c)| c == 0) {
+            let (kx, ky) = (k % nx, k / nx);
+            count += 1;
+            x0 = x0.min(kx);
+            x1 = x1.max(kx);
+            y0 = y0.min(ky);
+            y1 = y1.max(ky);
+        }
+        (count > 0).then(|| Self {
+            area_px: count as f64 * cw * ch,
+            fraction: count as f64 / (nx * ny) as f64,
+            x: (x0 as f64 * cw, (x1 + 1) as f64 * cw),
+            y: (y0 as f64 * ch, (y1 + 1) as f64 * ch),
+        })
+    }
 }
 
 /// A fitted image: the reconstruction as a function on `[0, W] x [0, H]`.
@@ -260,10 +318,10 @@ pub fn fit_image(
     check_input(width, height, xs, ys, values)?;
     let basis = match params.levels {
         ImageLevels::Auto(lp) => {
-            TensorBasis::auto(params.p, params.family, width, height, xs.len(), lp)?
+            TensorBasis::auto(params.p, params.family(), width, height, xs.len(), lp)?
         }
         ImageLevels::Fixed(jx, jy) => {
-            TensorBasis::new(params.p, params.family, width, height, (jx, jy))?
+            TensorBasis::new(params.p, params.family(), width, height, (jx, jy))?
         }
     };
     let mut timings = ImageTimings::default();
@@ -275,6 +333,7 @@ pub fn fit_image(
     timings.accumulate_s = t.elapsed().as_secs_f64();
     let full = (2 * params.p - 1).pow(2) as u32;
     let unsampled = ne.support_samples.iter().filter(|&&c| c == 0).count();
+    let pinned = PinnedRegion::of(&ne.support_samples, basis.dims(), width, height);
     let undersampled = ne.support_samples.iter().filter(|&&c| c < full).count();
     let normal_nnz = pattern.nnz();
     let mut system = NormalSystem::new(pattern, ne.values, params.ridge);
@@ -357,6 +416,7 @@ pub fn fit_image(
         solver: params.solver,
         ridge: system.ridge(),
         unsampled,
+        pinned,
         undersampled,
         factor,
         cg,
