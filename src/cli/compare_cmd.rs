@@ -53,6 +53,10 @@ pub struct CompareArgs {
     /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
     #[arg(long, default_value_t = 1e-9)]
     pub ridge: f64,
+    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
+    /// (0: the least-squares fit).
+    #[arg(long, default_value_t = 0.0)]
+    pub smoothing: f64,
     /// Seed of positions and noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -118,6 +122,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         pixel_filter: None,
         rho: check_rho(args.rho)?,
         ridge: check_ridge(args.ridge)?,
+        smoothing: args.smoothing,
     };
     let truth = TruthParams {
         rate: args.truth_rate,

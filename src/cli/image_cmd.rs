@@ -52,6 +52,10 @@ pub struct ImageArgs {
     /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
     #[arg(long, default_value_t = 1e-9)]
     pub ridge: f64,
+    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
+    /// (0: the least-squares fit).
+    #[arg(long, default_value_t = 0.0)]
+    pub smoothing: f64,
     /// Seed of positions and noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -217,6 +221,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         pixel_filter,
         rho: check_rho(args.rho)?,
         ridge: check_ridge(args.ridge)?,
+        smoothing: args.smoothing,
     };
     let truth = TruthParams {
         rate: args.truth_rate,

@@ -127,6 +127,10 @@ pub struct WaveletParams {
     /// `1e-9` guards undetermined directions and leaves the least-squares fit unchanged to
     /// about that relative size; larger values shrink weakly determined coefficients.
     pub ridge: f64,
+    /// Relative weight of the first-difference penalty on neighbouring coefficients
+    /// ([`crate::image::fit::ImageFitParams::smoothing`]); 0, the least-squares fit, by
+    /// default.
+    pub smoothing: f64,
 }
 
 impl Default for WaveletParams {
@@ -136,6 +140,7 @@ impl Default for WaveletParams {
             pixel_filter: None,
             rho: crate::basis::tensor::TensorLevelParams::default().rho,
             ridge: 1e-9,
+            smoothing: 0.0,
         }
     }
 }

@@ -60,6 +60,14 @@ pub struct ImageFitParams {
     /// of directions the samples barely determine (`~ 1 / (2 sqrt(lambda))`) at a bias of
     /// about `lambda / sigma^2` on well-determined ones; 0 for the exact least squares.
     pub ridge: f64,
+    /// Weight `mu` of a first-difference penalty on the single-scale coefficients,
+    /// `mu gbar sum (z_k - z_k')^2` over horizontally and vertically adjacent functions
+    /// (`gbar` the mean diagonal of `G`, so `mu` is relative): `G + mu gbar L` with `L` the
+    /// grid Laplacian of the coefficients. 0 (the default) is the least-squares fit; `> 0`
+    /// damps oscillation between neighbours (ringing at edges, noise) and fills unsampled
+    /// functions from their neighbours instead of pinning them to 0. Needs `p >= 2`
+    /// (neighbouring functions must overlap).
+    pub smoothing: f64,
 }
 
 impl ImageFitParams {
@@ -79,6 +87,7 @@ impl Default for ImageFitParams {
             solver: NormalSolver::Cholesky,
             ordering: FillOrdering::default(),
             ridge: 1e-9,
+            smoothing: 0.0,
         }
     }
 }
@@ -136,6 +145,17 @@ pub enum ImageFitError {
     /// The solve failed (an internal error or an impossible system).
     #[error("the 2D normal equations could not be solved: {0}")]
     Solve(String),
+    /// A smoothing penalty with `p = 1` (Haar functions do not overlap) or not finite.
+    #[error(
+        "smoothing {smoothing} with p = {p}: the first-difference penalty needs p >= 2 and a \
+         finite weight >= 0; use p >= 2 or smoothing 0"
+    )]
+    Smoothing {
+        /// The weight given.
+        smoothing: f64,
+        /// Vanishing moments.
+        p: usize,
+    },
     /// Local inversion (preconditioner) failed.
     #[error(transparent)]
     Local(#[from] SolveError),
@@ -173,6 +193,8 @@ pub struct ImageSolveReport {
     pub solver: NormalSolver,
     /// Relative ridge used.
     pub ridge: f64,
+    /// Relative weight of the first-difference penalty (0: none).
+    pub smoothing: f64,
     /// Functions with no sample in their support (coefficient pinned to 0).
     pub unsampled: usize,
     /// Where the pinned functions are (`None` when every function has a sample).
@@ -191,8 +213,9 @@ pub struct ImageSolveReport {
 
 /// Where the unsampled (pinned) functions lie. Single-scale function `(kx, ky)` is placed at
 /// its cell `[kx W / nx, (kx + 1) W / nx] x [ky H / ny, (ky + 1) H / ny]` (pixel units; its
-/// support is `2p - 1` cells wide around it); the reconstruction is 0 there, not a coarser
-/// fit.
+/// support is `2p - 1` cells wide around it); the reconstruction is 0 there (not a coarser
+/// fit) unless a smoothing penalty fills them from their neighbours
+/// ([`ImageFitParams::smoothing`]).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct PinnedRegion {
     /// Total area of the pinned functions' cells, in pixels.
@@ -329,7 +352,16 @@ pub fn fit_image(
     let pattern = StencilPattern::new(&basis);
     timings.pattern_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let ne = normal::accumulate(&basis, &pattern, xs, ys, values);
+    let mut ne = normal::accumulate(&basis, &pattern, xs, ys, values);
+    if params.smoothing != 0.0 {
+        if !(params.smoothing.is_finite() && params.smoothing > 0.0) || params.p < 2 {
+            return Err(ImageFitError::Smoothing {
+                smoothing: params.smoothing,
+                p: params.p,
+            });
+        }
+        add_difference_penalty(&pattern, &mut ne.values, basis.dims(), params.smoothing);
+    }
     timings.accumulate_s = t.elapsed().as_secs_f64();
     let full = (2 * params.p - 1).pow(2) as u32;
     let unsampled = ne.support_samples.iter().filter(|&&c| c == 0).count();
@@ -415,6 +447,7 @@ pub fn fit_image(
         normal_nnz,
         solver: params.solver,
         ridge: system.ridge(),
+        smoothing: params.smoothing,
         unsampled,
         pinned,
         undersampled,
@@ -430,6 +463,30 @@ pub fn fit_image(
         system: Arc::new(system),
         params: *params,
     })
+}
+
+/// Adds `mu gbar L` to `G` on its pattern (`L` the Laplacian of the `nx x ny` coefficient
+/// grid: `c^T L c = sum (c_k - c_k')^2` over adjacent pairs; `gbar` the mean diagonal of `G`).
+fn add_difference_penalty(pattern: &StencilPattern, g: &mut [f64], dims: (usize, usize), mu: f64) {
+    let (nx, ny) = dims;
+    let n = nx * ny;
+    let gbar = (0..n).map(|j| g[pattern.col_ptr[j]]).sum::<f64>() / n as f64;
+    let s = mu * gbar;
+    let mut pair = |ky: usize, kx: usize, ky2: usize, kx2: usize| {
+        g[pattern.offset(ky, kx, ky, kx)] += s;
+        g[pattern.offset(ky2, kx2, ky2, kx2)] += s;
+        g[pattern.offset(ky, kx, ky2, kx2)] -= s;
+    };
+    for ky in 0..ny {
+        for kx in 0..nx {
+            if kx + 1 < nx {
+                pair(ky, kx, ky, kx + 1);
+            }
+            if ky + 1 < ny {
+                pair(ky, kx, ky + 1, kx);
+            }
+        }
+    }
 }
 
 /// [`fit_image`] on validated [`super::ImageSamples`].
