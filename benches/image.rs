@@ -1,20 +1,38 @@
-//! The image-plane engine end to end (sampling excluded): stratified samples at 4 per pixel,
-//! 3 channels, automatic levels (about one function per pixel), the normal equations solved
-//! by sparse Cholesky against Jacobi-preconditioned CG, `p = 2` against `p = 3`, then the
-//! reconstruction evaluated at every pixel centre. A second group compares the CG
-//! preconditioners (none / Jacobi / local inversion) at the smallest size.
+//! The image-plane engine end to end (sampling excluded, pixels computed): stratified samples
+//! at 4 per pixel, 3 channels, automatic levels (about one function per pixel), the normal
+//! equations solved by sparse Cholesky or Jacobi-preconditioned CG, `p = 2` and `p = 3`, then
+//! the exact box pixel integrals `I = B_y C B_x^T` of the reconstruction. Beside it, pbrt-v4's
+//! default Gaussian film filter (weighted splatting) on the same samples, for the ratio
+//! wavelet / film. A last group compares the CG preconditioners (none / Jacobi / local
+//! inversion) at 256².
 //!
-//! `cargo bench --bench image -- --warm-up-time 1 --measurement-time 3` runs in a few minutes
-//! on 2 cores; `SIZES` holds the resolutions (1024² takes tens of seconds per iteration).
+//! Benchmark names (`group/function/size`), usable as criterion filters:
+//!
+//! * `image_end_to_end_4spp_3ch/p{2,3}_{cholesky,cg_jacobi}/{256,512}` and
+//!   `image_end_to_end_4spp_3ch/gaussian_film/{256,512}`;
+//! * `image_cg_preconditioners/{none,jacobi,local}/256`;
+//! * `image_1024/p2_cg_jacobi/1024` and `image_1024/gaussian_film/1024`: only when the
+//!   environment variable `RKWAVE_BENCH_1024=1` is set (tens of seconds per iteration; the
+//!   Cholesky factor at 1024² needs about 2.7 GB, so only CG runs there).
+//!
+//! Every group takes 10 samples. Examples:
+//!
+//! ```text
+//! cargo bench --bench image -- 256 --warm-up-time 1 --measurement-time 3   # 256² only
+//! cargo bench --bench image -- image_end_to_end                          # 256² and 512²
+//! RKWAVE_BENCH_1024=1 cargo bench --bench image -- image_1024            # 1024², p = 2
+//! ```
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use rand::{Rng, SeedableRng};
-use rkwave::basis::FilterFamily;
+use rkwave::image::filters::GaussianFilter;
 use rkwave::image::fit::{NormalSolver, Preconditioner};
-use rkwave::image::{fit_image, ImageFitParams};
+use rkwave::image::pixels::{fit_pixels, PixelFilter};
+use rkwave::image::sampler::Sampler;
+use rkwave::image::splat::splat;
+use rkwave::image::{fit_image, ImageFitParams, ImagePlane, ImageSamples};
 
 /// Square resolutions of the end-to-end comparison.
-const SIZES: [usize; 3] = [256, 512, 1024];
+const SIZES: [usize; 2] = [256, 512];
 /// Samples per pixel.
 const SPP: usize = 4;
 /// Resolution of the preconditioner comparison.
@@ -22,27 +40,11 @@ const PRECONDITIONER_SIZE: usize = 256;
 /// Channels (RGB).
 const CHANNELS: usize = 3;
 
-struct Data {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    values: Vec<Vec<f64>>,
-    centres: (Vec<f64>, Vec<f64>),
-}
-
-/// Stratified samples (one jittered sample per sub-cell would also do; SPP per pixel here)
-/// of a smooth field with a hard-edged disc, per channel.
-fn data(w: usize, h: usize) -> Data {
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
-    let (mut xs, mut ys) = (Vec::new(), Vec::new());
-    for py in 0..h {
-        for px in 0..w {
-            for _ in 0..SPP {
-                xs.push(px as f64 + rng.random::<f64>());
-                ys.push(py as f64 + rng.random::<f64>());
-            }
-        }
-    }
-    let (cx, cy, r2) = (0.4 * w as f64, 0.55 * h as f64, (0.2 * w as f64).powi(2));
+/// Stratified samples (`SPP` per pixel) of a smooth field with a hard-edged disc, per channel.
+fn data(w: usize) -> ImageSamples {
+    let plane = ImagePlane::new(w, w).unwrap();
+    let (xs, ys) = Sampler::Stratified.positions(plane, SPP, 7);
+    let (cx, cy, r2) = (0.4 * w as f64, 0.55 * w as f64, (0.2 * w as f64).powi(2));
     let values = (0..CHANNELS)
         .map(|c| {
             xs.iter()
@@ -58,21 +60,12 @@ fn data(w: usize, h: usize) -> Data {
                 .collect()
         })
         .collect();
-    let centres = (0..w * h)
-        .map(|i| ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5))
-        .unzip();
-    Data {
-        xs,
-        ys,
-        values,
-        centres,
-    }
+    ImageSamples::new(plane, xs, ys, values).unwrap()
 }
 
 fn params(p: usize, solver: NormalSolver) -> ImageFitParams {
     ImageFitParams {
         p,
-        family: FilterFamily::cdv_default(p),
         solver,
         ..ImageFitParams::default()
     }
@@ -86,18 +79,20 @@ fn cg(preconditioner: Preconditioner) -> NormalSolver {
     }
 }
 
-fn run(d: &Data, w: usize, prm: &ImageFitParams) -> Vec<Vec<f64>> {
-    let refs: Vec<&[f64]> = d.values.iter().map(|v| v.as_slice()).collect();
-    let fit = fit_image(w, w, &d.xs, &d.ys, &refs, prm).unwrap();
-    fit.evaluate_many(&d.centres.0, &d.centres.1).unwrap()
+/// Fit, then the exact box pixels of every channel.
+fn run(d: &ImageSamples, prm: &ImageFitParams) -> Vec<Vec<f64>> {
+    let refs: Vec<&[f64]> = d.values().iter().map(|v| v.as_slice()).collect();
+    let plane = d.plane();
+    let fit = fit_image(plane.width(), plane.height(), d.xs(), d.ys(), &refs, prm).unwrap();
+    fit_pixels(&fit, PixelFilter::Box).unwrap()
 }
 
 fn end_to_end(c: &mut Criterion) {
     let mut group = c.benchmark_group("image_end_to_end_4spp_3ch");
     group.sample_size(10);
     for &w in &SIZES {
-        let d = data(w, w);
-        group.throughput(Throughput::Elements(d.xs.len() as u64));
+        let d = data(w);
+        group.throughput(Throughput::Elements(d.len() as u64));
         for p in [2usize, 3] {
             for (name, solver) in [
                 ("cholesky", NormalSolver::Cholesky),
@@ -105,11 +100,35 @@ fn end_to_end(c: &mut Criterion) {
             ] {
                 let prm = params(p, solver);
                 group.bench_with_input(BenchmarkId::new(format!("p{p}_{name}"), w), &w, |b, _| {
-                    b.iter(|| run(&d, w, &prm))
+                    b.iter(|| run(&d, &prm))
                 });
             }
         }
+        let gaussian = GaussianFilter::default();
+        group.bench_with_input(BenchmarkId::new("gaussian_film", w), &w, |b, _| {
+            b.iter(|| splat(&d, &gaussian))
+        });
     }
+    group.finish();
+}
+
+fn large(c: &mut Criterion) {
+    if std::env::var("RKWAVE_BENCH_1024").as_deref() != Ok("1") {
+        return;
+    }
+    let mut group = c.benchmark_group("image_1024");
+    group.sample_size(10);
+    let w = 1024;
+    let d = data(w);
+    group.throughput(Throughput::Elements(d.len() as u64));
+    let prm = params(2, cg(Preconditioner::Jacobi));
+    group.bench_with_input(BenchmarkId::new("p2_cg_jacobi", w), &w, |b, _| {
+        b.iter(|| run(&d, &prm))
+    });
+    let gaussian = GaussianFilter::default();
+    group.bench_with_input(BenchmarkId::new("gaussian_film", w), &w, |b, _| {
+        b.iter(|| splat(&d, &gaussian))
+    });
     group.finish();
 }
 
@@ -117,7 +136,7 @@ fn preconditioners(c: &mut Criterion) {
     let mut group = c.benchmark_group("image_cg_preconditioners");
     group.sample_size(10);
     let w = PRECONDITIONER_SIZE;
-    let d = data(w, w);
+    let d = data(w);
     for (name, pre) in [
         ("none", Preconditioner::None),
         ("jacobi", Preconditioner::Jacobi),
@@ -125,11 +144,11 @@ fn preconditioners(c: &mut Criterion) {
     ] {
         let prm = params(2, cg(pre));
         group.bench_with_input(BenchmarkId::new(name, w), &w, |b, _| {
-            b.iter(|| run(&d, w, &prm))
+            b.iter(|| run(&d, &prm))
         });
     }
     group.finish();
 }
 
-criterion_group!(benches, end_to_end, preconditioners);
+criterion_group!(benches, end_to_end, large, preconditioners);
 criterion_main!(benches);

@@ -45,7 +45,7 @@ fn samples(w: usize, h: usize, spp: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
 fn params(p: usize, levels: (u32, u32), solver: NormalSolver) -> ImageFitParams {
     ImageFitParams {
         p,
-        family: FilterFamily::cdv_default(p),
+        family: None,
         levels: ImageLevels::Fixed(levels.0, levels.1),
         solver,
         ridge: 0.0,
@@ -177,6 +177,7 @@ fn exact_reconstruction_of_tensor_polynomials() {
         )
         .unwrap();
         assert_eq!(fit.report.unsampled, 0);
+        assert!(fit.report.pinned.is_none());
         for i in 0..500 {
             let (x, y) = match i {
                 0..=3 => ((i % 2) as f64 * wf, (i / 2) as f64 * hf),
@@ -342,6 +343,12 @@ fn holes_are_reported_never_nan() {
     prm.ridge = 1e-9;
     let fit = fit_image(w, h, &xs, &ys, &[&f], &prm).unwrap();
     assert!(fit.report.unsampled > 0, "{:?}", fit.report);
+    // The pinned region: one function per 1 x 1 pixel cell at level 5 on 32 pixels, all of
+    // them in the hole (x >= 12 - 6) or the sample-free strip x > 28.
+    let pin = fit.report.pinned.expect("pinned region reported");
+    assert_eq!(pin.area_px, fit.report.unsampled as f64);
+    assert_eq!(pin.fraction, fit.report.unsampled as f64 / 1024.0);
+    assert!(pin.x.0 >= 6.0 && pin.x.1 <= 32.0, "{pin:?}");
     assert!(fit.coefficients[0].iter().all(|v| v.is_finite()));
     let far = fit.evaluate(31.0, 5.0).unwrap();
     assert!(far[0].is_finite());
@@ -383,4 +390,83 @@ fn bad_input_is_a_typed_error() {
         .unwrap_err()
         .to_string();
     assert!(msg.contains("3.5") && msg.contains("outside"), "{msg}");
+}
+
+/// `ImageFitParams::family` follows `p` as `FitParams::family` does in 1D (CDV's choice:
+/// extremal phase for `p <= 3`, least asymmetric above) unless a family is given, and the fit
+/// builds its basis from it.
+#[test]
+fn image_family_follows_p_unless_given() {
+    use rkwave::reconstruct::FitParams;
+    for p in 1..=6 {
+        let image = ImageFitParams {
+            p,
+            ..ImageFitParams::default()
+        };
+        let one_d = FitParams {
+            p,
+            ..FitParams::default()
+        };
+        assert_eq!(image.family(), one_d.family(), "p = {p}");
+    }
+    let (w, h) = (24, 20);
+    let (xs, ys) = samples(w, h, 4, SEED + 9);
+    let f: Vec<f64> = xs
+        .iter()
+        .zip(&ys)
+        .map(|(x, y)| (0.2 * x).sin() * y)
+        .collect();
+    let fit_with = |family| {
+        let prm = ImageFitParams {
+            p: 4,
+            family,
+            ..ImageFitParams::default()
+        };
+        fit_image(w, h, &xs, &ys, &[&f], &prm).unwrap()
+    };
+    let default = fit_with(None);
+    assert_eq!(
+        default.basis().bank().family(),
+        FilterFamily::LeastAsymmetric
+    );
+    let sym = fit_with(Some(FilterFamily::LeastAsymmetric));
+    assert_eq!(default.coefficients, sym.coefficients);
+    let db = fit_with(Some(FilterFamily::Extremal));
+    assert_eq!(db.basis().bank().family(), FilterFamily::Extremal);
+    // A different basis gives different coefficients: the choice reaches the fit.
+    assert_ne!(default.coefficients, db.coefficients);
+}
+
+/// A hole with the first-difference penalty: the coefficients of a linear function on the
+/// interior grid are linear in the index, so the penalty vanishes on them and the harmonic
+/// fill of the hole is the same linear function; only functions near the image border (edge
+/// functions, other coefficients) feel the small relative weight 1e-3. Without the penalty the
+/// hole is pinned to 0. Tolerance 1e-2 on values of size 1: the border bias, measured about
+/// 1e-4, decays into the interior.
+#[test]
+fn smoothing_fills_holes_from_their_neighbours() {
+    let (w, h) = (32, 32);
+    let (xs0, ys0) = samples(w, h, 4, SEED + 5);
+    let (xs, ys): (Vec<f64>, Vec<f64>) = xs0
+        .iter()
+        .zip(&ys0)
+        .filter(|(x, y)| (*x - 12.0).powi(2) + (*y - 16.0).powi(2) > 36.0)
+        .map(|(x, y)| (*x, *y))
+        .unzip();
+    let f: Vec<f64> = xs.iter().map(|x| x * 0.1).collect();
+    let mut prm = params(2, (5, 5), NormalSolver::Cholesky);
+    prm.ridge = 1e-9;
+    let pinned = fit_image(w, h, &xs, &ys, &[&f], &prm).unwrap();
+    assert!(pinned.report.unsampled > 0);
+    assert!(pinned.evaluate(12.0, 16.0).unwrap()[0].abs() < 1e-6);
+    prm.smoothing = 1e-3;
+    let smooth = fit_image(w, h, &xs, &ys, &[&f], &prm).unwrap();
+    assert_eq!(smooth.report.smoothing, 1e-3);
+    for (x, y) in [(12.0, 16.0), (9.0, 14.0), (15.5, 18.0), (20.0, 4.0)] {
+        let v = smooth.evaluate(x, y).unwrap()[0];
+        assert!((v - 0.1 * x).abs() < 1e-2, "({x}, {y}): {v}");
+    }
+    prm.p = 1;
+    prm.levels = ImageLevels::Fixed(5, 5);
+    assert!(fit_image(w, h, &xs, &ys, &[&f], &prm).is_err());
 }

@@ -8,7 +8,8 @@ use rand::{Rng, SeedableRng};
 use rkwave::basis::facts::monomial_coefficients;
 use rkwave::basis::{minimum_level, BasisValue, CdvBasis, FilterFamily};
 use rkwave::image::equivalent_filter::{equivalent_filter, pixel_functional, NormalEquations};
-use rkwave::image::pixels::{filter_image, FilmFilter1d, FilterQuadrature, PixelIntegrals};
+use rkwave::image::filters::FilmFilter;
+use rkwave::image::pixels::{filter_image, FilterQuadrature, PixelIntegrals};
 use rkwave::sampling::Domain;
 
 fn axis(p: usize, level: u32, pixels: usize) -> CdvBasis {
@@ -92,7 +93,7 @@ enum Shape {
     Lanczos,
 }
 
-impl FilmFilter1d for Shape {
+impl FilmFilter for Shape {
     fn radius(&self) -> f64 {
         match self {
             Shape::Triangle | Shape::Mitchell => 2.0,

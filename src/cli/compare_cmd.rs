@@ -8,13 +8,15 @@ use std::path::PathBuf;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::image::experiment::{
-    compare_methods, comparison_csv, comparison_markdown, Comparison, Method, SamplingParams,
-    TruthParams, WaveletParams, CSV_HEADER,
+    compare_methods, comparison_csv, comparison_markdown, comparison_times_markdown, Comparison,
+    Method, SamplingParams, TruthParams, WaveletParams, CSV_HEADER,
 };
 use rkwave::image::figure::{save_error_vs_time, save_side_by_side};
 use rkwave::image::scene::Scene;
 
-use super::image_cmd::{check_p, parse_resolution, parse_sampler, scene_path};
+use super::image_cmd::{
+    check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path,
+};
 use super::{check_writable, CliError};
 
 /// `rkwave compare`.
@@ -44,6 +46,17 @@ pub struct CompareArgs {
     /// Vanishing moments p of the wavelet methods.
     #[arg(long, default_value_t = 2)]
     pub p: usize,
+    /// Samples per basis function, rho = m / (nx ny): sets the wavelet level per axis (4 at
+    /// 4 spp is one function per pixel).
+    #[arg(long, default_value_t = 4.0)]
+    pub rho: f64,
+    /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
+    #[arg(long, default_value_t = 1e-9)]
+    pub ridge: f64,
+    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
+    /// (0: the least-squares fit).
+    #[arg(long, default_value_t = 0.0)]
+    pub smoothing: f64,
     /// Seed of positions and noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -107,6 +120,9 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let wavelet = WaveletParams {
         p,
         pixel_filter: None,
+        rho: check_rho(args.rho)?,
+        ridge: check_ridge(args.ridge)?,
+        smoothing: args.smoothing,
     };
     let truth = TruthParams {
         rate: args.truth_rate,
@@ -155,7 +171,11 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         format!("{CSV_HEADER}\n{}", comparison_csv(&comparisons)),
     )?;
     let md = comparison_markdown(&comparisons);
-    write(&md_path, md.clone())?;
+    let times = comparison_times_markdown(&comparisons);
+    write(
+        &md_path,
+        format!("PSNR (dB):\n\n{md}\nSeconds per method (fit + pixels):\n\n{times}"),
+    )?;
     save_error_vs_time(&comparisons, &time_path)?;
     if args.json {
         println!(
@@ -168,6 +188,8 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             args.truth_rate, args.truth_rate, args.spp
         );
         print!("{md}");
+        println!("seconds per method (fit + pixels; sampling and truth excluded):");
+        print!("{times}");
         for c in &comparisons {
             for note in c
                 .notes

@@ -45,6 +45,17 @@ pub struct ImageArgs {
     /// Standard deviation of Gaussian noise added to every sample value.
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
+    /// Samples per basis function, rho = m / (nx ny): sets the wavelet level per axis (4 at
+    /// 4 spp is one function per pixel).
+    #[arg(long, default_value_t = 4.0)]
+    pub rho: f64,
+    /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
+    #[arg(long, default_value_t = 1e-9)]
+    pub ridge: f64,
+    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
+    /// (0: the least-squares fit).
+    #[arg(long, default_value_t = 0.0)]
+    pub smoothing: f64,
     /// Seed of positions and noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -112,6 +123,27 @@ pub fn check_p(p: usize) -> Result<usize, CliError> {
         )));
     }
     Ok(p)
+}
+
+/// Checks `--rho` (samples per basis function).
+pub fn check_rho(rho: f64) -> Result<f64, CliError> {
+    if !(rho.is_finite() && (0.01..=1e6).contains(&rho)) {
+        return Err(CliError::Invalid(format!(
+            "--rho {rho}: give samples per basis function in [0.01, 1e6] (4 is one function \
+             per pixel at 4 spp)"
+        )));
+    }
+    Ok(rho)
+}
+
+/// Checks `--ridge` (relative ridge of the wavelet normal equations).
+pub fn check_ridge(ridge: f64) -> Result<f64, CliError> {
+    if !(ridge.is_finite() && (0.0..=1e-2).contains(&ridge)) {
+        return Err(CliError::Invalid(format!(
+            "--ridge {ridge}: give a relative ridge in [0, 1e-2] (1e-9 by default)"
+        )));
+    }
+    Ok(ridge)
 }
 
 fn parse_pixel(s: &str) -> Result<(usize, usize), CliError> {
@@ -187,6 +219,9 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let wavelet = WaveletParams {
         p: check_p(args.p)?,
         pixel_filter,
+        rho: check_rho(args.rho)?,
+        ridge: check_ridge(args.ridge)?,
+        smoothing: args.smoothing,
     };
     let truth = TruthParams {
         rate: args.truth_rate,

@@ -34,6 +34,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let wavelet = WaveletParams {
         p: check_p(args.filter.p)?,
         pixel_filter: None,
+        ..WaveletParams::default()
     };
     let bar = spinner("reading samples");
     let table = read_samples(&args.input)?;

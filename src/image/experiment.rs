@@ -119,6 +119,18 @@ pub struct WaveletParams {
     /// The pixel filter applied to the reconstruction: `None` is the box over the pixel (the
     /// anti-aliased image), or a film filter integrated against the fit.
     pub pixel_filter: Option<FilmFilterKind>,
+    /// Target samples per single-scale function `rho = m / (nx ny)`, which sets the level per
+    /// axis ([`crate::basis::tensor::auto_level`]): 4 at 4 samples per pixel is one function
+    /// per pixel, 16 one per 2 x 2 pixels, 1 four per pixel.
+    pub rho: f64,
+    /// Relative ridge `lambda` on the equilibrated normal matrix (`G + lambda diag(G)`):
+    /// `1e-9` guards undetermined directions and leaves the least-squares fit unchanged to
+    /// about that relative size; larger values shrink weakly determined coefficients.
+    pub ridge: f64,
+    /// Relative weight of the first-difference penalty on neighbouring coefficients
+    /// ([`crate::image::fit::ImageFitParams::smoothing`]); 0, the least-squares fit, by
+    /// default.
+    pub smoothing: f64,
 }
 
 impl Default for WaveletParams {
@@ -126,6 +138,9 @@ impl Default for WaveletParams {
         Self {
             p: 2,
             pixel_filter: None,
+            rho: crate::basis::tensor::TensorLevelParams::default().rho,
+            ridge: 1e-9,
+            smoothing: 0.0,
         }
     }
 }
@@ -186,9 +201,13 @@ pub fn equivalent_filter(
             out.iter_mut().for_each(|s| s.weight /= total);
             Ok(out)
         }
-        Method::Wavelet | Method::Local => {
-            super::wavelet::wavelet_equivalent_filter(samples, wavelet, px, py)
-        }
+        Method::Wavelet | Method::Local => super::wavelet::wavelet_equivalent_filter(
+            samples,
+            wavelet,
+            method == Method::Local,
+            px,
+            py,
+        ),
     }
 }
 
@@ -319,6 +338,9 @@ pub struct MethodResult {
     pub metrics: ImageMetrics,
     /// Timing by stage.
     pub time_s: StageTimes,
+    /// This method's total time over the Gaussian film filter's on the same samples (the
+    /// issue's ratio wavelet / film), when the comparison ran the Gaussian.
+    pub time_over_gaussian: Option<f64>,
     /// Number of basis functions (wavelet methods).
     pub functions: Option<usize>,
     /// The film filter's fallbacks (film methods).
@@ -418,6 +440,7 @@ pub fn run_method(
         method,
         metrics: compare(&image, truth),
         time_s,
+        time_over_gaussian: None,
         functions: extras.functions,
         splat: extras.splat,
         solve: extras.solve,
@@ -467,10 +490,19 @@ pub fn compare_methods(
     let (truth_image, truth_source, note) =
         truth_cached(&truth.cache, scene, sampling.plane, truth.rate);
     let truth_s = t1.elapsed().as_secs_f64();
-    let results = methods
+    let mut results = methods
         .iter()
         .map(|&m| run_method(m, &samples, wavelet, &truth_image))
         .collect::<Result<Vec<_>, _>>()?;
+    let gaussian = results
+        .iter()
+        .find(|r| r.method == Method::Film(FilmFilterKind::Gaussian))
+        .map(|r| r.time_s.total);
+    if let Some(g) = gaussian.filter(|&g| g > 0.0) {
+        for r in &mut results {
+            r.time_over_gaussian = Some(r.time_s.total / g);
+        }
+    }
     Ok(Comparison {
         scene: scene.name().to_string(),
         sampling: *sampling,
@@ -582,79 +614,9 @@ impl ImageReport {
     }
 }
 
-/// Header of [`comparison_csv`].
-pub const CSV_HEADER: &str =
-    "scene,resolution,spp,sampler,noise,method,psnr,rmse,rel_mse,ssim,time_s,functions";
-
-/// CSV rows (no header) of comparisons.
-pub fn comparison_csv(comparisons: &[Comparison]) -> String {
-    let mut out = String::new();
-    for c in comparisons {
-        for r in &c.results {
-            out.push_str(&format!(
-                "{},{},{},{},{},{},{:.4},{:.6},{:.6},{:.5},{:.4},{}\n",
-                c.scene,
-                c.sampling.plane,
-                c.sampling.spp,
-                c.sampling.sampler,
-                c.sampling.noise,
-                r.method,
-                r.metrics.psnr,
-                r.metrics.rmse,
-                r.metrics.rel_mse,
-                r.metrics.ssim,
-                r.time_s.total,
-                r.functions.map_or(String::new(), |f| f.to_string()),
-            ));
-        }
-    }
-    out
-}
-
-/// A Markdown table: one row per (scene, noise), one PSNR column per method (dB; the best in
-/// bold), and the wavelet's margin over pbrt's default Gaussian filter.
-pub fn comparison_markdown(comparisons: &[Comparison]) -> String {
-    let Some(first) = comparisons.first() else {
-        return String::new();
-    };
-    let methods: Vec<Method> = first.results.iter().map(|r| r.method).collect();
-    let mut out = String::from("| scene | noise |");
-    for m in &methods {
-        out.push_str(&format!(" {m} |"));
-    }
-    out.push_str(" wavelet - gaussian |\n|---|---|");
-    out.push_str(&"---:|".repeat(methods.len() + 1));
-    out.push('\n');
-    for c in comparisons {
-        let best = c
-            .results
-            .iter()
-            .map(|r| r.metrics.psnr)
-            .fold(f64::NEG_INFINITY, f64::max);
-        out.push_str(&format!("| {} | {} |", c.scene, c.sampling.noise));
-        for r in &c.results {
-            if r.metrics.psnr == best {
-                out.push_str(&format!(" **{:.2}** |", r.metrics.psnr));
-            } else {
-                out.push_str(&format!(" {:.2} |", r.metrics.psnr));
-            }
-        }
-        let psnr = |m: Method| {
-            c.results
-                .iter()
-                .find(|r| r.method == m)
-                .map(|r| r.metrics.psnr)
-        };
-        match (
-            psnr(Method::Wavelet),
-            psnr(Method::Film(FilmFilterKind::Gaussian)),
-        ) {
-            (Some(w), Some(g)) => out.push_str(&format!(" {:+.2} |\n", w - g)),
-            _ => out.push_str(" |\n"),
-        }
-    }
-    out
-}
+pub use super::table::{
+    comparison_csv, comparison_markdown, comparison_times_markdown, CSV_HEADER,
+};
 
 #[cfg(test)]
 mod tests {

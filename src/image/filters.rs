@@ -36,6 +36,15 @@ pub trait FilmFilter: Sync + Send {
     /// The 1D profile `f(x)`, `x` in pixels from the pixel centre.
     fn eval(&self, x: f64) -> f64;
 
+    /// Interior breakpoints in `(-r, r)` between which `f` is a polynomial of degree `<= 3`,
+    /// or `None` if `f` is not piecewise cubic. Pixel integrals of a reconstruction against
+    /// the filter ([`crate::image::pixels::PixelIntegrals::filtered`]) are exact on such
+    /// pieces; other filters are replaced by cubic interpolants on sub-cells, with the error
+    /// measured and reported.
+    fn cubic_pieces(&self) -> Option<Vec<f64>> {
+        None
+    }
+
     /// The 2D weight `w(dx, dy) = f(dx) f(dy)`.
     fn eval_2d(&self, dx: f64, dy: f64) -> f64 {
         self.eval(dx) * self.eval(dy)
@@ -85,6 +94,10 @@ impl FilmFilter for BoxFilter {
             0.0
         }
     }
+    /// Constant on `[-r, r]`.
+    fn cubic_pieces(&self) -> Option<Vec<f64>> {
+        Some(vec![])
+    }
     fn integral(&self) -> f64 {
         2.0 * self.radius
     }
@@ -109,6 +122,10 @@ impl FilmFilter for TriangleFilter {
     }
     fn eval(&self, x: f64) -> f64 {
         (self.radius - x.abs()).max(0.0)
+    }
+    /// Linear on `[-r, 0]` and `[0, r]`.
+    fn cubic_pieces(&self) -> Option<Vec<f64>> {
+        Some(vec![0.0])
     }
     fn integral(&self) -> f64 {
         self.radius * self.radius
@@ -205,6 +222,11 @@ impl FilmFilter for MitchellFilter {
     }
     fn eval(&self, x: f64) -> f64 {
         self.cubic(2.0 * x / self.radius)
+    }
+    /// Cubic between `-r, -r/2, 0, r/2, r` (`k` is cubic on `|s| < 1` and `1 <= |s| < 2`).
+    fn cubic_pieces(&self) -> Option<Vec<f64>> {
+        let h = self.radius / 2.0;
+        Some(vec![-h, 0.0, h])
     }
     /// `int k = 1` on `[-2, 2]` for every `B, C`, so `int f = r / 2`.
     fn integral(&self) -> f64 {

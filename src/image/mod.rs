@@ -35,6 +35,7 @@ pub mod metrics;
 pub mod sampler;
 pub mod scene;
 pub mod splat;
+pub mod table;
 pub mod truth;
 pub mod wavelet;
 

@@ -28,6 +28,7 @@ use serde::Serialize;
 use sprs::CsMat;
 use thiserror::Error;
 
+use super::filters::FilmFilter;
 use crate::basis::integral::{Antiderivative, ScalingIntegrals};
 use crate::basis::{BasisError, CdvBasis};
 
@@ -121,20 +122,6 @@ pub enum PixelError {
     Basis(#[from] BasisError),
 }
 
-/// One axis of a film filter, `w(x)` with `x` in pixels from the pixel centre (separable filters
-/// apply it on both axes).
-pub trait FilmFilter1d {
-    /// Support radius `r`: `w(x) = 0` for `|x| > r`.
-    fn radius(&self) -> f64;
-    /// `w(x)`.
-    fn eval(&self, x: f64) -> f64;
-    /// Interior breakpoints in `(-r, r)` between which `w` is a polynomial of degree `<= 3`,
-    /// or `None` if `w` is not piecewise cubic (it is then split into sub-cells).
-    fn cubic_pieces(&self) -> Option<Vec<f64>> {
-        None
-    }
-}
-
 /// How film-filter rows are integrated (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FilterQuadrature {
@@ -186,7 +173,7 @@ impl PixelIntegrals {
     pub fn filtered(
         basis: &CdvBasis,
         pixels: usize,
-        filter: &dyn FilmFilter1d,
+        filter: &dyn FilmFilter,
         quadrature: FilterQuadrature,
     ) -> Result<Self, PixelError> {
         check_axis(basis, pixels)?;
@@ -327,7 +314,7 @@ pub enum PixelFilter<'a> {
     /// The box over each pixel (the anti-aliased image), exact to rounding.
     Box,
     /// A separable film filter on both axes (module docs for its accuracy).
-    Film(&'a dyn FilmFilter1d, FilterQuadrature),
+    Film(&'a dyn FilmFilter, FilterQuadrature),
 }
 
 /// The pixels of a fitted image, one `H x W` row-major image per channel (index `Y * W + X`).

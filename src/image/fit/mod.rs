@@ -44,9 +44,12 @@ pub struct ImageFitParams {
     /// Vanishing moments `p`: 2 costs `(2p - 1)^4 / 2 = 41` updates per sample, 3 costs 313
     /// and reproduces quadratics.
     pub p: usize,
-    /// Interior filter family.
+    /// Interior filter family; `None` is CDV's choice for `p`
+    /// ([`FilterFamily::cdv_default`]: extremal phase for `p <= 3`, least asymmetric above),
+    /// resolved by [`ImageFitParams::family`] as [`crate::reconstruct::FitParams::family`]
+    /// does in 1D.
     #[serde(skip)]
-    pub family: FilterFamily,
+    pub family: Option<FilterFamily>,
     /// Levels per axis.
     pub levels: ImageLevels,
     /// The solver of the normal equations.
@@ -57,17 +60,34 @@ pub struct ImageFitParams {
     /// of directions the samples barely determine (`~ 1 / (2 sqrt(lambda))`) at a bias of
     /// about `lambda / sigma^2` on well-determined ones; 0 for the exact least squares.
     pub ridge: f64,
+    /// Weight `mu` of a first-difference penalty on the single-scale coefficients,
+    /// `mu gbar sum (z_k - z_k')^2` over horizontally and vertically adjacent functions
+    /// (`gbar` the mean diagonal of `G`, so `mu` is relative): `G + mu gbar L` with `L` the
+    /// grid Laplacian of the coefficients. 0 (the default) is the least-squares fit; `> 0`
+    /// damps oscillation between neighbours (ringing at edges, noise) and fills unsampled
+    /// functions from their neighbours instead of pinning them to 0. Needs `p >= 2`
+    /// (neighbouring functions must overlap).
+    pub smoothing: f64,
+}
+
+impl ImageFitParams {
+    /// The interior filter family: the given one, or CDV's choice for `p`.
+    pub fn family(&self) -> FilterFamily {
+        self.family
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
+    }
 }
 
 impl Default for ImageFitParams {
     fn default() -> Self {
         Self {
             p: 2,
-            family: FilterFamily::cdv_default(2),
+            family: None,
             levels: ImageLevels::Auto(TensorLevelParams::default()),
             solver: NormalSolver::Cholesky,
             ordering: FillOrdering::default(),
             ridge: 1e-9,
+            smoothing: 0.0,
         }
     }
 }
@@ -125,6 +145,17 @@ pub enum ImageFitError {
     /// The solve failed (an internal error or an impossible system).
     #[error("the 2D normal equations could not be solved: {0}")]
     Solve(String),
+    /// A smoothing penalty with `p = 1` (Haar functions do not overlap) or not finite.
+    #[error(
+        "smoothing {smoothing} with p = {p}: the first-difference penalty needs p >= 2 and a \
+         finite weight >= 0; use p >= 2 or smoothing 0"
+    )]
+    Smoothing {
+        /// The weight given.
+        smoothing: f64,
+        /// Vanishing moments.
+        p: usize,
+    },
     /// Local inversion (preconditioner) failed.
     #[error(transparent)]
     Local(#[from] SolveError),
@@ -162,8 +193,12 @@ pub struct ImageSolveReport {
     pub solver: NormalSolver,
     /// Relative ridge used.
     pub ridge: f64,
+    /// Relative weight of the first-difference penalty (0: none).
+    pub smoothing: f64,
     /// Functions with no sample in their support (coefficient pinned to 0).
     pub unsampled: usize,
+    /// Where the pinned functions are (`None` when every function has a sample).
+    pub pinned: Option<PinnedRegion>,
     /// Functions with fewer than `(2p - 1)^2` samples (fewer than their own neighbours).
     pub undersampled: usize,
     /// Cholesky facts (Cholesky solver).
@@ -174,6 +209,52 @@ pub struct ImageSolveReport {
     pub local: Option<crate::solve::LocalStats>,
     /// Stage times.
     pub timings: ImageTimings,
+}
+
+/// Where the unsampled (pinned) functions lie. Single-scale function `(kx, ky)` is placed at
+/// its cell `[kx W / nx, (kx + 1) W / nx] x [ky H / ny, (ky + 1) H / ny]` (pixel units; its
+/// support is `2p - 1` cells wide around it); the reconstruction is 0 there (not a coarser
+/// fit) unless a smoothing penalty fills them from their neighbours
+/// ([`ImageFitParams::smoothing`]).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PinnedRegion {
+    /// Total area of the pinned functions' cells, in pixels.
+    pub area_px: f64,
+    /// That area over the image's `W H`.
+    pub fraction: f64,
+    /// Bounding box of the pinned cells, `[x0, x1]` (pixels).
+    pub x: (f64, f64),
+    /// Bounding box of the pinned cells, `[y0, y1]` (pixels).
+    pub y: (f64, f64),
+}
+
+impl PinnedRegion {
+    /// The region of the functions with `support_samples[ky nx + kx] == 0`, or `None`.
+    pub fn of(
+        support_samples: &[u32],
+        dims: (usize, usize),
+        width: usize,
+        height: usize,
+    ) -> Option<Self> {
+        let (nx, ny) = dims;
+        let (cw, ch) = (width as f64 / nx as f64, height as f64 / ny as f64);
+        let mut count = 0usize;
+        let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);
+        for (k, _) in support_samples.iter().enumerate().filter(|(_, &c)| c == 0) {
+            let (kx, ky) = (k % nx, k / nx);
+            count += 1;
+            x0 = x0.min(kx);
+            x1 = x1.max(kx);
+            y0 = y0.min(ky);
+            y1 = y1.max(ky);
+        }
+        (count > 0).then(|| Self {
+            area_px: count as f64 * cw * ch,
+            fraction: count as f64 / (nx * ny) as f64,
+            x: (x0 as f64 * cw, (x1 + 1) as f64 * cw),
+            y: (y0 as f64 * ch, (y1 + 1) as f64 * ch),
+        })
+    }
 }
 
 /// A fitted image: the reconstruction as a function on `[0, W] x [0, H]`.
@@ -260,10 +341,10 @@ pub fn fit_image(
     check_input(width, height, xs, ys, values)?;
     let basis = match params.levels {
         ImageLevels::Auto(lp) => {
-            TensorBasis::auto(params.p, params.family, width, height, xs.len(), lp)?
+            TensorBasis::auto(params.p, params.family(), width, height, xs.len(), lp)?
         }
         ImageLevels::Fixed(jx, jy) => {
-            TensorBasis::new(params.p, params.family, width, height, (jx, jy))?
+            TensorBasis::new(params.p, params.family(), width, height, (jx, jy))?
         }
     };
     let mut timings = ImageTimings::default();
@@ -271,10 +352,20 @@ pub fn fit_image(
     let pattern = StencilPattern::new(&basis);
     timings.pattern_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let ne = normal::accumulate(&basis, &pattern, xs, ys, values);
+    let mut ne = normal::accumulate(&basis, &pattern, xs, ys, values);
+    if params.smoothing != 0.0 {
+        if !(params.smoothing.is_finite() && params.smoothing > 0.0) || params.p < 2 {
+            return Err(ImageFitError::Smoothing {
+                smoothing: params.smoothing,
+                p: params.p,
+            });
+        }
+        add_difference_penalty(&pattern, &mut ne.values, basis.dims(), params.smoothing);
+    }
     timings.accumulate_s = t.elapsed().as_secs_f64();
     let full = (2 * params.p - 1).pow(2) as u32;
     let unsampled = ne.support_samples.iter().filter(|&&c| c == 0).count();
+    let pinned = PinnedRegion::of(&ne.support_samples, basis.dims(), width, height);
     let undersampled = ne.support_samples.iter().filter(|&&c| c < full).count();
     let normal_nnz = pattern.nnz();
     let mut system = NormalSystem::new(pattern, ne.values, params.ridge);
@@ -356,7 +447,9 @@ pub fn fit_image(
         normal_nnz,
         solver: params.solver,
         ridge: system.ridge(),
+        smoothing: params.smoothing,
         unsampled,
+        pinned,
         undersampled,
         factor,
         cg,
@@ -370,6 +463,30 @@ pub fn fit_image(
         system: Arc::new(system),
         params: *params,
     })
+}
+
+/// Adds `mu gbar L` to `G` on its pattern (`L` the Laplacian of the `nx x ny` coefficient
+/// grid: `c^T L c = sum (c_k - c_k')^2` over adjacent pairs; `gbar` the mean diagonal of `G`).
+fn add_difference_penalty(pattern: &StencilPattern, g: &mut [f64], dims: (usize, usize), mu: f64) {
+    let (nx, ny) = dims;
+    let n = nx * ny;
+    let gbar = (0..n).map(|j| g[pattern.col_ptr[j]]).sum::<f64>() / n as f64;
+    let s = mu * gbar;
+    let mut pair = |ky: usize, kx: usize, ky2: usize, kx2: usize| {
+        g[pattern.offset(ky, kx, ky, kx)] += s;
+        g[pattern.offset(ky2, kx2, ky2, kx2)] += s;
+        g[pattern.offset(ky, kx, ky2, kx2)] -= s;
+    };
+    for ky in 0..ny {
+        for kx in 0..nx {
+            if kx + 1 < nx {
+                pair(ky, kx, ky, kx + 1);
+            }
+            if ky + 1 < ny {
+                pair(ky, kx, ky + 1, kx);
+            }
+        }
+    }
 }
 
 /// [`fit_image`] on validated [`super::ImageSamples`].
