@@ -19,7 +19,7 @@ fn grid_written_in_blocks_reads_back_exactly() {
             let block = vec![a[start..end].to_vec(), b[start..end].to_vec()];
             w.write_block(&xs[start..end], &block).unwrap();
         }
-        w.finish().unwrap();
+        w.finish(false).unwrap();
         let back = if file.ends_with("npy") {
             read_npy(&path).unwrap()
         } else {
@@ -35,5 +35,20 @@ fn grid_written_in_blocks_reads_back_exactly() {
         .write_block(&[0.0, 1.0], &[vec![0.0, f64::NAN], vec![1.0, 2.0]])
         .unwrap_err();
     assert!(err.to_string().contains("row 2"), "{err}");
+    // Abandoned on that error, the writer leaves nothing behind: no target, no temporary file.
+    drop(w);
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("bad"))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    // An existing target is never replaced without being asked, and stays as it was.
+    let kept = dir.join("grid.csv");
+    let before = std::fs::read(&kept).unwrap();
+    let mut w = GridWriter::create(&kept, &names, 1).unwrap();
+    w.write_block(&[0.5], &[vec![1.0], vec![2.0]]).unwrap();
+    assert!(w.finish(false).is_err());
+    assert_eq!(std::fs::read(&kept).unwrap(), before);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -73,28 +73,53 @@ impl<'a> SingleLevelEvaluator<'a> {
             return (first, &self.row[..self.list.len()]);
         }
         let tab = &bank.digits;
-        let mut a = [0.0f64; MAX_WIDTH];
-        let mut b = [0.0f64; MAX_WIDTH];
-        a[..w].copy_from_slice(&tab.v0);
-        if pos.k > level {
-            let bytes = (pos.k - level).div_ceil(8);
-            for q in (0..bytes).rev() {
-                let byte = pos.byte(level + 1 + 8 * q);
-                let m = &tab.bytes[byte * w * w..(byte + 1) * w * w];
-                for (i, bi) in b[..w].iter_mut().enumerate() {
-                    *bi = m[i * w..(i + 1) * w]
-                        .iter()
-                        .zip(&a[..w])
-                        .map(|(x, y)| x * y)
-                        .sum();
-                }
-                std::mem::swap(&mut a, &mut b);
-            }
-        }
+        let a = match w {
+            1 => byte_products::<1>(&tab.bytes, &tab.v0, &pos, level),
+            3 => byte_products::<3>(&tab.bytes, &tab.v0, &pos, level),
+            5 => byte_products::<5>(&tab.bytes, &tab.v0, &pos, level),
+            7 => byte_products::<7>(&tab.bytes, &tab.v0, &pos, level),
+            9 => byte_products::<9>(&tab.bytes, &tab.v0, &pos, level),
+            11 => byte_products::<11>(&tab.bytes, &tab.v0, &pos, level),
+            13 => byte_products::<13>(&tab.bytes, &tab.v0, &pos, level),
+            15 => byte_products::<15>(&tab.bytes, &tab.v0, &pos, level),
+            17 => byte_products::<17>(&tab.bytes, &tab.v0, &pos, level),
+            19 => byte_products::<19>(&tab.bytes, &tab.v0, &pos, level),
+            _ => unreachable!("2p - 1 is odd and at most {MAX_WIDTH}"),
+        };
         // v[i] = phi(2^J t - m) with m = c + p - 1 - i: ascending m is descending i.
         for (k, r) in self.row[..w].iter_mut().enumerate() {
             *r = self.scale * a[w - 1 - k];
         }
         ((c as usize + 1) - p, &self.row[..w])
     }
+}
+
+/// `v(frac(2^J t)) = P_{B_1} P_{B_2} ... P_{B_q} v(0)` at the fixed width `W = 2p - 1`: the
+/// byte matrices (row-major `W x W` blocks of `tables`) applied from the last byte to the
+/// first. A compile-time width lets the `W x W` products unroll without bounds checks (the
+/// same products summed in the same order as a plain loop).
+fn byte_products<const W: usize>(
+    tables: &[f64],
+    v0: &[f64],
+    pos: &Position,
+    level: u32,
+) -> [f64; MAX_WIDTH] {
+    let mut a = [0.0f64; W];
+    a.copy_from_slice(v0);
+    if pos.k > level {
+        let bytes = (pos.k - level).div_ceil(8);
+        for q in (0..bytes).rev() {
+            let byte = pos.byte(level + 1 + 8 * q);
+            let m = &tables[byte * W * W..(byte + 1) * W * W];
+            let mut b = [0.0f64; W];
+            for (i, bi) in b.iter_mut().enumerate() {
+                let row = &m[i * W..(i + 1) * W];
+                *bi = row.iter().zip(&a).fold(0.0, |s, (x, y)| s + x * y);
+            }
+            a = b;
+        }
+    }
+    let mut out = [0.0f64; MAX_WIDTH];
+    out[..W].copy_from_slice(&a);
+    out
 }

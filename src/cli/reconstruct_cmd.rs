@@ -5,9 +5,8 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::io::output::{check_output, write_new};
-use rkwave::io::{csv_string, npy_bytes};
-use rkwave::io::{read_samples, validate_positions};
+use rkwave::io::output::check_output;
+use rkwave::io::{read_samples, validate_positions, GridWriter};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
 use rkwave::sampling::Domain;
@@ -101,22 +100,17 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     bar.set_message("fitting");
     let channels: Vec<&[f64]> = set.values.iter().map(|v| v.as_slice()).collect();
     let fitted = fit(&set.positions, &channels, domain, &params)?;
-    bar.set_message("evaluating");
-    let rec = onto_grid(fitted, &set, domain, args.grid)?;
-    bar.set_message("writing");
-    let t_write = Instant::now();
-    // `.npy` (NumPy float64, G x (1 + channels)) for readers with numpy, CSV otherwise.
-    let bytes = if args
-        .output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
-    {
-        npy_bytes(&rec.grid)?
-    } else {
-        csv_string(&rec.grid)?.into_bytes()
-    };
-    write_new(&args.output, &bytes, args.force)?;
-    let write_s = t_write.elapsed().as_secs_f64();
+    bar.set_message("evaluating and writing");
+    // The grid is evaluated and written block by block, never held whole: `.npy` (NumPy
+    // float64, G x (1 + channels)) for readers with numpy, CSV otherwise, into a temporary
+    // file moved into place at the end.
+    let mut writer = GridWriter::create(&args.output, &set.names_or_default(), args.grid)?;
+    let rec = onto_grid(fitted, &set, domain, args.grid, |xs, values| {
+        writer.write_block(xs, values).map_err(CliError::from)
+    })?;
+    let t_finish = Instant::now();
+    writer.finish(args.force)?;
+    let finish_s = t_finish.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let report = ReconstructReport::new(
         args.input.clone(),
@@ -126,7 +120,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         &rec,
         ReconstructTimes {
             read: read_s,
-            write: write_s,
+            write: finish_s,
             total: started.elapsed().as_secs_f64(),
             ..ReconstructTimes::default()
         },

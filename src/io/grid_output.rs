@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use npyz::WriterBuilder;
 
+use super::output::{persist, temporary, OutputError};
 use super::IoError;
 
 /// Output buffer size: large writes, few system calls.
@@ -36,15 +37,20 @@ impl GridFormat {
     }
 }
 
+/// The open file and its format (for `.npy` the header is written; the rows follow as
+/// little-endian `float64`, C order, which is what the header declares).
 enum Sink {
     Csv(BufWriter<File>),
-    Npy(npyz::NpyWriter<f64, BufWriter<File>>),
+    Npy(BufWriter<File>),
 }
 
 /// Writes `rows` grid rows of `x` and the channels, block by block.
 pub struct GridWriter {
     path: PathBuf,
-    sink: Sink,
+    tmp: PathBuf,
+    /// `None` once finished; a writer dropped before [`GridWriter::finish`] removes its
+    /// temporary file (the target is never touched).
+    sink: Option<Sink>,
     channels: usize,
     rows: usize,
     written: usize,
@@ -52,9 +58,10 @@ pub struct GridWriter {
 }
 
 impl GridWriter {
-    /// Creates the file (replacing an existing one: the caller decides whether that is
-    /// allowed) for `rows` rows of `x` and one column per channel name.
+    /// Starts the file for `rows` rows of `x` and one column per channel name: the rows go to
+    /// a temporary file beside `path`, moved into place by [`GridWriter::finish`].
     pub fn create(path: &Path, names: &[String], rows: usize) -> Result<Self, IoError> {
+        let tmp = temporary(path);
         let write_err = |source: std::io::Error| IoError::Write {
             file: path.to_path_buf(),
             source,
@@ -64,14 +71,16 @@ impl GridWriter {
                 problem: "no value channels; a grid file needs at least one".to_string(),
             });
         }
-        let file = BufWriter::with_capacity(BUFFER, File::create(path).map_err(write_err)?);
+        let file = BufWriter::with_capacity(BUFFER, File::create(&tmp).map_err(write_err)?);
         let sink = match GridFormat::from_path(path) {
             GridFormat::Npy => Sink::Npy(
-                npyz::WriteOptions::new()
-                    .default_dtype()
+                npyz::WriteOptions::<f64>::new()
+                    .dtype(npyz::DType::new_scalar(
+                        "<f8".parse().expect("a valid NumPy type string"),
+                    ))
                     .shape(&[rows as u64, 1 + names.len() as u64])
                     .writer(file)
-                    .begin_nd()
+                    .write_header_only()
                     .map_err(write_err)?,
             ),
             GridFormat::Csv => {
@@ -93,7 +102,8 @@ impl GridWriter {
         };
         Ok(Self {
             path: path.to_path_buf(),
-            sink,
+            tmp,
+            sink: Some(sink),
             channels: names.len(),
             rows,
             written: 0,
@@ -118,10 +128,12 @@ impl GridWriter {
             file: file.clone(),
             source,
         };
+        // The whole block is formatted into one buffer and written at once.
+        let npy = matches!(self.sink, Some(Sink::Npy(_)));
         let mut buf = zmij::Buffer::new();
+        self.line.clear();
         for (i, &x) in xs.iter().enumerate() {
             let row = std::iter::once(x).chain(values.iter().map(|v| v[i]));
-            self.line.clear();
             for (j, v) in row.enumerate() {
                 if !v.is_finite() {
                     return Err(IoError::NonFinite {
@@ -137,35 +149,46 @@ impl GridWriter {
                         value: v,
                     });
                 }
-                match &mut self.sink {
-                    Sink::Npy(w) => w.push(&v).map_err(write_err)?,
-                    Sink::Csv(_) => {
-                        if j > 0 {
-                            self.line.push(b',');
-                        }
-                        self.line.extend_from_slice(buf.format_finite(v).as_bytes());
+                if npy {
+                    self.line.extend_from_slice(&v.to_le_bytes());
+                } else {
+                    if j > 0 {
+                        self.line.push(b',');
                     }
+                    self.line.extend_from_slice(buf.format_finite(v).as_bytes());
                 }
             }
-            if let Sink::Csv(w) = &mut self.sink {
+            if !npy {
                 self.line.push(b'\n');
-                w.write_all(&self.line).map_err(write_err)?;
             }
         }
+        let (Sink::Npy(w) | Sink::Csv(w)) = self.sink.as_mut().expect("not finished");
+        w.write_all(&self.line).map_err(write_err)?;
         self.written += xs.len();
         Ok(())
     }
 
-    /// Flushes the file; every declared row must have been written.
-    pub fn finish(self) -> Result<(), IoError> {
+    /// Flushes the rows and moves the file into place; without `overwrite`, an existing target
+    /// is left alone (an error). Every declared row must have been written.
+    pub fn finish(mut self, overwrite: bool) -> Result<(), OutputError> {
         assert_eq!(self.written, self.rows, "every declared row written");
-        let write_err = |source: std::io::Error| IoError::Write {
-            file: self.path.clone(),
-            source,
-        };
-        match self.sink {
-            Sink::Npy(w) => w.finish().map_err(write_err),
-            Sink::Csv(mut w) => w.flush().map_err(write_err),
+        let (Sink::Npy(mut w) | Sink::Csv(mut w)) = self.sink.take().expect("finished once");
+        let flushed = w.flush();
+        if let Err(source) = flushed {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(OutputError::NotWritable {
+                file: self.path.clone(),
+                source,
+            });
+        }
+        persist(&self.tmp, &self.path, overwrite)
+    }
+}
+
+impl Drop for GridWriter {
+    fn drop(&mut self) {
+        if self.sink.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
         }
     }
 }

@@ -71,7 +71,7 @@ fn directory(path: &Path) -> PathBuf {
 }
 
 /// A fresh temporary name beside `path`.
-fn temporary(path: &Path) -> PathBuf {
+pub(crate) fn temporary(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

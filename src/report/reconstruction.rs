@@ -22,56 +22,87 @@ pub fn method_name(method: &Method) -> &'static str {
     }
 }
 
-/// A fit evaluated on a uniform grid, with its residuals at the samples.
+/// A fit evaluated on a uniform grid (the values went to a sink, block by block), with its
+/// residuals at the samples.
 #[derive(Clone, Debug)]
 pub struct GridReconstruction {
     /// The fit.
     pub fit: Fit,
-    /// The grid `x_g = a + (b - a) g / (G - 1)` and the reconstruction of every channel
-    /// there, with the input's channel names.
-    pub grid: SampleSet,
+    /// Grid points `G`.
+    pub points: usize,
     /// RMS residual at the samples, per channel.
     pub residual_rms: Vec<f64>,
     /// Seconds evaluating on the grid.
     pub evaluate_s: f64,
+    /// Seconds in the sink (writing the grid).
+    pub sink_s: f64,
 }
 
-/// The uniform grid of `points >= 2` points over `domain`, both ends included.
-pub fn uniform_grid(domain: Domain, points: usize) -> Vec<f64> {
+/// Grid points evaluated and handed to the sink per block: large enough to amortise the
+/// evaluator's parallel dispatch, small enough (a few MB) never to hold the grid.
+pub const GRID_BLOCK: usize = 1 << 16;
+
+/// The point `x_g = a + (b - a) g / (G - 1)` of the uniform grid of `points` points over
+/// `domain` (both ends included; a single point sits at `a`).
+pub fn grid_point(domain: Domain, points: usize, g: usize) -> f64 {
     let last = points.saturating_sub(1).max(1) as f64;
-    (0..points)
-        .map(|i| domain.from_unit(i as f64 / last))
-        .collect()
+    domain.from_unit(g as f64 / last)
 }
 
-/// Evaluates `fit` of `samples` on `points` uniform grid points over `domain` and measures
-/// the residual at the samples.
-pub fn onto_grid(
+/// The uniform grid of `points >= 2` points over `domain`, both ends included
+/// (see [`grid_point`]).
+pub fn uniform_grid(domain: Domain, points: usize) -> Vec<f64> {
+    (0..points).map(|g| grid_point(domain, points, g)).collect()
+}
+
+/// Evaluates `fit` (made from `samples`: their residual may come from the fit's own solve)
+/// on `points` uniform grid points over `domain`, handing the
+/// positions and values (one vector per channel) to `sink` block by block of
+/// [`GRID_BLOCK`] points in grid order, so the grid is never held whole; then the residual at
+/// the samples (from the solve's report when the QR found it, else by evaluating there). The first error of the evaluation or of the sink stops it.
+pub fn onto_grid<E, S>(
     fit: Fit,
     samples: &SampleSet,
     domain: Domain,
     points: usize,
-) -> Result<GridReconstruction, ReconstructError> {
-    let t = std::time::Instant::now();
-    let grid = uniform_grid(domain, points);
-    let values = fit.evaluate(&grid)?;
-    let evaluate_s = t.elapsed().as_secs_f64();
-    let at_samples = fit.evaluate(&samples.positions)?;
-    let residual_rms = at_samples
-        .iter()
-        .zip(&samples.values)
-        .map(|(r, f)| rms(r, f))
-        .collect();
-    let grid = SampleSet {
-        positions: grid,
-        values,
-        names: samples.names_or_default(),
+    mut sink: S,
+) -> Result<GridReconstruction, E>
+where
+    E: From<ReconstructError>,
+    S: FnMut(&[f64], &[Vec<f64>]) -> Result<(), E>,
+{
+    let evaluator = fit.evaluator()?;
+    let (mut evaluate_s, mut sink_s) = (0.0, 0.0);
+    for start in (0..points).step_by(GRID_BLOCK) {
+        let t = std::time::Instant::now();
+        let xs: Vec<f64> = (start..(start + GRID_BLOCK).min(points))
+            .map(|g| grid_point(domain, points, g))
+            .collect();
+        let values = evaluator.evaluate(&xs)?;
+        evaluate_s += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        sink(&xs, &values)?;
+        sink_s += t.elapsed().as_secs_f64();
+    }
+    // The QR found the residual on the way; otherwise evaluate the fit at the samples.
+    let residual_rms = match &fit.solve {
+        SolveReport::SingleScale(SingleScaleReport {
+            residual_rms: Some(r),
+            ..
+        }) => r.clone(),
+        _ => evaluator
+            .evaluate(&samples.positions)?
+            .iter()
+            .zip(&samples.values)
+            .map(|(r, f)| rms(r, f))
+            .collect(),
     };
     Ok(GridReconstruction {
         fit,
-        grid,
+        points,
         residual_rms,
         evaluate_s,
+        sink_s,
     })
 }
 
@@ -177,7 +208,8 @@ pub struct FallbackNote {
 impl ReconstructReport {
     /// The report of `rec`, reconstructed from `samples` (read from `input`, written to
     /// `output`) with `method`; `time_s.kernel`, `solve` and `evaluate` are taken from the fit,
-    /// the others are the caller's.
+    /// `write` is the sink's time plus the caller's (closing the file), the others are the
+    /// caller's.
     pub fn new(
         input: PathBuf,
         output: PathBuf,
@@ -200,12 +232,13 @@ impl ReconstructReport {
             coarse: fit.levels.coarse,
             fine: fit.levels.fine,
             oversampling: fit.levels.oversampling,
-            grid: rec.grid.len(),
+            grid: rec.points,
             residual_rms: rec.residual_rms.clone().into(),
             time_s: ReconstructTimes {
                 kernel: fit.timings.kernel_s,
                 solve: fit.timings.solve_s,
                 evaluate: rec.evaluate_s,
+                write: rec.sink_s + time_s.write,
                 ..time_s
             },
             local: match &fit.solve {

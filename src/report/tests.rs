@@ -221,20 +221,24 @@ fn reconstruction_onto_grid_reproduces_polynomials() {
     let set = SampleSet::new(xs.clone(), vec![quad, line]).unwrap();
     let refs: Vec<&[f64]> = set.values.iter().map(Vec::as_slice).collect();
     let f = fit(&xs, &refs, domain, &FitParams::default()).unwrap();
-    let rec = onto_grid(f, &set, domain, 31).unwrap();
-    assert_eq!(rec.grid.positions.first(), Some(&-1.0));
-    assert_eq!(rec.grid.positions.last(), Some(&2.0));
-    assert_eq!(rec.grid.names, set.names_or_default());
+    // The sink sees every grid point once, in order, with one value vector per channel.
+    let (mut xs_seen, mut quad_seen) = (Vec::new(), Vec::new());
+    let rec = onto_grid(f, &set, domain, 31, |xs, values| {
+        assert_eq!(values.len(), 2);
+        xs_seen.extend_from_slice(xs);
+        quad_seen.extend_from_slice(&values[0]);
+        Ok::<(), crate::reconstruct::ReconstructError>(())
+    })
+    .unwrap();
+    assert_eq!(rec.points, 31);
+    assert_eq!(xs_seen, uniform_grid(domain, 31));
+    assert_eq!(xs_seen.first(), Some(&-1.0));
+    assert_eq!(xs_seen.last(), Some(&2.0));
     for r in &rec.residual_rms {
         assert!(*r < 1e-10, "{r}");
     }
-    let truth: Vec<f64> = rec
-        .grid
-        .positions
-        .iter()
-        .map(|x| 1.0 - x + 0.5 * x * x)
-        .collect();
-    assert!(rms(&rec.grid.values[0], &truth) < 1e-10);
+    let truth: Vec<f64> = xs_seen.iter().map(|x| 1.0 - x + 0.5 * x * x).collect();
+    assert!(rms(&quad_seen, &truth) < 1e-10);
     assert_eq!(PerChannel::from(vec![0.5]), PerChannel::One(0.5));
     assert_eq!(
         serde_json::to_string(&PerChannel::from(vec![0.5, 1.0])).unwrap(),
