@@ -9,14 +9,18 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::norms::show;
+
 /// Why a [`Domain`] could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
 pub enum DomainError {
     /// An endpoint is NaN or infinite.
     #[error(
-        "invalid domain [{a}, {b}]: both endpoints must be finite numbers; \
-         pass finite bounds such as a = 0 and b = 1"
+        "invalid domain [{}, {}]: both endpoints must be finite numbers; \
+         pass finite bounds such as a = 0 and b = 1",
+        show(*.a),
+        show(*.b)
     )]
     NotFinite {
         /// The left endpoint as given.
@@ -27,7 +31,9 @@ pub enum DomainError {
     /// `a >= b`: the interval is empty or reversed.
     #[error(
         "invalid domain [{a}, {b}]: the left endpoint a = {a} must be strictly less than \
-         the right endpoint b = {b}; swap the endpoints or widen the interval"
+         the right endpoint b = {b}; swap the endpoints or widen the interval",
+        a = show(*.a),
+        b = show(*.b)
     )]
     NotIncreasing {
         /// The left endpoint as given.
@@ -37,10 +43,30 @@ pub enum DomainError {
     },
     /// `b - a` overflows to infinity in `f64`.
     #[error(
-        "invalid domain [{a}, {b}]: its length b - a overflows f64; \
-         rescale the positions to a smaller range"
+        "invalid domain [{}, {}]: its width b - a overflows f64 (it exceeds {:e}); \
+         rescale the positions (and the domain with them) to a smaller range",
+        show(*.a),
+        show(*.b),
+        f64::MAX
     )]
     TooWide {
+        /// The left endpoint as given.
+        a: f64,
+        /// The right endpoint as given.
+        b: f64,
+    },
+    /// `b - a` is subnormal (below `f64::MIN_POSITIVE`): positions in it have only a few
+    /// significant bits relative to the width, and their map to `[0, 1]` loses them.
+    #[error(
+        "invalid domain [{}, {}]: its width b - a = {:e} is subnormal (below {:e}), so \
+         positions in it keep only a few significant bits; rescale the positions (and the \
+         domain with them), e.g. multiply them by 1e300",
+        show(*.a),
+        show(*.b),
+        .b - .a,
+        f64::MIN_POSITIVE
+    )]
+    TooNarrow {
         /// The left endpoint as given.
         a: f64,
         /// The right endpoint as given.
@@ -108,7 +134,7 @@ impl Domain {
     /// Builds the interval `[a, b]`.
     ///
     /// Fails if an endpoint is NaN or infinite, if `a >= b`, or if `b - a`
-    /// overflows.
+    /// overflows or is subnormal.
     pub fn new(a: f64, b: f64) -> Result<Domain, DomainError> {
         if !a.is_finite() || !b.is_finite() {
             return Err(DomainError::NotFinite { a, b });
@@ -118,6 +144,9 @@ impl Domain {
         }
         if !(b - a).is_finite() {
             return Err(DomainError::TooWide { a, b });
+        }
+        if b - a < f64::MIN_POSITIVE {
+            return Err(DomainError::TooNarrow { a, b });
         }
         Ok(Domain { a, b })
     }
@@ -202,7 +231,7 @@ impl Domain {
 
 impl fmt::Display for Domain {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "[{}, {}]", self.a, self.b)
+        write!(f, "[{}, {}]", show(self.a), show(self.b))
     }
 }
 

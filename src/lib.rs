@@ -69,7 +69,7 @@
 //!   `PartialEq` unless it carries an operating-system or image error; every one is
 //!   `#[non_exhaustive]`. A parameter out of range is `InvalidParameter { name, value, fix }`
 //!   with the value as given (`String`); too few samples is
-//!   `Undersampled { samples, functions }`.
+//!   `Undersampled { samples, functions, .. }` (the reconstruction adds the fix that can work).
 //! - **Panics** are only for broken internal contracts (an index the library computed itself
 //!   out of range, a factorization of a matrix the library built to be definite): a panic is
 //!   a bug to report, never a way to signal bad input.

@@ -294,7 +294,8 @@ fn bad_input_is_an_error() {
         fit(&xs, &[&ok], Domain::UNIT, &params),
         Err(ReconstructError::Undersampled {
             samples: 3,
-            functions: 16
+            functions: 16,
+            ..
         })
     ));
     let outside = vec![0.1, 1.5, 0.3];

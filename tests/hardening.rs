@@ -3,44 +3,14 @@
 //! Exit codes: 0 success, 1 a failure of the machine, 2 a user error; never 101 (panic)
 //! or 134 (abort).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn rkwave(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+use std::path::PathBuf;
 
-fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
-
-/// A user error: exit code 2, a one-line `error:` message, no panic.
-#[track_caller]
-fn user_error(args: &[&str]) -> String {
-    let out = rkwave(args);
-    let all = text(&out);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {all}");
-    assert!(!all.contains("panicked"), "{args:?}: {all}");
-    all
-}
+use common::{rkwave, text, user_error, write};
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rkwave-hardening-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn write(path: &Path, text: &str) -> String {
-    std::fs::write(path, text).unwrap();
-    path.to_str().unwrap().to_string()
+    common::scratch("hardening", name)
 }
 
 const MAX: &str = "18446744073709551615";

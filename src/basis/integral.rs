@@ -40,6 +40,10 @@
 //! is exact up to rounding. Absolute rounding is `O(eps (2p)^d)` in the `sigma` variable; a
 //! moment in a variable `u = (x - a)/(b - a)` over a short interval amplifies it by
 //! `(2^J (b - a) / L)^{-d}` (the cancellation of two antiderivatives).
+//!
+//! Length: about 700 lines on purpose. Interior moments, edge moments and the public
+//! interval integrals are one construction sharing the digit walk (`Dyadic`) and its
+//! scratch state; split across files they would have to expose those internals to each other.
 
 use nalgebra::{DMatrix, DVector};
 

@@ -79,7 +79,13 @@ pub enum BasisError {
         max: u32,
     },
     /// A position outside the domain or not finite.
-    #[error("position {x} is outside the domain [{a}, {b}] (or not finite): give positions within the domain")]
+    #[error(
+        "position {} is outside the domain [{}, {}] (or not finite): give positions within \
+         the domain",
+        crate::norms::show(*.x),
+        crate::norms::show(*.a),
+        crate::norms::show(*.b)
+    )]
     PositionOutside {
         /// The position.
         x: f64,

@@ -44,7 +44,7 @@ pub enum TensorError {
     /// A single-scale level below the smallest usable one for `p` (or above the maximum).
     #[error(
         "single-scale level J = {level} on the {axis} axis is outside {minimum}..={maximum} \
-         for p = {p}: choose a level in that range (or automatic levels)"
+         for p = {p}: choose a level in that range (or ImageLevels::Auto, which stays in it)"
     )]
     LevelOutOfRange {
         /// `"x"` or `"y"`.
@@ -60,8 +60,10 @@ pub enum TensorError {
     },
     /// A position outside the image rectangle (or not finite).
     #[error(
-        "position ({x}, {y}) is outside the image [0, {width}] x [0, {height}] (or not \
-         finite): give positions in pixel units within the image"
+        "position ({}, {}) is outside the image [0, {width}] x [0, {height}] (or not \
+         finite): give positions in pixel units within the image",
+        crate::norms::show(*.x),
+        crate::norms::show(*.y)
     )]
     PositionOutside {
         /// x.

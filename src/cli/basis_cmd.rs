@@ -42,7 +42,7 @@ pub fn run(args: &BasisArgs) -> Result<(), CliError> {
         print!("{}", table(&rep));
     }
     if let Some(path) = &args.plot {
-        figures::basis_figure(&basis, path)?;
+        figures::basis_figure(&basis, path, args.force)?;
         if !args.json {
             println!("figure: {}", path.display());
         }

@@ -63,9 +63,10 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     }
     let basis = CdvBasis::new(3, FilterFamily::Extremal, 4, 8, Domain::UNIT)?;
     let fig = out.join("basis_p3.png");
-    figures::basis_figure(&basis, &fig)?;
+    // The demo regenerates its own folder: its figures are replaced (atomically).
+    figures::basis_figure(&basis, &fig, true)?;
     let basis8 = CdvBasis::new(8, FilterFamily::LeastAsymmetric, 5, 8, Domain::UNIT)?;
-    figures::basis_figure(&basis8, &out.join("basis_p8.png"))?;
+    figures::basis_figure(&basis8, &out.join("basis_p8.png"), true)?;
     let _ = writeln!(
         summary,
         "\nFigures: `basis_p3.png` (scaling functions and wavelets of V_4, W_4, p = 3), \
@@ -100,7 +101,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     }
     let small = CdvBasis::new(3, FilterFamily::Extremal, 4, 5, Domain::UNIT)?;
     let xs = rkwave::sampling::Layout::Uniform.generate(128, Domain::UNIT, 0);
-    figures::kernels_figure(&small, &xs, &out.join("kernels_p3.png"))?;
+    figures::kernels_figure(&small, &xs, &out.join("kernels_p3.png"), true)?;
     let _ = writeln!(
         summary,
         "Figure: `kernels_p3.png` (dual and reproducing kernels)."

@@ -74,11 +74,8 @@ pub fn run(args: &SweepArgs) -> Result<(), CliError> {
     let text = table
         .into_inner()
         .map_err(|e| CliError::Invalid(e.to_string()))?;
-    std::fs::write(&csv_path, &text).map_err(|source| CliError::Write {
-        path: csv_path.clone(),
-        source,
-    })?;
-    figures::save(&sweep_figure(&report), &png)?;
+    rkwave::io::output::write_new(&csv_path, &text, args.force)?;
+    figures::save_new(&sweep_figure(&report), &png, args.force)?;
     print!("{}", String::from_utf8_lossy(&text));
     eprintln!("wrote {} and {}", csv_path.display(), png.display());
     Ok(())

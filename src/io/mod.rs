@@ -10,9 +10,11 @@
 //!   header `x,NAME[,NAME…]` then rows `x,v[,v…]`; written by hand, since the
 //!   format is too small to need a CSV crate (no quoting is needed for
 //!   numbers).
-//! * NumPy ([`read_npy`], [`parse_npy`], [`write_npy`], [`npy_bytes`]):
-//!   format versions 1.0, 2.0 (and 3.0), dtypes `<f8`, `<f4` (and the
-//!   big-endian `>f8`, `>f4`), C or Fortran order, shape `(m, 1 + channels)`.
+//! * NumPy ([`read_npy`], [`parse_npy`], [`write_npy`], [`npy_bytes`]),
+//!   through the `npyz` crate: format versions 1.0, 2.0 and 3.0, dtypes
+//!   `<f8`, `<f4` (and the big-endian `>f8`, `>f4`), C or Fortran order,
+//!   shape `(m, 1 + channels)`; tested against files written by NumPy itself
+//!   (`data/fixtures/npy/`).
 
 use std::path::{Path, PathBuf};
 
@@ -367,8 +369,9 @@ pub enum IoError {
     },
     /// A position lies outside the domain (from [`validate_positions`]).
     #[error(
-        "row {row}: the position x = {value} lies outside the domain {domain}; \
-         choose a domain that contains every position, or drop the sample"
+        "row {row}: the position x = {} lies outside the domain {domain}; \
+         choose a domain that contains every position, or drop the sample",
+        crate::norms::show(*.value)
     )]
     OutOfDomain {
         /// The 1-based row.

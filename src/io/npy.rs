@@ -1,4 +1,4 @@
-//! The NumPy `.npy` sample format.
+//! The NumPy `.npy` sample format, read and written through the `npyz` crate.
 //!
 //! Layout of a file: the magic `\x93NUMPY`, two version bytes, the header
 //! length (`u16` little-endian for version 1.0, `u32` for 2.0 and 3.0), the
@@ -6,18 +6,26 @@
 //! `{'descr': '<f8', 'fortran_order': False, 'shape': (m, k), }` padded with
 //! spaces and ending in `\n` — and then the raw array data.
 //!
-//! The header is parsed by a small hand-written parser for Python literals
-//! (strings, integers, `True`/`False`/`None`, tuples, lists, dicts) with a
-//! nesting limit, so no input can make it panic or overflow the stack.
+//! `npyz` parses the header (dtype, order, shape) and decodes the data. Before
+//! handing it the bytes, [`parse_npy`] checks what `npyz` would report only as
+//! a generic I/O error or could not survive: the magic string, the version,
+//! that the header lies inside the file (so a forged `u32` length allocates
+//! nothing), and the bracket nesting of the header (so no header can exhaust
+//! the stack of its recursive-descent parser). After it, the dtype, the shape
+//! and the data length are checked and every failure is a typed [`IoError`].
 
 use std::path::Path;
+
+use npyz::{DType, Endianness, NpyFile, NpyHeader, Order, TypeChar, TypeStr, WriterBuilder};
 
 use super::{check_for_writing, read_bytes, shorten, write_bytes, IoError, SampleSet};
 
 /// The `.npy` magic string.
 const MAGIC: &[u8; 6] = b"\x93NUMPY";
 
-/// Deepest nesting of brackets accepted in a header.
+/// Deepest bracket nesting accepted in a header. A float array's header
+/// nests two deep (the dict and the shape tuple); structured dtypes a few
+/// more. The cap keeps `npyz`'s recursive parser far from the stack's end.
 const MAX_DEPTH: usize = 16;
 
 /// Reads a NumPy `.npy` sample file.
@@ -28,10 +36,23 @@ pub fn read_npy(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
 
 /// Parses `.npy` bytes; `file` only names the source in errors.
 ///
-/// Accepts versions 1.0, 2.0 and 3.0; dtypes `<f8`, `<f4`, `>f8`, `>f4`; C or
+/// Accepts versions 1.0, 2.0 and 3.0; dtypes float64 and float32 in either
+/// byte order (`<f8`, `>f8`, `<f4`, `>f4`; float32 is widened exactly); C or
 /// Fortran order; a 2-D shape `(m, k)` with `m >= 1` and `k >= 2`. Column 0
 /// holds the positions, columns `1..k` the channels. The data must fill the
-/// rest of the file exactly.
+/// rest of the file exactly, and every value must be finite.
+///
+/// ```
+/// use rkwave::io::{npy_bytes, parse_npy, IoError, SampleSet};
+///
+/// let set = SampleSet::new(vec![0.0, 0.5], vec![vec![1.0, -2.0]])?;
+/// let bytes = npy_bytes(&set)?;
+/// assert_eq!(parse_npy(&bytes, "s.npy")?.values, set.values);
+/// // Cut short: a typed error naming what is missing, never a panic.
+/// let err = parse_npy(&bytes[..bytes.len() - 3], "s.npy").unwrap_err();
+/// assert!(matches!(err, IoError::Truncated { .. }));
+/// # Ok::<(), IoError>(())
+/// ```
 pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoError> {
     let file = file.as_ref();
     let truncated = |what: &str, expected: usize| IoError::Truncated {
@@ -55,19 +76,9 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
         return Err(truncated("magic string and version", MAGIC.len() + 2));
     }
     let (major, minor) = (bytes[6], bytes[7]);
-    let (header_start, header_len) = match major {
-        1 => {
-            let Some(len) = bytes.get(8..10).and_then(|s| <[u8; 2]>::try_from(s).ok()) else {
-                return Err(truncated("header length", 10));
-            };
-            (10, usize::from(u16::from_le_bytes(len)))
-        }
-        2 | 3 => {
-            let Some(len) = bytes.get(8..12).and_then(|s| <[u8; 4]>::try_from(s).ok()) else {
-                return Err(truncated("header length", 12));
-            };
-            (12, u32::from_le_bytes(len) as usize)
-        }
+    let header_start = match (major, minor) {
+        (1, 0) => 10,
+        (2 | 3, 0) => 12,
         _ => {
             return Err(IoError::UnsupportedVersion {
                 file: file.to_path_buf(),
@@ -76,38 +87,57 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
             })
         }
     };
+    let Some(length) = bytes.get(8..header_start) else {
+        return Err(truncated("header length", header_start));
+    };
+    let header_len = length
+        .iter()
+        .rev()
+        .fold(0usize, |len, &b| (len << 8) | usize::from(b));
     let data_start = header_start + header_len;
-    let Some(header_bytes) = bytes.get(header_start..data_start) else {
+    let Some(header_text) = bytes.get(header_start..data_start) else {
         return Err(truncated("header", data_start));
     };
     let bad_header = |problem: String| IoError::BadNpyHeader {
         file: file.to_path_buf(),
         problem,
     };
-    let header_text: String = if major == 3 {
-        std::str::from_utf8(header_bytes)
-            .map_err(|_| bad_header("the header is not UTF-8".to_string()))?
-            .to_string()
-    } else {
-        // Versions 1 and 2 use latin-1, which maps bytes to code points.
-        header_bytes.iter().map(|&b| char::from(b)).collect()
-    };
-    let header = Header::parse(&header_text).map_err(bad_header)?;
+    check_nesting(header_text).map_err(bad_header)?;
 
-    let (little, size) = match header.descr.as_str() {
-        "<f8" => (true, 8),
-        "<f4" => (true, 4),
-        ">f8" => (false, 8),
-        ">f4" => (false, 4),
-        _ => {
-            return Err(IoError::UnsupportedDtype {
-                file: file.to_path_buf(),
-                descr: shorten(&header.descr, 40),
-            })
-        }
+    let header = read_header(bytes, major, header_text).map_err(|e| {
+        // npyz's parse errors are multi-line diagnostics; the first line says it.
+        let text = e.to_string();
+        bad_header(shorten(text.lines().next().unwrap_or_default(), 200))
+    })?;
+    let data = &bytes[data_start..];
+
+    let unsupported = |descr: String| IoError::UnsupportedDtype {
+        file: file.to_path_buf(),
+        descr: shorten(&descr, 40),
     };
+    let (type_str, size) = match header.dtype() {
+        DType::Plain(ty) => {
+            let float = ty.type_char() == TypeChar::Float
+                && ty.endianness() != Endianness::Irrelevant
+                && matches!(ty.size_field(), 4 | 8);
+            if !float {
+                return Err(unsupported(ty.to_string()));
+            }
+            let size = ty.size_field() as usize;
+            (ty, size)
+        }
+        DType::Record(fields) => {
+            return Err(unsupported(format!(
+                "a structured dtype with {} fields",
+                fields.len()
+            )))
+        }
+        DType::Array(..) => return Err(unsupported("a sub-array dtype".to_string())),
+    };
+
     // Python's tuple syntax: `(4,)`, `(3, 2)`.
-    let shape_text = match header.shape.as_slice() {
+    let shape = header.shape();
+    let shape_text = match shape {
         [d] => format!("({d},)"),
         dims => format!(
             "({})",
@@ -121,7 +151,7 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
         file: file.to_path_buf(),
         problem,
     };
-    let &[m, k] = header.shape.as_slice() else {
+    let &[m, k] = shape else {
         return Err(mismatch(format!(
             "the array has shape {shape_text}, which is not 2-D"
         )));
@@ -147,7 +177,6 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
     else {
         return Err(mismatch(format!("the shape {shape_text} is too large")));
     };
-    let data = &bytes[data_start..];
     if data.len() < data_len {
         return Err(truncated(
             &format!("data of shape {shape_text}"),
@@ -156,46 +185,33 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
     }
     if data.len() > data_len {
         return Err(mismatch(format!(
-            "the file has {} bytes of data, but shape {shape_text} of {} needs {data_len}; \
-             {} bytes are left over",
+            "the file has {} bytes of data, but shape {shape_text} of {type_str} needs \
+             {data_len}; {} bytes are left over",
             data.len(),
-            header.descr,
             data.len() - data_len
         )));
     }
 
-    let read = |index: usize| -> f64 {
-        let at = index * size;
-        let chunk = &data[at..at + size];
-        if size == 8 {
-            let mut b = [0u8; 8];
-            b.copy_from_slice(chunk);
-            if little {
-                f64::from_le_bytes(b)
-            } else {
-                f64::from_be_bytes(b)
-            }
-        } else {
-            let mut b = [0u8; 4];
-            b.copy_from_slice(chunk);
-            f64::from(if little {
-                f32::from_le_bytes(b)
-            } else {
-                f32::from_be_bytes(b)
-            })
-        }
+    // The data in storage order, widened to f64 (exact for float32).
+    let decode_err = |e: std::io::Error| truncated(&format!("data ({e})"), data_start + data_len);
+    let npy = NpyFile::with_header(header.clone(), data);
+    let stored: Vec<f64> = if size == 8 {
+        npy.into_vec::<f64>().map_err(decode_err)?
+    } else {
+        npy.into_vec::<f32>()
+            .map_err(decode_err)?
+            .into_iter()
+            .map(f64::from)
+            .collect()
     };
+    let fortran = header.order() == Order::Fortran;
+
     let names = SampleSet::default_names(k - 1);
     let mut positions = Vec::with_capacity(m);
     let mut values = vec![Vec::with_capacity(m); k - 1];
     for i in 0..m {
         for j in 0..k {
-            let index = if header.fortran_order {
-                j * m + i
-            } else {
-                i * k + j
-            };
-            let value = read(index);
+            let value = stored[if fortran { j * m + i } else { i * k + j }];
             if !value.is_finite() {
                 return Err(IoError::NonFinite {
                     file: file.to_path_buf(),
@@ -224,9 +240,93 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
     })
 }
 
+/// Parses the header with `npyz`. Files of versions 1.0 and 2.0 written by
+/// Python 2 may spell shape dimensions as long literals (`(3L, 2L)`), which
+/// NumPy still reads; if the header does not parse as it is, it is parsed
+/// again with those suffixes removed, as NumPy's own reader does.
+fn read_header(bytes: &[u8], major: u8, header_text: &[u8]) -> std::io::Result<NpyHeader> {
+    let first = header_of(bytes);
+    if first.is_ok() || major == 3 {
+        return first;
+    }
+    let Some(filtered) = without_long_suffixes(header_text) else {
+        return first;
+    };
+    // The filtered header is shorter, so its length fits the same field.
+    let mut patched = bytes[..8].to_vec();
+    if major == 1 {
+        patched.extend_from_slice(&(filtered.len() as u16).to_le_bytes());
+    } else {
+        patched.extend_from_slice(&(filtered.len() as u32).to_le_bytes());
+    }
+    patched.extend_from_slice(&filtered);
+    header_of(&patched).or(first)
+}
+
+/// `npyz`'s header parse. It multiplies the shape's dimensions without an
+/// overflow check, which panics in builds with overflow checks (the release
+/// profile has none); such a shape is reported as an error instead.
+fn header_of(bytes: &[u8]) -> std::io::Result<NpyHeader> {
+    std::panic::catch_unwind(|| NpyHeader::from_reader(bytes)).unwrap_or_else(|_| {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "the number of elements of the shape overflows",
+        ))
+    })
+}
+
+/// The header without Python 2's `L` suffix after integer literals outside
+/// strings, or `None` if it has none.
+fn without_long_suffixes(header: &[u8]) -> Option<Vec<u8>> {
+    let mut out = Vec::with_capacity(header.len());
+    let mut quote = None;
+    let mut changed = false;
+    for (i, &b) in header.iter().enumerate() {
+        match quote {
+            Some(q) if b == q && header.get(i.wrapping_sub(1)) != Some(&b'\\') => quote = None,
+            Some(_) => {}
+            None if b == b'\'' || b == b'"' => quote = Some(b),
+            None if matches!(b, b'L' | b'l')
+                && i > 0
+                && header[i - 1].is_ascii_digit()
+                && !header
+                    .get(i + 1)
+                    .is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_') =>
+            {
+                changed = true;
+                continue;
+            }
+            None => {}
+        }
+        out.push(b);
+    }
+    changed.then_some(out)
+}
+
+/// Refuses headers whose brackets nest deeper than [`MAX_DEPTH`] (counted
+/// without regard to quotes: no float array's header comes near the cap).
+fn check_nesting(header: &[u8]) -> Result<(), String> {
+    let mut depth = 0usize;
+    for &b in header {
+        match b {
+            b'(' | b'[' | b'{' => {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    return Err(format!(
+                        "the header is nested more than {MAX_DEPTH} brackets deep"
+                    ));
+                }
+            }
+            b')' | b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Encodes a sample set as a version 1.0 `.npy` file of `<f8` in C order,
-/// shape `(m, 1 + channels)`, the header padded to a multiple of 64 bytes as
-/// NumPy does. Channel names are not stored.
+/// shape `(m, 1 + channels)`, written by `npyz` (the header padded to a
+/// multiple of 64 bytes as NumPy does). Channel names are not stored.
 ///
 /// Fails if the set is inconsistent, has no channel or holds NaN/Inf.
 pub fn npy_bytes(set: &SampleSet) -> Result<Vec<u8>, IoError> {
@@ -237,26 +337,28 @@ pub fn npy_bytes(set: &SampleSet) -> Result<Vec<u8>, IoError> {
 fn npy_bytes_for(set: &SampleSet, file: &Path) -> Result<Vec<u8>, IoError> {
     check_for_writing(set, file)?;
     let (m, k) = (set.len(), 1 + set.channels());
-    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({m}, {k}), }}");
-    // magic (6) + version (2) + length (2) + header + '\n' ≡ 0 (mod 64).
-    let unpadded = MAGIC.len() + 4 + header.len() + 1;
-    header.extend(std::iter::repeat_n(' ', (64 - unpadded % 64) % 64));
-    header.push('\n');
-    let mut out = Vec::with_capacity(MAGIC.len() + 4 + header.len() + 8 * m * k);
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&[1, 0]);
-    // The header of a 2-D shape is far below 64 KiB.
-    let len = u16::try_from(header.len()).map_err(|_| IoError::InvalidSampleSet {
-        problem: "the .npy header is too long".to_string(),
-    })?;
-    out.extend_from_slice(&len.to_le_bytes());
-    out.extend_from_slice(header.as_bytes());
+    let mut out = Vec::with_capacity(128 + 8 * m * k);
+    let write_err = |source: std::io::Error| IoError::Write {
+        file: file.to_path_buf(),
+        source,
+    };
+    let mut writer = npyz::WriteOptions::new()
+        .dtype(DType::Plain(
+            "<f8"
+                .parse::<TypeStr>()
+                .expect("`<f8` is a valid type string"),
+        ))
+        .shape(&[m as u64, k as u64])
+        .writer(&mut out)
+        .begin_nd()
+        .map_err(write_err)?;
     for i in 0..m {
-        out.extend_from_slice(&set.positions[i].to_le_bytes());
+        writer.push(&set.positions[i]).map_err(write_err)?;
         for v in &set.values {
-            out.extend_from_slice(&v[i].to_le_bytes());
+            writer.push(&v[i]).map_err(write_err)?;
         }
     }
+    writer.finish().map_err(write_err)?;
     Ok(out)
 }
 
@@ -265,245 +367,4 @@ pub fn write_npy(path: impl AsRef<Path>, set: &SampleSet) -> Result<(), IoError>
     let path = path.as_ref();
     let bytes = npy_bytes_for(set, path)?;
     write_bytes(path, &bytes)
-}
-
-/// The three entries of an `.npy` header.
-struct Header {
-    descr: String,
-    fortran_order: bool,
-    shape: Vec<u64>,
-}
-
-impl Header {
-    /// Parses the header dict; the error says what is wrong.
-    fn parse(text: &str) -> Result<Header, String> {
-        let mut parser = Parser {
-            chars: text.chars().collect(),
-            pos: 0,
-        };
-        let value = parser.value(0)?;
-        parser.skip_ws();
-        if parser.pos != parser.chars.len() {
-            return Err(format!(
-                "unexpected text after the dictionary at character {}",
-                parser.pos + 1
-            ));
-        }
-        let Py::Dict(entries) = value else {
-            return Err("the header is not a dictionary".to_string());
-        };
-        let get = |key: &str| {
-            entries
-                .iter()
-                .find(|(k, _)| matches!(k, Py::Str(s) if s == key))
-                .map(|(_, v)| v)
-                .ok_or_else(|| format!("the key '{key}' is missing"))
-        };
-        let descr = match get("descr")? {
-            Py::Str(s) => s.clone(),
-            Py::List(fields) => format!("a structured dtype with {} fields", fields.len()),
-            _ => "a dtype that is not a string".to_string(),
-        };
-        let fortran_order = match get("fortran_order")? {
-            Py::Bool(b) => *b,
-            _ => return Err("'fortran_order' is not True or False".to_string()),
-        };
-        let shape = match get("shape")? {
-            Py::Tuple(items) => items
-                .iter()
-                .map(|item| match item {
-                    Py::Int(n) if *n < 0 => Err(format!("the shape has a negative dimension {n}")),
-                    Py::Int(n) => u64::try_from(*n)
-                        .map_err(|_| format!("the shape has a too large dimension {n}")),
-                    _ => Err("the shape holds something other than integers".to_string()),
-                })
-                .collect::<Result<Vec<u64>, String>>()?,
-            _ => return Err("'shape' is not a tuple".to_string()),
-        };
-        Ok(Header {
-            descr,
-            fortran_order,
-            shape,
-        })
-    }
-}
-
-/// A Python literal value.
-#[derive(Debug)]
-enum Py {
-    Str(String),
-    Int(i128),
-    Bool(bool),
-    None,
-    Tuple(Vec<Py>),
-    List(Vec<Py>),
-    Dict(Vec<(Py, Py)>),
-}
-
-/// A recursive-descent parser for Python literals.
-struct Parser {
-    chars: Vec<char>,
-    pos: usize,
-}
-
-impl Parser {
-    fn peek(&self) -> Option<char> {
-        self.chars.get(self.pos).copied()
-    }
-
-    fn skip_ws(&mut self) {
-        while self.peek().is_some_and(char::is_whitespace) {
-            self.pos += 1;
-        }
-    }
-
-    fn expected(&self, what: &str) -> String {
-        match self.peek() {
-            Some(c) => format!(
-                "expected {what} at character {} but found `{}`",
-                self.pos + 1,
-                c.escape_default()
-            ),
-            None => format!("expected {what} but the header ended"),
-        }
-    }
-
-    fn value(&mut self, depth: usize) -> Result<Py, String> {
-        if depth > MAX_DEPTH {
-            return Err("the header is nested too deeply".to_string());
-        }
-        self.skip_ws();
-        match self.peek() {
-            Some(q @ ('\'' | '"')) => {
-                self.pos += 1;
-                self.string(q).map(Py::Str)
-            }
-            Some('(') => {
-                self.pos += 1;
-                self.sequence(')', depth).map(Py::Tuple)
-            }
-            Some('[') => {
-                self.pos += 1;
-                self.sequence(']', depth).map(Py::List)
-            }
-            Some('{') => {
-                self.pos += 1;
-                self.dict(depth)
-            }
-            Some(c) if c.is_ascii_digit() || c == '-' || c == '+' => self.int(),
-            Some(c) if c.is_ascii_alphabetic() => {
-                let start = self.pos;
-                while self.peek().is_some_and(|c| c.is_ascii_alphanumeric()) {
-                    self.pos += 1;
-                }
-                let word: String = self.chars[start..self.pos].iter().collect();
-                match word.as_str() {
-                    "True" => Ok(Py::Bool(true)),
-                    "False" => Ok(Py::Bool(false)),
-                    "None" => Ok(Py::None),
-                    _ => Err(format!(
-                        "unknown name `{}` at character {}",
-                        shorten(&word, 20),
-                        start + 1
-                    )),
-                }
-            }
-            _ => Err(self.expected("a value")),
-        }
-    }
-
-    /// The rest of a string literal after its opening quote `quote`.
-    fn string(&mut self, quote: char) -> Result<String, String> {
-        let mut out = String::new();
-        loop {
-            match self.peek() {
-                None => return Err("a string in the header is not closed".to_string()),
-                Some(c) if c == quote => {
-                    self.pos += 1;
-                    return Ok(out);
-                }
-                Some('\\') => {
-                    self.pos += 1;
-                    match self.peek() {
-                        Some(c) => {
-                            out.push(c);
-                            self.pos += 1;
-                        }
-                        None => return Err("a string in the header is not closed".to_string()),
-                    }
-                }
-                Some(c) => {
-                    out.push(c);
-                    self.pos += 1;
-                }
-            }
-        }
-    }
-
-    /// An integer, with an optional sign and Python 2's `L` suffix.
-    fn int(&mut self) -> Result<Py, String> {
-        let start = self.pos;
-        if matches!(self.peek(), Some('-' | '+')) {
-            self.pos += 1;
-        }
-        let digits = self.pos;
-        while self.peek().is_some_and(|c| c.is_ascii_digit()) {
-            self.pos += 1;
-        }
-        if self.pos == digits {
-            return Err(self.expected("a digit"));
-        }
-        let text: String = self.chars[start..self.pos].iter().collect();
-        if matches!(self.peek(), Some('L' | 'l')) {
-            self.pos += 1;
-        }
-        text.parse::<i128>()
-            .map(Py::Int)
-            .map_err(|_| format!("the integer {} is too large", shorten(&text, 30)))
-    }
-
-    /// Comma-separated values up to `close` (a trailing comma is allowed).
-    fn sequence(&mut self, close: char, depth: usize) -> Result<Vec<Py>, String> {
-        let mut items = Vec::new();
-        loop {
-            self.skip_ws();
-            if self.peek() == Some(close) {
-                self.pos += 1;
-                return Ok(items);
-            }
-            items.push(self.value(depth + 1)?);
-            self.skip_ws();
-            match self.peek() {
-                Some(',') => self.pos += 1,
-                Some(c) if c == close => {}
-                _ => return Err(self.expected(&format!("`,` or `{close}`"))),
-            }
-        }
-    }
-
-    /// The rest of a dict after `{`.
-    fn dict(&mut self, depth: usize) -> Result<Py, String> {
-        let mut entries = Vec::new();
-        loop {
-            self.skip_ws();
-            if self.peek() == Some('}') {
-                self.pos += 1;
-                return Ok(Py::Dict(entries));
-            }
-            let key = self.value(depth + 1)?;
-            self.skip_ws();
-            if self.peek() != Some(':') {
-                return Err(self.expected("`:`"));
-            }
-            self.pos += 1;
-            let value = self.value(depth + 1)?;
-            entries.push((key, value));
-            self.skip_ws();
-            match self.peek() {
-                Some(',') => self.pos += 1,
-                Some('}') => {}
-                _ => return Err(self.expected("`,` or `}`")),
-            }
-        }
-    }
 }

@@ -17,8 +17,11 @@ const CHUNK: usize = 4096;
 pub enum KernelError {
     /// A sample position is outside the domain or not finite.
     #[error(
-        "sample {row} (1-based) at x = {x} is outside the domain [{a}, {b}] or not finite: \
-         remove it or widen the domain"
+        "sample {row} (1-based) at x = {} is outside the domain [{}, {}] or not finite: \
+         remove it or widen the domain",
+        crate::norms::show(*.x),
+        crate::norms::show(*.a),
+        crate::norms::show(*.b)
     )]
     PositionOutside {
         /// 1-based sample number.

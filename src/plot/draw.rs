@@ -15,9 +15,59 @@ use super::spec::{Figure, Panel, PanelContent, SeriesStyle, SparsityPanel, PALET
 use super::PlotError;
 
 impl Figure {
-    /// Renders the figure and writes it as a PNG image to `path`
-    /// (PNG regardless of the file extension).
+    /// Renders the figure and writes it as a PNG image to `path` (PNG regardless of the
+    /// file extension), atomically and replacing an existing file: [`Figure::write_png`]
+    /// with `overwrite = true`.
     pub fn save_png(&self, path: &Path) -> Result<(), PlotError> {
+        self.write_png(path, true)
+    }
+
+    /// Renders the figure and writes it as an SVG document to `path`, atomically and
+    /// replacing an existing file: [`Figure::write_svg`] with `overwrite = true`.
+    pub fn save_svg(&self, path: &Path) -> Result<(), PlotError> {
+        self.write_svg(path, true)
+    }
+
+    /// Writes the figure as SVG if `path` ends in `.svg` (any case), PNG otherwise, through
+    /// [`crate::io::output::write_new`]: rendered in memory, written to a temporary file
+    /// beside the target and moved into place, so a failure never leaves a partial figure;
+    /// without `overwrite`, a target that exists (or appears meanwhile) is left alone and
+    /// reported as [`PlotError::Output`].
+    pub fn write(&self, path: &Path, overwrite: bool) -> Result<(), PlotError> {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("svg"))
+        {
+            self.write_svg(path, overwrite)
+        } else {
+            self.write_png(path, overwrite)
+        }
+    }
+
+    /// [`Figure::write`] as PNG whatever the extension.
+    pub fn write_png(&self, path: &Path, overwrite: bool) -> Result<(), PlotError> {
+        let bytes = self.png_bytes_for(path)?;
+        crate::io::output::write_new(path, &bytes, overwrite).map_err(PlotError::Output)
+    }
+
+    /// [`Figure::write`] as SVG whatever the extension.
+    pub fn write_svg(&self, path: &Path, overwrite: bool) -> Result<(), PlotError> {
+        let svg = self.svg_for(path)?;
+        crate::io::output::write_new(path, svg.as_bytes(), overwrite).map_err(PlotError::Output)
+    }
+
+    /// The figure encoded as a PNG file, in memory.
+    pub fn png_bytes(&self) -> Result<Vec<u8>, PlotError> {
+        self.png_bytes_for(Path::new("<memory>"))
+    }
+
+    /// The figure as an SVG document, in memory.
+    pub fn svg_string(&self) -> Result<String, PlotError> {
+        self.svg_for(Path::new("<memory>"))
+    }
+
+    /// Renders and encodes a PNG; `path` only names the figure in errors.
+    fn png_bytes_for(&self, path: &Path) -> Result<Vec<u8>, PlotError> {
         let draw_err = |message: String| PlotError::Draw {
             path: path.display().to_string(),
             message,
@@ -34,15 +84,17 @@ impl Figure {
         }
         let img = image::RgbImage::from_raw(w, h, rgb)
             .ok_or_else(|| draw_err("pixel buffer has the wrong size".into()))?;
-        img.save_with_format(path, image::ImageFormat::Png)
+        let mut png = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut png, image::ImageFormat::Png)
             .map_err(|source| PlotError::Write {
                 path: path.display().to_string(),
                 source,
-            })
+            })?;
+        Ok(png.into_inner())
     }
 
-    /// Renders the figure and writes it as an SVG document to `path`.
-    pub fn save_svg(&self, path: &Path) -> Result<(), PlotError> {
+    /// Renders an SVG document; `path` only names the figure in errors.
+    fn svg_for(&self, path: &Path) -> Result<String, PlotError> {
         let draw_err = |message: String| PlotError::Draw {
             path: path.display().to_string(),
             message,
@@ -57,10 +109,7 @@ impl Figure {
             self.render(&root).map_err(draw_err)?;
             root.present().map_err(|e| draw_err(e.to_string()))?;
         }
-        std::fs::write(path, svg).map_err(|e| PlotError::Write {
-            path: path.display().to_string(),
-            source: image::ImageError::IoError(e),
-        })
+        Ok(svg)
     }
 
     fn render<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
@@ -475,7 +524,48 @@ mod tests {
         let err = Figure::new(300, 200, vec![])
             .save_png(&dir.join("missing_dir").join("x.png"))
             .unwrap_err();
-        assert!(matches!(err, PlotError::Write { .. }));
+        assert!(matches!(
+            err,
+            PlotError::Output(crate::io::output::OutputError::NotWritable { .. })
+        ));
+        cleanup(&dir);
+    }
+
+    /// Without `overwrite` an existing figure is left byte for byte; with it, it is replaced
+    /// by the figure; no temporary file is left either way; the bytes on disk are the bytes
+    /// rendered in memory.
+    #[test]
+    fn figures_are_written_atomically_and_never_clobbered() {
+        use crate::io::output::OutputError;
+        let dir = temp_dir("atomic");
+        let fig = Figure::new(300, 200, vec![Panel::default().into()]);
+        for name in ["f.png", "f.svg"] {
+            let path = dir.join(name);
+            std::fs::write(&path, b"precious").unwrap();
+            let err = fig.write(&path, false).unwrap_err();
+            assert!(
+                matches!(err, PlotError::Output(OutputError::Appeared { .. })),
+                "{err}"
+            );
+            assert_eq!(std::fs::read(&path).unwrap(), b"precious");
+            fig.write(&path, true).unwrap();
+            let written = std::fs::read(&path).unwrap();
+            if name.ends_with("png") {
+                assert_eq!(written, fig.png_bytes().unwrap());
+                assert_eq!(&written[1..4], b"PNG");
+            } else {
+                assert_eq!(written, fig.svg_string().unwrap().into_bytes());
+            }
+        }
+        let fresh = dir.join("new.png");
+        fig.write(&fresh, false).unwrap();
+        assert!(image::open(&fresh).is_ok());
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["f.png", "f.svg", "new.png"]);
         cleanup(&dir);
     }
 }

@@ -3,7 +3,10 @@
 //! A plot is described by plain data — a [`Figure`] holding a grid of
 //! [`PanelContent`]s, each either a 2D [`Panel`] chart of [`Series`] or a
 //! [`SparsityPanel`] showing the nonzero pattern of a sparse matrix — and
-//! rendered by a single call, [`Figure::save_png`] or [`Figure::save_svg`].
+//! rendered by a single call, [`Figure::write`] (SVG or PNG by extension; an existing file is
+//! replaced only when allowed), [`Figure::save_png`] or [`Figure::save_svg`]. Files are
+//! written through [`crate::io::output`]: to a temporary file beside the target, then moved
+//! into place, so a failure never leaves a partial figure.
 //!
 //! Rendering never panics on awkward data: NaN and infinite coordinates are
 //! skipped (a line is broken at such a point), non-positive values are
@@ -93,13 +96,17 @@ pub enum PlotError {
         /// Description of what went wrong.
         message: String,
     },
-    /// The rendered figure could not be encoded or written to disk.
-    #[error("cannot write figure {path}: {source}")]
+    /// The rendered figure could not be encoded.
+    #[error("cannot encode figure {path}: {source}")]
     Write {
         /// Destination path of the figure.
         path: String,
-        /// Underlying encoding or I/O error.
+        /// Underlying encoding error.
         #[source]
         source: image::ImageError,
     },
+    /// The figure file must not or cannot be written: it exists (or appeared while the
+    /// figure was computed) and overwriting was not allowed, or its directory refuses it.
+    #[error(transparent)]
+    Output(#[from] crate::io::output::OutputError),
 }

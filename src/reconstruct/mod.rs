@@ -25,7 +25,7 @@ use std::time::Instant;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::basis::{BasisError, CdvBasis, FilterFamily};
+use crate::basis::{minimum_level, BasisError, CdvBasis, FilterFamily};
 use crate::kernel::{
     check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
 };
@@ -142,16 +142,15 @@ pub enum ReconstructError {
     #[error(transparent)]
     Solve(#[from] SolveError),
     /// Fewer samples than basis functions.
-    #[error(
-        "{samples} samples cannot determine {functions} basis functions: give at least \
-         {functions} samples or a smaller fine level N (automatic levels: a larger \
-         oversampling rho)"
-    )]
+    #[error("{samples} samples cannot determine {functions} basis functions: {fix}")]
     Undersampled {
         /// Samples `m` (rows of `K`).
         samples: usize,
         /// Basis functions `P` (columns of `K`).
         functions: usize,
+        /// What to change: only changes that can work here (more samples; a smaller fine
+        /// level or a larger `rho` only where the basis is not already the smallest for `p`).
+        fix: String,
     },
     /// The request would need more memory than the limit.
     #[error(transparent)]
@@ -351,9 +350,68 @@ pub fn fit(
         domain,
     )?;
     let active = ActiveSet::uniform(basis);
+    if m < active.len() {
+        return Err(undersampled(
+            m,
+            active.len(),
+            params.p,
+            levels.fine,
+            Some(&params.levels),
+        ));
+    }
     let mut fitted = fit_active(active, positions, values, params.method, levels)?;
     fitted.fallbacks.splice(0..0, lowered(dropped));
     Ok(fitted)
+}
+
+/// [`ReconstructError::Undersampled`] with a fix that can work: at the smallest basis `p`
+/// allows (fine level at [`minimum_level`]) only more samples or a smaller `p`; otherwise
+/// also fewer functions, by the parameter that sets them (`levels`: `None` for an active set
+/// given by the caller).
+fn undersampled(
+    samples: usize,
+    functions: usize,
+    p: usize,
+    fine: u32,
+    levels: Option<&Levels>,
+) -> ReconstructError {
+    let min = minimum_level(p);
+    let fix = if fine <= min {
+        let smaller = if p > 1 {
+            format!(
+                ", or a smaller p (p = 1 needs {} samples)",
+                crate::resources::dimension(minimum_level(1))
+            )
+        } else {
+            String::new()
+        };
+        format!(
+            "{functions} functions is the smallest basis for p = {p} (level {min}), so give \
+             at least {functions} samples{smaller}"
+        )
+    } else {
+        match levels {
+            Some(Levels::Auto(lp)) => format!(
+                "give at least {functions} samples, or let the automatic levels choose fewer \
+                 functions with a larger oversampling rate (LevelParams::rho = {}; 2 gives \
+                 about samples / 2 functions)",
+                crate::norms::show(lp.rho)
+            ),
+            Some(Levels::Fixed { .. }) => format!(
+                "give at least {functions} samples, or fewer functions: a smaller fine level \
+                 N (Levels::Fixed {{ fine, .. }}; at least {min} for p = {p}) or automatic \
+                 levels (Levels::Auto)"
+            ),
+            None => {
+                format!("give at least {functions} samples, or an active set with fewer functions")
+            }
+        }
+    };
+    ReconstructError::Undersampled {
+        samples,
+        functions,
+        fix,
+    }
 }
 
 /// The fallback record of `dropped` lowered levels (none if zero).
@@ -390,10 +448,13 @@ fn guard_uniform(
         Levels::Fixed { .. } => 1.0,
     };
     if (m as f64) * reach < functions {
-        return Err(ReconstructError::Undersampled {
-            samples: m,
-            functions: functions.min(usize::MAX as f64) as usize,
-        });
+        return Err(undersampled(
+            m,
+            functions.min(usize::MAX as f64) as usize,
+            params.p,
+            levels.fine,
+            Some(&params.levels),
+        ));
     }
     let mut needed = resources::uniform_basis_bytes(params.p, levels.fine, channels);
     if !matches!(params.method, Method::SingleScale { .. }) {
@@ -450,10 +511,8 @@ pub fn fit_active(
     let m = positions.len();
     check_values(m, values)?;
     if m < active.len() {
-        return Err(ReconstructError::Undersampled {
-            samples: m,
-            functions: active.len(),
-        });
+        let basis = active.basis();
+        return Err(undersampled(m, active.len(), basis.p(), basis.fine(), None));
     }
     check_positions(active.basis().domain(), positions)?;
     let uniform = active.len() == active.basis().dimension();

@@ -15,8 +15,10 @@ pub enum SolveError {
     /// (a sparse Cholesky of `K^T K` with [`crate::solve::RankPolicy::Error`]).
     #[error(
         "{samples} samples cannot determine {functions} basis functions (K^T K is \
-         singular): give more samples (rho = samples / functions >= 2), fewer basis \
-         functions, or use RankPolicy::Regularize / the iterative solver"
+         singular): give at least {functions} samples (twice as many is better) or fewer \
+         basis functions (a smaller fine level), or accept a regularized answer with \
+         GlobalLsParams::rank_policy = RankPolicy::Regularize (ridge \
+         GlobalLsParams::ridge, e.g. 1e-10) or GlobalLsParams::method = GlobalMethod::Cgls"
     )]
     Undersampled {
         /// Samples `m` (rows of `K`).
@@ -30,7 +32,9 @@ pub enum SolveError {
         "rank deficient: pivot {pivot:.3e} of the equilibrated normal matrix at column \
          {column} is below the threshold {threshold:.3e} (column has {column_samples} \
          nonzero samples). Add samples where that basis function lives, lower the fine \
-         level N, or use local inversion or the dense SVD"
+         level, or accept a regularized answer: GlobalLsParams::rank_policy = \
+         RankPolicy::Regularize, or the local inversion (Method::Local), which cuts \
+         unsupported directions"
     )]
     RankDeficient {
         /// A column (basis function) at which the factorization found the deficiency.
@@ -89,8 +93,10 @@ pub enum SolveError {
 
     /// A result came out non-finite (overflow); nothing is returned rather than NaN.
     #[error(
-        "non-finite output in {what}: the result overflows f64. Rescale the values, \
-         raise the cut-off (more singular values dropped) or regularize"
+        "non-finite output in {what}: the result overflows f64. Rescale the values \
+         (e.g. divide them by their largest magnitude), or drop more singular values: \
+         raise the relative cut-off of the pseudo-inverse (`cutoff` of \
+         LocalInversionParams or Method::Dense, e.g. 1e-8)"
     )]
     NonFiniteOutput {
         /// Which output.
@@ -100,7 +106,8 @@ pub enum SolveError {
     /// A dense reference was asked for a matrix that is too large.
     #[error(
         "matrix {rows} x {cols} is too large for the dense reference (limit {limit} per \
-         dimension); use the sparse global least-squares solve instead"
+         dimension); use the sparse least squares instead (Method::Global or \
+         Method::SingleScale)"
     )]
     TooLarge {
         /// Rows of `K`.
@@ -115,7 +122,8 @@ pub enum SolveError {
     #[error(
         "iterative solve of channel {channel} did not converge: relative normal-equation \
          residual {residual:.3e} > tol {tol:.3e} after {iterations} iterations. Raise \
-         max_iter, loosen tol, or use the sparse Cholesky"
+         GlobalLsParams::max_iter above {iterations}, loosen GlobalLsParams::tol (e.g. \
+         1e-10), or use GlobalLsParams::method = GlobalMethod::Cholesky"
     )]
     NotConverged {
         /// Channel (right-hand side) that failed.

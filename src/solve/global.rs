@@ -282,15 +282,13 @@ fn normal_residuals(
     spmm(kt, f, &mut s0, ch);
     (0..ch)
         .map(|c| {
-            let (mut a, mut b) = (0.0f64, 0.0f64);
-            for t in 0..p {
-                a += (d[t] * s[t * ch + c]).powi(2);
-                b += (d[t] * s0[t * ch + c]).powi(2);
-            }
+            let a = crate::norms::rms((0..p).map(|t| d[t] * s[t * ch + c]));
+            let b = crate::norms::rms((0..p).map(|t| d[t] * s0[t * ch + c]));
+            // ||.||_2 ratio = rms ratio (same count); ||.||_2 = sqrt(p) rms when b = 0.
             if b > 0.0 {
-                (a / b).sqrt()
+                a / b
             } else {
-                a.sqrt()
+                a * (p as f64).sqrt()
             }
         })
         .collect()

@@ -280,18 +280,20 @@ pub fn normal_ls(
         .iter()
         .zip(rhs)
         .map(|(x, b)| {
-            let (num, den) = (0..p)
+            let residual: Vec<f64> = (0..p)
                 .into_par_iter()
                 .map(|a| {
                     let gx: f64 = (gp[a]..gp[a + 1]).map(|t| gd[t] * x[gi[t]]).sum();
-                    let (r, s) = (solved.d[a] * (b[a] - gx), solved.d[a] * b[a]);
-                    (r * r, s * s)
+                    solved.d[a] * (b[a] - gx)
                 })
-                .reduce(|| (0.0, 0.0), |u, v| (u.0 + v.0, u.1 + v.1));
+                .collect();
+            let num = crate::norms::rms(residual);
+            let den = crate::norms::rms((0..p).map(|a| solved.d[a] * b[a]));
+            // ||.||_2 ratio = rms ratio (same count); ||.||_2 = sqrt(p) rms when den = 0.
             if den > 0.0 {
-                (num / den).sqrt()
+                num / den
             } else {
-                num.sqrt()
+                num * (p as f64).sqrt()
             }
         })
         .collect();
