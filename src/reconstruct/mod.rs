@@ -280,6 +280,14 @@ pub fn fit(
     check_values(m, values)?;
     let mut levels = choose_levels(m, params);
     guard_uniform(m, values.len(), params, &levels)?;
+    if let (Levels::Auto(lp), Method::SingleScale { .. } | Method::Global(_)) =
+        (params.levels, params.method)
+    {
+        // Strongly non-uniform samples: a tree whose local depth follows the sample count.
+        if crate::refine::density::strongly_non_uniform(positions, domain, &levels, params.p) {
+            return crate::refine::density::fit_density_tree(positions, values, domain, params, lp);
+        }
+    }
     let mut dropped = 0u32;
     if let (Levels::Auto(_), Method::SingleScale { ridge, solver }) = (params.levels, params.method)
     {
