@@ -22,7 +22,7 @@ fn main() {
     }));
     let parsed = cli::Cli::parse();
     if let Err(e) = cli::run(parsed) {
-        eprintln!("error: {e}");
+        eprintln!("error: {}", cli::hints::in_flags(&e.to_string()));
         std::process::exit(e.exit_code());
     }
 }

@@ -291,3 +291,36 @@ fn cli_domain_messages_say_what_is_wrong() {
     assert!(!std::path::Path::new(out).exists());
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// On the command line a hint names flags, never the library's Rust names: an undersampled
+/// global solve, fixed levels too fine for the samples, and automatic levels asking for more
+/// oversampling than the samples allow each print advice a user can type.
+#[test]
+fn cli_hints_name_flags_not_library_names() {
+    let d = scratch("messages", "flags");
+    let out = d.join("o.csv");
+    let out = out.to_str().unwrap();
+    let rows: String = (0..12)
+        .map(|i| format!("{},{}\n", i as f64 / 11.0, (i as f64).sin()))
+        .collect();
+    let few = write(&d.join("few.csv"), &format!("x,value\n{rows}"));
+    // 300 samples in [0, 0.1] and one at 1: enough in number, but most functions unsampled.
+    let mut rows: String = (0..300)
+        .map(|i| format!("{},{}\n", i as f64 / 3000.0, (i as f64).sin()))
+        .collect();
+    rows.push_str("1,0\n");
+    let clustered = write(&d.join("clustered.csv"), &format!("x,value\n{rows}"));
+    for (extra, flag) in [
+        (&["--method", "global", "--levels", "4..6"][..], "--method"),
+        (&["--levels", "4..9"][..], "--levels"),
+        (&["--rho", "1000"][..], ""),
+    ] {
+        let input = if flag == "--method" { &clustered } else { &few };
+        let mut args = vec!["reconstruct", "--input", input, "--output", out];
+        args.extend_from_slice(extra);
+        let e = user_error(&args);
+        assert!(!e.contains("::"), "{extra:?}: a Rust path in {e}");
+        assert!(e.contains(flag), "{extra:?}: {flag} not named in {e}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -132,7 +132,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         );
     } else {
         for w in &report.warnings {
-            eprintln!("warning: {w}");
+            eprintln!("warning: {}", super::hints::in_flags(w));
         }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
