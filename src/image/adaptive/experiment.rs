@@ -1,0 +1,1 @@
+//! Adaptive wavelet against film filters at equal total samples (filled in below).
