@@ -74,20 +74,20 @@ fn full_tree_equals_uniform_engine() {
     };
     let uniform = fit_image(w, h, &xs, &ys, &values, &params).unwrap();
     let single = fit.single_scale(&tree);
-    for c in 0..2 {
-        let err = single[c]
+    for (c, (s, u)) in single.iter().zip(&uniform.coefficients).enumerate() {
+        let err = s
             .iter()
-            .zip(&uniform.coefficients[c])
+            .zip(u)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert!(err < 1e-10, "channel {c}: coefficients differ by {err:e}");
     }
     let tree_px = fit.box_pixels(&tree).unwrap();
     let uni_px = fit_pixels(&uniform, PixelFilter::Box).unwrap();
-    for c in 0..2 {
-        let err = tree_px[c]
+    for (c, (t, u)) in tree_px.iter().zip(&uni_px).enumerate() {
+        let err = t
             .iter()
-            .zip(&uni_px[c])
+            .zip(u)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert!(err < 1e-10, "channel {c}: pixels differ by {err:e}");

@@ -7,7 +7,7 @@
 //! support). Unlike 1D, `m` itself leaves the neighbours out: measured on a straight edge,
 //! their maximum gave the cells beside the edge the edge's own priority and spread the
 //! refinement over a band three parent cells wide (the supports of `P`'s functions already
-//! reach one cell beyond it). `r` is clamped to `[2^-(p+1), 0.9]` (`2^-(p+1)`: a smooth
+//! reach one cell beyond it). `r` is clamped to `[2^-(p+1), r_max]` (`2^-(p+1)`: a smooth
 //! region, where 2D coefficients decay like `2^{-j(p+1)}`; `1/2`: a straight edge, used at
 //! `t = 1` where there is no grandparent). The
 //! three functions of `C` are predicted at `r m` each, and its subtree with the edge model
@@ -65,10 +65,11 @@ fn neighbourhood(tree: &QuadTree, coefficients: &[Vec<f64>], cell: Cell) -> f64 
 }
 
 /// The indicator of every slot of `tree` from the fit's coefficients (full Mallat layout per
-/// channel).
-pub fn indicate(tree: &QuadTree, coefficients: &[Vec<f64>]) -> Indication {
+/// channel), the decay ratio capped at `max_ratio` (`r_max`, at least `2^-(p+1)`).
+pub fn indicate(tree: &QuadTree, coefficients: &[Vec<f64>], max_ratio: f64) -> Indication {
     let p = tree.basis().p() as i32;
     let min_ratio = (-(p + 1) as f64).exp2();
+    let max_ratio = max_ratio.max(min_ratio);
     let mut out = Indication::default();
     for slot in tree.slots() {
         let Some(parent) = slot.parent() else {
@@ -79,9 +80,9 @@ pub fn indicate(tree: &QuadTree, coefficients: &[Vec<f64>]) -> Indication {
             Some(grand) => {
                 let mg = neighbourhood(tree, coefficients, grand);
                 if mg > 0.0 {
-                    (neighbourhood(tree, coefficients, parent) / mg).clamp(min_ratio, 0.9)
+                    (neighbourhood(tree, coefficients, parent) / mg).clamp(min_ratio, max_ratio)
                 } else {
-                    0.9
+                    max_ratio
                 }
             }
             None => 0.5,
