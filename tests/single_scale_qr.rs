@@ -48,8 +48,33 @@ fn polynomials_below_order_p_are_reproduced_to_round_off() {
             ridge: 0.0,
             solver: SingleScaleSolver::Qr,
         };
-        let fit = fit_active(active, &xs, &[&f], method, lv).unwrap();
+        // A second channel off the span: its residual, rotated out chunk by chunk and merged,
+        // must be the one the evaluated fit leaves at the samples.
+        let noisy: Vec<f64> = xs
+            .iter()
+            .map(|&x| poly(p, x) + 1e-3 * (1e4 * x).sin())
+            .collect();
+        let fit = fit_active(active, &xs, &[&f, &noisy], method, lv).unwrap();
         assert!(fit.fallbacks.is_empty(), "p = {p}: {:?}", fit.fallbacks);
+        let reported = match &fit.solve {
+            rkwave::reconstruct::SolveReport::SingleScale(r) => r.residual_rms.clone().unwrap(),
+            other => panic!("p = {p}: {other:?}"),
+        };
+        let at = fit.evaluate(&xs).unwrap();
+        let evaluated = |c: usize, g: &[f64]| {
+            (at[c]
+                .iter()
+                .zip(g)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                / xs.len() as f64)
+                .sqrt()
+        };
+        // Off the span the residual is ~7e-4; both sides carry rounding ~1e-16 relative to it.
+        let (r1, e1) = (reported[1], evaluated(1, &noisy));
+        assert!((r1 - e1).abs() <= 1e-9 * e1, "p = {p}: {r1:e} vs {e1:e}");
+        // In the span both are round-off.
+        assert!(reported[0] <= 1e-13 && evaluated(0, &f) <= 1e-13, "p = {p}");
         let got = fit.evaluate(&probe).unwrap();
         let scale = probe.iter().map(|&x| poly(p, x).abs()).fold(0.0, f64::max);
         let err = probe
@@ -169,5 +194,23 @@ fn ill_conditioned_sample_sets_match_the_dense_svd() {
         if nrep.deficient == 0 {
             assert!(e_ne <= 20.0 * eps * cond * cond, "{name}: NE {e_ne:e}");
         }
+        // The residual the QR rotated out is the samples' residual: ||f - K c|| is stationary
+        // at the least-squares minimum (a coefficient error e changes it by ~||K e||^2), so
+        // it agrees with the dense reference's to the rounding of the sums, ~ m eps ||f||.
+        let ref_rms = resid / (xs.len() as f64).sqrt();
+        let qr_rms = qrep
+            .residual_rms
+            .as_ref()
+            .expect("the QR reports its residual")[0];
+        let fnorm = f.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let tol = xs.len() as f64 * eps * fnorm / (xs.len() as f64).sqrt();
+        assert!(
+            (qr_rms - ref_rms).abs() <= tol,
+            "{name}: residual RMS {qr_rms:e} from the QR against {ref_rms:e} (tolerance {tol:e})"
+        );
+        assert!(
+            nrep.residual_rms.is_none(),
+            "the normal equations do not report one"
+        );
     }
 }

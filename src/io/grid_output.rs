@@ -37,9 +37,11 @@ impl GridFormat {
     }
 }
 
+/// The open file and its format (for `.npy` the header is written; the rows follow as
+/// little-endian `float64`, C order, which is what the header declares).
 enum Sink {
     Csv(BufWriter<File>),
-    Npy(npyz::NpyWriter<f64, BufWriter<File>>),
+    Npy(BufWriter<File>),
 }
 
 /// Writes `rows` grid rows of `x` and the channels, block by block.
@@ -72,11 +74,13 @@ impl GridWriter {
         let file = BufWriter::with_capacity(BUFFER, File::create(&tmp).map_err(write_err)?);
         let sink = match GridFormat::from_path(path) {
             GridFormat::Npy => Sink::Npy(
-                npyz::WriteOptions::new()
-                    .default_dtype()
+                npyz::WriteOptions::<f64>::new()
+                    .dtype(npyz::DType::new_scalar(
+                        "<f8".parse().expect("a valid NumPy type string"),
+                    ))
                     .shape(&[rows as u64, 1 + names.len() as u64])
                     .writer(file)
-                    .begin_nd()
+                    .write_header_only()
                     .map_err(write_err)?,
             ),
             GridFormat::Csv => {
@@ -124,10 +128,12 @@ impl GridWriter {
             file: file.clone(),
             source,
         };
+        // The whole block is formatted into one buffer and written at once.
+        let npy = matches!(self.sink, Some(Sink::Npy(_)));
         let mut buf = zmij::Buffer::new();
+        self.line.clear();
         for (i, &x) in xs.iter().enumerate() {
             let row = std::iter::once(x).chain(values.iter().map(|v| v[i]));
-            self.line.clear();
             for (j, v) in row.enumerate() {
                 if !v.is_finite() {
                     return Err(IoError::NonFinite {
@@ -143,21 +149,21 @@ impl GridWriter {
                         value: v,
                     });
                 }
-                match self.sink.as_mut().expect("not finished") {
-                    Sink::Npy(w) => w.push(&v).map_err(write_err)?,
-                    Sink::Csv(_) => {
-                        if j > 0 {
-                            self.line.push(b',');
-                        }
-                        self.line.extend_from_slice(buf.format_finite(v).as_bytes());
+                if npy {
+                    self.line.extend_from_slice(&v.to_le_bytes());
+                } else {
+                    if j > 0 {
+                        self.line.push(b',');
                     }
+                    self.line.extend_from_slice(buf.format_finite(v).as_bytes());
                 }
             }
-            if let Some(Sink::Csv(w)) = &mut self.sink {
+            if !npy {
                 self.line.push(b'\n');
-                w.write_all(&self.line).map_err(write_err)?;
             }
         }
+        let (Sink::Npy(w) | Sink::Csv(w)) = self.sink.as_mut().expect("not finished");
+        w.write_all(&self.line).map_err(write_err)?;
         self.written += xs.len();
         Ok(())
     }
@@ -166,10 +172,8 @@ impl GridWriter {
     /// is left alone (an error). Every declared row must have been written.
     pub fn finish(mut self, overwrite: bool) -> Result<(), OutputError> {
         assert_eq!(self.written, self.rows, "every declared row written");
-        let flushed = match self.sink.take().expect("finished once") {
-            Sink::Npy(w) => w.finish(),
-            Sink::Csv(mut w) => w.flush(),
-        };
+        let (Sink::Npy(mut w) | Sink::Csv(mut w)) = self.sink.take().expect("finished once");
+        let flushed = w.flush();
         if let Err(source) = flushed {
             let _ = std::fs::remove_file(&self.tmp);
             return Err(OutputError::NotWritable {

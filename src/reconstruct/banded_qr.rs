@@ -30,6 +30,10 @@ pub(crate) struct GivensTriangle {
     z: Vec<f64>,
     /// `||K e_j||^2`: squared column norms of the rows added (the scale of the pivots).
     colsq: Vec<f64>,
+    /// Per channel, the sum of squares of the right-hand sides rotated out of the triangle:
+    /// `||f - K v||^2` of the least-squares solution `v` where `R` has full rank
+    /// ([`GivensTriangle::residual_squares`] adds what rank-deficient rows leave).
+    rss: Vec<f64>,
     buf: Vec<f64>,
     y: Vec<f64>,
 }
@@ -44,6 +48,8 @@ pub(crate) struct TriangleSolution {
     pub deficient: usize,
     /// Smallest `R_jj^2 / ||K e_j||^2` over the determined columns.
     pub min_pivot: f64,
+    /// Per column: deficient (its component set to 0).
+    pub deficient_rows: Vec<bool>,
 }
 
 impl GivensTriangle {
@@ -59,6 +65,7 @@ impl GivensTriangle {
             len: vec![0; n],
             z: vec![0.0; n * channels],
             colsq: vec![0.0; n],
+            rss: vec![0.0; channels],
             buf: Vec::with_capacity(4 * w),
             y: Vec::with_capacity(channels),
         }
@@ -103,6 +110,7 @@ impl GivensTriangle {
                 // far below its rounding) rather than carried on.
                 let left = self.buf[k..end].iter().fold(0.0f64, |a, v| a.max(v.abs()));
                 if left <= NEGLIGIBLE * size {
+                    self.rotated_out();
                     return;
                 }
                 row[..l].copy_from_slice(&self.buf[k..end]);
@@ -135,6 +143,15 @@ impl GivensTriangle {
             }
             k += 1;
         }
+        self.rotated_out();
+    }
+
+    /// The row being rotated in has been zeroed (or dropped as negligible): what is left of
+    /// its right-hand sides is residual.
+    fn rotated_out(&mut self) {
+        for (r, y) in self.rss.iter_mut().zip(&self.y) {
+            *r += y * y;
+        }
     }
 
     /// Merges `other` (a triangle over columns inside this one's) into this one: QR of the
@@ -144,6 +161,9 @@ impl GivensTriangle {
         debug_assert_eq!((other.w, other.channels), (self.w, self.channels));
         let o = other.c0 - self.c0;
         for (s, t) in self.colsq[o..o + other.n].iter_mut().zip(&other.colsq) {
+            *s += t;
+        }
+        for (s, t) in self.rss.iter_mut().zip(&other.rss) {
             *s += t;
         }
         let (w, ch) = (other.w, other.channels);
@@ -173,6 +193,28 @@ impl GivensTriangle {
                 self.rotate_in(self.c0 + jj, &[v], &zeros);
             }
         }
+    }
+
+    /// `||f - K v||^2` per channel for the solution `v` of [`GivensTriangle::solve`] (without
+    /// ridge rows): the right-hand sides rotated out, plus `(z_j - (R v)_j)^2` for the rows
+    /// whose pivot was declared deficient (their equation is not solved). `K = Q R` with `Q`
+    /// orthogonal makes this the residual of the samples themselves, found without
+    /// evaluating the fit again.
+    pub fn residual_squares(&self, solution: &TriangleSolution) -> Vec<f64> {
+        let (w, ch) = (self.w, self.channels);
+        let mut rss = self.rss.clone();
+        for (j, &deficient) in solution.deficient_rows.iter().enumerate() {
+            let l = self.len[j] as usize;
+            if !deficient || l == 0 {
+                continue;
+            }
+            let row = &self.r[j * w..j * w + l];
+            for (c, (r, v)) in rss.iter_mut().zip(&solution.coefficients).enumerate() {
+                let rv: f64 = row.iter().enumerate().map(|(d, rd)| rd * v[j + d]).sum();
+                *r += (self.z[j * ch + c] - rv).powi(2);
+            }
+        }
+        rss
     }
 
     /// Back substitution `R v = z`; a column whose pivot `R_jj^2 / ||K e_j||^2` is at most
@@ -216,6 +258,7 @@ impl GivensTriangle {
             unsampled,
             deficient: deficient.iter().filter(|&&d| d).count(),
             min_pivot,
+            deficient_rows: deficient,
         }
     }
 }

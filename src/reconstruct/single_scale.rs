@@ -45,6 +45,11 @@ pub struct SingleScaleReport {
     /// Smallest pivot `L_jj^2` of the equilibrated factor: near `1 / cond(K)^2`, small values
     /// flag locally undersampled regions.
     pub min_pivot: f64,
+    /// RMS residual at the samples `sqrt(||f - K v||^2 / m)` per channel, when the solve
+    /// found it on the way (the QR: the right-hand sides rotated out; not with a ridge, whose
+    /// rows would count too, nor when a sum of squares overflows): the fit need not be
+    /// evaluated at the samples again.
+    pub residual_rms: Option<Vec<f64>>,
 }
 
 /// Banded symmetric matrix: `band[i * (b + 1) + d] = A[i, i - d]`, `d <= b`.
@@ -362,6 +367,7 @@ fn factor_and_solve(
             unsampled,
             deficient: deficient.iter().filter(|&&x| x).count(),
             min_pivot,
+            residual_rms: None,
         },
     )
 }
@@ -418,10 +424,11 @@ pub fn single_scale_qr(
         }
     };
     let mut tri = GivensTriangle::new(0, n, w, channels);
-    if m < 2 * CHUNK {
+    let threads = rayon::current_num_threads().max(1);
+    if m < 2 * CHUNK || threads == 1 {
         fill(&mut tri, 0..m);
     } else {
-        let per = m.div_ceil(rayon::current_num_threads().max(1)).max(CHUNK);
+        let per = m.div_ceil(threads).max(CHUNK);
         let starts: Vec<usize> = (0..m).step_by(per).collect();
         let parts: Vec<GivensTriangle> = starts
             .par_iter()
@@ -442,6 +449,14 @@ pub fn single_scale_qr(
     }
     tri.add_ridge(ridge);
     let sol = tri.solve(PIVOT_TOLERANCE);
+    let residual_rms = if ridge == 0.0 && m > 0 {
+        let rss = tri.residual_squares(&sol);
+        rss.iter()
+            .all(|r| r.is_finite())
+            .then(|| rss.iter().map(|r| (r / m as f64).sqrt()).collect())
+    } else {
+        None
+    };
     let coefficients = sol
         .coefficients
         .into_iter()
@@ -456,6 +471,7 @@ pub fn single_scale_qr(
             unsampled: sol.unsampled,
             deficient: sol.deficient,
             min_pivot: sol.min_pivot,
+            residual_rms,
         },
     ))
 }

@@ -55,10 +55,11 @@ pub fn uniform_grid(domain: Domain, points: usize) -> Vec<f64> {
     (0..points).map(|g| grid_point(domain, points, g)).collect()
 }
 
-/// Evaluates `fit` of `samples` on `points` uniform grid points over `domain`, handing the
+/// Evaluates `fit` (made from `samples`: their residual may come from the fit's own solve)
+/// on `points` uniform grid points over `domain`, handing the
 /// positions and values (one vector per channel) to `sink` block by block of
-/// [`GRID_BLOCK`] points in grid order, so the grid is never held whole; then measures the
-/// residual at the samples. The first error of the evaluation or of the sink stops it.
+/// [`GRID_BLOCK`] points in grid order, so the grid is never held whole; then the residual at
+/// the samples (from the solve's report when the QR found it, else by evaluating there). The first error of the evaluation or of the sink stops it.
 pub fn onto_grid<E, S>(
     fit: Fit,
     samples: &SampleSet,
@@ -83,12 +84,19 @@ where
         sink(&xs, &values)?;
         sink_s += t.elapsed().as_secs_f64();
     }
-    let at_samples = evaluator.evaluate(&samples.positions)?;
-    let residual_rms = at_samples
-        .iter()
-        .zip(&samples.values)
-        .map(|(r, f)| rms(r, f))
-        .collect();
+    // The QR found the residual on the way; otherwise evaluate the fit at the samples.
+    let residual_rms = match &fit.solve {
+        SolveReport::SingleScale(SingleScaleReport {
+            residual_rms: Some(r),
+            ..
+        }) => r.clone(),
+        _ => evaluator
+            .evaluate(&samples.positions)?
+            .iter()
+            .zip(&samples.values)
+            .map(|(r, f)| rms(r, f))
+            .collect(),
+    };
     Ok(GridReconstruction {
         fit,
         points,

@@ -336,7 +336,27 @@ fn cholesky_ls(
     let mut ktf = vec![0.0; p * ch];
     spmm(&prep.kt, &f, &mut ktf, ch);
     let tp = raw(&prep.kt).0;
-    let solved = factor_solve(&g, &ktf, ch, m, &|a| tp[a + 1] - tp[a], None, params)?;
+    // One corrected semi-normal step: the accuracy of a QR of K, not of K^T K.
+    let correction = |y: &[f64], d: &[f64]| {
+        let dy: Vec<f64> = y.iter().enumerate().map(|(t, v)| d[t / ch] * v).collect();
+        let mut r = vec![0.0; m * ch];
+        spmm(&prep.k, &dy, &mut r, ch);
+        r.par_iter_mut().zip(&f).for_each(|(r, f)| *r = f - *r);
+        let mut s = vec![0.0; p * ch];
+        spmm(&prep.kt, &r, &mut s, ch);
+        s.iter_mut().enumerate().for_each(|(t, v)| *v *= d[t / ch]);
+        s
+    };
+    let solved = factor_solve(
+        &g,
+        &ktf,
+        ch,
+        m,
+        &|a| tp[a + 1] - tp[a],
+        None,
+        Some(&correction),
+        params,
+    )?;
     let residuals = normal_residuals(&prep.k, &prep.kt, &solved.d, &f, &solved.y, ch);
     let coefficients = deinterleave(&solved.y, &solved.d, ch, prep.exponent);
     for (c, x) in coefficients.iter().enumerate() {
