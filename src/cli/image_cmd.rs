@@ -78,6 +78,9 @@ pub struct ImageArgs {
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// The adaptive mode's flags.
+    #[command(flatten)]
+    pub adaptive: super::image_adaptive_cmd::AdaptiveArgs,
 }
 
 /// A scene argument: an existing file, or a built-in scene's name.
@@ -180,6 +183,9 @@ fn filter_csv_path(out: &Path, x: usize, y: usize) -> PathBuf {
 
 /// Runs `rkwave image`.
 pub fn run(args: &ImageArgs) -> Result<(), CliError> {
+    if args.adaptive.adaptive {
+        return super::image_adaptive_cmd::run(args);
+    }
     ImageFormat::from_path(&args.out).map_err(|e| CliError::Invalid(format!("--out: {e}")))?;
     check_writable(&args.out, args.force)?;
     let plane = parse_resolution(&args.resolution)?;

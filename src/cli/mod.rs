@@ -9,6 +9,7 @@ pub mod demo_image;
 pub mod eval_cmd;
 pub mod figures;
 pub mod hints;
+pub mod image_adaptive_cmd;
 pub mod image_cmd;
 pub mod limits;
 pub mod reconstruct2d_cmd;

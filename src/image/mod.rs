@@ -16,6 +16,7 @@
 //!   ground truth; [`metrics`]: PSNR, RMSE, relative MSE, SSIM.
 //! * [`experiment`]: every method on the same samples, measured; `figure` draws it.
 
+pub mod adaptive;
 pub mod equivalent_filter;
 pub mod fit;
 pub mod pixels;

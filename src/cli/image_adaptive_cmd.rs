@@ -1,0 +1,179 @@
+//! `rkwave image --adaptive`: the adaptive wavelet image of a scene at a sample budget, beside
+//! the film filters at the same total samples (stratified) and on the adaptive samples; the
+//! local depth and the sample positions as figures.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use rkwave::image::adaptive::experiment::compare_adaptive;
+use rkwave::image::adaptive::{AdaptiveImage, AdaptiveParams};
+use rkwave::image::experiment::TruthParams;
+use rkwave::image::scene::Scene;
+use rkwave::image::{ImagePlane, PixelImage};
+use rkwave::io::image_file::write_image;
+
+use super::image_cmd::{check_p, parse_resolution, scene_path, spinner, ImageArgs};
+use super::{check_writable, CliError};
+
+/// Flags of the adaptive mode of `rkwave image`.
+#[derive(Args, Debug)]
+pub struct AdaptiveArgs {
+    /// Adaptive sampling: a quadtree of the wavelet basis refined where the scene needs it,
+    /// with `--spp` as the average samples per pixel (or `--budget`).
+    #[arg(long)]
+    pub adaptive: bool,
+    /// Total sample budget of the adaptive mode (default: spp x pixels).
+    #[arg(long)]
+    pub budget: Option<usize>,
+    /// Adaptive mode: samples per slot of the tree (local oversampling).
+    #[arg(long, default_value_t = 2.0)]
+    pub rho: f64,
+    /// Adaptive mode: depth limit in levels below the pixel.
+    #[arg(long, default_value_t = 1)]
+    pub below_pixel: u32,
+}
+
+fn figure_path(out: &Path, what: &str) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or("image".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}_{what}.png"))
+}
+
+/// The local depth per pixel as a grey image (black: the base level, white: the limit).
+fn depth_image(run: &AdaptiveImage, plane: ImagePlane) -> PixelImage {
+    let depth = run.tree.depth_map();
+    let base = (run.report.base_levels.0 - run.report.coarse_levels.0) as f64;
+    let span = (run.tree.steps() as f64 - base).max(1.0);
+    let grey: Vec<f64> = depth
+        .iter()
+        .map(|&d| ((d as f64 - base) / span).clamp(0.0, 1.0))
+        .collect();
+    PixelImage {
+        plane,
+        channels: vec![grey.clone(), grey.clone(), grey],
+    }
+}
+
+/// Sample positions on a 4x finer raster: base samples grey, later rounds from blue to red.
+fn samples_image(run: &AdaptiveImage, plane: ImagePlane) -> Result<PixelImage, CliError> {
+    let scale = 4;
+    let big = ImagePlane::new(plane.width() * scale, plane.height() * scale)
+        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let mut img = PixelImage::zeros(big, 3);
+    let last = run.round_of.iter().copied().max().unwrap_or(0).max(1) as f64;
+    for ((&x, &y), &r) in run.xs.iter().zip(&run.ys).zip(&run.round_of) {
+        let (px, py) = big.pixel_of(x * scale as f64, y * scale as f64);
+        let i = py * big.width() + px;
+        let rgb = if r == 0 {
+            [0.35, 0.35, 0.35]
+        } else {
+            let t = r as f64 / last;
+            [t, 0.2, 1.0 - t]
+        };
+        for (c, v) in rgb.into_iter().enumerate() {
+            img.channels[c][i] = v;
+        }
+    }
+    Ok(img)
+}
+
+fn write(path: &Path, image: &PixelImage) -> Result<(), CliError> {
+    write_image(path, image).map_err(|e| CliError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    })
+}
+
+/// Runs `rkwave image --adaptive`.
+pub fn run(args: &ImageArgs) -> Result<(), CliError> {
+    let a = &args.adaptive;
+    let depth_path = figure_path(&args.out, "depth");
+    let samples_path = figure_path(&args.out, "samples");
+    for path in [&args.out, &depth_path, &samples_path] {
+        check_writable(path, args.force)?;
+    }
+    let plane = parse_resolution(&args.resolution)?;
+    if args.noise != 0.0 {
+        return Err(CliError::Invalid(
+            "--noise with --adaptive: the adaptive mode is noise-free for now".into(),
+        ));
+    }
+    let budget = a.budget.unwrap_or(args.spp.saturating_mul(plane.pixels()));
+    let spp = budget / plane.pixels();
+    if spp == 0 {
+        return Err(CliError::Invalid(format!(
+            "--budget {budget}: the comparison needs at least one sample per pixel on average \
+             ({} for {plane})",
+            plane.pixels()
+        )));
+    }
+    let scene =
+        Scene::from_file(scene_path(&args.scene)?).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let params = AdaptiveParams {
+        p: check_p(args.p)?,
+        rho: a.rho,
+        below_pixel: a.below_pixel,
+        seed: args.seed,
+        budget,
+        ..AdaptiveParams::default()
+    };
+    let truth = TruthParams {
+        rate: args.truth_rate,
+        cache: args.truth_cache.clone(),
+    };
+    let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
+    let out = compare_adaptive(&scene, plane, spp, &params, &truth)
+        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    bar.finish_and_clear();
+    write(&args.out, &out.image)?;
+    write(&depth_path, &depth_image(&out.run, plane))?;
+    write(&samples_path, &samples_image(&out.run, plane)?)?;
+    let c = &out.comparison;
+    if args.json {
+        let mut value = serde_json::to_value(c).expect("report serialises");
+        value["out"] = serde_json::json!(args.out);
+        value["depth_map"] = serde_json::json!(depth_path);
+        value["sample_positions"] = serde_json::json!(samples_path);
+        println!("{}", serde_json::to_string_pretty(&value).expect("json"));
+        return Ok(());
+    }
+    let r = &c.adaptive;
+    println!(
+        "{} {plane} adaptive: {} samples of {} (base {}), {} functions, {} rounds, stop {:?}, \
+         levels base {:?} limit {:?} -> {}",
+        c.scene,
+        r.samples,
+        r.budget,
+        r.base_samples,
+        r.functions,
+        r.rounds.len(),
+        r.stop,
+        r.base_levels,
+        r.levels,
+        args.out.display()
+    );
+    for row in &c.rows {
+        println!(
+            "{:18} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
+            row.method, row.samples_from, row.samples, row.metrics.psnr, row.metrics.ssim
+        );
+    }
+    println!(
+        "adaptive wavelet - best film filter on stratified samples ({}): {:+.2} dB",
+        c.best_uniform_film.0, c.gain_db
+    );
+    println!(
+        "time: adaptive {:.2} s (sampling {:.2}, fits {:.2}, refining {:.2})",
+        c.adaptive_s, r.times.sample_s, r.times.fit_s, r.times.refine_s
+    );
+    println!(
+        "figures: depth {}, samples {}",
+        depth_path.display(),
+        samples_path.display()
+    );
+    for note in &r.notes {
+        println!("note: {note}");
+    }
+    Ok(())
+}

@@ -1,0 +1,203 @@
+//! Adaptive wavelet against film filters at equal total samples (issue 13's targets).
+//!
+//! For one scene and an average of `s` samples per pixel (budget `B = s W H`):
+//!
+//! * the adaptive wavelet image ([`super::refine_image`], budget `B`), exact box pixels;
+//! * every film filter and the uniform wavelet engine on `s` stratified samples per pixel
+//!   (the renderer's baseline at the same cost);
+//! * every film filter on the adaptive sample set (weighted splatting): separates what the
+//!   sample placement buys from what the reconstruction buys.
+//!
+//! All against the box-filtered ground truth ([`crate::image::truth`]).
+
+use serde::Serialize;
+
+use super::refiner::{refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport};
+use super::{AdaptiveError, SceneOracle};
+use crate::image::experiment::{
+    run_method, sample_scene, ImageRunError, Method, SamplingParams, TruthParams, WaveletParams,
+};
+use crate::image::filters::FilmFilterKind;
+use crate::image::metrics::{compare, ImageMetrics};
+use crate::image::sampler::Sampler;
+use crate::image::scene::Scene;
+use crate::image::truth::truth_cached;
+use crate::image::{ImagePlane, ImageSamples, PixelImage};
+
+/// Why an adaptive comparison failed.
+#[derive(Debug, thiserror::Error)]
+pub enum AdaptiveRunError {
+    /// The adaptive engine.
+    #[error(transparent)]
+    Adaptive(#[from] AdaptiveError),
+    /// The baselines.
+    #[error(transparent)]
+    Run(#[from] ImageRunError),
+    /// Samples could not be wrapped (an internal error).
+    #[error(transparent)]
+    Image(#[from] crate::image::ImageError),
+}
+
+/// One row of the comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct AdaptiveRow {
+    /// `adaptive wavelet`, `wavelet`, or a film filter's name.
+    pub method: String,
+    /// `adaptive` or `stratified`.
+    pub samples_from: &'static str,
+    /// Samples used.
+    pub samples: usize,
+    /// Against the truth.
+    pub metrics: ImageMetrics,
+    /// Fallbacks in words.
+    pub notes: Vec<String>,
+}
+
+/// The comparison on one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct AdaptiveComparison {
+    /// Scene name.
+    pub scene: String,
+    /// Resolution.
+    pub plane: ImagePlane,
+    /// Average samples per pixel.
+    pub spp: usize,
+    /// The adaptive run.
+    pub adaptive: AdaptiveReport,
+    /// Every method.
+    pub rows: Vec<AdaptiveRow>,
+    /// The best film filter on stratified samples, and its PSNR.
+    pub best_uniform_film: (String, f64),
+    /// Adaptive wavelet PSNR minus the best uniform film filter's.
+    pub gain_db: f64,
+    /// Seconds: the adaptive run, end to end.
+    pub adaptive_s: f64,
+}
+
+/// The images of the comparison (for figures), beside the report.
+pub struct AdaptiveOutput {
+    /// The report.
+    pub comparison: AdaptiveComparison,
+    /// The adaptive run (tree, samples, fit).
+    pub run: AdaptiveImage,
+    /// The adaptive wavelet's pixels.
+    pub image: PixelImage,
+    /// The truth.
+    pub truth: PixelImage,
+}
+
+/// Runs the comparison on `scene` at `spp` samples per pixel on average.
+pub fn compare_adaptive(
+    scene: &Scene,
+    plane: ImagePlane,
+    spp: usize,
+    params: &AdaptiveParams,
+    truth: &TruthParams,
+) -> Result<AdaptiveOutput, AdaptiveRunError> {
+    let (truth_image, _, _) = truth_cached(&truth.cache, scene, plane, truth.rate);
+    let t = std::time::Instant::now();
+    let params = AdaptiveParams {
+        budget: spp * plane.pixels(),
+        ..*params
+    };
+    let run = refine_image(&SceneOracle { scene, plane }, plane, &params)?;
+    let image = run.pixels()?;
+    let adaptive_s = t.elapsed().as_secs_f64();
+    let mut rows = vec![AdaptiveRow {
+        method: "adaptive wavelet".into(),
+        samples_from: "adaptive",
+        samples: run.xs.len(),
+        metrics: compare(&image, &truth_image),
+        notes: run.report.notes.clone(),
+    }];
+    let uniform = sample_scene(
+        scene,
+        &SamplingParams {
+            plane,
+            spp,
+            sampler: Sampler::Stratified,
+            noise: 0.0,
+            seed: params.seed,
+        },
+    )?;
+    let adaptive_set =
+        ImageSamples::new(plane, run.xs.clone(), run.ys.clone(), run.values.clone())?;
+    let wavelet = WaveletParams::default();
+    let mut methods = vec![Method::Wavelet];
+    methods.extend(FilmFilterKind::ALL.map(Method::Film));
+    for (set, from) in [(&uniform, "stratified"), (&adaptive_set, "adaptive")] {
+        for &m in &methods {
+            if from == "adaptive" && m == Method::Wavelet {
+                continue;
+            }
+            let r = run_method(m, set, &wavelet, &truth_image)?;
+            rows.push(AdaptiveRow {
+                method: m.name().into(),
+                samples_from: from,
+                samples: set.len(),
+                metrics: r.metrics,
+                notes: r.notes,
+            });
+        }
+    }
+    let best = rows
+        .iter()
+        .filter(|r| r.samples_from == "stratified" && r.method != "wavelet")
+        .max_by(|a, b| a.metrics.psnr.total_cmp(&b.metrics.psnr))
+        .map(|r| (r.method.clone(), r.metrics.psnr))
+        .expect("five film filters ran");
+    let gain_db = rows[0].metrics.psnr - best.1;
+    Ok(AdaptiveOutput {
+        comparison: AdaptiveComparison {
+            scene: scene.name().to_string(),
+            plane,
+            spp,
+            adaptive: run.report.clone(),
+            rows,
+            best_uniform_film: best,
+            gain_db,
+            adaptive_s,
+        },
+        run,
+        image,
+        truth: truth_image,
+    })
+}
+
+/// A Markdown table of comparisons: one line per scene and spp, PSNR of the adaptive wavelet,
+/// the best film filter on stratified samples, the gain, the uniform wavelet, and the best
+/// film filter on the adaptive samples.
+pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
+    let mut s = String::from(
+        "| scene | spp | adaptive wavelet | best film (stratified) | gain dB | wavelet \
+         (stratified) | best film (adaptive set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for c in rows {
+        let psnr = |from: &str, pred: &dyn Fn(&str) -> bool| {
+            c.rows
+                .iter()
+                .filter(|r| r.samples_from == from && pred(&r.method))
+                .map(|r| (r.method.clone(), r.metrics.psnr))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap_or_default()
+        };
+        let wav = psnr("stratified", &|m| m == "wavelet");
+        let film_adaptive = psnr("adaptive", &|m| m != "adaptive wavelet");
+        s.push_str(&format!(
+            "| {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} ({}) | {} | {} | {:?} |\n",
+            c.scene,
+            c.spp,
+            c.rows[0].metrics.psnr,
+            c.best_uniform_film.1,
+            c.best_uniform_film.0,
+            c.gain_db,
+            wav.1,
+            film_adaptive.1,
+            film_adaptive.0,
+            c.adaptive.functions,
+            c.adaptive.rounds.len(),
+            c.adaptive.stop,
+        ));
+    }
+    s
+}

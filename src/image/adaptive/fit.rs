@@ -1,0 +1,254 @@
+//! Least squares on the tree: `c = argmin ||K_T c - f_ch||` per channel, `K_T[i, a] =
+//! Psi_a(x_i, y_i)` over the active functions `a` of a [`QuadTree`] (the non-standard
+//! multilevel basis restricted to the tree).
+//!
+//! `K_T` is built row by row from the multilevel evaluator (in parallel), `G = K_T^T K_T`
+//! by a sparse product, and the system is solved by [`crate::solve::normal_ls`]: the
+//! equilibrated sparse Cholesky of the 1D refiner, one factorization for every channel, with
+//! [`RankPolicy::Regularize`](crate::solve::RankPolicy): a direction the samples do not
+//! determine (a function without samples, a rank-deficient patch) gets a relative ridge,
+//! reported, never NaN.
+//!
+//! Pixels are exact: the tree's coefficients, zero off the tree, are one 2D synthesis away from
+//! the single-scale coefficients of `V_Jx (x) V_Jy` ([`TensorBasis::synthesis`]), whose box
+//! pixel integrals are exact ([`crate::image::pixels`]).
+
+use rayon::prelude::*;
+use serde::Serialize;
+use sprs::CsMat;
+
+use super::tree::QuadTree;
+use super::AdaptiveError;
+use crate::basis::tensor::TensorValue;
+use crate::image::fit::ImageFitError;
+use crate::image::pixels::{filter_image, PixelIntegrals};
+use crate::solve::{normal_ls, GlobalLsParams, RankPolicy};
+
+/// What the tree solve did.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct TreeFitReport {
+    /// Active functions `P`.
+    pub functions: usize,
+    /// Samples `m`.
+    pub samples: usize,
+    /// Active functions without any sample in their support (pinned near 0 by the ridge).
+    pub unsampled: usize,
+    /// Ridge added to the equilibrated normal matrix (0: none was needed).
+    pub ridge: f64,
+    /// Smallest pivot of the equilibrated Cholesky factor.
+    pub min_pivot: f64,
+    /// Stored entries of `G`.
+    pub normal_nnz: usize,
+    /// Stored entries of the Cholesky factor.
+    pub factor_nnz: usize,
+    /// Seconds: kernel rows, `G`, factor and solve.
+    pub kernel_s: f64,
+    /// Seconds: the normal matrix product.
+    pub normal_s: f64,
+    /// Seconds: factorization and solves.
+    pub solve_s: f64,
+}
+
+/// A fit on a tree: coefficients in the full Mallat layout (zero off the tree).
+#[derive(Clone, Debug)]
+pub struct TreeFit {
+    /// Per channel, `nx ny` multilevel coefficients, Mallat layout of the tree's basis.
+    pub coefficients: Vec<Vec<f64>>,
+    /// What the solve did.
+    pub report: TreeFitReport,
+}
+
+/// Positions evaluated per parallel work item.
+const CHUNK: usize = 2048;
+
+/// Checks the sample arrays: equal lengths, positions in the image, finite values.
+pub(crate) fn check_samples(
+    tree: &QuadTree,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+) -> Result<(), ImageFitError> {
+    if xs.is_empty() {
+        return Err(ImageFitError::Empty { what: "samples" });
+    }
+    if values.is_empty() {
+        return Err(ImageFitError::Empty { what: "channels" });
+    }
+    let lengths = std::iter::once(("ys".to_string(), ys.len())).chain(
+        values
+            .iter()
+            .enumerate()
+            .map(|(c, v)| (format!("channel {c}"), v.len())),
+    );
+    for (what, found) in lengths {
+        if found != xs.len() {
+            return Err(ImageFitError::LengthMismatch {
+                what,
+                expected: xs.len(),
+                found,
+            });
+        }
+    }
+    for (c, v) in values.iter().enumerate() {
+        if let Some((index, &value)) = v.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(ImageFitError::NonFiniteValue {
+                index,
+                channel: c,
+                value,
+            });
+        }
+    }
+    let b = tree.basis();
+    if let Some(index) = (0..xs.len()).find(|&i| b.check(xs[i], ys[i]).is_err()) {
+        return Err(ImageFitError::SampleOutside {
+            index,
+            x: xs[index],
+            y: ys[index],
+            width: b.width(),
+            height: b.height(),
+        });
+    }
+    Ok(())
+}
+
+/// The kernel matrix `K_T` (`m x P` CSR) over the tree's functions `functions` (ascending
+/// Mallat indices): rows from the multilevel evaluator, restricted to the tree.
+pub fn tree_kernel(tree: &QuadTree, functions: &[usize], xs: &[f64], ys: &[f64]) -> CsMat<f64> {
+    let basis = tree.basis();
+    let mut column = vec![u32::MAX; basis.len()];
+    for (a, &f) in functions.iter().enumerate() {
+        column[f] = a as u32;
+    }
+    let blocks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = xs
+        .par_chunks(CHUNK)
+        .zip(ys.par_chunks(CHUNK))
+        .map(|(cx, cy)| {
+            let mut ev = basis.multilevel_evaluator();
+            let mut row: Vec<TensorValue> = Vec::new();
+            let mut counts = Vec::with_capacity(cx.len());
+            let mut idx = Vec::new();
+            let mut val = Vec::new();
+            for (&x, &y) in cx.iter().zip(cy) {
+                ev.eval_into(x, y, &mut row)
+                    .expect("positions are checked before the kernel is built");
+                let before = idx.len();
+                for v in &row {
+                    let c = column[v.index];
+                    if c != u32::MAX {
+                        idx.push(c as usize);
+                        val.push(v.value);
+                    }
+                }
+                counts.push(idx.len() - before);
+            }
+            (counts, idx, val)
+        })
+        .collect();
+    let mut indptr = Vec::with_capacity(xs.len() + 1);
+    indptr.push(0usize);
+    let (mut indices, mut data) = (Vec::new(), Vec::new());
+    for (counts, idx, val) in blocks {
+        for c in counts {
+            indptr.push(indptr.last().unwrap() + c);
+        }
+        indices.extend(idx);
+        data.extend(val);
+    }
+    CsMat::new((xs.len(), functions.len()), indptr, indices, data)
+}
+
+/// Fits every channel on the tree from samples `(xs[i], ys[i])` with values `values[c][i]`.
+pub fn fit_tree(
+    tree: &QuadTree,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+) -> Result<TreeFit, AdaptiveError> {
+    check_samples(tree, xs, ys, values)?;
+    let functions = tree.functions();
+    let t = std::time::Instant::now();
+    let k = tree_kernel(tree, &functions, xs, ys);
+    let kernel_s = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
+    let kt: CsMat<f64> = k.transpose_view().to_csr();
+    let g = &kt * &k;
+    let rhs: Vec<Vec<f64>> = values
+        .iter()
+        .map(|f| {
+            kt.outer_iterator()
+                .map(|r| r.iter().map(|(i, v)| v * f[i]).sum())
+                .collect()
+        })
+        .collect();
+    let column_samples: Vec<usize> = kt.outer_iterator().map(|r| r.nnz()).collect();
+    let normal_s = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
+    let params = GlobalLsParams {
+        rank_policy: RankPolicy::Regularize,
+        ..GlobalLsParams::default()
+    };
+    let rhs_ref: Vec<&[f64]> = rhs.iter().map(|r| r.as_slice()).collect();
+    let solved = normal_ls(&g, &rhs_ref, xs.len(), &column_samples, None, &params)?;
+    let solve_s = t.elapsed().as_secs_f64();
+    let n = tree.basis().len();
+    let coefficients = solved
+        .coefficients
+        .iter()
+        .map(|c| {
+            let mut full = vec![0.0; n];
+            for (&f, &v) in functions.iter().zip(c) {
+                full[f] = v;
+            }
+            full
+        })
+        .collect();
+    Ok(TreeFit {
+        coefficients,
+        report: TreeFitReport {
+            functions: functions.len(),
+            samples: xs.len(),
+            unsampled: column_samples.iter().filter(|&&c| c == 0).count(),
+            ridge: solved.report.ridge,
+            min_pivot: solved.report.min_pivot,
+            normal_nnz: solved.report.normal_nnz,
+            factor_nnz: solved.report.factor_nnz,
+            kernel_s,
+            normal_s,
+            solve_s,
+        },
+    })
+}
+
+impl TreeFit {
+    /// Single-scale coefficients of `V_Jx (x) V_Jy` per channel (2D synthesis).
+    pub fn single_scale(&self, tree: &QuadTree) -> Vec<Vec<f64>> {
+        self.coefficients
+            .iter()
+            .map(|c| tree.basis().synthesis(c))
+            .collect()
+    }
+
+    /// The reconstruction at `(x, y)`, one value per channel.
+    pub fn evaluate(&self, tree: &QuadTree, x: f64, y: f64) -> Result<Vec<f64>, AdaptiveError> {
+        let mut ev = tree.basis().multilevel_evaluator();
+        let mut row = Vec::new();
+        ev.eval_into(x, y, &mut row)?;
+        Ok(self
+            .coefficients
+            .iter()
+            .map(|c| row.iter().map(|v| c[v.index] * v.value).sum())
+            .collect())
+    }
+
+    /// Box pixel values, exact: `I = B_y C B_x^T` of the single-scale coefficients, one
+    /// `H x W` row-major image per channel.
+    pub fn box_pixels(&self, tree: &QuadTree) -> Result<Vec<Vec<f64>>, AdaptiveError> {
+        let b = tree.basis();
+        let bx = PixelIntegrals::new(b.scale_x(), b.width())?;
+        let by = PixelIntegrals::new(b.scale_y(), b.height())?;
+        self.single_scale(tree)
+            .iter()
+            .map(|c| Ok(filter_image(&by, &bx, c)?))
+            .collect()
+    }
+}
