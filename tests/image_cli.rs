@@ -236,3 +236,48 @@ fn reconstruct_dim_2_rejects_wrong_columns_and_samples_outside() {
     );
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `image --adaptive` runs end to end on a small scene: the image and its two figures are
+/// written, the JSON names the samples used, and the budget is kept.
+#[test]
+fn image_adaptive_writes_the_image_and_its_figures() {
+    let dir = std::env::temp_dir().join(format!("rkwave_adaptive_cli_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("g.png");
+    let run = Command::new(env!("CARGO_BIN_EXE_rkwave"))
+        .args([
+            "image",
+            "--scene",
+            "shapes",
+            "--resolution",
+            "32x32",
+            "--spp",
+            "4",
+            "--adaptive",
+            "--truth-cache",
+            dir.join("truth").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    for f in ["g.png", "g_depth.png", "g_samples.png"] {
+        assert!(dir.join(f).exists(), "{f} missing");
+    }
+    let json: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");
+    let samples = json["samples"]
+        .as_u64()
+        .or_else(|| json["adaptive"]["samples"].as_u64());
+    assert!(
+        samples.is_some_and(|s| s > 0 && s <= 4 * 32 * 32),
+        "samples within the budget: {json}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

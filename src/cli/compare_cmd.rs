@@ -154,17 +154,18 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
                 .out
                 .join(format!("{}_noise{}.png", scene.name(), noise));
             check_writable(&fig, args.force)?;
-            save_side_by_side(&cmp, &fig)?;
+            save_side_by_side(&cmp, &fig, args.force)?;
             comparisons.push(cmp);
             bar.inc(1);
         }
     }
     bar.finish_and_clear();
-    let write = |path: &PathBuf, text: String| {
-        std::fs::write(path, text).map_err(|source| CliError::Write {
-            path: path.clone(),
-            source,
-        })
+    let write = |path: &PathBuf, text: String| -> Result<(), CliError> {
+        Ok(rkwave::io::output::write_new(
+            path,
+            text.as_bytes(),
+            args.force,
+        )?)
     };
     write(
         &csv_path,
@@ -176,7 +177,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         &md_path,
         format!("PSNR (dB):\n\n{md}\nSeconds per method (fit + pixels):\n\n{times}"),
     )?;
-    save_error_vs_time(&comparisons, &time_path)?;
+    save_error_vs_time(&comparisons, &time_path, args.force)?;
     if args.json {
         println!(
             "{}",

@@ -42,7 +42,7 @@ pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
     )
     .map_err(|e| CliError::Invalid(e.to_string()))?;
     let fig = out.join("image_compare.png");
-    save_side_by_side(&cmp, &fig)?;
+    save_side_by_side(&cmp, &fig, true)?;
     let _ = writeln!(
         summary,
         "\n## Image plane: `{DEMO_SCENE}` at {DEMO_SIDE}x{DEMO_SIDE}, 4 spp stratified, PSNR (dB) \

@@ -12,7 +12,7 @@ use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, PixelImage};
 use rkwave::io::image_file::write_image;
 
-use super::image_cmd::{check_p, parse_resolution, scene_path, spinner, ImageArgs};
+use super::image_cmd::{check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs};
 use super::{check_writable, CliError};
 
 /// Flags of the adaptive mode of `rkwave image`.
@@ -25,9 +25,6 @@ pub struct AdaptiveArgs {
     /// Total sample budget of the adaptive mode (default: spp x pixels).
     #[arg(long)]
     pub budget: Option<usize>,
-    /// Adaptive mode: samples per slot of the tree (local oversampling).
-    #[arg(long, default_value_t = 2.0)]
-    pub rho: f64,
     /// Adaptive mode: depth limit in levels below the pixel.
     #[arg(long, default_value_t = 1)]
     pub below_pixel: u32,
@@ -78,8 +75,8 @@ fn samples_image(run: &AdaptiveImage, plane: ImagePlane) -> Result<PixelImage, C
     Ok(img)
 }
 
-fn write(path: &Path, image: &PixelImage) -> Result<(), CliError> {
-    write_image(path, image).map_err(|e| CliError::Write {
+fn write(path: &Path, image: &PixelImage, force: bool) -> Result<(), CliError> {
+    write_image(path, image, force).map_err(|e| CliError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
     })
@@ -112,7 +109,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         Scene::from_file(scene_path(&args.scene)?).map_err(|e| CliError::Invalid(e.to_string()))?;
     let params = AdaptiveParams {
         p: check_p(args.p)?,
-        rho: a.rho,
+        rho: args.rho.map_or(Ok(2.0), check_rho)?,
         below_pixel: a.below_pixel,
         seed: args.seed,
         budget,
@@ -126,9 +123,9 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let out = compare_adaptive(&scene, plane, spp, &params, &truth)
         .map_err(|e| CliError::Invalid(e.to_string()))?;
     bar.finish_and_clear();
-    write(&args.out, &out.image)?;
-    write(&depth_path, &depth_image(&out.run, plane))?;
-    write(&samples_path, &samples_image(&out.run, plane)?)?;
+    write(&args.out, &out.image, args.force)?;
+    write(&depth_path, &depth_image(&out.run, plane), args.force)?;
+    write(&samples_path, &samples_image(&out.run, plane)?, args.force)?;
     let c = &out.comparison;
     if args.json {
         let mut value = serde_json::to_value(c).expect("report serialises");

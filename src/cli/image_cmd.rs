@@ -45,10 +45,11 @@ pub struct ImageArgs {
     /// Standard deviation of Gaussian noise added to every sample value.
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
-    /// Samples per basis function, rho = m / (nx ny): sets the wavelet level per axis (4 at
-    /// 4 spp is one function per pixel).
-    #[arg(long, default_value_t = 4.0)]
-    pub rho: f64,
+    /// Samples per basis function, rho = m / (nx ny): sets the wavelet level per axis
+    /// (default 4: at 4 spp one function per pixel); with `--adaptive`, samples per slot of
+    /// the tree (default 2).
+    #[arg(long)]
+    pub rho: Option<f64>,
     /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
     #[arg(long, default_value_t = 1e-9)]
     pub ridge: f64,
@@ -225,7 +226,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let wavelet = WaveletParams {
         p: check_p(args.p)?,
         pixel_filter,
-        rho: check_rho(args.rho)?,
+        rho: check_rho(args.rho.unwrap_or(4.0))?,
         ridge: check_ridge(args.ridge)?,
         smoothing: args.smoothing,
     };
@@ -238,7 +239,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::Invalid(e.to_string()))?;
     bar.finish_and_clear();
     let report = ImageReport::from_comparison(&cmp, 0);
-    write_image(&args.out, &cmp.results[0].image).map_err(|e| CliError::Write {
+    write_image(&args.out, &cmp.results[0].image, args.force).map_err(|e| CliError::Write {
         path: args.out.clone(),
         source: std::io::Error::other(e.to_string()),
     })?;
@@ -253,10 +254,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         for w in &weights {
             text.push_str(&format!("{},{},{},{}\n", w.index, w.x, w.y, w.weight));
         }
-        std::fs::write(&path, text).map_err(|source| CliError::Write {
-            path: path.clone(),
-            source,
-        })?;
+        rkwave::io::output::write_new(&path, text.as_bytes(), args.force)?;
         filter_file = Some((path, weights.len()));
     }
     if args.json {

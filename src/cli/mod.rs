@@ -321,3 +321,15 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Compare(args)) => compare_cmd::run(&args),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    /// clap's own consistency checks over every subcommand: no two arguments of a command
+    /// share a name (a flattened group adding `--rho` beside a command's `--rho` fails here,
+    /// where at run time it would break every invocation of that command).
+    #[test]
+    fn command_line_definition_is_consistent() {
+        use clap::CommandFactory;
+        super::Cli::command().debug_assert();
+    }
+}

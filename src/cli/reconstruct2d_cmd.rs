@@ -46,7 +46,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         reconstruct(method, &samples, &wavelet).map_err(|e| CliError::Invalid(e.to_string()))?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    write_image(&args.output, &image).map_err(|e| CliError::Write {
+    write_image(&args.output, &image, args.force).map_err(|e| CliError::Write {
         path: args.output.clone(),
         source: std::io::Error::other(e.to_string()),
     })?;

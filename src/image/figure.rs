@@ -112,8 +112,9 @@ fn blit(
     }
 }
 
-/// Writes the side-by-side figure of `cmp` to `path` (PNG).
-pub fn save_side_by_side(cmp: &Comparison, path: &Path) -> Result<(), PlotError> {
+/// Writes the side-by-side figure of `cmp` to `path` (PNG); an existing file is replaced only
+/// with `overwrite`.
+pub fn save_side_by_side(cmp: &Comparison, path: &Path, overwrite: bool) -> Result<(), PlotError> {
     fonts();
     let crops = busiest_crops(&cmp.truth);
     let columns = 1 + cmp.results.len();
@@ -169,15 +170,25 @@ pub fn save_side_by_side(cmp: &Comparison, path: &Path) -> Result<(), PlotError>
     }
     let buf = image::RgbImage::from_raw(cw as u32, ch as u32, canvas)
         .ok_or_else(|| err("canvas size".into()))?;
-    buf.save(path).map_err(|source| PlotError::Write {
-        path: path.display().to_string(),
-        source,
-    })
+    // Encoded in memory, then moved into place atomically; an existing file is replaced only
+    // with `overwrite`.
+    let mut png = std::io::Cursor::new(Vec::new());
+    buf.write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|source| PlotError::Write {
+            path: path.display().to_string(),
+            source,
+        })?;
+    crate::io::output::write_new(path, &png.into_inner(), overwrite)?;
+    Ok(())
 }
 
 /// Writes the PSNR-against-time figure (one series per method, one point per comparison) to
-/// `path`.
-pub fn save_error_vs_time(comparisons: &[Comparison], path: &Path) -> Result<(), PlotError> {
+/// `path`; an existing file is replaced only with `overwrite`.
+pub fn save_error_vs_time(
+    comparisons: &[Comparison],
+    path: &Path,
+    overwrite: bool,
+) -> Result<(), PlotError> {
     let Some(first) = comparisons.first() else {
         return Ok(());
     };
@@ -207,5 +218,5 @@ pub fn save_error_vs_time(comparisons: &[Comparison], path: &Path) -> Result<(),
         series,
         ..Panel::default()
     };
-    Figure::new(900, 600, vec![panel.into()]).save_png(path)
+    Figure::new(900, 600, vec![panel.into()]).write(path, overwrite)
 }

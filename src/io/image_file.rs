@@ -108,47 +108,53 @@ pub fn image_npy_bytes(image: &PixelImage) -> Vec<u8> {
     out
 }
 
-/// Writes `image` to `path` in the format of its extension.
-pub fn write_image(path: &Path, image: &PixelImage) -> Result<(), ImageFileError> {
+/// Writes `image` to `path` in the format of its extension, encoded in memory and moved into
+/// place through [`crate::io::output::write_new`]: atomically, and an existing file is replaced
+/// only with `overwrite`.
+pub fn write_image(path: &Path, image: &PixelImage, overwrite: bool) -> Result<(), ImageFileError> {
     let err = |message: String| ImageFileError::Write {
         file: path.to_path_buf(),
         message,
     };
-    match ImageFormat::from_path(path)? {
-        ImageFormat::Npy => {
-            std::fs::write(path, image_npy_bytes(image)).map_err(|e| err(e.to_string()))
-        }
-        ImageFormat::Png => write_png(path, image).map_err(err),
-        ImageFormat::Exr => write_exr(path, image).map_err(err),
-    }
+    let bytes = match ImageFormat::from_path(path)? {
+        ImageFormat::Npy => image_npy_bytes(image),
+        ImageFormat::Png => png_bytes(image).map_err(err)?,
+        ImageFormat::Exr => exr_bytes(image).map_err(err)?,
+    };
+    crate::io::output::write_new(path, &bytes, overwrite).map_err(|e| err(e.to_string()))
 }
 
 #[cfg(feature = "images")]
-fn write_png(path: &Path, image: &PixelImage) -> Result<(), String> {
+fn png_bytes(image: &PixelImage) -> Result<Vec<u8>, String> {
     let (w, h) = (image.plane.width() as u32, image.plane.height() as u32);
     let buf = image::RgbImage::from_raw(w, h, srgb8(image)).ok_or("buffer size")?;
-    buf.save(path).map_err(|e| e.to_string())
+    let mut out = std::io::Cursor::new(Vec::new());
+    buf.write_to(&mut out, image::ImageFormat::Png)
+        .map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
 }
 
 #[cfg(feature = "images")]
-fn write_exr(path: &Path, image: &PixelImage) -> Result<(), String> {
+fn exr_bytes(image: &PixelImage) -> Result<Vec<u8>, String> {
     let (w, h) = (image.plane.width() as u32, image.plane.height() as u32);
     let data: Vec<f32> = (0..image.plane.pixels())
         .flat_map(|p| rgb_at(image, p).map(|v| v as f32))
         .collect();
     let buf = image::Rgb32FImage::from_raw(w, h, data).ok_or("buffer size")?;
+    let mut out = std::io::Cursor::new(Vec::new());
     image::DynamicImage::ImageRgb32F(buf)
-        .save(path)
-        .map_err(|e| e.to_string())
+        .write_to(&mut out, image::ImageFormat::OpenExr)
+        .map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
 }
 
 #[cfg(not(feature = "images"))]
-fn write_png(_path: &Path, _image: &PixelImage) -> Result<(), String> {
+fn png_bytes(_image: &PixelImage) -> Result<Vec<u8>, String> {
     Err("PNG needs the `images` feature; rebuild with it or write .npy".into())
 }
 
 #[cfg(not(feature = "images"))]
-fn write_exr(_path: &Path, _image: &PixelImage) -> Result<(), String> {
+fn exr_bytes(_image: &PixelImage) -> Result<Vec<u8>, String> {
     Err("OpenEXR needs the `images` feature; rebuild with it or write .npy".into())
 }
 
@@ -167,12 +173,12 @@ mod tests {
         };
         let dir = std::env::temp_dir().join(format!("rkwave-imgfile-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        write_image(&dir.join("a.png"), &img).unwrap();
+        write_image(&dir.join("a.png"), &img, true).unwrap();
         let png = image::open(dir.join("a.png")).unwrap().into_rgb8();
         // Linear 0.5 encodes to sRGB 0.7354 -> 188; 0.1 -> 0.3492 -> 89; 2 clamps to 255.
         let reds: Vec<u8> = png.pixels().map(|p| p.0[0]).collect();
         assert_eq!(reds, vec![0, 188, 255, 137, 89, 255]);
-        write_image(&dir.join("a.exr"), &img).unwrap();
+        write_image(&dir.join("a.exr"), &img, true).unwrap();
         let exr = image::open(dir.join("a.exr")).unwrap().into_rgb32f();
         for (p, want) in exr.pixels().zip(&v) {
             assert_eq!(p.0[1], *want as f32);
@@ -182,7 +188,11 @@ mod tests {
         assert!(std::str::from_utf8(&npy[10..74])
             .unwrap()
             .contains("(2, 3, 3)"));
-        assert!(write_image(&dir.join("a.jpg"), &img).is_err());
+        assert!(write_image(&dir.join("a.jpg"), &img, true).is_err());
+        // Never replaced without being asked.
+        let before = std::fs::read(dir.join("a.png")).unwrap();
+        assert!(write_image(&dir.join("a.png"), &img, false).is_err());
+        assert_eq!(std::fs::read(dir.join("a.png")).unwrap(), before);
         std::fs::remove_dir_all(dir).unwrap();
     }
 }
