@@ -61,54 +61,16 @@ pub struct TreeFit {
 /// Positions evaluated per parallel work item.
 const CHUNK: usize = 2048;
 
-/// Checks the sample arrays: equal lengths, positions in the image, finite values.
+/// Checks the sample arrays: equal lengths, positions in the image, finite values (the
+/// uniform engine's checks, on the tree's image).
 pub(crate) fn check_samples(
     tree: &QuadTree,
     xs: &[f64],
     ys: &[f64],
     values: &[&[f64]],
 ) -> Result<(), ImageFitError> {
-    if xs.is_empty() {
-        return Err(ImageFitError::Empty { what: "samples" });
-    }
-    if values.is_empty() {
-        return Err(ImageFitError::Empty { what: "channels" });
-    }
-    let lengths = std::iter::once(("ys".to_string(), ys.len())).chain(
-        values
-            .iter()
-            .enumerate()
-            .map(|(c, v)| (format!("channel {c}"), v.len())),
-    );
-    for (what, found) in lengths {
-        if found != xs.len() {
-            return Err(ImageFitError::LengthMismatch {
-                what,
-                expected: xs.len(),
-                found,
-            });
-        }
-    }
-    for (c, v) in values.iter().enumerate() {
-        if let Some((index, &value)) = v.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(ImageFitError::NonFiniteValue {
-                index,
-                channel: c,
-                value,
-            });
-        }
-    }
     let b = tree.basis();
-    if let Some(index) = (0..xs.len()).find(|&i| b.check(xs[i], ys[i]).is_err()) {
-        return Err(ImageFitError::SampleOutside {
-            index,
-            x: xs[index],
-            y: ys[index],
-            width: b.width(),
-            height: b.height(),
-        });
-    }
-    Ok(())
+    crate::image::fit::check_input(b.width(), b.height(), xs, ys, values)
 }
 
 /// The kernel matrix `K_T` (`m x P` CSR) over the tree's functions `functions` (ascending

@@ -269,7 +269,9 @@ pub struct ImageFit {
     params: ImageFitParams,
 }
 
-fn check_input(
+/// Checks the sample arrays of a `width x height` image: samples and channels present, equal
+/// lengths, finite values, positions in `[0, width] x [0, height]`.
+pub(crate) fn check_input(
     width: usize,
     height: usize,
     xs: &[f64],
