@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::image::adaptive::experiment::{
-    adaptive_markdown, compare_adaptive, AdaptiveComparison,
+    adaptive_markdown, adaptive_rows_markdown, compare_adaptive, AdaptiveComparison,
 };
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
@@ -122,6 +122,12 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let time_path = args.out.join("error_vs_time.png");
     for path in [&csv_path, &md_path, &time_path] {
         check_writable(path, args.force)?;
+    }
+    if args.adaptive {
+        check_writable(&args.out.join(ADAPTIVE_TABLE), args.force)?;
+        for scene in &scenes {
+            check_writable(&adaptive_figure(args, scene), args.force)?;
+        }
     }
     std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
         path: args.out.clone(),
@@ -253,6 +259,11 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
 /// The table of the adaptive rows.
 const ADAPTIVE_TABLE: &str = "compare_adaptive.md";
 
+/// The adaptive figure of `scene` (image, local depth, samples).
+fn adaptive_figure(args: &CompareArgs, scene: &Scene) -> PathBuf {
+    args.out.join(format!("{}_adaptive.png", scene.name()))
+}
+
 /// What `--adaptive` adds.
 struct AdaptiveRows {
     comparisons: Vec<AdaptiveComparison>,
@@ -270,7 +281,6 @@ fn adaptive_rows(
     truth: &TruthParams,
 ) -> Result<AdaptiveRows, CliError> {
     let table = args.out.join(ADAPTIVE_TABLE);
-    check_writable(&table, args.force)?;
     let params = AdaptiveParams {
         p,
         seed: args.seed,
@@ -284,8 +294,7 @@ fn adaptive_rows(
     }
     let mut comparisons = Vec::with_capacity(scenes.len());
     for scene in scenes {
-        let fig = args.out.join(format!("{}_adaptive.png", scene.name()));
-        check_writable(&fig, args.force)?;
+        let fig = adaptive_figure(args, scene);
         let out = compare_adaptive(scene, plane, args.spp, &params, truth)
             .map_err(|e| CliError::Invalid(e.to_string()))?;
         let c = &out.comparison;
@@ -303,7 +312,11 @@ fn adaptive_rows(
         notes.extend(c.adaptive.notes.iter().map(|n| format!("{}: {n}", c.scene)));
         comparisons.push(out.comparison);
     }
-    let markdown = adaptive_markdown(&comparisons);
+    let markdown = format!(
+        "{}\nEvery method on each sample set:\n\n{}",
+        adaptive_markdown(&comparisons),
+        adaptive_rows_markdown(&comparisons)
+    );
     rkwave::io::output::write_new(&table, markdown.as_bytes(), args.force)?;
     Ok(AdaptiveRows {
         comparisons,

@@ -10,11 +10,11 @@ use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::{AdaptiveParams, SamplePositions};
 use rkwave::image::experiment::image_samples_from_table;
 use rkwave::image::ImagePlane;
-use rkwave::io::output::{check_output, write_new};
+use rkwave::io::output::{same_file, write_new, OutputError};
 use rkwave::io::{npy_bytes, read_samples, SampleSet};
 
 use super::image_cmd::{check_p, parse_resolution};
-use super::CliError;
+use super::{check_writable, CliError};
 
 /// `rkwave plan`.
 #[derive(Args, Debug)]
@@ -118,8 +118,14 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             args.out.display()
         )));
     }
-    let inputs: Vec<&std::path::Path> = args.samples.iter().map(|p| p.as_path()).collect();
-    check_output(&args.out, args.force, &inputs)?;
+    if let Some(samples) = args.samples.as_ref().filter(|s| same_file(&args.out, s)) {
+        return Err(OutputError::SameFile {
+            output: args.out.clone(),
+            input: samples.clone(),
+        }
+        .into());
+    }
+    check_writable(&args.out, args.force)?;
     let state_file = PlanState::path(&args.state);
     let (state, next, step) = match &args.samples {
         None => {
@@ -160,6 +166,12 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             (state, next, Some(step))
         }
     };
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
     write_new(&args.out, &positions_npy(&next), args.force)?;
     state.save(&args.state).map_err(protocol)?;
     if args.json {

@@ -33,7 +33,7 @@ const REFINE_RED: [f64; 3] = [0.9, 0.02, 0.02];
 
 /// Largest panel side in figure pixels (smaller images are enlarged to at least `MIN_PANEL`).
 const MAX_PANEL: usize = 768;
-const MIN_PANEL: usize = 256;
+const MIN_PANEL: usize = 320;
 const LABEL: usize = 28;
 const GAP: usize = 6;
 
@@ -169,7 +169,7 @@ pub fn adaptive_figure_png(
             "adaptive wavelet reconstruction".to_string(),
             format!("local depth (level {} .. {})", cx + base, cx + base + span),
             format!(
-                "samples: {} base (grey), {} refinement (red)",
+                "samples: {} base (grey), {} added (red)",
                 base_n,
                 run.xs.len() - base_n
             ),
