@@ -43,14 +43,9 @@ impl DigitTables {
         };
         let tm = [digit_matrix(&f.h, 0), digit_matrix(&f.h, 1)];
         let um = [digit_matrix(&f.g, 0), digit_matrix(&f.g, 1)];
-        let mut bytes = Vec::with_capacity(256 * w * w);
-        for b in 0..256usize {
-            let mut p = DMatrix::<f64>::identity(w, w);
-            for bit in (0..8).rev() {
-                p *= &tm[(b >> bit) & 1];
-            }
-            bytes.extend(flat(p));
-        }
+        // Formed in double-double and rounded once: f64 products were the evaluation's
+        // largest rounding (see byte_tables).
+        let bytes = super::byte_tables::byte_tables(&f.h);
         Self {
             width: w,
             t: [flat(tm[0].clone()), flat(tm[1].clone())],

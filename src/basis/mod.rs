@@ -9,6 +9,7 @@
 //! Haar (`p = 1`) needs no edge functions and is usable from level 0.
 
 pub mod bank;
+mod byte_tables;
 pub mod cdv;
 pub mod eval;
 pub mod facts;
