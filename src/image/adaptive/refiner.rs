@@ -1,5 +1,8 @@
 //! The adaptive rounds on the image plane (the 2D analogue of [`crate::refine`]).
 //!
+//! (About 710 lines: parameters, reports, the round and the loop stay together so the
+//! refiner's decisions read in one place; the report structs are the seam to split along.)
+//!
 //! 1. Base: the tree full up to the base step `s0` (slots of `V_{cx+s0} (x) V_{cy+s0}`),
 //!    `ceil(rho)` jittered-stratified samples in every slot.
 //! 2. Round: fit on the tree ([`super::fit_tree`]); indicate ([`super::indicator`]); stop if the
