@@ -268,7 +268,7 @@ fn image_adaptive_writes_the_image_and_its_figures() {
         "{text}{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    for f in ["g.png", "g_depth.png", "g_samples.png"] {
+    for f in ["g.png", "g_depth.png", "g_samples.png", "g_adaptive.png"] {
         assert!(dir.join(f).exists(), "{f} missing");
     }
     let json: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");

@@ -33,6 +33,52 @@ pub struct BasisValue {
     pub value: f64,
 }
 
+/// `t = m 2^-k` exactly, `m` odd, for `0 < t < 1` (every such f64 is dyadic; subnormals
+/// included, `k <= 1074`).
+pub(super) fn odd_mantissa(t: f64) -> (u64, u32) {
+    let bits = t.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i64;
+    let frac = bits & ((1u64 << 52) - 1);
+    let (mut m, mut k) = if exp == 0 {
+        (frac, 1074i64)
+    } else {
+        (frac | (1u64 << 52), 1075 - exp)
+    };
+    let tz = m.trailing_zeros() as i64;
+    m >>= tz;
+    k -= tz;
+    (m, k as u32)
+}
+
+/// `floor(2^j m 2^-k)`: the index of the level-`j` cell holding `t = m 2^-k`.
+#[inline]
+pub(super) fn dyadic_cell(m: u64, k: u32, j: u32) -> u64 {
+    if j >= k {
+        m << (j - k)
+    } else {
+        let s = k - j;
+        if s >= 64 {
+            0
+        } else {
+            m >> s
+        }
+    }
+}
+
+/// Binary digit `d_i` of `t = m 2^-k = 0.d_1 d_2 ...`.
+#[inline]
+pub(super) fn dyadic_digit(m: u64, k: u32, i: u32) -> usize {
+    if i > k {
+        return 0;
+    }
+    let s = k - i;
+    if s >= 64 {
+        0
+    } else {
+        ((m >> s) & 1) as usize
+    }
+}
+
 /// A position `t = m 2^-k` in `[0, 1]` (`m` odd, or `m = 0`), or the right end.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Position {
@@ -57,22 +103,8 @@ impl Position {
                 one: false,
             };
         }
-        let bits = t.to_bits();
-        let exp = ((bits >> 52) & 0x7ff) as i64;
-        let frac = bits & ((1u64 << 52) - 1);
-        let (mut m, mut k) = if exp == 0 {
-            (frac, 1074i64)
-        } else {
-            (frac | (1u64 << 52), 1075 - exp)
-        };
-        let tz = m.trailing_zeros() as i64;
-        m >>= tz;
-        k -= tz;
-        Self {
-            m,
-            k: k as u32,
-            one: false,
-        }
+        let (m, k) = odd_mantissa(t);
+        Self { m, k, one: false }
     }
 
     /// `floor(2^j t)` (the last cell `2^j - 1` at `t = 1`).
@@ -80,29 +112,12 @@ impl Position {
         if self.one {
             return (1u64 << j) - 1;
         }
-        if j >= self.k {
-            self.m << (j - self.k)
-        } else {
-            let s = self.k - j;
-            if s >= 64 {
-                0
-            } else {
-                self.m >> s
-            }
-        }
+        dyadic_cell(self.m, self.k, j)
     }
 
     /// Binary digit `d_i` of `t = 0.d_1 d_2 ...`.
     fn digit(&self, i: u32) -> usize {
-        if i > self.k {
-            return 0;
-        }
-        let s = self.k - i;
-        if s >= 64 {
-            0
-        } else {
-            ((self.m >> s) & 1) as usize
-        }
+        dyadic_digit(self.m, self.k, i)
     }
 
     /// Eight digits `d_{i..i+7}` as a byte (`d_i` most significant).

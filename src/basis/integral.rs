@@ -69,45 +69,18 @@ impl Dyadic {
         if t <= 0.0 {
             return Self { m: 0, k: 0 };
         }
-        let bits = t.to_bits();
-        let exp = ((bits >> 52) & 0x7ff) as i64;
-        let frac = bits & ((1u64 << 52) - 1);
-        let (mut m, mut k) = if exp == 0 {
-            (frac, 1074i64)
-        } else {
-            (frac | (1u64 << 52), 1075 - exp)
-        };
-        let tz = m.trailing_zeros() as i64;
-        m >>= tz;
-        k -= tz;
-        Self { m, k: k as u32 }
+        let (m, k) = super::eval::odd_mantissa(t);
+        Self { m, k }
     }
 
     /// `floor(2^j t)` (`2^j` at `t = 1`).
     fn cell(&self, j: u32) -> u64 {
-        if j >= self.k {
-            self.m << (j - self.k)
-        } else {
-            let s = self.k - j;
-            if s >= 64 {
-                0
-            } else {
-                self.m >> s
-            }
-        }
+        super::eval::dyadic_cell(self.m, self.k, j)
     }
 
     /// Binary digit `b_i` of `t = 0.b_1 b_2 ...`.
     fn digit(&self, i: u32) -> usize {
-        if i > self.k {
-            return 0;
-        }
-        let s = self.k - i;
-        if s >= 64 {
-            0
-        } else {
-            ((self.m >> s) & 1) as usize
-        }
+        super::eval::dyadic_digit(self.m, self.k, i)
     }
 }
 

@@ -1,12 +1,17 @@
 //! `rkwave compare`: every method on the same samples of one or every built-in scene — a
 //! side-by-side figure with zoomed crops per run, a CSV and a Markdown table, and an
-//! error-against-time figure.
+//! error-against-time figure; with `--adaptive`, the adaptive rows beside them.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use rkwave::image::adaptive::experiment::{
+    adaptive_markdown, adaptive_rows_markdown, compare_adaptive, AdaptiveComparison,
+};
+use rkwave::image::adaptive::figure::save_adaptive_figure;
+use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::experiment::{
     compare_methods, comparison_csv, comparison_markdown, comparison_times_markdown, Comparison,
     Method, SamplingParams, TruthParams, WaveletParams, CSV_HEADER,
@@ -72,6 +77,11 @@ pub struct CompareArgs {
     /// Print the comparisons as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also the adaptive rows (noise-free runs): the adaptive wavelet at an average of `--spp`
+    /// samples per pixel, and the film filters on its sample set; a table
+    /// `compare_adaptive.md` and one figure per scene (image, local depth, samples).
+    #[arg(long)]
+    pub adaptive: bool,
 }
 
 /// Runs `rkwave compare`.
@@ -112,6 +122,12 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let time_path = args.out.join("error_vs_time.png");
     for path in [&csv_path, &md_path, &time_path] {
         check_writable(path, args.force)?;
+    }
+    if args.adaptive {
+        check_writable(&args.out.join(ADAPTIVE_TABLE), args.force)?;
+        for scene in &scenes {
+            check_writable(&adaptive_figure(args, scene), args.force)?;
+        }
     }
     std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
         path: args.out.clone(),
@@ -178,10 +194,24 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         format!("PSNR (dB):\n\n{md}\nSeconds per method (fit + pixels):\n\n{times}"),
     )?;
     save_error_vs_time(&comparisons, &time_path, args.force)?;
+    let adaptive = if args.adaptive {
+        Some(adaptive_rows(args, &scenes, plane, p, &truth)?)
+    } else {
+        None
+    };
     if args.json {
+        let value = match &adaptive {
+            None => serde_json::to_value(&comparisons),
+            Some(a) => serde_json::to_value(serde_json::json!({
+                "comparisons": comparisons,
+                "adaptive": a.comparisons,
+                "adaptive_notes": a.notes,
+            })),
+        };
         println!(
             "{}",
-            serde_json::to_string_pretty(&comparisons).expect("comparisons serialise")
+            serde_json::to_string_pretty(&value.expect("comparisons serialise"))
+                .expect("plain data")
         );
     } else {
         println!(
@@ -207,6 +237,90 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             time_path.display(),
             args.out.display()
         );
+        if let Some(a) = &adaptive {
+            println!(
+                "adaptive rows (PSNR dB, {} spp on average, noise-free):",
+                args.spp
+            );
+            print!("{}", a.markdown);
+            for note in &a.notes {
+                println!("note (adaptive): {note}");
+            }
+            println!(
+                "wrote {} and one adaptive figure per scene in {}",
+                args.out.join(ADAPTIVE_TABLE).display(),
+                args.out.display()
+            );
+        }
     }
     Ok(())
+}
+
+/// The table of the adaptive rows.
+const ADAPTIVE_TABLE: &str = "compare_adaptive.md";
+
+/// The adaptive figure of `scene` (image, local depth, samples).
+fn adaptive_figure(args: &CompareArgs, scene: &Scene) -> PathBuf {
+    args.out.join(format!("{}_adaptive.png", scene.name()))
+}
+
+/// What `--adaptive` adds.
+struct AdaptiveRows {
+    comparisons: Vec<AdaptiveComparison>,
+    markdown: String,
+    notes: Vec<String>,
+}
+
+/// The adaptive rows of every scene (noise-free): the library's comparison, its figure and
+/// the table.
+fn adaptive_rows(
+    args: &CompareArgs,
+    scenes: &[Scene],
+    plane: rkwave::image::ImagePlane,
+    p: usize,
+    truth: &TruthParams,
+) -> Result<AdaptiveRows, CliError> {
+    let table = args.out.join(ADAPTIVE_TABLE);
+    let params = AdaptiveParams {
+        p,
+        seed: args.seed,
+        ..AdaptiveParams::default()
+    };
+    let mut notes = Vec::new();
+    if args.noise.iter().any(|&n| n != 0.0) {
+        notes.push(
+            "the adaptive rows are noise-free: the noisy runs have no adaptive rows".to_string(),
+        );
+    }
+    let mut comparisons = Vec::with_capacity(scenes.len());
+    for scene in scenes {
+        let fig = adaptive_figure(args, scene);
+        let out = compare_adaptive(scene, plane, args.spp, &params, truth)
+            .map_err(|e| CliError::Invalid(e.to_string()))?;
+        let c = &out.comparison;
+        let title = format!(
+            "{} at {plane}, {} samples ({} spp on average), PSNR {:.2} dB ({:+.2} dB over {} \
+             on stratified samples)",
+            c.scene,
+            c.adaptive.samples,
+            args.spp,
+            c.rows[0].metrics.psnr,
+            c.gain_db,
+            c.best_uniform_film.0
+        );
+        save_adaptive_figure(&out.run, &out.image, &title, &fig, args.force)?;
+        notes.extend(c.adaptive.notes.iter().map(|n| format!("{}: {n}", c.scene)));
+        comparisons.push(out.comparison);
+    }
+    let markdown = format!(
+        "{}\nEvery method on each sample set:\n\n{}",
+        adaptive_markdown(&comparisons),
+        adaptive_rows_markdown(&comparisons)
+    );
+    rkwave::io::output::write_new(&table, markdown.as_bytes(), args.force)?;
+    Ok(AdaptiveRows {
+        comparisons,
+        markdown,
+        notes,
+    })
 }

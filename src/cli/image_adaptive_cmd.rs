@@ -1,15 +1,17 @@
 //! `rkwave image --adaptive`: the adaptive wavelet image of a scene at a sample budget, beside
 //! the film filters at the same total samples (stratified) and on the adaptive samples; the
-//! local depth and the sample positions as figures.
+//! local depth and the sample positions as figures (each alone, and side by side as the 2D
+//! analogue of the supplement's figure 4).
 
 use std::path::{Path, PathBuf};
 
 use clap::Args;
 use rkwave::image::adaptive::experiment::compare_adaptive;
-use rkwave::image::adaptive::{AdaptiveImage, AdaptiveParams};
+use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
+use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::experiment::TruthParams;
 use rkwave::image::scene::Scene;
-use rkwave::image::{ImagePlane, PixelImage};
+use rkwave::image::PixelImage;
 use rkwave::io::image_file::write_image;
 
 use super::image_cmd::{check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs};
@@ -37,44 +39,6 @@ fn figure_path(out: &Path, what: &str) -> PathBuf {
     out.with_file_name(format!("{stem}_{what}.png"))
 }
 
-/// The local depth per pixel as a grey image (black: the base level, white: the limit).
-fn depth_image(run: &AdaptiveImage, plane: ImagePlane) -> PixelImage {
-    let depth = run.tree.depth_map();
-    let base = (run.report.base_levels.0 - run.report.coarse_levels.0) as f64;
-    let span = (run.tree.steps() as f64 - base).max(1.0);
-    let grey: Vec<f64> = depth
-        .iter()
-        .map(|&d| ((d as f64 - base) / span).clamp(0.0, 1.0))
-        .collect();
-    PixelImage {
-        plane,
-        channels: vec![grey.clone(), grey.clone(), grey],
-    }
-}
-
-/// Sample positions on a 4x finer raster: base samples grey, later rounds from blue to red.
-fn samples_image(run: &AdaptiveImage, plane: ImagePlane) -> Result<PixelImage, CliError> {
-    let scale = 4;
-    let big = ImagePlane::new(plane.width() * scale, plane.height() * scale)
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
-    let mut img = PixelImage::zeros(big, 3);
-    let last = run.round_of.iter().copied().max().unwrap_or(0).max(1) as f64;
-    for ((&x, &y), &r) in run.xs.iter().zip(&run.ys).zip(&run.round_of) {
-        let (px, py) = big.pixel_of(x * scale as f64, y * scale as f64);
-        let i = py * big.width() + px;
-        let rgb = if r == 0 {
-            [0.35, 0.35, 0.35]
-        } else {
-            let t = r as f64 / last;
-            [t, 0.2, 1.0 - t]
-        };
-        for (c, v) in rgb.into_iter().enumerate() {
-            img.channels[c][i] = v;
-        }
-    }
-    Ok(img)
-}
-
 fn write(path: &Path, image: &PixelImage, force: bool) -> Result<(), CliError> {
     write_image(path, image, force).map_err(|e| CliError::Write {
         path: path.to_path_buf(),
@@ -87,7 +51,8 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let a = &args.adaptive;
     let depth_path = figure_path(&args.out, "depth");
     let samples_path = figure_path(&args.out, "samples");
-    for path in [&args.out, &depth_path, &samples_path] {
+    let figure = figure_path(&args.out, "adaptive");
+    for path in [&args.out, &depth_path, &samples_path, &figure] {
         check_writable(path, args.force)?;
     }
     let plane = parse_resolution(&args.resolution)?;
@@ -124,14 +89,26 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::Invalid(e.to_string()))?;
     bar.finish_and_clear();
     write(&args.out, &out.image, args.force)?;
-    write(&depth_path, &depth_image(&out.run, plane), args.force)?;
-    write(&samples_path, &samples_image(&out.run, plane)?, args.force)?;
+    write(&depth_path, &depth_image(&out.run), args.force)?;
+    write(&samples_path, &samples_image(&out.run, 4), args.force)?;
     let c = &out.comparison;
+    let title = format!(
+        "{} at {plane}, {} samples ({:.2} spp), PSNR {:.2} dB ({:+.2} dB over {} on stratified \
+         samples)",
+        c.scene,
+        c.adaptive.samples,
+        c.adaptive.samples as f64 / plane.pixels() as f64,
+        c.rows[0].metrics.psnr,
+        c.gain_db,
+        c.best_uniform_film.0
+    );
+    save_adaptive_figure(&out.run, &out.image, &title, &figure, args.force)?;
     if args.json {
         let mut value = serde_json::to_value(c).expect("report serialises");
         value["out"] = serde_json::json!(args.out);
         value["depth_map"] = serde_json::json!(depth_path);
         value["sample_positions"] = serde_json::json!(samples_path);
+        value["figure"] = serde_json::json!(figure);
         println!("{}", serde_json::to_string_pretty(&value).expect("json"));
         return Ok(());
     }
@@ -165,7 +142,8 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         c.adaptive_s, r.times.sample_s, r.times.fit_s, r.times.refine_s
     );
     println!(
-        "figures: depth {}, samples {}",
+        "figures: image, depth and samples side by side {}; depth {}, samples {}",
+        figure.display(),
         depth_path.display(),
         samples_path.display()
     );

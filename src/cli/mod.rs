@@ -12,6 +12,7 @@ pub mod hints;
 pub mod image_adaptive_cmd;
 pub mod image_cmd;
 pub mod limits;
+pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
@@ -64,6 +65,9 @@ pub enum Command {
     Image(image_cmd::ImageArgs),
     /// Every image-plane method on the same samples: figures and a table.
     Compare(compare_cmd::CompareArgs),
+    /// Adaptive image sampling driven by a renderer: the next round's positions from every
+    /// sample so far (state kept in a folder).
+    Plan(plan_cmd::PlanArgs),
 }
 
 /// Interior filter family on the command line.
@@ -319,6 +323,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Scaling(args)) => scaling_cmd::run(&args),
         Some(Command::Image(args)) => image_cmd::run(&args),
         Some(Command::Compare(args)) => compare_cmd::run(&args),
+        Some(Command::Plan(args)) => plan_cmd::run(&args),
     }
 }
 

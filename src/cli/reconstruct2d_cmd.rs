@@ -1,5 +1,6 @@
 //! `rkwave reconstruct --dim 2`: a renderer's image-plane samples (CSV `x,y,c1[,c2,c3,c4]` or
-//! `.npy` `m x (2 + channels)`, positions in pixel units) onto pixels.
+//! `.npy` `m x (2 + channels)`, positions in pixel units) onto pixels; with `--state`, on the
+//! tree of an `rkwave plan` run.
 
 use std::time::Instant;
 
@@ -18,6 +19,9 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     ImageFormat::from_path(&args.output)
         .map_err(|e| CliError::Invalid(format!("--output: {e}")))?;
     check_writable(&args.output, args.force)?;
+    if let Some(dir) = &args.state {
+        return super::plan_cmd::reconstruct(args, dir, started);
+    }
     let resolution = args.resolution.as_deref().ok_or_else(|| {
         CliError::Invalid("--dim 2 needs --resolution WxH (the image size in pixels)".into())
     })?;

@@ -51,11 +51,20 @@ pub struct ReconstructArgs {
     /// Image resolution `WxH` (with `--dim 2`).
     #[arg(long)]
     pub resolution: Option<String>,
+    /// With `--dim 2`: the folder of an `rkwave plan` run; the samples are fitted on the tree
+    /// that plan built (its p, levels and depth map; `--method` and `--p` are not used).
+    #[arg(long)]
+    pub state: Option<PathBuf>,
 }
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     match args.dim {
+        1 if args.state.is_some() => {
+            return Err(CliError::Invalid(
+                "--state is the plan of an image (`rkwave plan`): use it with --dim 2".into(),
+            ))
+        }
         1 => {}
         2 => return super::reconstruct2d_cmd::run(args),
         d => return Err(CliError::Invalid(format!("--dim {d}: expected 1 or 2"))),

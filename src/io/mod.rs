@@ -459,6 +459,31 @@ fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     })
 }
 
+impl IoError {
+    /// [`IoError::NonFinite`] for 0-based data row `i` and column `j` of an array file
+    /// (column 0 is `x`, column `j > 0` the value channel `names[j - 1]`).
+    pub(crate) fn non_finite_cell(
+        file: &Path,
+        i: usize,
+        j: usize,
+        names: &[String],
+        value: f64,
+    ) -> Self {
+        IoError::NonFinite {
+            file: file.to_path_buf(),
+            line: None,
+            row: i + 1,
+            column: j + 1,
+            name: if j == 0 {
+                "x".to_string()
+            } else {
+                names[j - 1].clone()
+            },
+            value,
+        }
+    }
+}
+
 /// At most `max` characters of `s`, with `…` when cut.
 fn shorten(s: &str, max: usize) -> String {
     let mut out: String = s.chars().take(max).collect();
@@ -482,18 +507,7 @@ fn check_for_writing(set: &SampleSet, file: &Path) -> Result<Vec<String>, IoErro
         let row = std::iter::once(set.positions[i]).chain(set.values.iter().map(|v| v[i]));
         for (j, value) in row.enumerate() {
             if !value.is_finite() {
-                return Err(IoError::NonFinite {
-                    file: file.to_path_buf(),
-                    line: None,
-                    row: i + 1,
-                    column: j + 1,
-                    name: if j == 0 {
-                        "x".to_string()
-                    } else {
-                        names[j - 1].clone()
-                    },
-                    value,
-                });
+                return Err(IoError::non_finite_cell(file, i, j, &names, value));
             }
         }
     }

@@ -213,18 +213,7 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
         for j in 0..k {
             let value = stored[if fortran { j * m + i } else { i * k + j }];
             if !value.is_finite() {
-                return Err(IoError::NonFinite {
-                    file: file.to_path_buf(),
-                    line: None,
-                    row: i + 1,
-                    column: j + 1,
-                    name: if j == 0 {
-                        "x".to_string()
-                    } else {
-                        names[j - 1].clone()
-                    },
-                    value,
-                });
+                return Err(IoError::non_finite_cell(file, i, j, &names, value));
             }
             if j == 0 {
                 positions.push(value);

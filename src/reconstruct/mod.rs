@@ -112,6 +112,12 @@ impl FitParams {
         self.family
             .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
     }
+
+    /// The CDV basis of these parameters with scaling level `coarse` and wavelets on
+    /// `coarse..=fine` on `domain` ([`CdvBasis::new`], with [`FitParams::family`]).
+    pub fn basis(&self, coarse: u32, fine: u32, domain: Domain) -> Result<CdvBasis, BasisError> {
+        CdvBasis::new(self.p, self.family(), coarse, fine, domain)
+    }
 }
 
 impl Default for FitParams {
@@ -308,24 +314,12 @@ pub fn fit(
             levels.oversampling *= 2.0;
             dropped += 1;
         }
-        let first = CdvBasis::new(
-            params.p,
-            params.family(),
-            levels.coarse,
-            levels.fine,
-            domain,
-        )?;
+        let first = params.basis(levels.coarse, levels.fine, domain)?;
         if domain_ok && m >= first.dimension() {
             let t0 = Instant::now();
             let mut ne = SingleScaleProblem::new(&first, positions, values, solver)?;
             while dropped <= 3 && levels.fine >= levels.coarse {
-                let basis = CdvBasis::new(
-                    params.p,
-                    params.family(),
-                    levels.coarse,
-                    levels.fine,
-                    domain,
-                )?;
+                let basis = params.basis(levels.coarse, levels.fine, domain)?;
                 let (c, rep) = ne.solve(&basis, ridge)?;
                 if rep.deficient == 0 {
                     return Ok(Fit {
@@ -350,13 +344,7 @@ pub fn fit(
             }
         }
     }
-    let basis = CdvBasis::new(
-        params.p,
-        params.family(),
-        levels.coarse,
-        levels.fine,
-        domain,
-    )?;
+    let basis = params.basis(levels.coarse, levels.fine, domain)?;
     let active = ActiveSet::uniform(basis);
     if m < active.len() {
         return Err(undersampled(
@@ -443,13 +431,7 @@ fn guard_uniform(
 ) -> Result<(), ReconstructError> {
     use crate::resources;
     // Parameter errors first: their messages are more precise than a size.
-    CdvBasis::new(
-        params.p,
-        params.family(),
-        levels.coarse,
-        levels.fine,
-        Domain::UNIT,
-    )?;
+    params.basis(levels.coarse, levels.fine, Domain::UNIT)?;
     let functions = resources::dimension(levels.fine);
     let reach = match params.levels {
         Levels::Auto(_) => 8.0,

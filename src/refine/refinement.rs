@@ -180,6 +180,18 @@ impl Refinement {
 /// Samples per parallel evaluation work item.
 const CHUNK: usize = 4096;
 
+/// The number of entries of the ascending `list` below `a`, found by doubling steps from the
+/// front then bisection: `O(log k)` for an answer `k` (mostly 0 or 1 in a merge).
+fn gallop(list: &[usize], a: usize) -> usize {
+    let mut hi = 1;
+    while hi <= list.len() && list[hi - 1] < a {
+        hi *= 2;
+    }
+    let lo = hi / 2;
+    let hi = hi.min(list.len());
+    lo + list[lo..hi].partition_point(|&c| c < a)
+}
+
 /// `sum_c coefficients[c] Psi_{columns[c]}(x)` for every `x` of `xs`, `basis` holding them all.
 pub(crate) fn evaluate_sparse(
     basis: &CdvBasis,
@@ -204,11 +216,16 @@ pub(crate) fn evaluate_sparse(
                 .iter()
                 .map(|&x| {
                     ev.eval_unit_into(domain.to_unit(x), &mut out);
-                    out.iter()
-                        .filter_map(|v| {
-                            column_of(columns, v.index).map(|c| coefficients[c] * v.value)
-                        })
-                        .sum()
+                    // Both lists ascend: a merge, galloping over the columns in between.
+                    let mut sum = 0.0;
+                    let mut lo = 0;
+                    for v in &out {
+                        lo += gallop(&columns[lo..], v.index);
+                        if columns.get(lo) == Some(&v.index) {
+                            sum += coefficients[lo] * v.value;
+                        }
+                    }
+                    sum
                 })
                 .collect()
         })

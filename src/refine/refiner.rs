@@ -20,7 +20,7 @@ use crate::basis::{CdvBasis, FilterBank};
 use crate::solve::{global_ls, GlobalMethod, GlobalReport};
 
 /// Why the refiner stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
     /// The estimated RMS error is below the tolerance.
@@ -564,7 +564,7 @@ fn fit_round(
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let (by_slot, solve) = if params.solve.method == GlobalMethod::Cholesky {
-        let mut solved = normal.solve(&params.solve)?;
+        let mut solved = normal.solve(&store.samples, &params.solve)?;
         (solved.coefficients.swap_remove(0), solved.report)
     } else {
         let kernel = normal.kernel(&columns);

@@ -45,6 +45,21 @@ pub(crate) struct BlockOut {
     pub kept: f64,
 }
 
+impl BlockOut {
+    /// The answer for a block with no rows (or no columns): every one of its `n` directions is
+    /// undetermined, so all are cut and the `n x g` pseudo-inverse columns are zero.
+    fn without_rows(n: usize, g: usize) -> Self {
+        BlockOut {
+            x: Mat::zeros(n, g),
+            condition: f64::INFINITY,
+            cut: n,
+            shift: 0.0,
+            fallback: false,
+            kept: f64::INFINITY,
+        }
+    }
+}
+
 thread_local! {
     /// Per-thread faer workspace, grown on demand and reused by every block on that thread
     /// (a block's scratch can exceed the allocator's mmap threshold, ~0.5 MB at 300 x 90).
@@ -79,14 +94,7 @@ pub(crate) fn svd_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Bl
     let g = piv.len();
     let size = r.min(n);
     if size == 0 {
-        return BlockOut {
-            x: Mat::zeros(n, g),
-            condition: f64::INFINITY,
-            cut: n,
-            shift: 0.0,
-            fallback: false,
-            kept: f64::INFINITY,
-        };
+        return BlockOut::without_rows(n, g);
     }
     // (matrix to decompose, right-hand side block it acts on: E_R or Q^T E_R)
     let (core, rhs) = if r > n {
@@ -268,14 +276,7 @@ pub(crate) fn qr_columns(k1: MatRef<'_, f64>, piv: &[usize], cutoff: f64) -> Blo
     let g = piv.len();
     let size = r.min(n);
     if size == 0 {
-        return BlockOut {
-            x: Mat::zeros(n, g),
-            condition: f64::INFINITY,
-            cut: n,
-            shift: 0.0,
-            fallback: false,
-            kept: f64::INFINITY,
-        };
+        return BlockOut::without_rows(n, g);
     }
     let mut a = k1.to_owned();
     let bs = qr_block_size(r, n);

@@ -34,7 +34,7 @@ pub use local::{
     apply_local, local_inversion, GroupStats, LocalApply, LocalInversion, LocalStats, Summary,
     CHOLESKY_MAX_CONDITION, WEAK_CONDITION,
 };
-pub use normal::normal_ls;
+pub use normal::{normal_ls, normal_ls_corrected, NormalResidual};
 pub use params::{
     GlobalLsParams, GlobalMethod, LocalInversionParams, RankPolicy, Solver, MAX_RINGS,
 };

@@ -21,6 +21,12 @@ use super::params::{GlobalLsParams, GlobalMethod, RankPolicy};
 use super::sparse::{check_finite_output, check_values, raw};
 use super::SolveError;
 
+/// Stored entries of the equilibrated `K^T K` below which the Cholesky runs on one thread
+/// (the refiner's systems, `P` ~ 1,000-2,000 and `nnz` ~ 1e5-3e5, factor in milliseconds;
+/// the perf profile of `rkwave adapt --signal jumps` showed rayon's wake-ups and yields beside
+/// the factorization).
+const PARALLEL_MIN_NNZ: usize = 1 << 20;
+
 /// A factorized, solved normal system in the equilibrated variables.
 pub(crate) struct Factored {
     /// `y`, row-major `P x ch`: `c = D y`.
@@ -124,7 +130,12 @@ pub(crate) fn factor_solve(
         Some(perm) => perm.arrays().0.to_vec(),
         None => (0..p).collect(),
     };
-    let par = Par::rayon(0);
+    // Small factors are faster on one thread: rayon's hand-offs cost more than they share.
+    let par = if normal_nnz <= PARALLEL_MIN_NNZ {
+        Par::Seq
+    } else {
+        Par::rayon(0)
+    };
     let mut lvals = vec![0.0f64; symbolic.len_val()];
     let mut mem = MemBuffer::new(
         symbolic
@@ -203,18 +214,73 @@ pub(crate) fn factor_solve(
     })
 }
 
+/// `c -> K^T (f - K c)` for coefficients `c` by channel (`c[ch][a]`, the plain, not the
+/// equilibrated, coefficients), one vector of length `P` per channel: the right-hand side of
+/// a corrected semi-normal step, which needs the rows of `K` and the data `f` that `G` and
+/// `K^T f` were formed from.
+pub type NormalResidual<'a> = &'a (dyn Fn(&[Vec<f64>]) -> Vec<Vec<f64>> + Sync);
+
 /// `c = argmin ||K c - f||` for every channel from the normal equations alone: `gram` is
 /// `G = K^T K` (`P x P` CSR, sorted indices, both triangles), `rhs[ch]` is `K^T f[ch]`,
 /// `rows` the number of samples `m`, `column_samples[a]` the samples in column `a`, and
 /// `ordering` an elimination order (`None`: AMD). Always the sparse Cholesky of
 /// [`GlobalMethod::Cholesky`] (with its rank policy); the residual reported is
 /// `||D (K^T f - G c)|| / ||D K^T f||`, the equilibrated normal-equation residual.
+///
+/// Its forward error is of order `eps cond(K)^2`; a caller that still has `K` and `f` gets
+/// `eps cond(K)` from [`normal_ls_corrected`].
 pub fn normal_ls(
     gram: &CsMat<f64>,
     rhs: &[&[f64]],
     rows: usize,
     column_samples: &[usize],
     ordering: Option<&[usize]>,
+    params: &GlobalLsParams,
+) -> Result<GlobalLs, SolveError> {
+    normal_ls_with(gram, rhs, rows, column_samples, ordering, None, params)
+}
+
+/// [`normal_ls`] followed by one step of the corrected semi-normal equations (Björck 1987)
+/// with the same factor `R^T R = D G D`:
+///
+/// ```text
+/// c <- c + D (R^T R)^{-1} D K^T (f - K c),       K^T (f - K c) = residual(c).
+/// ```
+///
+/// The normal equations alone have a forward error of order `eps cond(K)^2`; after the step
+/// it is of order `eps cond(K)`, that of a QR of `K`, as long as `eps cond(K)^2 < 1`. The
+/// step costs one call of `residual` (two products with `K`) and one more pair of triangular
+/// solves. It is skipped when a ridge had to be added (`report.ridge > 0`: the problem solved
+/// is then another one).
+#[allow(clippy::too_many_arguments)]
+pub fn normal_ls_corrected(
+    gram: &CsMat<f64>,
+    rhs: &[&[f64]],
+    rows: usize,
+    column_samples: &[usize],
+    ordering: Option<&[usize]>,
+    residual: NormalResidual<'_>,
+    params: &GlobalLsParams,
+) -> Result<GlobalLs, SolveError> {
+    normal_ls_with(
+        gram,
+        rhs,
+        rows,
+        column_samples,
+        ordering,
+        Some(residual),
+        params,
+    )
+}
+
+/// [`normal_ls`] with an optional corrected semi-normal step.
+fn normal_ls_with(
+    gram: &CsMat<f64>,
+    rhs: &[&[f64]],
+    rows: usize,
+    column_samples: &[usize],
+    ordering: Option<&[usize]>,
+    residual: Option<NormalResidual<'_>>,
     params: &GlobalLsParams,
 ) -> Result<GlobalLs, SolveError> {
     params.validate()?;
@@ -262,6 +328,32 @@ pub fn normal_ls(
             ktf[a * ch + c] = *v;
         }
     }
+    // The residual in the equilibrated variables: `D K^T (f - K D y)`, row-major `P x ch`.
+    // A residual of the wrong shape is the caller's error, reported after the solve.
+    let misshapen = std::sync::Mutex::new(None::<(usize, usize)>);
+    let correction = residual.map(|residual| {
+        let misshapen = &misshapen;
+        move |y: &[f64], d: &[f64]| -> Vec<f64> {
+            let c: Vec<Vec<f64>> = (0..ch)
+                .map(|k| (0..p).map(|a| d[a] * y[a * ch + k]).collect())
+                .collect();
+            let r = residual(&c);
+            let mut out = vec![0.0; p * ch];
+            let bad = (r.len() != ch)
+                .then_some((ch, r.len()))
+                .or_else(|| r.iter().map(Vec::len).find(|&n| n != p).map(|n| (p, n)));
+            if bad.is_some() {
+                *misshapen.lock().unwrap_or_else(|e| e.into_inner()) = bad;
+                return out;
+            }
+            for (k, rk) in r.iter().enumerate() {
+                for (a, v) in rk.iter().enumerate() {
+                    out[a * ch + k] = d[a] * v;
+                }
+            }
+            out
+        }
+    });
     let solved = factor_solve(
         gram,
         &ktf,
@@ -269,9 +361,18 @@ pub fn normal_ls(
         rows,
         &|a| column_samples[a],
         ordering,
-        None,
+        correction
+            .as_ref()
+            .map(|f| f as &(dyn Fn(&[f64], &[f64]) -> Vec<f64> + Sync)),
         params,
     )?;
+    if let Some((expected, found)) = misshapen.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(SolveError::DimensionMismatch {
+            what: "normal residual (one vector of P entries per channel)",
+            expected,
+            found,
+        });
+    }
     let (gp, gi, gd) = raw(gram);
     let coefficients: Vec<Vec<f64>> = (0..ch)
         .map(|c| (0..p).map(|a| solved.d[a] * solved.y[a * ch + c]).collect())

@@ -201,3 +201,37 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
     }
     s
 }
+
+/// A Markdown table of every row per scene: PSNR of each method on each sample set
+/// (`stratified`: the renderer's uniform samples at the same count; `adaptive`: the adaptive
+/// run's samples), one line per scene, spp and sample set.
+pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
+    let mut methods = vec!["adaptive wavelet".to_string(), "wavelet".to_string()];
+    methods.extend(FilmFilterKind::ALL.map(|k| k.name().to_string()));
+    let mut s = format!(
+        "| scene | spp | samples from | samples | {} |\n|---|---|---|---|{}\n",
+        methods.join(" | "),
+        "---:|".repeat(methods.len())
+    );
+    for c in rows {
+        for from in ["stratified", "adaptive"] {
+            let of = |m: &str| {
+                c.rows
+                    .iter()
+                    .find(|r| r.samples_from == from && r.method == m)
+            };
+            let samples = methods.iter().find_map(|m| of(m)).map_or(0, |r| r.samples);
+            let cells: Vec<String> = methods
+                .iter()
+                .map(|m| of(m).map_or("—".into(), |r| format!("{:.2}", r.metrics.psnr)))
+                .collect();
+            s.push_str(&format!(
+                "| {} | {} | {from} | {samples} | {} |\n",
+                c.scene,
+                c.spp,
+                cells.join(" | ")
+            ));
+        }
+    }
+    s
+}

@@ -6,20 +6,28 @@
 //! * [`fit`]: least squares on the tree (sparse Cholesky of `K_T^T K_T`, all channels from
 //!   one factor) and exact box pixels through the 2D synthesis;
 //! * [`indicator`]: predicted coefficients of the missing children, per slot;
-//! * [`refiner`]: the rounds: fit, indicate, mark (Dörfler, within the budget), deepen, add
+//! * [`refiner`]: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop): fit, indicate, mark (Dörfler, within the budget), deepen, add
 //!   samples in the new slots so that every slot keeps `ceil(rho)` samples; stop at a
 //!   tolerance, the depth limit or the sample budget;
-//! * [`experiment`]: adaptive wavelet against film filters at equal total samples.
+//! * [`protocol`]: the rounds driven by a renderer through files (state, fingerprints);
+//! * [`experiment`]: adaptive wavelet against film filters at equal total samples;
+//! * `figure`: the image, the local depth and the samples side by side.
 
 pub mod experiment;
+#[cfg(feature = "plot")]
+pub mod figure;
 pub mod fit;
 pub mod indicator;
 pub mod marking;
+pub mod protocol;
 pub mod refiner;
 pub mod tree;
 
 pub use fit::{fit_tree, TreeFit, TreeFitReport};
-pub use refiner::{refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, ImageRound};
+pub use refiner::{
+    refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, Decision, ImagePlan, ImageRound,
+    PlanProgress, Round, SamplePositions,
+};
 pub use tree::{Cell, QuadTree};
 
 use thiserror::Error;
@@ -70,6 +78,19 @@ pub enum AdaptiveError {
     /// Pixel integrals.
     #[error(transparent)]
     Pixels(#[from] PixelError),
+    /// A recorded refinement history that does not fit the tree (a record of another run).
+    #[error(
+        "round {round} of the refinement history marks the cell {cell}, which is {reason}: \
+         the history belongs to another run or parameters"
+    )]
+    History {
+        /// The round.
+        round: usize,
+        /// The cell, in words.
+        cell: String,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
 }
 
 /// A scene as seen by the refiner: the values of every channel at a point of the image

@@ -10,6 +10,11 @@
 //!    budget pays for ([`super::marking::within_budget`]; none: stop at the budget), activate
 //!    the marked slots and top up each of their four children to `ceil(rho)` samples.
 //!
+//! One round is [`ImagePlan::step`]: given the tree and every sample so far, it fits and either
+//! stops or deepens the tree and returns the next positions. [`refine_image`] is a loop over
+//! it with a scene as the oracle; the file protocol ([`super::protocol`]) runs the same step
+//! once per call, so a renderer outside the process gets the same rounds.
+//!
 //! Invariant after every round: every slot holds at least `ceil(rho)` samples, and the samples
 //! never exceed the budget. Deterministic for a seed: the marked slots are processed in
 //! indicator order (ties by cell) with one PCG-64 stream per round.
@@ -23,7 +28,7 @@ use std::time::Instant;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::fit::{fit_tree, TreeFit, TreeFitReport};
 use super::indicator::indicate;
@@ -36,7 +41,7 @@ use crate::image::{ImagePlane, PixelImage};
 use crate::refine::StopReason;
 
 /// Parameters of the adaptive image refiner.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AdaptiveParams {
     /// Vanishing moments `p` (2 is the practical choice in 2D).
     pub p: usize,
@@ -91,7 +96,8 @@ impl Default for AdaptiveParams {
 }
 
 impl AdaptiveParams {
-    fn validate(&self) -> Result<(), AdaptiveError> {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
         let bad = |parameter, value: String, expected| {
             Err(AdaptiveError::Parameter {
                 parameter,
@@ -246,30 +252,28 @@ impl AdaptiveImage {
     }
 }
 
-/// Growing sample store.
-struct Store<'a> {
-    oracle: &'a dyn ImageOracle,
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    values: Vec<Vec<f64>>,
-    round_of: Vec<u32>,
-    buf: Vec<f64>,
+/// Sample positions (pixel units) the refiner asks a renderer for.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SamplePositions {
+    /// x positions.
+    pub xs: Vec<f64>,
+    /// y positions.
+    pub ys: Vec<f64>,
 }
 
-impl Store<'_> {
-    fn push(&mut self, x: f64, y: f64, round: u32) {
-        self.oracle.sample(x, y, &mut self.buf);
-        self.xs.push(x);
-        self.ys.push(y);
-        for (c, v) in self.values.iter_mut().zip(&self.buf) {
-            c.push(*v);
-        }
-        self.round_of.push(round);
+impl SamplePositions {
+    /// Number of positions.
+    pub fn len(&self) -> usize {
+        self.xs.len()
+    }
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.xs.is_empty()
     }
 
-    /// `need` jittered-stratified positions in `rect`: a `k x k` grid (`k^2 >= need`), `need`
-    /// of its strata chosen at random, one uniform point in each.
-    fn fill(&mut self, rect: [f64; 4], need: usize, round: u32, rng: &mut Pcg64) {
+    /// Appends `need` jittered-stratified positions in `rect`: a `k x k` grid (`k^2 >= need`),
+    /// `need` of its strata chosen at random, one uniform point in each.
+    fn stratified(&mut self, rect: [f64; 4], need: usize, rng: &mut Pcg64) {
         if need == 0 {
             return;
         }
@@ -284,95 +288,215 @@ impl Store<'_> {
         );
         for &s in &strata[..need] {
             let (i, j) = (s % k, s / k);
-            let x = (rect[0] + (i as f64 + rng.random::<f64>()) * dx).min(rect[1]);
-            let y = (rect[2] + (j as f64 + rng.random::<f64>()) * dy).min(rect[3]);
-            self.push(x, y, round);
+            self.xs
+                .push((rect[0] + (i as f64 + rng.random::<f64>()) * dx).min(rect[1]));
+            self.ys
+                .push((rect[2] + (j as f64 + rng.random::<f64>()) * dy).min(rect[3]));
         }
     }
 }
 
-fn round_rng(seed: u64, round: usize) -> Pcg64 {
-    Pcg64::seed_from_u64(seed ^ (round as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+/// What the refiner decided after a round's fit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Decision {
+    /// Sample these positions, then run the next round on every sample so far.
+    Sample(SamplePositions),
+    /// Stop: the round's fit is the result.
+    Stop(StopReason),
 }
 
-fn finest_level(size: usize, below: u32) -> u32 {
-    (size.max(1) as f64).log2().ceil() as u32 + below
+/// One round of the refiner ([`ImagePlan::step`]): its fit, its log and its decision.
+#[derive(Clone, Debug)]
+pub struct Round {
+    /// What the round saw and did.
+    pub log: ImageRound,
+    /// The fit on the tree as it was at the start of the round.
+    pub fit: TreeFit,
+    /// Positions to sample next, or the stop.
+    pub decision: Decision,
+    /// Seconds: the fit.
+    pub fit_s: f64,
+    /// Seconds: indicator, marking, deepening.
+    pub refine_s: f64,
+    /// Seconds: drawing the new positions.
+    pub position_s: f64,
 }
 
-/// Refines the image of `oracle` on `plane`: adaptive tree and samples, until the tolerance,
-/// the depth limit, the budget or the round limit.
-pub fn refine_image(
-    oracle: &dyn ImageOracle,
+/// How far a plan has come: enough, with its parameters and plane, to rebuild it
+/// ([`ImagePlan::resume`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PlanProgress {
+    /// The cells marked in rounds `1, 2, ...` (round `r` deepened `marked[r - 1]`), in the
+    /// order they were activated: the tree is the base tree plus these cells.
+    pub marked: Vec<Vec<Cell>>,
+    /// Samples in the last round's fit (0 before the first fit).
+    pub samples_fitted: usize,
+}
+
+/// The refiner between rounds: parameters, the tree and how it grew.
+///
+/// One round ([`ImagePlan::step`]) takes every sample so far (which must include the base
+/// positions of [`ImagePlan::base_positions`] and the positions of every earlier decision),
+/// fits on the tree, and either stops or deepens the tree and returns the positions to sample
+/// next. [`refine_image`] is a loop over it with a scene as the oracle; a renderer outside the
+/// process drives the same rounds through files ([`super::protocol`]).
+#[derive(Clone, Debug)]
+pub struct ImagePlan {
+    params: AdaptiveParams,
     plane: ImagePlane,
-    params: &AdaptiveParams,
-) -> Result<AdaptiveImage, AdaptiveError> {
-    params.validate()?;
-    let (w, h) = (plane.width(), plane.height());
-    let levels = (
-        finest_level(w, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
-        finest_level(h, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
-    );
-    let basis = TensorBasis::new(params.p, FilterFamily::cdv_default(params.p), w, h, levels)?;
-    let steps = basis.steps();
-    let (cx, cy) = basis.coarse_levels();
-    let per_slot = params.rho.ceil() as usize;
-    let base_cost = |s: u32| (1usize << (cx + s)) * (1usize << (cy + s)) * per_slot;
-    let s0 = match params.base_level {
-        Some(level) => {
-            if level <= cx || level > cx + steps {
-                return Err(AdaptiveError::Parameter {
-                    parameter: "base_level",
-                    value: level.to_string(),
-                    expected: "a level above the coarse level and at most the depth limit",
-                });
+    tree: QuadTree,
+    base_steps: u32,
+    per_slot: usize,
+    progress: PlanProgress,
+}
+
+impl ImagePlan {
+    /// The plan before any sample: validated parameters, the basis at the depth limit and the
+    /// base tree (full up to the base step, chosen from the budget unless given).
+    pub fn new(plane: ImagePlane, params: &AdaptiveParams) -> Result<Self, AdaptiveError> {
+        params.validate()?;
+        let (w, h) = (plane.width(), plane.height());
+        let levels = (
+            finest_level(w, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
+            finest_level(h, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
+        );
+        let basis = TensorBasis::new(params.p, FilterFamily::cdv_default(params.p), w, h, levels)?;
+        let steps = basis.steps();
+        let (cx, cy) = basis.coarse_levels();
+        let per_slot = params.rho.ceil() as usize;
+        let base_cost = |s: u32| (1usize << (cx + s)) * (1usize << (cy + s)) * per_slot;
+        let s0 = match params.base_level {
+            Some(level) => {
+                if level <= cx || level > cx + steps {
+                    return Err(AdaptiveError::Parameter {
+                        parameter: "base_level",
+                        value: level.to_string(),
+                        expected: "a level above the coarse level and at most the depth limit",
+                    });
+                }
+                level - cx
             }
-            level - cx
+            None => (1..steps)
+                .rev()
+                .find(|&s| base_cost(s) as f64 <= params.base_fraction * params.budget as f64)
+                .unwrap_or(1),
+        };
+        if base_cost(s0) > params.budget {
+            return Err(AdaptiveError::BudgetTooSmall {
+                budget: params.budget,
+                base: base_cost(s0),
+                slots: base_cost(s0) / per_slot,
+                per_slot,
+            });
         }
-        None => (1..steps)
-            .rev()
-            .find(|&s| base_cost(s) as f64 <= params.base_fraction * params.budget as f64)
-            .unwrap_or(1),
-    };
-    if base_cost(s0) > params.budget {
-        return Err(AdaptiveError::BudgetTooSmall {
-            budget: params.budget,
-            base: base_cost(s0),
-            slots: base_cost(s0) / per_slot,
+        Ok(Self {
+            params: *params,
+            plane,
+            tree: QuadTree::uniform(basis, s0),
+            base_steps: s0,
             per_slot,
-        });
+            progress: PlanProgress::default(),
+        })
     }
-    let mut tree = QuadTree::uniform(basis, s0);
-    let mut times = AdaptiveTimes::default();
-    let mut store = Store {
-        oracle,
-        xs: Vec::new(),
-        ys: Vec::new(),
-        values: vec![Vec::new(); oracle.channels()],
-        round_of: Vec::new(),
-        buf: vec![0.0; oracle.channels()],
-    };
-    let t = Instant::now();
-    let mut rng = round_rng(params.seed, 0);
-    for slot in tree.slots() {
-        store.fill(tree.rect(slot), per_slot, 0, &mut rng);
+
+    /// The plan after the rounds recorded in `progress`: the base tree with the marked cells
+    /// activated in order. Fails with [`AdaptiveError::History`] if a recorded cell is not a
+    /// slot below the depth limit of the tree so far (a progress record of another run).
+    pub fn resume(
+        plane: ImagePlane,
+        params: &AdaptiveParams,
+        progress: PlanProgress,
+    ) -> Result<Self, AdaptiveError> {
+        let mut plan = Self::new(plane, params)?;
+        for (r, cells) in progress.marked.iter().enumerate() {
+            for &cell in cells {
+                let (w, h) = plan.tree.cell_dims(cell.step.min(plan.tree.steps()));
+                let fault = if cell.step >= plan.tree.steps() || cell.kx >= w || cell.ky >= h {
+                    Some("outside the tree's cells below the depth limit")
+                } else if plan.tree.is_active(cell) {
+                    Some("already active")
+                } else if cell.parent().is_some_and(|q| !plan.tree.is_active(q)) {
+                    Some("its parent is inactive")
+                } else {
+                    None
+                };
+                if let Some(reason) = fault {
+                    return Err(AdaptiveError::History {
+                        round: r + 1,
+                        cell: format!("(step {}, kx {}, ky {})", cell.step, cell.kx, cell.ky),
+                        reason,
+                    });
+                }
+                plan.tree.activate(cell);
+            }
+        }
+        plan.progress = progress;
+        Ok(plan)
     }
-    times.sample_s += t.elapsed().as_secs_f64();
-    let base_samples = store.xs.len();
-    let mut rounds = Vec::new();
-    let mut new_samples = base_samples;
-    let (fit, stop) = loop {
-        let round = rounds.len();
+
+    /// The parameters.
+    pub fn params(&self) -> &AdaptiveParams {
+        &self.params
+    }
+    /// The image plane.
+    pub fn plane(&self) -> ImagePlane {
+        self.plane
+    }
+    /// The tree as it stands (deepened by every decision so far).
+    pub fn tree(&self) -> &QuadTree {
+        &self.tree
+    }
+    /// The base step `s0`: base slots at levels `(cx + s0, cy + s0)`.
+    pub fn base_steps(&self) -> u32 {
+        self.base_steps
+    }
+    /// Samples per slot, `ceil(rho)`.
+    pub fn per_slot(&self) -> usize {
+        self.per_slot
+    }
+    /// How far the plan has come.
+    pub fn progress(&self) -> &PlanProgress {
+        &self.progress
+    }
+    /// The next round's number (0: the base fit).
+    pub fn round(&self) -> usize {
+        self.progress.marked.len()
+    }
+
+    /// The base positions: `ceil(rho)` jittered-stratified positions in every base slot, from
+    /// the seed's round-0 stream (the same for every call).
+    pub fn base_positions(&self) -> SamplePositions {
+        let base = QuadTree::uniform(self.tree.basis().clone(), self.base_steps);
+        let mut rng = round_rng(self.params.seed, 0);
+        let mut out = SamplePositions::default();
+        for slot in base.slots() {
+            out.stratified(base.rect(slot), self.per_slot, &mut rng);
+        }
+        out
+    }
+
+    /// One round on every sample so far (`values[c][i]` channel `c` at `(xs[i], ys[i])`):
+    /// fit on the tree, indicate, then stop or mark, deepen and return the positions that
+    /// top the marked slots' children up to `ceil(rho)` samples.
+    pub fn step(
+        &mut self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+    ) -> Result<Round, AdaptiveError> {
+        let params = &self.params;
+        let round = self.round();
         let t = Instant::now();
-        let values: Vec<&[f64]> = store.values.iter().map(|v| v.as_slice()).collect();
-        let fit = fit_tree(&tree, &store.xs, &store.ys, &values)?;
-        times.fit_s += t.elapsed().as_secs_f64();
+        let fit = fit_tree(&self.tree, xs, ys, values)?;
+        let fit_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let ind = indicate(&tree, &fit.coefficients, params.max_ratio);
-        let estimate_rms = (ind.total_sq / plane.pixels() as f64).sqrt();
+        let tree = &self.tree;
+        let ind = indicate(tree, &fit.coefficients, params.max_ratio);
+        let estimate_rms = (ind.total_sq / self.plane.pixels() as f64).sqrt();
         let mut log = ImageRound {
             round,
-            samples: store.xs.len(),
-            new_samples,
+            samples: xs.len(),
+            new_samples: xs.len().saturating_sub(self.progress.samples_fitted),
             functions: fit.report.functions,
             max_depth: tree.slots().iter().map(|c| c.step).max().unwrap_or(0),
             estimate_rms,
@@ -389,9 +513,14 @@ pub fn refine_image(
             None
         };
         if let Some(stop) = stop {
-            rounds.push(log);
-            times.refine_s += t.elapsed().as_secs_f64();
-            break (fit, stop);
+            return Ok(Round {
+                log,
+                fit,
+                decision: Decision::Stop(stop),
+                fit_s,
+                refine_s: t.elapsed().as_secs_f64(),
+                position_s: 0.0,
+            });
         }
         let etas: Vec<f64> = ind.units.iter().map(|u| u.1).collect();
         let n = dorfler(&etas, params.theta).max(1);
@@ -400,19 +529,20 @@ pub fn refine_image(
         // samples already in each child of each marked slot
         let index: HashMap<Cell, usize> = marked.iter().enumerate().map(|(i, &c)| (c, i)).collect();
         let mut child_counts = vec![[0usize; 4]; marked.len()];
-        for (&x, &y) in store.xs.iter().zip(&store.ys) {
+        for (&x, &y) in xs.iter().zip(ys) {
             let slot = tree.slot_at(x, y);
             if let Some(&i) = index.get(&slot) {
                 let c = tree.cell_at(slot.step + 1, x, y);
                 child_counts[i][(c.ky & 1) * 2 + (c.kx & 1)] += 1;
             }
         }
+        let per_slot = self.per_slot;
         let costs: Vec<usize> = child_counts
             .iter()
             .map(|cc| cc.iter().map(|&c| per_slot.saturating_sub(c)).sum())
             .collect();
-        let left = params.budget - store.xs.len();
-        let growth = (params.min_growth * store.xs.len() as f64).ceil() as usize;
+        let left = params.budget.saturating_sub(xs.len());
+        let growth = (params.min_growth * xs.len() as f64).ceil() as usize;
         let mut k = n;
         let mut spent: usize = costs[..n].iter().sum();
         while k < costs.len() && spent < growth && etas[k] > 0.0 {
@@ -421,42 +551,141 @@ pub fn refine_image(
         }
         let k = within_budget(&costs[..k], left);
         if k == 0 {
-            rounds.push(log);
-            times.refine_s += t.elapsed().as_secs_f64();
-            break (fit, StopReason::Budget);
+            return Ok(Round {
+                log,
+                fit,
+                decision: Decision::Stop(StopReason::Budget),
+                fit_s,
+                refine_s: t.elapsed().as_secs_f64(),
+                position_s: 0.0,
+            });
         }
         log.marked = k;
-        rounds.push(log);
-        times.refine_s += t.elapsed().as_secs_f64();
+        let refine_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut rng = round_rng(params.seed, round + 1);
-        let before = store.xs.len();
+        let mut next = SamplePositions::default();
         for (cell, counts) in marked[..k].iter().zip(&child_counts) {
-            tree.activate(*cell);
+            self.tree.activate(*cell);
             for (q, child) in cell.children().into_iter().enumerate() {
                 let need = per_slot.saturating_sub(counts[q]);
-                store.fill(tree.rect(child), need, round as u32 + 1, &mut rng);
+                next.stratified(self.tree.rect(child), need, &mut rng);
             }
         }
-        new_samples = store.xs.len() - before;
-        times.sample_s += t.elapsed().as_secs_f64();
+        self.progress.marked.push(marked[..k].to_vec());
+        self.progress.samples_fitted = xs.len();
+        Ok(Round {
+            log,
+            fit,
+            decision: Decision::Sample(next),
+            fit_s,
+            refine_s,
+            position_s: t.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The report of a finished run: `base_samples` of `samples` in total, the final `fit`,
+    /// the reason to stop and the log of every round.
+    pub fn report(
+        &self,
+        base_samples: usize,
+        samples: usize,
+        fit: &TreeFit,
+        stop: StopReason,
+        rounds: Vec<ImageRound>,
+        times: AdaptiveTimes,
+    ) -> AdaptiveReport {
+        let (cx, cy) = self.tree.basis().coarse_levels();
+        AdaptiveReport {
+            levels: self.tree.basis().levels(),
+            coarse_levels: (cx, cy),
+            base_levels: (cx + self.base_steps, cy + self.base_steps),
+            base_samples,
+            samples,
+            budget: self.params.budget,
+            functions: fit.report.functions,
+            cells_per_step: self.tree.cells_per_step(),
+            stop,
+            rounds,
+            times,
+            notes: fit_notes(&fit.report),
+        }
+    }
+}
+
+/// Growing sample store of the in-process loop: the oracle's values at the plan's positions.
+struct Store<'a> {
+    oracle: &'a dyn ImageOracle,
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    values: Vec<Vec<f64>>,
+    round_of: Vec<u32>,
+}
+
+impl Store<'_> {
+    fn sample(&mut self, positions: &SamplePositions, round: u32) {
+        let mut buf = vec![0.0; self.values.len()];
+        for (&x, &y) in positions.xs.iter().zip(&positions.ys) {
+            self.oracle.sample(x, y, &mut buf);
+            self.xs.push(x);
+            self.ys.push(y);
+            for (c, v) in self.values.iter_mut().zip(&buf) {
+                c.push(*v);
+            }
+            self.round_of.push(round);
+        }
+    }
+}
+
+fn round_rng(seed: u64, round: usize) -> Pcg64 {
+    Pcg64::seed_from_u64(seed ^ (round as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+}
+
+fn finest_level(size: usize, below: u32) -> u32 {
+    (size.max(1) as f64).log2().ceil() as u32 + below
+}
+
+/// Refines the image of `oracle` on `plane`: adaptive tree and samples, until the tolerance,
+/// the depth limit, the budget or the round limit. A loop over [`ImagePlan::step`], the oracle
+/// sampling each round's positions.
+pub fn refine_image(
+    oracle: &dyn ImageOracle,
+    plane: ImagePlane,
+    params: &AdaptiveParams,
+) -> Result<AdaptiveImage, AdaptiveError> {
+    let mut plan = ImagePlan::new(plane, params)?;
+    let mut times = AdaptiveTimes::default();
+    let mut store = Store {
+        oracle,
+        xs: Vec::new(),
+        ys: Vec::new(),
+        values: vec![Vec::new(); oracle.channels()],
+        round_of: Vec::new(),
     };
-    let report = AdaptiveReport {
-        levels: tree.basis().levels(),
-        coarse_levels: (cx, cy),
-        base_levels: (cx + s0, cy + s0),
-        base_samples,
-        samples: store.xs.len(),
-        budget: params.budget,
-        functions: fit.report.functions,
-        cells_per_step: tree.cells_per_step(),
-        stop,
-        rounds,
-        times,
-        notes: fit_notes(&fit.report),
+    let t = Instant::now();
+    store.sample(&plan.base_positions(), 0);
+    times.sample_s += t.elapsed().as_secs_f64();
+    let base_samples = store.xs.len();
+    let mut rounds = Vec::new();
+    let (fit, stop) = loop {
+        let values: Vec<&[f64]> = store.values.iter().map(|v| v.as_slice()).collect();
+        let round = plan.step(&store.xs, &store.ys, &values)?;
+        times.fit_s += round.fit_s;
+        times.refine_s += round.refine_s;
+        times.sample_s += round.position_s;
+        rounds.push(round.log);
+        match round.decision {
+            Decision::Stop(stop) => break (round.fit, stop),
+            Decision::Sample(next) => {
+                let t = Instant::now();
+                store.sample(&next, rounds.len() as u32);
+                times.sample_s += t.elapsed().as_secs_f64();
+            }
+        }
     };
+    let report = plan.report(base_samples, store.xs.len(), &fit, stop, rounds, times);
     Ok(AdaptiveImage {
-        tree,
+        tree: plan.tree,
         xs: store.xs,
         ys: store.ys,
         values: store.values,

@@ -25,12 +25,12 @@
 
 use std::collections::HashMap;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::basis::tensor::TensorBasis;
 
 /// One dyadic cell: step `s` (level `cx + s` in x, `cy + s` in y) and translation `(kx, ky)`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Cell {
     /// Non-standard step `s` (0 = the coarse level).
     pub step: u32,

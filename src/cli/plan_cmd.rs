@@ -1,0 +1,337 @@
+//! `rkwave plan`: the adaptive image refiner driven by a renderer through files
+//! ([`rkwave::image::adaptive::protocol`]). The first call (no `--samples`) writes the base
+//! positions; each later call takes every sample so far and writes the next round's positions
+//! (none once the plan stops); `rkwave reconstruct --dim 2 --state DIR` fits on the tree built.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
+use rkwave::image::adaptive::{AdaptiveParams, SamplePositions};
+use rkwave::image::experiment::image_samples_from_table;
+use rkwave::image::ImagePlane;
+use rkwave::io::output::{same_file, write_new, OutputError};
+use rkwave::io::{npy_bytes, read_samples, SampleSet};
+
+use super::image_cmd::{check_p, parse_resolution};
+use super::{check_writable, CliError};
+
+/// `rkwave plan`.
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    /// Every sample so far (`.npy` `m x (2 + channels)` or CSV `x,y,c1[,...]`, positions as
+    /// the plan wrote them); without it, a new plan starts and writes the base positions.
+    #[arg(long)]
+    pub samples: Option<PathBuf>,
+    /// Folder of the plan's state (`state.json`), kept between calls.
+    #[arg(long, default_value = "rkwave-plan")]
+    pub state: PathBuf,
+    /// Positions to render next: `.npy` `n x 2` (x, y in pixel units); 0 rows once the plan
+    /// has stopped.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Image resolution `WxH` (needed to start; later calls check it).
+    #[arg(long)]
+    pub resolution: Option<String>,
+    /// Total sample budget (or `--spp`).
+    #[arg(long, conflicts_with = "spp")]
+    pub budget: Option<usize>,
+    /// Average samples per pixel: the budget is spp x pixels.
+    #[arg(long)]
+    pub spp: Option<usize>,
+    /// Vanishing moments p (default 2).
+    #[arg(long)]
+    pub p: Option<usize>,
+    /// Samples per slot of the tree (default 2).
+    #[arg(long)]
+    pub rho: Option<f64>,
+    /// Depth limit in levels below the pixel (default 1).
+    #[arg(long)]
+    pub below_pixel: Option<u32>,
+    /// Seed of the positions (default 1).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Overwrite the positions file; without `--samples`, also replace an existing plan.
+    #[arg(long)]
+    pub force: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The parameters of this call: the flags given, the rest from `base` (the state's on later
+/// calls, the defaults on the first).
+fn params(
+    args: &PlanArgs,
+    plane: ImagePlane,
+    base: &AdaptiveParams,
+) -> Result<AdaptiveParams, CliError> {
+    let budget = match (args.budget, args.spp) {
+        (Some(b), _) => b,
+        (None, Some(s)) => s.saturating_mul(plane.pixels()),
+        (None, None) => base.budget,
+    };
+    Ok(AdaptiveParams {
+        p: args.p.map_or(Ok(base.p), check_p)?,
+        rho: args.rho.unwrap_or(base.rho),
+        below_pixel: args.below_pixel.unwrap_or(base.below_pixel),
+        seed: args.seed.unwrap_or(base.seed),
+        budget,
+        ..*base
+    })
+}
+
+fn protocol(e: ProtocolError) -> CliError {
+    match e {
+        ProtocolError::Write(e) => CliError::Output(e),
+        e => CliError::Invalid(e.to_string()),
+    }
+}
+
+/// Loads the plan in `--state`, with a hint when there is none.
+pub fn load_state(dir: &std::path::Path) -> Result<PlanState, CliError> {
+    PlanState::load(dir).map_err(|e| match e {
+        ProtocolError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            CliError::Invalid(format!(
+                "no plan in {}: start one with `rkwave plan --resolution WxH --budget B --out \
+                 next.npy --state {}` (without --samples)",
+                dir.display(),
+                dir.display()
+            ))
+        }
+        e => protocol(e),
+    })
+}
+
+fn positions_npy(next: &SamplePositions) -> Vec<u8> {
+    let set = SampleSet::new(next.xs.clone(), vec![next.ys.clone()])
+        .and_then(|s| s.with_names(vec!["y".into()]))
+        .expect("positions and ys have equal lengths");
+    npy_bytes(&set).expect("positions are finite")
+}
+
+/// Runs `rkwave plan`.
+pub fn run(args: &PlanArgs) -> Result<(), CliError> {
+    if args.out.extension().and_then(|e| e.to_str()) != Some("npy") {
+        return Err(CliError::Invalid(format!(
+            "--out {}: the positions are written as .npy (n x 2); give a path ending in .npy",
+            args.out.display()
+        )));
+    }
+    if let Some(samples) = args.samples.as_ref().filter(|s| same_file(&args.out, s)) {
+        return Err(OutputError::SameFile {
+            output: args.out.clone(),
+            input: samples.clone(),
+        }
+        .into());
+    }
+    check_writable(&args.out, args.force)?;
+    let state_file = PlanState::path(&args.state);
+    let (state, next, step) = match &args.samples {
+        None => {
+            if state_file.exists() && !args.force {
+                return Err(CliError::Invalid(format!(
+                    "{} holds a plan already: pass --samples to continue it, --force to start \
+                     a new one, or another --state",
+                    args.state.display()
+                )));
+            }
+            let resolution = args
+                .resolution
+                .as_deref()
+                .ok_or_else(|| CliError::Invalid("a new plan needs --resolution WxH".into()))?;
+            let plane = parse_resolution(resolution)?;
+            if args.budget.is_none() && args.spp.is_none() {
+                return Err(CliError::Invalid(
+                    "a new plan needs --budget B (total samples) or --spp S".into(),
+                ));
+            }
+            let params = params(args, plane, &AdaptiveParams::default())?;
+            let (state, base) = PlanState::start(plane, &params).map_err(protocol)?;
+            (state, base, None)
+        }
+        Some(path) => {
+            let mut state = load_state(&args.state)?;
+            let plane = match &args.resolution {
+                Some(r) => parse_resolution(r)?,
+                None => state.plane,
+            };
+            let params = params(args, plane, &state.params)?;
+            state.check_params(plane, &params).map_err(protocol)?;
+            let table = read_samples(path)?;
+            let samples = image_samples_from_table(table, state.plane)
+                .map_err(|e| CliError::Invalid(format!("{}: {e}", path.display())))?;
+            let step = state.advance(&samples).map_err(protocol)?;
+            let next = step.next.clone();
+            (state, next, Some(step))
+        }
+    };
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    write_new(&args.out, &positions_npy(&next), args.force)?;
+    state.save(&args.state).map_err(protocol)?;
+    if args.json {
+        let report = serde_json::json!({
+            "state": state_file,
+            "out": args.out,
+            "resolution": state.plane.to_string(),
+            "round": state.round(),
+            "positions": next.len(),
+            "total_positions": state.positions(),
+            "budget": state.params.budget,
+            "stop": state.stop,
+            "step": step,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("plain data")
+        );
+        return Ok(());
+    }
+    match (&step, state.stop) {
+        (None, _) => println!(
+            "new plan for {} (budget {}): {} base positions -> {}; render them, then call \
+             again with --samples",
+            state.plane,
+            state.params.budget,
+            next.len(),
+            args.out.display()
+        ),
+        (Some(s), None) => println!(
+            "round {}: fit on {} samples ({} functions, estimated RMS error {:.3e}), {} slots \
+             marked; {} positions of round {} -> {} ({} of {} handed out)",
+            s.log.round,
+            s.log.samples,
+            s.log.functions,
+            s.log.estimate_rms,
+            s.log.marked,
+            next.len(),
+            state.round(),
+            args.out.display(),
+            state.positions(),
+            state.params.budget
+        ),
+        (Some(s), Some(stop)) => println!(
+            "round {}: fit on {} samples ({} functions, estimated RMS error {:.3e}); the plan \
+             stopped ({stop:?}): no positions left ({} written with 0 rows); reconstruct with \
+             `rkwave reconstruct --dim 2 --state {} --input SAMPLES --output IMAGE`",
+            s.log.round,
+            s.log.samples,
+            s.log.functions,
+            s.log.estimate_rms,
+            args.out.display(),
+            args.state.display()
+        ),
+    }
+    if let Some(s) = &step {
+        if s.log.fit.ridge > 0.0 {
+            println!(
+                "note: the normal matrix was numerically singular: a relative ridge {:.0e} was \
+                 added",
+                s.log.fit.ridge
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `rkwave reconstruct --dim 2 --state DIR`: the samples fitted on the tree of the plan in
+/// `dir`, exact box pixels written to `--output`.
+pub fn reconstruct(
+    args: &super::reconstruct_cmd::ReconstructArgs,
+    dir: &std::path::Path,
+    started: std::time::Instant,
+) -> Result<(), CliError> {
+    let state = load_state(dir)?;
+    if let Some(r) = &args.resolution {
+        let plane = parse_resolution(r)?;
+        if plane != state.plane {
+            return Err(CliError::Invalid(format!(
+                "--resolution {plane}: the plan in {} is for {}; drop --resolution or give the \
+                 plan's",
+                dir.display(),
+                state.plane
+            )));
+        }
+    }
+    let table = read_samples(&args.input)?;
+    let samples = image_samples_from_table(table, state.plane)
+        .map_err(|e| CliError::Invalid(format!("{}: {e}", args.input.display())))?;
+    let done = state.reconstruct(&samples).map_err(protocol)?;
+    let image = rkwave::image::PixelImage {
+        plane: state.plane,
+        channels: done
+            .fit
+            .box_pixels(&done.tree)
+            .map_err(|e| CliError::Invalid(e.to_string()))?,
+    };
+    rkwave::io::image_file::write_image(&args.output, &image, args.force).map_err(|e| {
+        CliError::Write {
+            path: args.output.clone(),
+            source: std::io::Error::other(e.to_string()),
+        }
+    })?;
+    let mut notes = Vec::new();
+    if !done.complete {
+        notes.push(format!(
+            "the plan has not stopped: this is the fit of the samples of rounds 0..={} on \
+             their tree, not the final image",
+            done.round
+        ));
+    }
+    if done.fit.report.ridge > 0.0 {
+        notes.push(format!(
+            "the normal matrix was numerically singular: a relative ridge {:.0e} was added",
+            done.fit.report.ridge
+        ));
+    }
+    if done.fit.report.unsampled > 0 {
+        notes.push(format!(
+            "{} functions have no sample in their support (held at 0 by the ridge)",
+            done.fit.report.unsampled
+        ));
+    }
+    let report = serde_json::json!({
+        "input": args.input,
+        "output": args.output,
+        "state": PlanState::path(dir),
+        "resolution": state.plane.to_string(),
+        "samples": samples.len(),
+        "channels": samples.channels(),
+        "round": done.round,
+        "complete": done.complete,
+        "p": state.params.p,
+        "levels": done.tree.basis().levels(),
+        "cells_per_step": done.tree.cells_per_step(),
+        "fit": done.fit.report,
+        "time_s": started.elapsed().as_secs_f64(),
+        "notes": notes,
+    });
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("plain data")
+        );
+    } else {
+        println!(
+            "{} samples x {} channels (rounds 0..={}) -> {} pixels on the plan's tree ({} \
+             functions, p = {}), {:.3} s; wrote {}",
+            samples.len(),
+            samples.channels(),
+            done.round,
+            state.plane,
+            done.fit.report.functions,
+            state.params.p,
+            started.elapsed().as_secs_f64(),
+            args.output.display()
+        );
+        for note in &notes {
+            println!("note: {note}");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,492 @@
+//! The renderer in the loop (issue 13, item 3): the refiner's rounds driven through files.
+//!
+//! A renderer is not in the process, so the rounds of [`ImagePlan`] are split at the oracle
+//! calls. The plan's state between calls is a [`PlanState`]: the plane, the parameters, the
+//! refinement history ([`PlanProgress`]: the cells marked per round) and a record of every
+//! position it handed out. A call
+//!
+//! 1. *starts* a plan ([`PlanState::start`]): the base positions for the seed;
+//! 2. *advances* it ([`PlanState::advance`]) with every sample so far (positions as handed out,
+//!    values rendered): the round's fit on the tree, then the next positions or the stop;
+//! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for.
+//!
+//! Driven with the positions as handed out (in order, as `f64`), this is the in-process loop
+//! [`super::refine_image`] step for step: the same tree, the same fits, the same pixels
+//! (`tests/image_adaptive_protocol.rs`).
+//!
+//! *Which samples.* The plan recognises its positions by a fingerprint of the multiset
+//! `F = sum_i h(x_i, y_i) mod 2^64` (`h` a 64-bit mix of the coordinates' bits; order-free, so
+//! a renderer may return samples in any order) and the count, recorded per round
+//! cumulatively. Samples from another run, another seed, a lost or repeated round, or
+//! positions rounded on the way (`float32`) do not match and are refused, naming the round
+//! the plan expects; the samples of an earlier round are recognised as such.
+//!
+//! The state is JSON with a format name and version ([`STATE_FORMAT`], [`STATE_VERSION`]);
+//! a state of another format or version, or one whose history does not fit its own
+//! parameters, is refused.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::fit::{fit_tree, TreeFit};
+use super::refiner::{
+    AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
+};
+use super::tree::QuadTree;
+use super::AdaptiveError;
+use crate::image::{ImagePlane, ImageSamples};
+use crate::io::output::{write_new, OutputError};
+use crate::refine::StopReason;
+
+/// The `format` field of a plan state.
+pub const STATE_FORMAT: &str = "rkwave-image-plan";
+/// The version of the state layout this build reads and writes.
+pub const STATE_VERSION: u32 = 1;
+/// The state's file name inside its directory.
+pub const STATE_FILE: &str = "state.json";
+
+/// Why a protocol call was refused.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum ProtocolError {
+    /// The refiner (parameters, solve).
+    #[error(transparent)]
+    Adaptive(#[from] AdaptiveError),
+    /// The samples do not lie on the state's image plane.
+    #[error(
+        "the samples lie on a {given} image but the plan is for {state}: use the samples of \
+         this plan or another state"
+    )]
+    Plane {
+        /// The plan's plane.
+        state: ImagePlane,
+        /// The samples' plane.
+        given: ImagePlane,
+    },
+    /// The samples are not the positions the plan handed out.
+    #[error(
+        "the {given} samples are not the positions this plan handed out (it expects the \
+         {expected} positions of rounds 0..={round}, as written, in float64): they come from \
+         another run, miss a round or were moved; pass every sample of this plan, or start a \
+         new state"
+    )]
+    Mismatch {
+        /// Samples given.
+        given: usize,
+        /// Positions handed out so far.
+        expected: usize,
+        /// The last round handed out.
+        round: usize,
+    },
+    /// The samples are those of an earlier round: that round was planned already.
+    #[error(
+        "the {given} samples are the positions of rounds 0..={matched}, which this plan has \
+         advanced past: it handed out round {round} ({expected} positions in all); render \
+         those too and pass every sample"
+    )]
+    AlreadyPlanned {
+        /// Samples given.
+        given: usize,
+        /// The round they complete.
+        matched: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Positions handed out so far.
+        expected: usize,
+    },
+    /// The samples' channels differ from earlier calls.
+    #[error(
+        "the samples have {given} channels but earlier rounds had {state}: render the same \
+         channels every round"
+    )]
+    Channels {
+        /// Channels of earlier rounds.
+        state: usize,
+        /// Channels given.
+        given: usize,
+    },
+    /// A parameter differs from the one the state was planned with.
+    #[error(
+        "the plan in this state was made with {parameter} = {state}, this call gives \
+         {given}: pass the same parameters on every call, or start a new state"
+    )]
+    OtherParameters {
+        /// The parameter.
+        parameter: String,
+        /// The state's value.
+        state: String,
+        /// The value given.
+        given: String,
+    },
+    /// The state file is not a plan state this build reads.
+    #[error("{}: not a plan state ({problem}): start a new state", .file.display())]
+    State {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The state file could not be read.
+    #[error("cannot read the plan state {}: {source}", .file.display())]
+    Read {
+        /// The file.
+        file: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The state could not be written.
+    #[error(transparent)]
+    Write(#[from] OutputError),
+}
+
+/// Positions handed out, cumulative up to one round.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IssuedRound {
+    /// The round whose positions these are (0: the base).
+    pub round: usize,
+    /// Positions of this round.
+    pub positions: usize,
+    /// Positions of rounds `0..=round`.
+    pub total: usize,
+    /// Fingerprint of the positions of rounds `0..=round` (hex).
+    pub fingerprint: String,
+}
+
+/// A plan between calls: everything [`ImagePlan::resume`] needs and the record of the
+/// positions handed out.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanState {
+    /// Always [`STATE_FORMAT`].
+    pub format: String,
+    /// Always [`STATE_VERSION`] when written by this build.
+    pub version: u32,
+    /// The image plane.
+    pub plane: ImagePlane,
+    /// The refiner's parameters (seed and budget included).
+    pub params: AdaptiveParams,
+    /// Channels of the samples (`None` before the first samples).
+    pub channels: Option<usize>,
+    /// The refinement history.
+    pub progress: PlanProgress,
+    /// Positions handed out, per round.
+    pub issued: Vec<IssuedRound>,
+    /// Why the plan stopped (`None` while it runs).
+    pub stop: Option<StopReason>,
+}
+
+/// What one call of [`PlanState::advance`] did.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanStep {
+    /// The round's log (its fit on the samples given).
+    pub log: ImageRound,
+    /// Positions to render next (empty when the plan stopped).
+    #[serde(skip)]
+    pub next: SamplePositions,
+    /// Number of positions to render next.
+    pub next_positions: usize,
+    /// The round those positions belong to (`None` when the plan stopped).
+    pub next_round: Option<usize>,
+    /// Why the plan stopped (`None`: render the next positions and call again).
+    pub stop: Option<StopReason>,
+    /// Positions handed out in all, including the next ones.
+    pub total_positions: usize,
+    /// The budget.
+    pub budget: usize,
+}
+
+/// A reconstruction on the tree a plan built.
+#[derive(Clone, Debug)]
+pub struct PlanReconstruction {
+    /// The tree the samples were planned for.
+    pub tree: QuadTree,
+    /// The fit on it.
+    pub fit: TreeFit,
+    /// The last round of the samples.
+    pub round: usize,
+    /// Whether the plan has stopped at that round (the samples are the final set).
+    pub complete: bool,
+}
+
+/// 64-bit mix (SplitMix64's finaliser).
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.
+fn fingerprint(start: u64, xs: &[f64], ys: &[f64]) -> u64 {
+    xs.iter().zip(ys).fold(start, |acc, (x, y)| {
+        acc.wrapping_add(mix(x.to_bits() ^ mix(y.to_bits()).rotate_left(17)))
+    })
+}
+
+fn parse_hex(s: &str) -> Option<u64> {
+    u64::from_str_radix(s, 16).ok()
+}
+
+impl PlanState {
+    /// Starts a plan: the state and the base positions for the seed.
+    pub fn start(
+        plane: ImagePlane,
+        params: &AdaptiveParams,
+    ) -> Result<(Self, SamplePositions), ProtocolError> {
+        let plan = ImagePlan::new(plane, params)?;
+        let base = plan.base_positions();
+        let state = Self {
+            format: STATE_FORMAT.into(),
+            version: STATE_VERSION,
+            plane,
+            params: *params,
+            channels: None,
+            progress: plan.progress().clone(),
+            issued: vec![IssuedRound {
+                round: 0,
+                positions: base.len(),
+                total: base.len(),
+                fingerprint: format!("{:016x}", fingerprint(0, &base.xs, &base.ys)),
+            }],
+            stop: None,
+        };
+        Ok((state, base))
+    }
+
+    /// Refuses `plane` and `params` unless they are the state's (each parameter compared by
+    /// its serialised value; the first that differs is named).
+    pub fn check_params(
+        &self,
+        plane: ImagePlane,
+        params: &AdaptiveParams,
+    ) -> Result<(), ProtocolError> {
+        if plane != self.plane {
+            return Err(ProtocolError::OtherParameters {
+                parameter: "resolution".into(),
+                state: self.plane.to_string(),
+                given: plane.to_string(),
+            });
+        }
+        let ours = serde_json::to_value(self.params).expect("parameters serialise");
+        let theirs = serde_json::to_value(params).expect("parameters serialise");
+        if let (Some(a), Some(b)) = (ours.as_object(), theirs.as_object()) {
+            for (key, value) in a {
+                let other = b.get(key).cloned().unwrap_or_default();
+                if *value != other {
+                    return Err(ProtocolError::OtherParameters {
+                        parameter: key.clone(),
+                        state: value.to_string(),
+                        given: other.to_string(),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The last round handed out.
+    pub fn round(&self) -> usize {
+        self.issued.last().map_or(0, |r| r.round)
+    }
+
+    /// Positions handed out so far.
+    pub fn positions(&self) -> usize {
+        self.issued.last().map_or(0, |r| r.total)
+    }
+
+    /// The index into [`PlanState::issued`] whose positions `samples` are exactly.
+    fn matching_round(&self, samples: &ImageSamples) -> Result<usize, ProtocolError> {
+        if samples.plane() != self.plane {
+            return Err(ProtocolError::Plane {
+                state: self.plane,
+                given: samples.plane(),
+            });
+        }
+        if let Some(c) = self.channels {
+            if c != samples.channels() {
+                return Err(ProtocolError::Channels {
+                    state: c,
+                    given: samples.channels(),
+                });
+            }
+        }
+        let f = format!("{:016x}", fingerprint(0, samples.xs(), samples.ys()));
+        let found = self
+            .issued
+            .iter()
+            .position(|r| r.total == samples.len() && parse_hex(&r.fingerprint) == parse_hex(&f));
+        let last = self.issued.len() - 1;
+        match found {
+            Some(k) => Ok(k),
+            None => Err(ProtocolError::Mismatch {
+                given: samples.len(),
+                expected: self.positions(),
+                round: last,
+            }),
+        }
+    }
+
+    /// The plan as of round `k` (the tree after the markings of rounds `1..=k`).
+    fn plan_at(&self, k: usize) -> Result<ImagePlan, ProtocolError> {
+        let progress = if k == self.progress.marked.len() {
+            self.progress.clone()
+        } else {
+            PlanProgress {
+                marked: self.progress.marked[..k].to_vec(),
+                samples_fitted: 0,
+            }
+        };
+        ImagePlan::resume(self.plane, &self.params, progress).map_err(|e| match e {
+            AdaptiveError::History { .. } => ProtocolError::State {
+                file: PathBuf::from(STATE_FILE),
+                problem: e.to_string(),
+            },
+            e => e.into(),
+        })
+    }
+
+    /// Checks the state's own consistency: format, version, one issued record per round.
+    fn check_layout(&self, file: &Path) -> Result<(), ProtocolError> {
+        let bad = |problem: String| ProtocolError::State {
+            file: file.to_path_buf(),
+            problem,
+        };
+        if self.format != STATE_FORMAT {
+            return Err(bad(format!(
+                "format `{}`, expected `{STATE_FORMAT}`",
+                self.format
+            )));
+        }
+        if self.version != STATE_VERSION {
+            return Err(bad(format!(
+                "version {}, this build reads version {STATE_VERSION}",
+                self.version
+            )));
+        }
+        if self.issued.len() != self.progress.marked.len() + 1
+            || self.issued.iter().enumerate().any(|(i, r)| r.round != i)
+            || self
+                .issued
+                .iter()
+                .any(|r| parse_hex(&r.fingerprint).is_none())
+        {
+            return Err(bad(format!(
+                "{} records of handed-out positions for {} rounds",
+                self.issued.len(),
+                self.progress.marked.len() + 1
+            )));
+        }
+        Ok(())
+    }
+
+    /// One round on every sample so far: the fit on the tree, then the next positions (recorded
+    /// as handed out) or the stop. The samples must be the positions handed out so far.
+    pub fn advance(&mut self, samples: &ImageSamples) -> Result<PlanStep, ProtocolError> {
+        let k = self.matching_round(samples)?;
+        let last = self.issued.len() - 1;
+        if k < last {
+            return Err(ProtocolError::AlreadyPlanned {
+                given: samples.len(),
+                matched: k,
+                round: last,
+                expected: self.positions(),
+            });
+        }
+        let mut plan = self.plan_at(k)?;
+        let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
+        let round = plan.step(samples.xs(), samples.ys(), &values)?;
+        self.channels = Some(samples.channels());
+        let (next, next_round, stop) = match round.decision {
+            Decision::Sample(next) => {
+                let prev = self.issued[last].clone();
+                let start = parse_hex(&prev.fingerprint).expect("checked when loaded");
+                self.issued.push(IssuedRound {
+                    round: last + 1,
+                    positions: next.len(),
+                    total: prev.total + next.len(),
+                    fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
+                });
+                self.progress = plan.progress().clone();
+                (next, Some(last + 1), None)
+            }
+            Decision::Stop(stop) => {
+                self.stop = Some(stop);
+                (SamplePositions::default(), None, Some(stop))
+            }
+        };
+        Ok(PlanStep {
+            log: round.log,
+            next_positions: next.len(),
+            next,
+            next_round,
+            stop,
+            total_positions: self.positions(),
+            budget: self.params.budget,
+        })
+    }
+
+    /// The fit of `samples` (the positions of rounds `0..=k` handed out by this plan, for some
+    /// `k`) on the tree they were planned for: after the markings of rounds `1..=k`. With the
+    /// samples of the round at which the plan stopped, this is the in-process loop's result.
+    pub fn reconstruct(&self, samples: &ImageSamples) -> Result<PlanReconstruction, ProtocolError> {
+        let k = self.matching_round(samples)?;
+        let plan = self.plan_at(k)?;
+        let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
+        let fit = fit_tree(plan.tree(), samples.xs(), samples.ys(), &values)?;
+        Ok(PlanReconstruction {
+            tree: plan.tree().clone(),
+            fit,
+            round: k,
+            complete: self.stop.is_some() && k + 1 == self.issued.len(),
+        })
+    }
+
+    /// The state as JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a plan state serialises")
+    }
+
+    /// Parses a state written by [`PlanState::to_json`] (`file` names it in errors), checking
+    /// its format, version and history against its own parameters.
+    pub fn from_json(text: &str, file: &Path) -> Result<Self, ProtocolError> {
+        let state: Self = serde_json::from_str(text).map_err(|e| ProtocolError::State {
+            file: file.to_path_buf(),
+            problem: e.to_string(),
+        })?;
+        state.check_layout(file)?;
+        ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
+            ProtocolError::State {
+                file: file.to_path_buf(),
+                problem: e.to_string(),
+            }
+        })?;
+        Ok(state)
+    }
+
+    /// The state file in the directory `dir`.
+    pub fn path(dir: &Path) -> PathBuf {
+        dir.join(STATE_FILE)
+    }
+
+    /// Reads the state in `dir`.
+    pub fn load(dir: &Path) -> Result<Self, ProtocolError> {
+        let file = Self::path(dir);
+        let text = std::fs::read_to_string(&file).map_err(|source| ProtocolError::Read {
+            file: file.clone(),
+            source,
+        })?;
+        Self::from_json(&text, &file)
+    }
+
+    /// Writes the state into `dir` (created if missing), replacing the previous state
+    /// atomically.
+    pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
+        let file = Self::path(dir);
+        std::fs::create_dir_all(dir).map_err(|source| OutputError::NotWritable {
+            file: file.clone(),
+            source,
+        })?;
+        write_new(&file, self.to_json().as_bytes(), true)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,479 @@
+//! The renderer in the loop (issue 13, item 3): the adaptive refiner driven through its file
+//! protocol gives the in-process loop's image, and bad input is refused with typed errors.
+
+mod common;
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+use rkwave::image::adaptive::protocol::{PlanState, ProtocolError, STATE_VERSION};
+use rkwave::image::adaptive::{
+    refine_image, AdaptiveParams, ImageOracle, SamplePositions, SceneOracle,
+};
+use rkwave::image::scene::Scene;
+use rkwave::image::{ImagePlane, ImageSamples};
+use rkwave::io::{read_npy, write_npy, SampleSet};
+
+fn straight_edge(x: f64, y: f64) -> f64 {
+    if x + 0.3 * y < 20.0 {
+        0.1
+    } else {
+        0.8
+    }
+}
+
+/// The samples so far, grown round by round as a renderer would.
+struct Rendered {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    values: Vec<Vec<f64>>,
+}
+
+impl Rendered {
+    fn new(channels: usize) -> Self {
+        Self {
+            xs: vec![],
+            ys: vec![],
+            values: vec![vec![]; channels],
+        }
+    }
+    fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
+        let mut buf = vec![0.0; oracle.channels()];
+        for (&x, &y) in next.xs.iter().zip(&next.ys) {
+            oracle.sample(x, y, &mut buf);
+            self.xs.push(x);
+            self.ys.push(y);
+            for (c, v) in self.values.iter_mut().zip(&buf) {
+                c.push(*v);
+            }
+        }
+    }
+    fn samples(&self, plane: ImagePlane) -> ImageSamples {
+        ImageSamples::new(plane, self.xs.clone(), self.ys.clone(), self.values.clone()).unwrap()
+    }
+}
+
+/// Drives a plan to its stop, passing the state through its JSON between calls as the
+/// command line does; returns the final state and the samples.
+fn drive(
+    oracle: &dyn ImageOracle,
+    plane: ImagePlane,
+    params: &AdaptiveParams,
+) -> (PlanState, Rendered) {
+    let (state, base) = PlanState::start(plane, params).unwrap();
+    let mut json = state.to_json();
+    let mut rendered = Rendered::new(oracle.channels());
+    rendered.render(oracle, &base);
+    loop {
+        let mut state = PlanState::from_json(&json, "state.json".as_ref()).unwrap();
+        let step = state.advance(&rendered.samples(plane)).unwrap();
+        json = state.to_json();
+        if step.stop.is_some() {
+            assert!(step.next.is_empty());
+            return (state, rendered);
+        }
+        assert!(!step.next.is_empty());
+        rendered.render(oracle, &step.next);
+    }
+}
+
+/// Driving the protocol with the positions as handed out (in order, float64) repeats the
+/// in-process loop exactly: the same positions, the same tree, bit-identical pixels (the same
+/// arithmetic on the same numbers in the same order).
+#[test]
+fn protocol_gives_the_in_process_image() {
+    let scene = Scene::from_file(Scene::builtin_dir().join("shapes.json")).unwrap();
+    let plane = ImagePlane::new(40, 32).unwrap();
+    let oracle = SceneOracle {
+        scene: &scene,
+        plane,
+    };
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        seed: 11,
+        ..AdaptiveParams::default()
+    };
+    let run = refine_image(&oracle, plane, &params).unwrap();
+    assert!(run.report.rounds.len() > 2, "the test needs several rounds");
+    let (state, rendered) = drive(&oracle, plane, &params);
+    assert_eq!(rendered.xs, run.xs);
+    assert_eq!(rendered.ys, run.ys);
+    assert_eq!(state.stop, Some(run.report.stop));
+    assert_eq!(state.issued.len(), run.report.rounds.len());
+    let done = state.reconstruct(&rendered.samples(plane)).unwrap();
+    assert!(done.complete);
+    assert_eq!(done.tree.depth_map(), run.tree.depth_map());
+    let pixels = done.fit.box_pixels(&done.tree).unwrap();
+    assert_eq!(pixels, run.pixels().unwrap().channels);
+}
+
+/// A renderer may return the samples in any order: the fingerprint is order-free, and the fit
+/// differs only by rounding (sums in another order): pixels within `1e-12` of the in-process
+/// image (values in [0, 1], `cond(G)` of the tree fit below `1e3`, so reordering changes the
+/// solution by at most a few hundred ulps).
+#[test]
+fn samples_in_any_order() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let params = AdaptiveParams {
+        budget: 3 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    let run = refine_image(&straight_edge, plane, &params).unwrap();
+    let (state, rendered) = drive(&straight_edge, plane, &params);
+    let mut order: Vec<usize> = (0..rendered.xs.len()).collect();
+    order.shuffle(&mut Pcg64::seed_from_u64(3));
+    let shuffled = ImageSamples::new(
+        plane,
+        order.iter().map(|&i| rendered.xs[i]).collect(),
+        order.iter().map(|&i| rendered.ys[i]).collect(),
+        vec![order.iter().map(|&i| rendered.values[0][i]).collect()],
+    )
+    .unwrap();
+    let done = state.reconstruct(&shuffled).unwrap();
+    let pixels = done.fit.box_pixels(&done.tree).unwrap();
+    let reference = run.pixels().unwrap().channels;
+    let err = pixels[0]
+        .iter()
+        .zip(&reference[0])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err <= 1e-12, "max pixel difference {err:e}");
+}
+
+/// The samples of an earlier round reconstruct on that round's tree (what the in-process loop
+/// fitted in that round), and are refused by `advance` with the round they complete.
+#[test]
+fn earlier_rounds_are_recognised() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    let (state, base) = PlanState::start(plane, &params).unwrap();
+    let mut rendered = Rendered::new(1);
+    rendered.render(&straight_edge, &base);
+    let base_samples = rendered.samples(plane);
+    let mut advanced = state.clone();
+    let step = advanced.advance(&base_samples).unwrap();
+    assert_eq!(step.next_round, Some(1));
+    let err = advanced.clone().advance(&base_samples).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ProtocolError::AlreadyPlanned {
+                matched: 0,
+                round: 1,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    // round 0's samples on the base tree: the first fit of the loop
+    let done = advanced.reconstruct(&base_samples).unwrap();
+    assert_eq!(done.round, 0);
+    assert!(!done.complete);
+    assert_eq!(done.fit.report.functions, step.log.functions);
+    let base_depth = done.tree.slots()[0].step;
+    assert!(done.tree.slots().iter().all(|c| c.step == base_depth));
+}
+
+#[test]
+fn bad_input_is_refused() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        seed: 5,
+        ..AdaptiveParams::default()
+    };
+    let (state, base) = PlanState::start(plane, &params).unwrap();
+    // samples of another seed
+    let (_, other) = PlanState::start(plane, &AdaptiveParams { seed: 6, ..params }).unwrap();
+    let mut foreign = Rendered::new(1);
+    foreign.render(&straight_edge, &other);
+    let err = state.clone().advance(&foreign.samples(plane)).unwrap_err();
+    assert!(
+        matches!(err, ProtocolError::Mismatch { round: 0, .. }),
+        "{err}"
+    );
+    // positions rounded to float32 on the way
+    let mut rounded = Rendered::new(1);
+    rounded.render(&straight_edge, &base);
+    for x in &mut rounded.xs {
+        *x = *x as f32 as f64;
+    }
+    let err = state.clone().advance(&rounded.samples(plane)).unwrap_err();
+    assert!(matches!(err, ProtocolError::Mismatch { .. }), "{err}");
+    // a subset (a lost sample)
+    let mut rendered = Rendered::new(1);
+    rendered.render(&straight_edge, &base);
+    let mut lost = rendered.samples(plane);
+    lost = ImageSamples::new(
+        plane,
+        lost.xs()[1..].to_vec(),
+        lost.ys()[1..].to_vec(),
+        vec![lost.values()[0][1..].to_vec()],
+    )
+    .unwrap();
+    assert!(matches!(
+        state.clone().advance(&lost).unwrap_err(),
+        ProtocolError::Mismatch { .. }
+    ));
+    // another plane
+    let wider = ImageSamples::new(
+        ImagePlane::new(33, 32).unwrap(),
+        rendered.xs.clone(),
+        rendered.ys.clone(),
+        rendered.values.clone(),
+    )
+    .unwrap();
+    assert!(matches!(
+        state.clone().advance(&wider).unwrap_err(),
+        ProtocolError::Plane { .. }
+    ));
+    // channels change between rounds
+    let mut s = state.clone();
+    let step = s.advance(&rendered.samples(plane)).unwrap();
+    let mut two = Rendered::new(2);
+    let both = |x: f64, y: f64| straight_edge(x, y);
+    two.xs = rendered.xs.clone();
+    two.ys = rendered.ys.clone();
+    two.values = vec![rendered.values[0].clone(), rendered.values[0].clone()];
+    two.render(&TwoChannels(both), &step.next);
+    assert!(matches!(
+        s.advance(&two.samples(plane)).unwrap_err(),
+        ProtocolError::Channels { state: 1, given: 2 }
+    ));
+    // other parameters than the state's
+    let err = state
+        .check_params(
+            plane,
+            &AdaptiveParams {
+                budget: 5000,
+                ..params
+            },
+        )
+        .unwrap_err();
+    assert!(
+        matches!(&err, ProtocolError::OtherParameters { parameter, .. } if parameter == "budget"),
+        "{err}"
+    );
+    state.check_params(plane, &params).unwrap();
+    // a state of another version, of another format, or with a history that does not fit
+    let json = state.to_json();
+    let file = std::path::Path::new("state.json");
+    let newer = json.replace(
+        &format!("\"version\":{STATE_VERSION}"),
+        &format!("\"version\":{}", STATE_VERSION + 1),
+    );
+    assert!(matches!(
+        PlanState::from_json(&newer, file).unwrap_err(),
+        ProtocolError::State { .. }
+    ));
+    assert!(matches!(
+        PlanState::from_json("{\"format\": \"something else\"}", file).unwrap_err(),
+        ProtocolError::State { .. }
+    ));
+    let mut s = state.clone();
+    s.advance(&rendered.samples(plane)).unwrap();
+    let mut broken = s.clone();
+    broken.progress.marked[0][0].step = 0;
+    let err = PlanState::from_json(&broken.to_json(), file).unwrap_err();
+    assert!(matches!(err, ProtocolError::State { .. }), "{err}");
+}
+
+struct TwoChannels<F>(F);
+impl<F: Fn(f64, f64) -> f64 + Sync> ImageOracle for TwoChannels<F> {
+    fn channels(&self) -> usize {
+        2
+    }
+    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
+        out[0] = (self.0)(x, y);
+        out[1] = out[0];
+    }
+}
+
+/// The pixels of an `.npy` image written by `rkwave` (`<f8`, shape `(H, W, C)`).
+fn npy_image(path: &std::path::Path) -> Vec<f64> {
+    let bytes = std::fs::read(path).unwrap();
+    let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    bytes[10 + header..]
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+        .collect()
+}
+
+/// The same from the command line: `rkwave plan` in a loop with a "renderer" (the edge
+/// function) writing `.npy` samples, then `rkwave reconstruct --dim 2 --state`: the image is
+/// the in-process loop's, bit for bit (float64 files keep every position and value).
+#[test]
+fn command_line_protocol_gives_the_in_process_image() {
+    let dir = common::scratch("plan", "loop");
+    let state = dir.join("state");
+    let (w, h) = (32usize, 24usize);
+    let budget = 3 * w * h;
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let mut set = SampleSet::default();
+    let mut call = 0;
+    let final_samples = loop {
+        let next = dir.join(format!("next{call}.npy"));
+        let samples = dir.join(format!("samples{call}.npy"));
+        let mut args = vec![
+            "plan".to_string(),
+            "--state".into(),
+            s(&state),
+            "--budget".into(),
+            budget.to_string(),
+            "--out".into(),
+            s(&next),
+        ];
+        if call == 0 {
+            args.extend(["--resolution".into(), format!("{w}x{h}")]);
+        } else {
+            args.extend([
+                "--samples".into(),
+                s(&dir.join(format!("samples{}.npy", call - 1))),
+            ]);
+        }
+        let argv: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = common::rkwave(&argv);
+        assert!(out.status.success(), "{}", common::text(&out));
+        if common::text(&out).contains("the plan stopped") {
+            // the last call writes 0 rows (which the sample reader refuses as samples)
+            assert!(read_npy(&next).is_err());
+            break dir.join(format!("samples{}.npy", call - 1));
+        }
+        let positions = read_npy(&next).unwrap();
+        assert_eq!(positions.channels(), 1);
+        set.positions.extend(&positions.positions);
+        if set.values.is_empty() {
+            set.values = vec![vec![], vec![]];
+        }
+        set.values[0].extend(&positions.values[0]);
+        for (&x, &y) in positions.positions.iter().zip(&positions.values[0]) {
+            set.values[1].push(straight_edge(x, y));
+        }
+        set.names = vec!["y".into(), "value".into()];
+        write_npy(&samples, &set).unwrap();
+        call += 1;
+        assert!(call < 60, "the plan did not stop");
+    };
+    let image = dir.join("image.npy");
+    let out = common::rkwave(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--state",
+        &s(&state),
+        "--input",
+        &s(&final_samples),
+        "--output",
+        &s(&image),
+    ]);
+    assert!(out.status.success(), "{}", common::text(&out));
+    let plane = ImagePlane::new(w, h).unwrap();
+    let run = refine_image(
+        &straight_edge,
+        plane,
+        &AdaptiveParams {
+            budget,
+            ..AdaptiveParams::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(set.positions, run.xs);
+    assert_eq!(npy_image(&image), run.pixels().unwrap().channels[0]);
+    // outputs are never replaced without --force; a plan is not restarted over another
+    let again = common::user_error(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--state",
+        &s(&state),
+        "--input",
+        &s(&final_samples),
+        "--output",
+        &s(&image),
+    ]);
+    assert!(again.contains("--force"), "{again}");
+    let restart = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--resolution",
+        "32x24",
+        "--budget",
+        "2000",
+        "--out",
+        &s(&dir.join("fresh.npy")),
+    ]);
+    assert!(restart.contains("holds a plan"), "{restart}");
+    // samples of another run, another budget, no state
+    let other = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--samples",
+        &s(&dir.join("samples0.npy")),
+        "--out",
+        &s(&dir.join("other.npy")),
+    ]);
+    assert!(other.contains("advanced past"), "{other}");
+    let budget_changed = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--budget",
+        "999",
+        "--samples",
+        &s(&final_samples),
+        "--out",
+        &s(&dir.join("other.npy")),
+    ]);
+    assert!(budget_changed.contains("budget"), "{budget_changed}");
+    let none = common::user_error(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--state",
+        &s(&dir.join("nothing")),
+        "--input",
+        &s(&final_samples),
+        "--output",
+        &s(&dir.join("x.npy")),
+    ]);
+    assert!(none.contains("no plan in"), "{none}");
+    // wrong columns, positions outside the image
+    let two_columns = dir.join("two.npy");
+    write_npy(
+        &two_columns,
+        &SampleSet::new(vec![1.0, 2.0], vec![vec![1.0, 2.0]]).unwrap(),
+    )
+    .unwrap();
+    let cols = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--samples",
+        &s(&two_columns),
+        "--out",
+        &s(&dir.join("other.npy")),
+    ]);
+    assert!(cols.contains("columns"), "{cols}");
+    let outside = dir.join("outside.npy");
+    write_npy(
+        &outside,
+        &SampleSet::new(vec![1.0, 40.0], vec![vec![1.0, 2.0], vec![0.5, 0.5]]).unwrap(),
+    )
+    .unwrap();
+    let out_msg = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--samples",
+        &s(&outside),
+        "--out",
+        &s(&dir.join("other.npy")),
+    ]);
+    assert!(out_msg.contains("40"), "{out_msg}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
