@@ -111,9 +111,9 @@ pub(super) fn byte_tables(h: &[f64]) -> Vec<f64> {
     let mut nibbles: Vec<Vec<Dd>> = vec![t[0].clone(), t[1].clone()];
     for digits in 1..4 {
         let mut next = Vec::with_capacity(nibbles.len() * 2);
-        for d in 0..2 {
+        for td in &t {
             for n in &nibbles {
-                next.push(product(&t[d], n, w));
+                next.push(product(td, n, w));
             }
         }
         // Index: leading digit d is bit `digits` of the new index.

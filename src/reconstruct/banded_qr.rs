@@ -78,7 +78,87 @@ impl GivensTriangle {
         for (s, v) in self.colsq[o..o + values.len()].iter_mut().zip(values) {
             *s += v * v;
         }
-        self.rotate_in(first, values, f);
+        let done = match values.len() {
+            1 => self.rotate_in_fixed::<1>(first, values, f),
+            3 => self.rotate_in_fixed::<3>(first, values, f),
+            5 => self.rotate_in_fixed::<5>(first, values, f),
+            7 => self.rotate_in_fixed::<7>(first, values, f),
+            9 => self.rotate_in_fixed::<9>(first, values, f),
+            11 => self.rotate_in_fixed::<11>(first, values, f),
+            13 => self.rotate_in_fixed::<13>(first, values, f),
+            15 => self.rotate_in_fixed::<15>(first, values, f),
+            17 => self.rotate_in_fixed::<17>(first, values, f),
+            19 => self.rotate_in_fixed::<19>(first, values, f),
+            _ => false,
+        };
+        if !done {
+            self.rotate_in(first, values, f);
+        }
+    }
+
+    /// [`GivensTriangle::rotate_in`] for the common case of a streamed interior row: `W`
+    /// values (`W = 2p - 1`, known at compile time so the rotations unroll) against rows of
+    /// `R` that end no later than the row does (`len[first + k] <= W - k` up to the first
+    /// empty row of `R`, which ascending cell order guarantees). The same rotations in the
+    /// same order as the general path; returns `false`, having changed nothing, when the
+    /// rows of `R` do not fit that shape (the caller then takes the general path).
+    #[inline]
+    fn rotate_in_fixed<const W: usize>(&mut self, first: usize, values: &[f64], f: &[f64]) -> bool {
+        let w = self.w;
+        let ch = self.channels;
+        let o = first - self.c0;
+        if W > w || o + W > self.n {
+            return false;
+        }
+        for (k, &l) in self.len[o..o + W].iter().enumerate() {
+            if l == 0 {
+                break;
+            }
+            if l as usize > W - k {
+                return false;
+            }
+        }
+        let mut x = [0.0f64; W];
+        x.copy_from_slice(values);
+        self.y.clear();
+        self.y.extend_from_slice(f);
+        for k in 0..W {
+            let jj = o + k;
+            let xk = x[k];
+            if xk == 0.0 {
+                continue;
+            }
+            let row = &mut self.r[jj * w..jj * w + (W - k)];
+            if self.len[jj] == 0 {
+                let size = values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                let left = x[k..].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                if left <= NEGLIGIBLE * size {
+                    self.rotated_out();
+                    return true;
+                }
+                row.copy_from_slice(&x[k..]);
+                self.len[jj] = (W - k) as u16;
+                self.z[jj * ch..(jj + 1) * ch].copy_from_slice(&self.y);
+                return true;
+            }
+            let d = row[0];
+            let h = (d * d + xk * xk).sqrt();
+            let (c, s) = (d / h, xk / h);
+            row[0] = h;
+            for (a, b) in row[1..].iter_mut().zip(&mut x[k + 1..]) {
+                let (ra, rb) = (*a, *b);
+                *a = c * ra + s * rb;
+                *b = c * rb - s * ra;
+            }
+            self.len[jj] = (W - k) as u16;
+            for (a, b) in self.z[jj * ch..(jj + 1) * ch].iter_mut().zip(&mut self.y) {
+                let (za, yb) = (*a, *b);
+                *a = c * za + s * yb;
+                *b = c * yb - s * za;
+            }
+        }
+        self.rotated_out();
+        true
     }
 
     /// Rotates a row into the triangle (column norms untouched).
@@ -120,8 +200,7 @@ impl GivensTriangle {
             }
             let d = row[0];
             let h = (d * d + x * x).sqrt();
-            let inv = 1.0 / h;
-            let (c, s) = (d * inv, x * inv);
+            let (c, s) = (d / h, x / h);
             row[0] = h;
             let m = stored.max(end - k);
             debug_assert!(m <= w, "rotated rows stay within the band");
@@ -296,6 +375,15 @@ mod tests {
     /// in two merged halves: the rotations are orthogonal.
     #[test]
     fn triangle_reproduces_the_normal_equations() {
+        // Rows of the band's width in scrambled order (the general path), and rows of odd
+        // width 3 in ascending order (the fixed-width path) or scrambled (fixed-width rows
+        // that meet longer rows of R: the general path again).
+        for (len, ascending) in [(4, false), (3, true), (3, false)] {
+            check_triangle(len, ascending);
+        }
+    }
+
+    fn check_triangle(len: usize, ascending: bool) {
         let n = 12;
         let w = 4;
         let mut rows = Vec::new();
@@ -305,8 +393,12 @@ mod tests {
             s - 0.5
         };
         for i in 0..40 {
-            let first = (i * 7) % (n - w + 1);
-            let vals: Vec<f64> = (0..w).map(|_| next()).collect();
+            let first = if ascending {
+                i * (n - len + 1) / 40
+            } else {
+                (i * 7) % (n - len + 1)
+            };
+            let vals: Vec<f64> = (0..len).map(|_| next()).collect();
             rows.push((first, vals, vec![next(), next()]));
         }
         let mut whole = GivensTriangle::new(0, n, w, 2);
