@@ -276,6 +276,21 @@ pub fn reconstruct(
         }
     })?;
     let mut notes = Vec::new();
+    // The plan fixes the basis and the solve: say so when the user asked for others.
+    if args.filter.p != state.params.p {
+        notes.push(format!(
+            "p = {} from the plan's tree (--p, {} here, is not used with --state)",
+            state.params.p, args.filter.p
+        ));
+    }
+    if args.filter.family.is_some() {
+        notes.push("--family is not used: the plan's tree fixes the filter family".to_string());
+    }
+    if args.method != super::solve_args::MethodArg::Single {
+        notes.push(
+            "--method is not used: the plan's tree is fitted by its own least squares".to_string(),
+        );
+    }
     if !done.complete {
         notes.push(format!(
             "the plan has not stopped: this is the fit of the samples of rounds 0..={} on \

@@ -23,7 +23,7 @@ const TILE: usize = 256;
 /// Height of the label strip above each column.
 const LABEL: usize = 28;
 
-fn fonts() {
+pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let _ = register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
@@ -168,18 +168,34 @@ pub fn save_side_by_side(cmp: &Comparison, path: &Path, overwrite: bool) -> Resu
             .map_err(|e| err(e.to_string()))?;
         root.present().map_err(|e| err(e.to_string()))?;
     }
-    let buf = image::RgbImage::from_raw(cw as u32, ch as u32, canvas)
-        .ok_or_else(|| err("canvas size".into()))?;
     // Encoded in memory, then moved into place atomically; an existing file is replaced only
     // with `overwrite`.
+    let png = encode_png(canvas, cw, ch, &path.display().to_string())?;
+    crate::io::output::write_new(path, &png, overwrite)?;
+    Ok(())
+}
+
+/// The PNG encoding of an 8-bit RGB canvas of `width x height` pixels (row-major, 3 bytes a
+/// pixel); `label` names the figure in errors.
+pub(crate) fn encode_png(
+    canvas: Vec<u8>,
+    width: usize,
+    height: usize,
+    label: &str,
+) -> Result<Vec<u8>, PlotError> {
+    let buf = image::RgbImage::from_raw(width as u32, height as u32, canvas).ok_or_else(|| {
+        PlotError::Draw {
+            path: label.to_string(),
+            message: format!("canvas size does not match {width} x {height}"),
+        }
+    })?;
     let mut png = std::io::Cursor::new(Vec::new());
     buf.write_to(&mut png, image::ImageFormat::Png)
         .map_err(|source| PlotError::Write {
-            path: path.display().to_string(),
+            path: label.to_string(),
             source,
         })?;
-    crate::io::output::write_new(path, &png.into_inner(), overwrite)?;
-    Ok(())
+    Ok(png.into_inner())
 }
 
 /// Writes the PSNR-against-time figure (one series per method, one point per comparison) to

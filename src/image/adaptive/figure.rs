@@ -12,7 +12,6 @@
 use std::path::Path;
 
 use plotters::prelude::*;
-use plotters::style::register_font;
 
 use super::refiner::AdaptiveImage;
 use crate::image::{ImagePlane, PixelImage};
@@ -139,10 +138,7 @@ pub fn adaptive_figure_png(
     image: &PixelImage,
     title: &str,
 ) -> Result<Vec<u8>, PlotError> {
-    static FONTS: std::sync::Once = std::sync::Once::new();
-    FONTS.call_once(|| {
-        let _ = register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
-    });
+    crate::image::figure::fonts();
     let plane = plane_of(run);
     let (pw, ph) = panel_size(plane);
     let scale = pw.div_ceil(plane.width()).max(1);
@@ -205,15 +201,7 @@ pub fn adaptive_figure_png(
             .map_err(|e| err(e.to_string()))?;
         root.present().map_err(|e| err(e.to_string()))?;
     }
-    let buf = image::RgbImage::from_raw(cw as u32, ch as u32, canvas)
-        .ok_or_else(|| err("canvas size".into()))?;
-    let mut png = std::io::Cursor::new(Vec::new());
-    buf.write_to(&mut png, image::ImageFormat::Png)
-        .map_err(|source| PlotError::Write {
-            path: "adaptive figure".into(),
-            source,
-        })?;
-    Ok(png.into_inner())
+    crate::image::figure::encode_png(canvas, cw, ch, "adaptive figure")
 }
 
 /// Writes [`adaptive_figure_png`] to `path`; an existing file is replaced only with
