@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::AdaptiveParams;
+use rkwave::image::adaptive::{AdaptiveParams, TreeSolver};
 use rkwave::image::experiment::TruthParams;
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
@@ -35,6 +35,10 @@ pub struct AdaptiveArgs {
     /// noise test, every detail is deepened).
     #[arg(long, default_value_t = 0.01)]
     pub false_alarm: f64,
+    /// Adaptive mode: solve each round's fit by matrix-free PCG instead of the direct sparse
+    /// Cholesky (experimental: iterations and condition estimates per round in the output).
+    #[arg(long)]
+    pub pcg: bool,
 }
 
 fn figure_path(out: &Path, what: &str) -> PathBuf {
@@ -85,6 +89,11 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         false_alarm: a.false_alarm,
         seed: args.seed,
         budget,
+        solver: if a.pcg {
+            TreeSolver::default()
+        } else {
+            TreeSolver::Direct
+        },
         ..AdaptiveParams::default()
     };
     let truth = TruthParams {
@@ -164,6 +173,19 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             a.false_alarm,
             r.rounds.last().map_or(0, |l| l.insignificant)
         );
+    }
+    if a.pcg {
+        let per_round: Vec<String> = r
+            .rounds
+            .iter()
+            .map(|x| {
+                format!(
+                    "{} it (res {:.0e}, cond {:.0e}, {})",
+                    x.fit.iterations, x.fit.relative_residual, x.fit.condition, x.fit.solver
+                )
+            })
+            .collect();
+        println!("PCG per round: {}", per_round.join("; "));
     }
     for note in &r.notes {
         println!("note: {note}");

@@ -1,7 +1,8 @@
 //! The adaptive rounds on the image plane (the 2D analogue of [`crate::refine`]).
 //!
-//! (About 710 lines: parameters, reports, the round and the loop stay together so the
-//! refiner's decisions read in one place; the report structs are the seam to split along.)
+//! (About 890 lines: parameters, reports, the round and the loop stay together so the
+//! refiner's decisions read in one place; the report structs are the seam to split along. The
+//! noise test's densifying round and notes live in [`super::significance`].)
 //!
 //! 1. Base: the tree full up to the base step `s0` (slots of `V_{cx+s0} (x) V_{cy+s0}`),
 //!    `ceil(rho)` jittered-stratified samples in every slot.
@@ -12,6 +13,10 @@
 //!    round adds `min_growth` times the current samples), keep the longest prefix the remaining
 //!    budget pays for ([`super::marking::within_budget`]; none: stop at the budget), activate
 //!    the marked slots and top up each of their four children to `ceil(rho)` samples.
+//!    Noise ([`super::significance`]): slots whose parent's detail is within the noise are
+//!    not markable; when nothing significant is left, a *densifying* round (no cell marked)
+//!    raises the samples of every slot instead, and later children are topped up to the
+//!    raised count.
 //!
 //! One round is [`ImagePlan::step`]: given the tree and every sample so far, it fits and either
 //! stops or deepens the tree and returns the next positions. [`refine_image`] is a loop over
@@ -22,8 +27,9 @@
 //! never exceed the budget. Deterministic for a seed: the marked slots are processed in
 //! indicator order (ties by cell) with one PCG-64 stream per round.
 //!
-//! Every round refits from scratch (kernel rows, `G`, Cholesky): the incremental update of the
-//! 1D refiner is not yet carried over (the issue's "round costs what changed" is open).
+//! Every round refits from scratch: by default the direct solve (kernel rows, `G`, Cholesky);
+//! [`AdaptiveParams::solver`] may choose matrix-free PCG ([`super::pcg`]), cold-started so
+//! the file protocol's rounds stay bit-identical to the in-process ones.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -33,10 +39,11 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
-use super::fit::{fit_tree, TreeFit, TreeFitReport};
+use super::fit::{fit_tree_with, TreeFit, TreeFitReport};
 use super::indicator::indicate;
 use super::marking::{dorfler, within_budget};
-use super::significance::{probe_values, NoiseLevel, Significance};
+use super::pcg::TreeSolver;
+use super::significance::{densify, noise_notes, probe_values, NoiseLevel, Significance};
 use super::tree::{Cell, QuadTree};
 use super::{AdaptiveError, ImageOracle};
 use crate::basis::tensor::TensorBasis;
@@ -87,6 +94,10 @@ pub struct AdaptiveParams {
     /// Probe channels of the noise test (variance of the coefficients and the noise level).
     #[serde(default = "default_probes")]
     pub probes: usize,
+    /// Solver of every round's fit ([`TreeSolver::Direct`]: the reference; PCG: see
+    /// [`super::pcg`]).
+    #[serde(default = "direct_solver")]
+    pub solver: TreeSolver,
 }
 
 fn default_false_alarm() -> f64 {
@@ -94,6 +105,10 @@ fn default_false_alarm() -> f64 {
 }
 fn default_probes() -> usize {
     AdaptiveParams::default().probes
+}
+
+fn direct_solver() -> TreeSolver {
+    TreeSolver::Direct
 }
 
 impl Default for AdaptiveParams {
@@ -113,6 +128,7 @@ impl Default for AdaptiveParams {
             seed: 1,
             false_alarm: 0.01,
             probes: 4,
+            solver: TreeSolver::Direct,
         }
     }
 }
@@ -191,6 +207,19 @@ impl AdaptiveParams {
         }
         if self.budget == 0 {
             return bad("budget", "0".into(), "a positive number of samples");
+        }
+        if let TreeSolver::Pcg {
+            tolerance,
+            max_iterations,
+        } = self.solver
+        {
+            if !(tolerance > 0.0 && tolerance < 1.0) || max_iterations == 0 {
+                return bad(
+                    "solver",
+                    format!("{:?}", self.solver),
+                    "a PCG tolerance in (0, 1) and at least one iteration",
+                );
+            }
         }
         Ok(())
     }
@@ -532,12 +561,15 @@ impl ImagePlan {
         let tree = &self.tree;
         let ch = values.len();
         if params.false_alarm <= 0.0 {
-            return Ok((fit_tree(tree, xs, ys, values)?, None));
+            return Ok((
+                fit_tree_with(tree, xs, ys, values, params.solver, None)?,
+                None,
+            ));
         }
         let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree(tree, xs, ys, &all)?;
+        let mut fit = fit_tree_with(tree, xs, ys, &all, params.solver, None)?;
         let significance = Significance::new(
             tree,
             &fit.coefficients,
@@ -771,40 +803,6 @@ impl Store<'_> {
     }
 }
 
-/// A densifying round (nothing significant to deepen, budget left): raises the oversampling
-/// from `target` to `t' = min(2 target, the most every slot can get from `left`)` by
-/// jittered-stratified samples in each slot's rectangle; if not even `target + 1` fits, tops
-/// up the insignificant slots (largest indicator first) by one sample each while `left`
-/// lasts. `None`: not one sample fits. Returns the positions and the new per-slot count
-/// (`target` after a partial top-up).
-fn densify(
-    tree: &QuadTree,
-    slots: &[Cell],
-    counts: &HashMap<Cell, usize>,
-    insignificant: &[(Cell, f64)],
-    target: usize,
-    left: usize,
-    rng: &mut Pcg64,
-) -> Option<(SamplePositions, usize)> {
-    let count = |s: &Cell| counts.get(s).copied().unwrap_or(0);
-    let cost = |t: usize| -> usize { slots.iter().map(|s| t.saturating_sub(count(s))).sum() };
-    let mut to = target;
-    while to < 2 * target && cost(to + 1) <= left {
-        to += 1;
-    }
-    let mut next = SamplePositions::default();
-    if to > target {
-        for s in slots {
-            next.stratified(tree.rect(*s), to.saturating_sub(count(s)), rng);
-        }
-        return Some((next, to));
-    }
-    for (s, _) in insignificant.iter().take(left) {
-        next.stratified(tree.rect(*s), 1, rng);
-    }
-    (!next.is_empty()).then_some((next, target))
-}
-
 fn round_rng(seed: u64, round: usize) -> Pcg64 {
     Pcg64::seed_from_u64(seed ^ (round as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15))
 }
@@ -863,36 +861,6 @@ pub fn refine_image(
     })
 }
 
-/// The noise test's cut-offs in words: slots left coarse, densifying rounds.
-fn noise_notes(rounds: &[ImageRound], false_alarm: f64) -> Vec<String> {
-    let mut notes = Vec::new();
-    let Some(last) = rounds.last() else {
-        return notes;
-    };
-    if let Some(level) = &last.noise {
-        if last.insignificant > 0 {
-            notes.push(format!(
-                "{} slots not deepened because their detail is not significant (within the \
-                 noise at false-alarm rate {false_alarm}; estimated noise sigma {:.3e} from the \
-                 residuals)",
-                last.insignificant, level.sigma
-            ));
-        }
-    }
-    let densified: Vec<String> = rounds
-        .iter()
-        .filter_map(|r| r.densified_to.map(|t| format!("round {} to {t}", r.round)))
-        .collect();
-    if !densified.is_empty() {
-        notes.push(format!(
-            "nothing significant left to deepen: the budget raised the samples per slot ({}), \
-             so the fit averages the noise",
-            densified.join(", ")
-        ));
-    }
-    notes
-}
-
 fn fit_notes(r: &TreeFitReport) -> Vec<String> {
     let mut notes = Vec::new();
     if r.ridge > 0.0 {
@@ -900,6 +868,20 @@ fn fit_notes(r: &TreeFitReport) -> Vec<String> {
             "the final normal matrix was numerically singular (smallest pivot {:.1e}): a \
              relative ridge {:.0e} was added",
             r.min_pivot, r.ridge
+        ));
+    }
+    if !r.converged {
+        notes.push(format!(
+            "PCG stopped at relative residual {:.1e} after {} iterations (condition estimate \
+             {:.1e}){}",
+            r.relative_residual,
+            r.iterations,
+            r.condition,
+            if r.solver == "pcg->direct" {
+                ": the direct solve took over"
+            } else {
+                ": its coefficients are used as they are"
+            }
         ));
     }
     if r.unsampled > 0 {
