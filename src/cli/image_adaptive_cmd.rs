@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::AdaptiveParams;
+use rkwave::image::adaptive::{AdaptiveParams, TreeSolver};
 use rkwave::image::experiment::TruthParams;
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
@@ -30,6 +30,10 @@ pub struct AdaptiveArgs {
     /// Adaptive mode: depth limit in levels below the pixel.
     #[arg(long, default_value_t = 1)]
     pub below_pixel: u32,
+    /// Adaptive mode: solve each round's fit by matrix-free PCG instead of the direct sparse
+    /// Cholesky (experimental: iterations and condition estimates per round in the output).
+    #[arg(long)]
+    pub pcg: bool,
 }
 
 fn figure_path(out: &Path, what: &str) -> PathBuf {
@@ -78,6 +82,11 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         below_pixel: a.below_pixel,
         seed: args.seed,
         budget,
+        solver: if a.pcg {
+            TreeSolver::default()
+        } else {
+            TreeSolver::Direct
+        },
         ..AdaptiveParams::default()
     };
     let truth = TruthParams {
@@ -147,6 +156,19 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         depth_path.display(),
         samples_path.display()
     );
+    if a.pcg {
+        let per_round: Vec<String> = r
+            .rounds
+            .iter()
+            .map(|x| {
+                format!(
+                    "{} it (res {:.0e}, cond {:.0e}, {})",
+                    x.fit.iterations, x.fit.relative_residual, x.fit.condition, x.fit.solver
+                )
+            })
+            .collect();
+        println!("PCG per round: {}", per_round.join("; "));
+    }
     for note in &r.notes {
         println!("note: {note}");
     }

@@ -2,12 +2,21 @@
 //! Psi_a(x_i, y_i)` over the active functions `a` of a [`QuadTree`] (the non-standard
 //! multilevel basis restricted to the tree).
 //!
-//! `K_T` is built row by row from the multilevel evaluator (in parallel), `G = K_T^T K_T`
-//! by a sparse product, and the system is solved by [`crate::solve::normal_ls`]: the
-//! equilibrated sparse Cholesky of the 1D refiner, one factorization for every channel, with
-//! [`RankPolicy::Regularize`](crate::solve::RankPolicy): a direction the samples do not
-//! determine (a function without samples, a rank-deficient patch) gets a relative ridge,
-//! reported, never NaN.
+//! Two solvers ([`TreeSolver`]):
+//!
+//! - **PCG** (opt-in: measured slower, see [`super::pcg`]): matrix-free preconditioned conjugate gradients on the normal
+//!   equations ([`super::pcg`]), `K_T = E S P_T` applied through the single-scale rows and the
+//!   2D FWT, one solve per channel, optionally warm-started; its iterations, relative residual
+//!   and condition estimate are reported. If it does not reach its tolerance the direct solve
+//!   takes over on trees of at most [`super::pcg::DIRECT_FALLBACK_MAX`] functions; either way
+//!   the report says so.
+//! - **Direct** (the reference and the default): `K_T` row by row from the multilevel evaluator (in parallel),
+//!   `G = K_T^T K_T` by a sparse product, and [`crate::solve::normal_ls`]: the equilibrated
+//!   sparse Cholesky of the 1D refiner, one factorization for every channel, with
+//!   [`RankPolicy::Regularize`](crate::solve::RankPolicy): a direction the samples do not
+//!   determine (a function without samples, a rank-deficient patch) gets a relative ridge,
+//!   reported, never NaN. Its cost grows with `G`'s ~300 entries per column (rows mix every
+//!   level).
 //!
 //! Pixels are exact: the tree's coefficients, zero off the tree, are one 2D synthesis away from
 //! the single-scale coefficients of `V_Jx (x) V_Jy` ([`TensorBasis::synthesis`]), whose box
@@ -17,6 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
+use super::pcg::{pcg, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX};
 use super::tree::QuadTree;
 use super::AdaptiveError;
 use crate::basis::tensor::TensorValue;
@@ -47,6 +57,17 @@ pub struct TreeFitReport {
     pub normal_s: f64,
     /// Seconds: factorization and solves.
     pub solve_s: f64,
+    /// The solver that produced the coefficients: `"direct"`, `"pcg"`, or `"pcg->direct"`
+    /// (PCG missed its tolerance and the direct solve took over).
+    pub solver: String,
+    /// PCG iterations (most over the channels; 0 for the direct solve).
+    pub iterations: usize,
+    /// PCG's final relative residual of the normal equations (largest over the channels).
+    pub relative_residual: f64,
+    /// PCG's condition estimate of the preconditioned `G` (largest over the channels).
+    pub condition: f64,
+    /// Whether PCG reached its tolerance on every channel (true for the direct solve).
+    pub converged: bool,
 }
 
 /// A fit on a tree: coefficients in the full Mallat layout (zero off the tree).
@@ -119,14 +140,93 @@ pub fn tree_kernel(tree: &QuadTree, functions: &[usize], xs: &[f64], ys: &[f64])
     CsMat::new((xs.len(), functions.len()), indptr, indices, data)
 }
 
-/// Fits every channel on the tree from samples `(xs[i], ys[i])` with values `values[c][i]`.
+/// Fits every channel on the tree from samples `(xs[i], ys[i])` with values `values[c][i]`,
+/// by the direct solve (the reference, [`TreeSolver::Direct`]).
 pub fn fit_tree(
     tree: &QuadTree,
     xs: &[f64],
     ys: &[f64],
     values: &[&[f64]],
 ) -> Result<TreeFit, AdaptiveError> {
+    fit_tree_with(tree, xs, ys, values, TreeSolver::Direct, None)
+}
+
+/// Fits every channel on the tree by `solver`; PCG starts from `start` (per channel, Mallat
+/// layout, e.g. the previous round's coefficients: new functions start at 0) or from 0.
+pub fn fit_tree_with(
+    tree: &QuadTree,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+    solver: TreeSolver,
+    start: Option<&[Vec<f64>]>,
+) -> Result<TreeFit, AdaptiveError> {
     check_samples(tree, xs, ys, values)?;
+    match solver {
+        TreeSolver::Direct => fit_direct(tree, xs, ys, values),
+        TreeSolver::Pcg {
+            tolerance,
+            max_iterations,
+        } => {
+            let t = std::time::Instant::now();
+            let rows = SingleScaleRows::new(tree.basis(), xs, ys);
+            let op = TreeNormalOperator::new(tree, &rows, xs, ys);
+            let kernel_s = t.elapsed().as_secs_f64();
+            let t = std::time::Instant::now();
+            let solved: Vec<_> = values
+                .par_iter()
+                .enumerate()
+                .map(|(c, f)| {
+                    let s = start.and_then(|s| s.get(c)).map(|v| v.as_slice());
+                    pcg(&op, f, s, tolerance, max_iterations)
+                })
+                .collect();
+            let solve_s = t.elapsed().as_secs_f64();
+            let converged = solved.iter().all(|(_, r)| r.converged);
+            if !converged && tree.len() <= DIRECT_FALLBACK_MAX {
+                let mut fit = fit_direct(tree, xs, ys, values)?;
+                let worst = solved
+                    .iter()
+                    .map(|(_, r)| r)
+                    .max_by(|a, b| a.relative_residual.total_cmp(&b.relative_residual))
+                    .expect("at least one channel");
+                fit.report.solver = "pcg->direct".into();
+                fit.report.iterations = worst.iterations;
+                fit.report.relative_residual = worst.relative_residual;
+                fit.report.condition = worst.condition;
+                fit.report.converged = false;
+                return Ok(fit);
+            }
+            let fold = |g: fn(&super::pcg::PcgReport) -> f64| {
+                solved.iter().map(|(_, r)| g(r)).fold(0.0, f64::max)
+            };
+            Ok(TreeFit {
+                report: TreeFitReport {
+                    functions: tree.len(),
+                    samples: xs.len(),
+                    unsampled: op.unsampled(),
+                    kernel_s,
+                    solve_s,
+                    solver: "pcg".into(),
+                    iterations: solved.iter().map(|(_, r)| r.iterations).max().unwrap_or(0),
+                    relative_residual: fold(|r| r.relative_residual),
+                    condition: fold(|r| r.condition),
+                    converged,
+                    ..TreeFitReport::default()
+                },
+                coefficients: solved.into_iter().map(|(c, _)| c).collect(),
+            })
+        }
+    }
+}
+
+/// The reference: assembled `G`, equilibrated sparse Cholesky.
+fn fit_direct(
+    tree: &QuadTree,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+) -> Result<TreeFit, AdaptiveError> {
     let functions = tree.functions();
     let t = std::time::Instant::now();
     let k = tree_kernel(tree, &functions, xs, ys);
@@ -177,6 +277,9 @@ pub fn fit_tree(
             kernel_s,
             normal_s,
             solve_s,
+            solver: "direct".into(),
+            converged: true,
+            ..TreeFitReport::default()
         },
     })
 }

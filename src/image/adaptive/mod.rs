@@ -19,11 +19,13 @@ pub mod figure;
 pub mod fit;
 pub mod indicator;
 pub mod marking;
+pub mod pcg;
 pub mod protocol;
 pub mod refiner;
 pub mod tree;
 
-pub use fit::{fit_tree, TreeFit, TreeFitReport};
+pub use fit::{fit_tree, fit_tree_with, TreeFit, TreeFitReport};
+pub use pcg::TreeSolver;
 pub use refiner::{
     refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, Decision, ImagePlan, ImageRound,
     PlanProgress, Round, SamplePositions,

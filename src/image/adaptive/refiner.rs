@@ -22,8 +22,9 @@
 //! never exceed the budget. Deterministic for a seed: the marked slots are processed in
 //! indicator order (ties by cell) with one PCG-64 stream per round.
 //!
-//! Every round refits from scratch (kernel rows, `G`, Cholesky): the incremental update of the
-//! 1D refiner is not yet carried over (the issue's "round costs what changed" is open).
+//! Every round refits from scratch: by default the direct solve (kernel rows, `G`, Cholesky);
+//! [`AdaptiveParams::solver`] may choose matrix-free PCG ([`super::pcg`]), cold-started so
+//! the file protocol's rounds stay bit-identical to the in-process ones.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -33,9 +34,10 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
-use super::fit::{fit_tree, TreeFit, TreeFitReport};
+use super::fit::{fit_tree_with, TreeFit, TreeFitReport};
 use super::indicator::indicate;
 use super::marking::{dorfler, within_budget};
+use super::pcg::TreeSolver;
 use super::tree::{Cell, QuadTree};
 use super::{AdaptiveError, ImageOracle};
 use crate::basis::tensor::TensorBasis;
@@ -77,6 +79,14 @@ pub struct AdaptiveParams {
     pub max_rounds: usize,
     /// Seed of the sample positions.
     pub seed: u64,
+    /// Solver of every round's fit ([`TreeSolver::Direct`]: the reference; PCG: see
+    /// [`super::pcg`]).
+    #[serde(default = "direct_solver")]
+    pub solver: TreeSolver,
+}
+
+fn direct_solver() -> TreeSolver {
+    TreeSolver::Direct
 }
 
 impl Default for AdaptiveParams {
@@ -94,6 +104,7 @@ impl Default for AdaptiveParams {
             budget: 0,
             max_rounds: 40,
             seed: 1,
+            solver: TreeSolver::Direct,
         }
     }
 }
@@ -158,6 +169,19 @@ impl AdaptiveParams {
         }
         if self.budget == 0 {
             return bad("budget", "0".into(), "a positive number of samples");
+        }
+        if let TreeSolver::Pcg {
+            tolerance,
+            max_iterations,
+        } = self.solver
+        {
+            if !(tolerance > 0.0 && tolerance < 1.0) || max_iterations == 0 {
+                return bad(
+                    "solver",
+                    format!("{:?}", self.solver),
+                    "a PCG tolerance in (0, 1) and at least one iteration",
+                );
+            }
         }
         Ok(())
     }
@@ -490,7 +514,7 @@ impl ImagePlan {
         let params = &self.params;
         let round = self.round();
         let t = Instant::now();
-        let fit = fit_tree(&self.tree, xs, ys, values)?;
+        let fit = fit_tree_with(&self.tree, xs, ys, values, params.solver, None)?;
         let fit_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let tree = &self.tree;
@@ -705,6 +729,20 @@ fn fit_notes(r: &TreeFitReport) -> Vec<String> {
             "the final normal matrix was numerically singular (smallest pivot {:.1e}): a \
              relative ridge {:.0e} was added",
             r.min_pivot, r.ridge
+        ));
+    }
+    if !r.converged {
+        notes.push(format!(
+            "PCG stopped at relative residual {:.1e} after {} iterations (condition estimate \
+             {:.1e}){}",
+            r.relative_residual,
+            r.iterations,
+            r.condition,
+            if r.solver == "pcg->direct" {
+                ": the direct solve took over"
+            } else {
+                ": its coefficients are used as they are"
+            }
         ));
     }
     if r.unsampled > 0 {

@@ -1,0 +1,447 @@
+//! Matrix-free preconditioned conjugate gradients for the tree fit.
+//!
+//! The tree's functions are a subset `T` of the orthonormal non-standard basis, and every one
+//! of them is a combination of the single-scale functions of `V_Jx (x) V_Jy` through the 2D
+//! synthesis `S` ([`TensorBasis::synthesis`], orthogonal: `S^T` is the analysis). So the tree
+//! kernel factors as
+//!
+//! ```text
+//! K_T = E S P_T,        E[i, k] = Phi_k(x_i, y_i)   (single-scale rows, (2p - 1)^2 entries),
+//! ```
+//!
+//! with `P_T` the injection of the tree's coefficients into the Mallat layout. One product
+//! `G v = K_T^T K_T v = P_T^T S^T E^T E S P_T v` costs two 2D FWTs and two passes over `E`:
+//! `O(nx ny + m (2p - 1)^2)`, against the `~300 P` entries of an assembled `G` whose rows mix
+//! every level. `E` does not depend on the tree, so a round only appends the rows of its new
+//! samples.
+//!
+//! The normal equations `G c = K_T^T f` are solved by conjugate gradients preconditioned by
+//! an estimate of `diag G`: a function of step `s` has `G_aa ~ n_a / |supp_a|`, `n_a` the
+//! samples in the `(2p - 1)^2` cells of step `s` around its own (the basis is orthonormal, so
+//! `Psi_a^2` averages `1 / |supp_a|` over its support). The estimate is within a constant
+//! factor of the true diagonal where the samples are stratified; it removes the `4^depth`
+//! spread of the sample density between deep and shallow regions. A function with no sample
+//! near it has a zero column in `K_T`: its residual is always 0, so it keeps its start value
+//! (0 for a new function), as the direct solve's ridge pins it near 0.
+//!
+//! Stopping: the relative residual of the normal equations `||K_T^T (f - K_T c)|| / ||K_T^T
+//! f|| <= tol`. Then the coefficient error is at most `kappa(G) tol` relative, `kappa`
+//! estimated from the Lanczos tridiagonal of the iteration (its extreme eigenvalues are
+//! those of the preconditioned `G` from inside).
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::tree::QuadTree;
+use crate::basis::tensor::TensorBasis;
+
+/// Positions evaluated per parallel work item.
+const CHUNK: usize = 4096;
+
+/// How the tree fit solves its normal equations.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum TreeSolver {
+    /// The assembled `G` and the equilibrated sparse Cholesky of [`crate::solve::normal_ls`]
+    /// (the reference: cost grows with `G`'s ~300 entries per column).
+    Direct,
+    /// Matrix-free preconditioned conjugate gradients ([`self`](crate::image::adaptive::pcg)).
+    Pcg {
+        /// Relative residual of the normal equations to reach.
+        tolerance: f64,
+        /// Most iterations; past them the direct solve takes over if the tree has at most
+        /// [`DIRECT_FALLBACK_MAX`] functions (reported either way).
+        max_iterations: usize,
+    },
+}
+
+impl Default for TreeSolver {
+    fn default() -> Self {
+        Self::Pcg {
+            tolerance: 1e-10,
+            max_iterations: 400,
+        }
+    }
+}
+
+/// Largest tree the direct solve takes over from a stalled PCG.
+pub const DIRECT_FALLBACK_MAX: usize = 40_000;
+
+/// The single-scale rows `E` (`m x nx ny`), stored as their two 1D factors per sample.
+#[derive(Clone, Debug, Default)]
+pub struct SingleScaleRows {
+    nx: usize,
+    ptr_x: Vec<u32>,
+    ix: Vec<u32>,
+    vx: Vec<f64>,
+    ptr_y: Vec<u32>,
+    iy: Vec<u32>,
+    vy: Vec<f64>,
+}
+
+impl SingleScaleRows {
+    /// Rows of the positions `(xs[i], ys[i])` (checked to lie in the image).
+    pub fn new(basis: &TensorBasis, xs: &[f64], ys: &[f64]) -> Self {
+        let mut rows = Self {
+            nx: basis.dims().0,
+            ptr_x: vec![0],
+            ptr_y: vec![0],
+            ..Self::default()
+        };
+        rows.append(basis, xs, ys);
+        rows
+    }
+
+    /// Samples (rows).
+    pub fn len(&self) -> usize {
+        self.ptr_x.len() - 1
+    }
+    /// Whether there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Appends the rows of new positions (a round's new samples).
+    pub fn append(&mut self, basis: &TensorBasis, xs: &[f64], ys: &[f64]) {
+        type Part = (Vec<u32>, Vec<u32>, Vec<f64>, Vec<u32>, Vec<u32>, Vec<f64>);
+        let parts: Vec<Part> = xs
+            .par_chunks(CHUNK)
+            .zip(ys.par_chunks(CHUNK))
+            .map(|(cx, cy)| {
+                let mut ev = basis.evaluator();
+                let mut part: Part = Default::default();
+                for (&x, &y) in cx.iter().zip(cy) {
+                    let (fx, fy) = ev.factors_unchecked(x, y);
+                    part.0.push(fx.len() as u32);
+                    part.1.extend(fx.iter().map(|v| v.index as u32));
+                    part.2.extend(fx.iter().map(|v| v.value));
+                    part.3.push(fy.len() as u32);
+                    part.4.extend(fy.iter().map(|v| v.index as u32));
+                    part.5.extend(fy.iter().map(|v| v.value));
+                }
+                part
+            })
+            .collect();
+        for (cx, ix, vx, cy, iy, vy) in parts {
+            for c in cx {
+                self.ptr_x.push(self.ptr_x.last().unwrap() + c);
+            }
+            for c in cy {
+                self.ptr_y.push(self.ptr_y.last().unwrap() + c);
+            }
+            self.ix.extend(ix);
+            self.vx.extend(vx);
+            self.iy.extend(iy);
+            self.vy.extend(vy);
+        }
+    }
+
+    fn factors(&self, i: usize) -> (&[u32], &[f64], &[u32], &[f64]) {
+        let (a, b) = (self.ptr_x[i] as usize, self.ptr_x[i + 1] as usize);
+        let (c, d) = (self.ptr_y[i] as usize, self.ptr_y[i + 1] as usize);
+        (
+            &self.ix[a..b],
+            &self.vx[a..b],
+            &self.iy[c..d],
+            &self.vy[c..d],
+        )
+    }
+
+    /// `out = E s` (single-scale coefficients `s` to values at the samples).
+    pub fn apply(&self, s: &[f64], out: &mut [f64]) {
+        out.par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(chunk, o)| {
+                for (j, v) in o.iter_mut().enumerate() {
+                    let (ix, vx, iy, vy) = self.factors(chunk * CHUNK + j);
+                    let mut acc = 0.0;
+                    for (&ky, &wy) in iy.iter().zip(vy) {
+                        let row = &s[ky as usize * self.nx..];
+                        let mut inner = 0.0;
+                        for (&kx, &wx) in ix.iter().zip(vx) {
+                            inner += wx * row[kx as usize];
+                        }
+                        acc += wy * inner;
+                    }
+                    *v = acc;
+                }
+            });
+    }
+
+    /// `out = E^T r` (sample residuals to single-scale coefficients), `out` overwritten.
+    pub fn apply_transpose(&self, r: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        for (i, &ri) in r.iter().enumerate() {
+            if ri == 0.0 {
+                continue;
+            }
+            let (ix, vx, iy, vy) = self.factors(i);
+            for (&ky, &wy) in iy.iter().zip(vy) {
+                let row = &mut out[ky as usize * self.nx..];
+                let w = ri * wy;
+                for (&kx, &wx) in ix.iter().zip(vx) {
+                    row[kx as usize] += w * wx;
+                }
+            }
+        }
+    }
+}
+
+/// The tree's normal operator `G = K_T^T K_T`, matrix-free, on full Mallat-layout vectors
+/// (zero off the tree).
+pub struct TreeNormalOperator<'a> {
+    basis: &'a TensorBasis,
+    rows: &'a SingleScaleRows,
+    /// 1 on the tree's functions, 0 elsewhere.
+    mask: Vec<bool>,
+    /// Inverse of the estimated `diag G` on the tree (0 off it).
+    inv_diag: Vec<f64>,
+    /// Tree functions without a sample in the cells around them.
+    unsampled: usize,
+}
+
+impl<'a> TreeNormalOperator<'a> {
+    /// The operator of `tree` with the samples `(xs, ys)` whose rows are `rows`.
+    pub fn new(tree: &'a QuadTree, rows: &'a SingleScaleRows, xs: &[f64], ys: &[f64]) -> Self {
+        let basis = tree.basis();
+        let n = basis.len();
+        let mut mask = vec![false; n];
+        for f in tree.functions() {
+            mask[f] = true;
+        }
+        let p = basis.p() as i64;
+        let radius = p - 1;
+        // samples per cell of the deepest step, summed up step by step
+        let steps = tree.steps();
+        let mut counts: Vec<Vec<u32>> = Vec::with_capacity(steps as usize + 1);
+        let (w, h) = tree.cell_dims(steps);
+        let mut finest = vec![0u32; w * h];
+        for (&x, &y) in xs.iter().zip(ys) {
+            let c = tree.cell_at(steps, x, y);
+            finest[c.ky * w + c.kx] += 1;
+        }
+        counts.push(finest);
+        for s in (0..steps).rev() {
+            let (w, h) = tree.cell_dims(s);
+            let fine = counts.last().unwrap();
+            let fw = 2 * w;
+            let mut coarse = vec![0u32; w * h];
+            for ky in 0..h {
+                for kx in 0..w {
+                    coarse[ky * w + kx] = fine[2 * ky * fw + 2 * kx]
+                        + fine[2 * ky * fw + 2 * kx + 1]
+                        + fine[(2 * ky + 1) * fw + 2 * kx]
+                        + fine[(2 * ky + 1) * fw + 2 * kx + 1];
+                }
+            }
+            counts.push(coarse);
+        }
+        counts.reverse();
+        let near = |s: u32, kx: usize, ky: usize| -> (u64, f64) {
+            let (w, h) = tree.cell_dims(s);
+            let grid = &counts[s as usize];
+            let mut total = 0u64;
+            for dy in -radius..=radius {
+                for dx in -radius..=radius {
+                    let (x, y) = (kx as i64 + dx, ky as i64 + dy);
+                    if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
+                        total += grid[y as usize * w + x as usize] as u64;
+                    }
+                }
+            }
+            (total, (w * h) as f64)
+        };
+        let mut inv_diag = vec![0.0; n];
+        let mut unsampled = 0;
+        let (nx, _) = basis.dims();
+        let (cx, cy) = basis.coarse_levels();
+        for (f, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+            let (s, kx, ky) = match tree.cell_of_function(f) {
+                Some(cell) => (cell.step, cell.kx, cell.ky),
+                None => {
+                    let (ix, iy) = (f % nx, f / nx);
+                    debug_assert!(ix < 1 << cx && iy < 1 << cy);
+                    (0, ix, iy)
+                }
+            };
+            let (count, cells) = near(s, kx, ky);
+            if count == 0 {
+                unsampled += 1;
+            }
+            inv_diag[f] = 1.0 / (count.max(1) as f64 * cells);
+        }
+        Self {
+            basis,
+            rows,
+            mask,
+            inv_diag,
+            unsampled,
+        }
+    }
+
+    /// Tree functions without a sample in the `(2p - 1)^2` cells around them.
+    pub fn unsampled(&self) -> usize {
+        self.unsampled
+    }
+
+    /// `K_T^T f` (zero off the tree).
+    pub fn rhs(&self, f: &[f64]) -> Vec<f64> {
+        let mut u = vec![0.0; self.basis.len()];
+        self.rows.apply_transpose(f, &mut u);
+        let mut b = self.basis.analysis(&u);
+        self.restrict(&mut b);
+        b
+    }
+
+    /// `K_T v` for `v` zero off the tree: the fit's values at the samples.
+    pub fn values(&self, v: &[f64]) -> Vec<f64> {
+        let s = self.basis.synthesis(v);
+        let mut out = vec![0.0; self.rows.len()];
+        self.rows.apply(&s, &mut out);
+        out
+    }
+
+    /// `G v` for `v` zero off the tree.
+    pub fn apply(&self, v: &[f64]) -> Vec<f64> {
+        self.rhs(&self.values(v))
+    }
+
+    fn restrict(&self, v: &mut [f64]) {
+        for (x, &m) in v.iter_mut().zip(&self.mask) {
+            if !m {
+                *x = 0.0;
+            }
+        }
+    }
+}
+
+/// What one PCG solve did.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct PcgReport {
+    /// Iterations.
+    pub iterations: usize,
+    /// Final relative residual `||K^T (f - K c)|| / ||K^T f||` (recomputed, not recursive).
+    pub relative_residual: f64,
+    /// Estimated condition number of the preconditioned `G` (Lanczos extremes; 1 with fewer
+    /// than two iterations).
+    pub condition: f64,
+    /// Whether the tolerance was reached.
+    pub converged: bool,
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Solves `G c = K_T^T f` by PCG from `start` (zero off the tree; `None`: zero).
+pub fn pcg(
+    op: &TreeNormalOperator<'_>,
+    f: &[f64],
+    start: Option<&[f64]>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> (Vec<f64>, PcgReport) {
+    let b = op.rhs(f);
+    let bnorm = dot(&b, &b).sqrt();
+    let n = b.len();
+    let mut x = match start {
+        Some(s) => {
+            let mut x = s.to_vec();
+            op.restrict(&mut x);
+            x
+        }
+        None => vec![0.0; n],
+    };
+    if bnorm == 0.0 {
+        return (
+            vec![0.0; n],
+            PcgReport {
+                converged: true,
+                condition: 1.0,
+                ..PcgReport::default()
+            },
+        );
+    }
+    let mut r = if start.is_some() {
+        let gx = op.apply(&x);
+        b.iter().zip(&gx).map(|(b, g)| b - g).collect()
+    } else {
+        b.clone()
+    };
+    let mut z: Vec<f64> = r.iter().zip(&op.inv_diag).map(|(r, d)| r * d).collect();
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    let (mut alphas, mut betas) = (Vec::new(), Vec::new());
+    let mut iterations = 0;
+    while iterations < max_iterations && dot(&r, &r).sqrt() > tolerance * bnorm && rz > 0.0 {
+        let q = op.apply(&p);
+        let pq = dot(&p, &q);
+        if pq <= 0.0 {
+            break;
+        }
+        let alpha = rz / pq;
+        for ((x, r), (p, q)) in x.iter_mut().zip(r.iter_mut()).zip(p.iter().zip(&q)) {
+            *x += alpha * p;
+            *r -= alpha * q;
+        }
+        for ((z, r), d) in z.iter_mut().zip(&r).zip(&op.inv_diag) {
+            *z = r * d;
+        }
+        let rz_new = dot(&r, &z);
+        let beta = rz_new / rz;
+        for (p, z) in p.iter_mut().zip(&z) {
+            *p = z + beta * *p;
+        }
+        rz = rz_new;
+        alphas.push(alpha);
+        betas.push(beta);
+        iterations += 1;
+    }
+    let gx = op.apply(&x);
+    let res: f64 = b
+        .iter()
+        .zip(&gx)
+        .map(|(b, g)| (b - g) * (b - g))
+        .sum::<f64>()
+        .sqrt();
+    let relative_residual = res / bnorm;
+    let report = PcgReport {
+        iterations,
+        relative_residual,
+        condition: lanczos_condition(&alphas, &betas),
+        converged: relative_residual <= tolerance,
+    };
+    (x, report)
+}
+
+/// `lambda_max / lambda_min` of the Lanczos tridiagonal of a CG run: diagonal `1/alpha_k +
+/// beta_{k-1}/alpha_{k-1}`, off-diagonal `sqrt(beta_k)/alpha_k` (Golub & Van Loan 11.3).
+fn lanczos_condition(alphas: &[f64], betas: &[f64]) -> f64 {
+    let k = alphas.len().min(300);
+    if k < 2 {
+        return 1.0;
+    }
+    let mut t = DMatrix::<f64>::zeros(k, k);
+    for i in 0..k {
+        t[(i, i)] = 1.0 / alphas[i]
+            + if i > 0 {
+                betas[i - 1] / alphas[i - 1]
+            } else {
+                0.0
+            };
+        if i + 1 < k {
+            let e = betas[i].sqrt() / alphas[i];
+            t[(i, i + 1)] = e;
+            t[(i + 1, i)] = e;
+        }
+    }
+    let eig = nalgebra::linalg::SymmetricEigen::new(t).eigenvalues;
+    let (lo, hi) = eig.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| {
+        (lo.min(e), hi.max(e))
+    });
+    if lo > 0.0 {
+        hi / lo
+    } else {
+        f64::INFINITY
+    }
+}

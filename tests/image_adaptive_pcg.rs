@@ -1,0 +1,196 @@
+//! The matrix-free PCG tree solve (issue 13, "each round costs what changed") against the
+//! assembled kernel and the direct solve, on random trees and samples.
+
+use nalgebra::{DMatrix, DVector};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use rkwave::basis::tensor::TensorBasis;
+use rkwave::basis::FilterFamily;
+use rkwave::image::adaptive::fit::tree_kernel;
+use rkwave::image::adaptive::pcg::{SingleScaleRows, TreeNormalOperator};
+use rkwave::image::adaptive::{fit_tree_with, QuadTree, TreeSolver};
+
+/// A random tree on a 16 x 16 image (p = 2, levels (5, 5), half-pixel limit): the base step 1
+/// full, then `deepen` random slots below the limit activated, and `spp` jittered samples per
+/// pixel plus 4 more in every slot's cell (so every slot keeps samples).
+fn random_case(seed: u64, deepen: usize, spp: usize) -> (QuadTree, Vec<f64>, Vec<f64>) {
+    let basis = TensorBasis::new(2, FilterFamily::cdv_default(2), 16, 16, (5, 5)).unwrap();
+    let mut tree = QuadTree::uniform(basis, 1);
+    let mut rng = Pcg64::seed_from_u64(seed);
+    for _ in 0..deepen {
+        let slots: Vec<_> = tree
+            .slots()
+            .into_iter()
+            .filter(|c| c.step < tree.steps())
+            .collect();
+        let cell = slots[rng.random_range(0..slots.len())];
+        tree.activate(cell);
+    }
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for py in 0..16 {
+        for px in 0..16 {
+            for _ in 0..spp {
+                xs.push(px as f64 + rng.random::<f64>());
+                ys.push(py as f64 + rng.random::<f64>());
+            }
+        }
+    }
+    for slot in tree.slots() {
+        let r = tree.rect(slot);
+        for _ in 0..4 {
+            xs.push(r[0] + (r[1] - r[0]) * rng.random::<f64>());
+            ys.push(r[2] + (r[3] - r[2]) * rng.random::<f64>());
+        }
+    }
+    (tree, xs, ys)
+}
+
+fn scene(x: f64, y: f64) -> f64 {
+    let edge = if x + 0.3 * y < 9.3 { 0.2 } else { 0.8 };
+    edge + 0.01 * x * y / 16.0
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// `K_T c` and `K_T^T r` through the single-scale rows and the 2D FWT equal the assembled tree
+/// kernel's products: both are the same sums in another order (the synthesis is exact), so
+/// they agree to rounding, `1e-12` relative.
+#[test]
+fn matrix_free_products_equal_the_assembled_kernel() {
+    for seed in 0..3 {
+        let (tree, xs, ys) = random_case(seed, 40, 2);
+        let functions = tree.functions();
+        let k = tree_kernel(&tree, &functions, &xs, &ys);
+        let rows = SingleScaleRows::new(tree.basis(), &xs, &ys);
+        assert_eq!(rows.len(), xs.len());
+        let op = TreeNormalOperator::new(&tree, &rows, &xs, &ys);
+        let mut rng = Pcg64::seed_from_u64(100 + seed);
+        let c: Vec<f64> = functions
+            .iter()
+            .map(|_| rng.random::<f64>() - 0.5)
+            .collect();
+        let mut full = vec![0.0; tree.basis().len()];
+        for (&f, &v) in functions.iter().zip(&c) {
+            full[f] = v;
+        }
+        let want = csr_times(&k, &c);
+        let got = op.values(&full);
+        let diff: Vec<f64> = want.iter().zip(&got).map(|(a, b)| a - b).collect();
+        assert!(norm(&diff) <= 1e-12 * norm(&want), "K c: {}", norm(&diff));
+        let r: Vec<f64> = xs.iter().map(|_| rng.random::<f64>() - 0.5).collect();
+        let kt = k.transpose_view().to_csr();
+        let want = csr_times(&kt, &r);
+        let got = op.rhs(&r);
+        let got: Vec<f64> = functions.iter().map(|&f| got[f]).collect();
+        let diff: Vec<f64> = want.iter().zip(&got).map(|(a, b)| a - b).collect();
+        assert!(norm(&diff) <= 1e-12 * norm(&want), "K^T r: {}", norm(&diff));
+        // nothing leaks off the tree
+        let all = op.rhs(&r);
+        let on: std::collections::HashSet<usize> = functions.iter().copied().collect();
+        assert!(all
+            .iter()
+            .enumerate()
+            .all(|(i, &v)| on.contains(&i) || v == 0.0));
+    }
+}
+
+/// `A v` for a CSR matrix and a plain vector.
+fn csr_times(a: &sprs::CsMat<f64>, v: &[f64]) -> Vec<f64> {
+    a.outer_iterator()
+        .map(|row| row.iter().map(|(j, x)| x * v[j]).sum())
+        .collect()
+}
+
+/// PCG and the direct solve agree. With `r = b - G x` the PCG residual and `x*` the exact
+/// solution, `||x - x*|| <= ||G^-1|| ||r||` and `||x*|| >= ||b|| / ||G||`, so the relative
+/// coefficient difference is at most `kappa(G) ||r|| / ||b||`; the direct solve adds its own
+/// `~kappa eps`. `kappa(G)` is computed exactly from the dense `G` of the test's small tree.
+#[test]
+fn pcg_agrees_with_the_direct_solve_within_kappa_times_residual() {
+    for seed in 0..3 {
+        let (tree, xs, ys) = random_case(seed, 30, 2);
+        let v0: Vec<f64> = xs.iter().zip(&ys).map(|(&x, &y)| scene(x, y)).collect();
+        let v1: Vec<f64> = xs
+            .iter()
+            .zip(&ys)
+            .map(|(&x, &y)| (0.3 * x).sin() * y)
+            .collect();
+        let values: Vec<&[f64]> = vec![&v0, &v1];
+        let direct = fit_tree_with(&tree, &xs, &ys, &values, TreeSolver::Direct, None).unwrap();
+        assert_eq!(direct.report.ridge, 0.0, "the case is well sampled");
+        let tol = 1e-11;
+        let solver = TreeSolver::Pcg {
+            tolerance: tol,
+            max_iterations: 5000,
+        };
+        let it = fit_tree_with(&tree, &xs, &ys, &values, solver, None).unwrap();
+        let r = &it.report;
+        assert_eq!(r.solver, "pcg");
+        assert!(r.converged && r.relative_residual <= tol, "{r:?}");
+        assert!(r.iterations > 0 && r.condition >= 1.0);
+        // kappa(G) from the dense normal matrix
+        let functions = tree.functions();
+        let k = tree_kernel(&tree, &functions, &xs, &ys);
+        let kd = DMatrix::from_fn(xs.len(), functions.len(), |i, j| {
+            *k.get(i, j).unwrap_or(&0.0)
+        });
+        let g = kd.transpose() * &kd;
+        let eig = g.symmetric_eigenvalues();
+        let kappa = eig.max() / eig.min();
+        assert!(kappa.is_finite() && kappa > 1.0);
+        for c in 0..2 {
+            let d = DVector::from_iterator(
+                functions.len(),
+                functions.iter().map(|&f| direct.coefficients[c][f]),
+            );
+            let p = DVector::from_iterator(
+                functions.len(),
+                functions.iter().map(|&f| it.coefficients[c][f]),
+            );
+            let rel = (&d - &p).norm() / d.norm();
+            let bound = kappa * (r.relative_residual + 1e-14) * 2.0;
+            assert!(
+                rel <= bound,
+                "seed {seed}: {rel:e} > {bound:e} (kappa {kappa:e})"
+            );
+            // off the tree both are exactly 0
+            assert!(it.coefficients[c]
+                .iter()
+                .enumerate()
+                .all(|(i, &v)| functions.binary_search(&i).is_ok() || v == 0.0));
+        }
+    }
+}
+
+/// A warm start at the solution needs no iteration, and a stalled PCG on a small tree (one
+/// iteration allowed) hands over to the direct solve, saying so.
+#[test]
+fn warm_start_and_fallback_are_reported() {
+    let (tree, xs, ys) = random_case(7, 20, 2);
+    let v: Vec<f64> = xs.iter().zip(&ys).map(|(&x, &y)| scene(x, y)).collect();
+    let values: Vec<&[f64]> = vec![&v];
+    let solver = TreeSolver::Pcg {
+        tolerance: 1e-9,
+        max_iterations: 2000,
+    };
+    let cold = fit_tree_with(&tree, &xs, &ys, &values, solver, None).unwrap();
+    let warm = fit_tree_with(&tree, &xs, &ys, &values, solver, Some(&cold.coefficients)).unwrap();
+    assert!(warm.report.converged);
+    assert!(
+        warm.report.iterations < cold.report.iterations.max(1),
+        "{} !< {}",
+        warm.report.iterations,
+        cold.report.iterations
+    );
+    let stalled = TreeSolver::Pcg {
+        tolerance: 1e-14,
+        max_iterations: 1,
+    };
+    let fb = fit_tree_with(&tree, &xs, &ys, &values, stalled, None).unwrap();
+    assert_eq!(fb.report.solver, "pcg->direct");
+    assert!(!fb.report.converged && fb.report.iterations == 1);
+    let direct = fit_tree_with(&tree, &xs, &ys, &values, TreeSolver::Direct, None).unwrap();
+    assert_eq!(fb.coefficients, direct.coefficients);
+}
