@@ -294,23 +294,39 @@ impl<'a> Evaluator<'a> {
 
     /// Evaluation at `t` in `[0, 1]` (unit coordinates; not checked).
     pub fn eval_unit_into(&mut self, t: f64, out: &mut Vec<BasisValue>) {
-        self.eval_levels(t, out, true);
+        self.eval_levels(t, out, Some(self.basis.fine()));
+    }
+
+    /// As [`Evaluator::eval_unit_into`], with the wavelets only up to level `depth` (none
+    /// when `depth < n`; `depth` above `N` means `N`): the scaling functions of `V_n` and
+    /// `psi_{j,k}(t)` for `n <= j <= min(depth, N)`, exactly the values the full evaluation
+    /// gives for them. For an adaptive set whose deepest function with `t` in its support
+    /// is at level `depth` (its local depth at `t`), the levels below contribute nothing at
+    /// `t`; the cost drops from `O((N - n) p^2)` to `O((depth - n) p^2)` plus
+    /// `O((K - depth) p^2 / 8)` for the binary digits of `t` beyond `depth` (byte tables).
+    pub fn eval_unit_to_depth_into(&mut self, t: f64, depth: i64, out: &mut Vec<BasisValue>) {
+        let n = self.basis.coarse() as i64;
+        let top = (depth >= n).then(|| depth.min(self.basis.fine() as i64) as u32);
+        self.eval_levels(t, out, top);
     }
 
     /// Only the scaling functions of `V_n` (global indices `< 2^n`) at `t` in `[0, 1]`: the
     /// single-scale evaluation used to evaluate a reconstruction after FWT synthesis.
     pub fn eval_scaling_unit_into(&mut self, t: f64, out: &mut Vec<BasisValue>) {
-        self.eval_levels(t, out, false);
+        self.eval_levels(t, out, None);
     }
 
-    fn eval_levels(&mut self, t: f64, out: &mut Vec<BasisValue>, with_wavelets: bool) {
+    /// The scaling functions of `V_n` and the wavelets of levels `n..=wavelet_top` at `t`
+    /// (`None`: no wavelet; `wavelet_top <= N`).
+    fn eval_levels(&mut self, t: f64, out: &mut Vec<BasisValue>, wavelet_top: Option<u32>) {
+        let with_wavelets = wavelet_top.is_some();
         out.clear();
         let basis = self.basis;
         let bank = basis.bank();
         let p = bank.p();
         let e = bank.edge_count();
         let n = basis.coarse();
-        let fine = if with_wavelets { basis.fine() } else { n };
+        let fine = wavelet_top.map_or(n, |j| j.min(basis.fine()));
         let top = if with_wavelets { fine + 1 } else { n };
         let pos = Position::new(t);
         let w = 2 * p - 1;

@@ -73,3 +73,34 @@ impl FunctionId {
         }
     }
 }
+
+/// Structural support of function `index` of a level with `2^level` functions: the inclusive
+/// range of level-`level` cells on which it is (structurally) nonzero, for `p` vanishing
+/// moments (`p` edge functions per side, none for Haar).
+pub fn support_cells(p: usize, level: u32, index: usize) -> (u64, u64) {
+    let size = 1u64 << level;
+    let k = index as u64;
+    let p64 = p as u64;
+    let edges = if p >= 2 { p64 } else { 0 };
+    if k < edges {
+        (0, p64 + k - 1)
+    } else if k + edges >= size {
+        let r = size - 1 - k;
+        (size - p64 - r, size - 1)
+    } else {
+        (k.saturating_sub(p64 - 1), (k + p64 - 1).min(size - 1))
+    }
+}
+
+/// The level-`level` cell holding `t` in `[0, 1]`: `floor(2^level t)`, with `t = 1` in the last
+/// cell (the evaluator's convention).
+pub fn cell_of(t: f64, level: u32) -> u64 {
+    let size = 1u64 << level;
+    if t.is_nan() || t <= 0.0 {
+        return 0;
+    }
+    if t >= 1.0 {
+        return size - 1;
+    }
+    ((t * size as f64).floor() as u64).min(size - 1)
+}

@@ -23,7 +23,7 @@ pub mod tensor;
 pub use bank::FilterBank;
 pub use eval::{BasisValue, Evaluator};
 pub use filters::{FilterFamily, MAX_VANISHING_MOMENTS};
-pub use index::{FunctionId, FunctionKind, Side};
+pub use index::{cell_of, support_cells, FunctionId, FunctionKind, Side};
 pub use single_level::SingleLevelEvaluator;
 
 use std::sync::Arc;

@@ -428,7 +428,7 @@ fn figure4_plot(r: &Refinement, truth: Truth<'_>, path: &Path) -> Result<(), Cli
             truth.name,
             r.samples.len(),
             r.base_samples(),
-            r.columns.len(),
+            r.columns().len(),
             r.base_depth,
             r.tree.depth()
         ),

@@ -9,6 +9,7 @@ use clap::Args;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::{AdaptiveParams, SamplePositions};
 use rkwave::image::experiment::image_samples_from_table;
+use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::ImagePlane;
 use rkwave::io::output::{same_file, write_new, OutputError};
 use rkwave::io::{npy_bytes, read_samples, SampleSet};
@@ -175,17 +176,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     write_new(&args.out, &positions_npy(&next), args.force)?;
     state.save(&args.state).map_err(protocol)?;
     if args.json {
-        let report = serde_json::json!({
-            "state": state_file,
-            "out": args.out,
-            "resolution": state.plane.to_string(),
-            "round": state.round(),
-            "positions": next.len(),
-            "total_positions": state.positions(),
-            "budget": state.params.budget,
-            "stop": state.stop,
-            "step": step,
-        });
+        let report = PlanCallReport::new(&state, &args.state, &args.out, &next, step);
         println!(
             "{}",
             serde_json::to_string_pretty(&report).expect("plain data")
@@ -275,57 +266,33 @@ pub fn reconstruct(
             source: std::io::Error::other(e.to_string()),
         }
     })?;
-    let mut notes = Vec::new();
+    let mut overridden = Vec::new();
     // The plan fixes the basis and the solve: say so when the user asked for others.
     if args.filter.p != state.params.p {
-        notes.push(format!(
+        overridden.push(format!(
             "p = {} from the plan's tree (--p, {} here, is not used with --state)",
             state.params.p, args.filter.p
         ));
     }
     if args.filter.family.is_some() {
-        notes.push("--family is not used: the plan's tree fixes the filter family".to_string());
+        overridden
+            .push("--family is not used: the plan's tree fixes the filter family".to_string());
     }
     if args.method != super::solve_args::MethodArg::Single {
-        notes.push(
+        overridden.push(
             "--method is not used: the plan's tree is fitted by its own least squares".to_string(),
         );
     }
-    if !done.complete {
-        notes.push(format!(
-            "the plan has not stopped: this is the fit of the samples of rounds 0..={} on \
-             their tree, not the final image",
-            done.round
-        ));
-    }
-    if done.fit.report.ridge > 0.0 {
-        notes.push(format!(
-            "the normal matrix was numerically singular: a relative ridge {:.0e} was added",
-            done.fit.report.ridge
-        ));
-    }
-    if done.fit.report.unsampled > 0 {
-        notes.push(format!(
-            "{} functions have no sample in their support (held at 0 by the ridge)",
-            done.fit.report.unsampled
-        ));
-    }
-    let report = serde_json::json!({
-        "input": args.input,
-        "output": args.output,
-        "state": PlanState::path(dir),
-        "resolution": state.plane.to_string(),
-        "samples": samples.len(),
-        "channels": samples.channels(),
-        "round": done.round,
-        "complete": done.complete,
-        "p": state.params.p,
-        "levels": done.tree.basis().levels(),
-        "cells_per_step": done.tree.cells_per_step(),
-        "fit": done.fit.report,
-        "time_s": started.elapsed().as_secs_f64(),
-        "notes": notes,
-    });
+    let report = PlanReconstructionReport::new(
+        &state,
+        dir,
+        &args.input,
+        &args.output,
+        &samples,
+        &done,
+        overridden,
+        started.elapsed().as_secs_f64(),
+    );
     if args.json {
         println!(
             "{}",
@@ -335,16 +302,16 @@ pub fn reconstruct(
         println!(
             "{} samples x {} channels (rounds 0..={}) -> {} pixels on the plan's tree ({} \
              functions, p = {}), {:.3} s; wrote {}",
-            samples.len(),
-            samples.channels(),
-            done.round,
+            report.samples,
+            report.channels,
+            report.round,
             state.plane,
-            done.fit.report.functions,
-            state.params.p,
-            started.elapsed().as_secs_f64(),
+            report.fit.functions,
+            report.p,
+            report.time_s,
             args.output.display()
         );
-        for note in &notes {
+        for note in &report.notes {
             println!("note: {note}");
         }
     }

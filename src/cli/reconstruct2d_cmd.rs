@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use rkwave::image::experiment::{image_samples_from_table, reconstruct, Method, WaveletParams};
+use rkwave::image::report::FileReconstructionReport;
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::io::read_samples;
 
@@ -56,21 +57,19 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     })?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let report = serde_json::json!({
-        "input": args.input,
-        "output": args.output,
-        "resolution": plane.to_string(),
-        "samples": samples.len(),
-        "channels": samples.channels(),
-        "method": method,
-        "p": wavelet.p,
-        "functions": extras.functions,
-        "solve": extras.solve,
-        "time_s": {"read": read_s, "fit": times.fit, "pixels": times.pixels, "write": write_s,
-                   "total": started.elapsed().as_secs_f64()},
-        "peak_mb": rkwave::image::experiment::peak_memory_mb(),
-        "notes": extras.notes,
-    });
+    let report = FileReconstructionReport::new(
+        &args.input,
+        &args.output,
+        plane,
+        &samples,
+        method,
+        wavelet.p,
+        extras,
+        &times,
+        read_s,
+        write_s,
+        started.elapsed().as_secs_f64(),
+    );
     if args.json {
         println!(
             "{}",
@@ -79,13 +78,13 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     } else {
         println!(
             "{} samples x {} channels -> {plane} pixels by {method} ({} functions), {:.3} s; wrote {}",
-            samples.len(),
-            samples.channels(),
-            extras.functions.map_or("?".into(), |f| f.to_string()),
-            started.elapsed().as_secs_f64(),
+            report.samples,
+            report.channels,
+            report.functions.map_or("?".into(), |f| f.to_string()),
+            report.time_s.total,
             args.output.display()
         );
-        for note in &extras.notes {
+        for note in &report.notes {
             println!("note: {note}");
         }
     }

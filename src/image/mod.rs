@@ -33,6 +33,7 @@ pub mod experiment;
 pub mod figure;
 pub mod filters;
 pub mod metrics;
+pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod splat;

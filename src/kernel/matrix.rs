@@ -1,15 +1,11 @@
 //! Building `K` (CSR, `m x P`) in parallel from the one-pass evaluation.
 
-use rayon::prelude::*;
 use sprs::CsMat;
 use thiserror::Error;
 
+use super::rows::{assemble, evaluate_rows};
 use super::ActiveSet;
-use crate::basis::BasisValue;
 use crate::domain::Domain;
-
-/// Samples per parallel work item.
-const CHUNK: usize = 4096;
 
 /// Errors of kernel matrix construction.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -56,7 +52,8 @@ pub fn check_positions(domain: Domain, positions: &[f64]) -> Result<(), KernelEr
 }
 
 /// `K[i, c] = Psi_{active(c)}(x_i)`: one row per sample, the active functions that are
-/// (structurally) nonzero at it, in ascending column order.
+/// (structurally) nonzero at it, in ascending column order. The evaluation at `x_i` stops at
+/// the active set's local depth there ([`ActiveSet::local_depth_unit`]).
 pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>, KernelError> {
     if positions.is_empty() {
         return Err(KernelError::Empty);
@@ -64,44 +61,13 @@ pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>
     let basis = active.basis();
     let domain = basis.domain();
     check_positions(domain, positions)?;
-    let blocks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = positions
-        .par_chunks(CHUNK)
-        .map(|chunk| {
-            let mut ev = basis.evaluator();
-            let mut out: Vec<BasisValue> = Vec::with_capacity(256);
-            let mut counts = Vec::with_capacity(chunk.len());
-            let mut indices = Vec::with_capacity(chunk.len() * 40);
-            let mut data = Vec::with_capacity(chunk.len() * 40);
-            for &x in chunk {
-                ev.eval_unit_into(domain.to_unit(x), &mut out);
-                let before = indices.len();
-                for v in &out {
-                    if let Some(c) = active.column(v.index) {
-                        indices.push(c);
-                        data.push(v.value);
-                    }
-                }
-                counts.push(indices.len() - before);
-            }
-            (counts, indices, data)
-        })
-        .collect();
-    let nnz: usize = blocks.iter().map(|b| b.1.len()).sum();
-    let mut indptr = Vec::with_capacity(positions.len() + 1);
-    let mut indices = Vec::with_capacity(nnz);
-    let mut data = Vec::with_capacity(nnz);
-    indptr.push(0);
-    for (counts, idx, val) in blocks {
-        for c in counts {
-            indptr.push(indptr.last().copied().unwrap_or(0) + c);
-        }
-        indices.extend(idx);
-        data.extend(val);
-    }
-    Ok(CsMat::new(
-        (positions.len(), active.len()),
-        indptr,
-        indices,
-        data,
-    ))
+    let ts: Vec<f64> = positions.iter().map(|&x| domain.to_unit(x)).collect();
+    // Levels finer than the active set's local depth at a position contribute nothing there.
+    let blocks = evaluate_rows(
+        basis,
+        &ts,
+        |t| active.local_depth_unit(t),
+        |a| active.column(a),
+    );
+    Ok(assemble((positions.len(), active.len()), blocks))
 }

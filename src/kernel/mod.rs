@@ -8,7 +8,9 @@
 mod active;
 mod levels;
 mod matrix;
+mod rows;
 
 pub use active::ActiveSet;
 pub use levels::{LevelChoice, LevelParams};
 pub use matrix::{check_positions, kernel_matrix, KernelError};
+pub use rows::EvaluationRows;

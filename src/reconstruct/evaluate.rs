@@ -3,8 +3,10 @@
 //! A uniform `Psi(n, N)` is evaluated through the single scale: the FWT synthesis gives the
 //! `V_{N+1}` coefficients `v` once, then `f(x) = sum_k v_k phi_{N+1,k}(x)` takes the `2p - 1`
 //! (plus edge) scaling functions of that one level at `x`
-//! ([`crate::basis::SingleLevelEvaluator`]). An adaptive set evaluates every level of
-//! `Psi(n, N)` at `x` and keeps its active functions.
+//! ([`crate::basis::SingleLevelEvaluator`]). An adaptive set evaluates the levels of
+//! `Psi(n, N)` at `x` down to its local depth there (the finest active function whose support
+//! holds `x`; finer levels contribute nothing) and combines its active functions
+//! ([`crate::kernel::ActiveSet::combine`]).
 
 use rayon::prelude::*;
 
@@ -26,7 +28,7 @@ impl Fit {
     /// Prepares the fit for evaluation (FWT synthesis to `V_{N+1}` for a uniform set).
     pub fn evaluator(&self) -> Result<FitEvaluator<'_>, ReconstructError> {
         let basis = self.active.basis();
-        let single = if self.active.len() == basis.dimension() {
+        let single = if self.active.is_uniform() {
             let top = basis.fine() + 1;
             let scale = CdvBasis::with_bank(basis.bank().clone(), top, top, basis.domain())?;
             let v = self
@@ -82,15 +84,11 @@ impl FitEvaluator<'_> {
                 let mut out: Vec<BasisValue> = Vec::with_capacity(256);
                 let mut vals = Vec::with_capacity(chunk.len() * channels);
                 for &x in chunk {
-                    ev.eval_unit_into(domain.to_unit(x), &mut out);
+                    let t = domain.to_unit(x);
+                    let depth = fit.active.local_depth_unit(t);
+                    ev.eval_unit_to_depth_into(t, depth, &mut out);
                     for c in &fit.coefficients {
-                        vals.push(
-                            out.iter()
-                                .filter_map(|v| {
-                                    fit.active.column(v.index).map(|col| c[col] * v.value)
-                                })
-                                .sum::<f64>(),
-                        );
+                        vals.push(fit.active.combine(&out, c));
                     }
                 }
                 vals

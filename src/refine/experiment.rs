@@ -253,7 +253,7 @@ pub fn adaptive_vs_uniform(
         samples: m,
         base_samples: r.base_samples(),
         refinement_samples: m - r.base_samples(),
-        basis_size: r.columns.len(),
+        basis_size: r.columns().len(),
         max_depth: r.tree.depth(),
         leaves: r.tree.leaves().len(),
         error_l2: adaptive.grid.l2,
@@ -399,6 +399,6 @@ pub fn figure4(r: &Refinement, truth: Truth<'_>) -> Result<Figure4, RefineError>
             .collect(),
         depth,
         kernel_entries,
-        functions: r.columns.len(),
+        functions: r.columns().len(),
     })
 }

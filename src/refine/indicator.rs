@@ -13,7 +13,8 @@
 //! estimate of `int_C (f - f~)^2`; marking `C` adds the wavelets one level deeper whose support
 //! covers it.
 
-use super::tree::{column_of, support_cells, Leaf, WaveletTree};
+use super::tree::{support_cells, Leaf, WaveletTree};
+use crate::reconstruct::Fit;
 
 /// Cap of the decay ratio: beyond it the estimate `1 / sqrt(1 - r^2)` would explode.
 const MAX_RATIO: f64 = 0.9;
@@ -90,11 +91,8 @@ impl Indication {
 }
 
 /// Predicted missing coefficients from the decay across levels.
-pub(crate) fn coefficient_indication(
-    tree: &WaveletTree,
-    columns: &[usize],
-    coefficients: &[f64],
-) -> Indication {
+pub(crate) fn coefficient_indication(tree: &WaveletTree, fit: &Fit) -> Indication {
+    let (active, coefficients) = (&fit.active, &fit.coefficients[0]);
     let p = tree.p();
     let n = tree.coarse();
     let min_ratio = (-(p as f64 + 0.5)).exp2();
@@ -104,7 +102,7 @@ pub(crate) fn coefficient_indication(
         let lo = k.saturating_sub(1);
         let hi = (k + 1).min(size - 1);
         (lo..=hi)
-            .filter_map(|kk| column_of(columns, size + kk).map(|c| coefficients[c].abs()))
+            .filter_map(|kk| active.column(size + kk).map(|c| coefficients[c].abs()))
             .fold(0.0, f64::max)
     };
     let mut out = Indication::default();

@@ -37,10 +37,12 @@
 //! all of it from scratch as a check. Rebuilt each round: the tree's coverage and leaves
 //! (`O(P)`) and the sparse Cholesky factor of `K^T K` (finest level eliminated first).
 
-//! Columns are kept as a sorted list of global indices ([`WaveletTree::columns`], looked up by
-//! [`column_of`]), so trees go to level [`MAX_DEPTH_LIMIT`]; [`WaveletTree::active_set`] and
-//! [`Refinement::fit`] convert to the crate's [`crate::kernel::ActiveSet`] and
-//! [`crate::reconstruct::Fit`] up to level [`ACTIVE_SET_MAX_LEVEL`].
+//! The refiner is a client of the pipeline: each round's columns are a sparse
+//! [`crate::kernel::ActiveSet`] ([`crate::kernel::ActiveSet::from_sorted`], looked up by
+//! [`crate::kernel::ActiveSet::column`]; trees go to level [`MAX_DEPTH_LIMIT`]), its `K` is
+//! filtered from the cached evaluation rows ([`crate::kernel::EvaluationRows`]), each fit is a
+//! [`crate::reconstruct::Fit`] ([`Refinement::fit`]) and evaluates through
+//! [`crate::reconstruct::Fit::evaluate`], stopping at the tree's local depth.
 //!
 //! ```
 //! use rkwave::refine::{refine, RefineParams, SampleOracle};
@@ -75,4 +77,4 @@ pub use params::{Indicator, RefineParams, MAX_DEPTH_LIMIT};
 pub use refinement::{Refinement, RoundLog, RoundTimes};
 pub use refiner::{refine, Refiner, Step, StopReason};
 pub use samples::{Sample, SampleOrigin};
-pub use tree::{cell_of, column_of, support_cells, Leaf, WaveletTree, ACTIVE_SET_MAX_LEVEL};
+pub use tree::{cell_of, support_cells, Leaf, WaveletTree, ACTIVE_SET_MAX_LEVEL};

@@ -14,7 +14,7 @@
 //! of the samples in their support and their columns are `G_{.s} = sum_i Psi_s(x_i) k_i`
 //! over the final rows, mirrored into the old columns (new slots are the largest, so they
 //! append in order). Each pair of a row is counted once. Values come from the cached
-//! evaluation rows ([`CachedRows`]), never from a second evaluation. With `s_a` the samples
+//! evaluation rows ([`EvaluationRows`]), never from a second evaluation. With `s_a` the samples
 //! in the support of `a` and `r_i` the active functions at `x_i`, a round costs
 //!
 //! ```text
@@ -35,81 +35,13 @@ use rayon::prelude::*;
 use sprs::CsMat;
 
 use super::{RefineError, Sample};
-use crate::basis::{BasisValue, CdvBasis, FunctionId};
+use crate::basis::CdvBasis;
+use crate::basis::FunctionId;
+use crate::kernel::EvaluationRows;
 use crate::solve::{normal_ls_corrected, GlobalLs, GlobalLsParams};
 
-/// Points per parallel evaluation work item.
+/// Rows per parallel work item.
 const CHUNK: usize = 1024;
-
-/// The evaluation of every function of a full basis `Psi(n, D)` at a list of points, row by
-/// row (ascending global index within a row), made once per point.
-#[derive(Clone, Debug)]
-pub(crate) struct CachedRows {
-    ptr: Vec<usize>,
-    index: Vec<usize>,
-    value: Vec<f64>,
-}
-
-impl CachedRows {
-    pub fn new() -> Self {
-        Self {
-            ptr: vec![0],
-            index: Vec::new(),
-            value: Vec::new(),
-        }
-    }
-
-    /// Number of rows.
-    pub fn len(&self) -> usize {
-        self.ptr.len() - 1
-    }
-
-    /// Evaluates `basis` at the unit positions `ts` and appends one row per position.
-    pub fn push(&mut self, basis: &CdvBasis, ts: &[f64]) {
-        let rows: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = ts
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut ev = basis.evaluator();
-                let mut out: Vec<BasisValue> = Vec::with_capacity(256);
-                let mut counts = Vec::with_capacity(chunk.len());
-                let (mut index, mut value) = (Vec::new(), Vec::new());
-                for &t in chunk {
-                    ev.eval_unit_into(t, &mut out);
-                    counts.push(out.len());
-                    index.extend(out.iter().map(|v| v.index));
-                    value.extend(out.iter().map(|v| v.value));
-                }
-                (counts, index, value)
-            })
-            .collect();
-        for (counts, index, value) in rows {
-            for c in counts {
-                let last = *self.ptr.last().expect("ptr starts with 0");
-                self.ptr.push(last + c);
-            }
-            self.index.extend(index);
-            self.value.extend(value);
-        }
-    }
-
-    /// `Psi_a` at row `i` (0 where `a` is not structurally nonzero).
-    pub fn value(&self, i: usize, a: usize) -> f64 {
-        let (lo, hi) = (self.ptr[i], self.ptr[i + 1]);
-        match self.index[lo..hi].binary_search(&a) {
-            Ok(t) => self.value[lo + t],
-            Err(_) => 0.0,
-        }
-    }
-
-    /// Row `i` as `(global index, value)` pairs.
-    pub fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let (lo, hi) = (self.ptr[i], self.ptr[i + 1]);
-        self.index[lo..hi]
-            .iter()
-            .copied()
-            .zip(self.value[lo..hi].iter().copied())
-    }
-}
 
 /// Cached rows restricted to the active functions, maintained as functions arrive: the
 /// sparse rows of `K` by slot (a function's slot is its order of arrival).
@@ -125,7 +57,7 @@ impl ActiveRows {
     /// active functions `slot_of`; `on_row(i, row)` sees each new row.
     fn add_rows(
         &mut self,
-        cached: &CachedRows,
+        cached: &EvaluationRows,
         t_of: impl Fn(usize) -> f64,
         slot_of: &HashMap<usize, u32>,
         mut on_row: impl FnMut(usize, &[(u32, f64)]),
@@ -149,7 +81,7 @@ impl ActiveRows {
     /// nonzero; `on_entry(i, value, row_before)` sees each entry with the row as it was.
     fn activate(
         &mut self,
-        cached: &CachedRows,
+        cached: &EvaluationRows,
         a: usize,
         slot: u32,
         (lo, hi): (f64, f64),
@@ -165,6 +97,14 @@ impl ActiveRows {
                 self.rows[i].push((slot, v));
             }
         }
+    }
+
+    /// `sum_s coefficient[s] K[i, s]` for every row.
+    pub fn apply(&self, coefficient: &[f64]) -> Vec<f64> {
+        self.rows
+            .par_iter()
+            .map(|r| r.iter().map(|&(s, v)| coefficient[s as usize] * v).sum())
+            .collect()
     }
 
     /// `K^T (f - K c)` by slot for coefficients `c` by slot (`f_i = samples[i].value`).
@@ -194,22 +134,16 @@ impl ActiveRows {
                 },
             )
     }
-
-    /// `sum_s coefficient[s] K[i, s]` for every row.
-    pub fn apply(&self, coefficient: &[f64]) -> Vec<f64> {
-        self.rows
-            .par_iter()
-            .map(|r| r.iter().map(|&(s, v)| coefficient[s as usize] * v).sum())
-            .collect()
-    }
 }
 
-/// A reconstruction evaluated on fixed points round after round (the reference grid of the
-/// diagnostics): cached rows once, the active part updated with the tree.
+/// The kernel of fixed points (the reference grid of the diagnostics) kept round after round:
+/// the evaluation rows once ([`EvaluationRows`]), their restriction to the active functions
+/// updated as functions arrive, so the fit's values there are `K_grid c` (`O(nnz)` a round,
+/// no evaluation of the basis).
 #[derive(Clone, Debug)]
 pub(crate) struct TrackedPoints {
     ts: Vec<f64>,
-    cached: CachedRows,
+    cached: EvaluationRows,
     active: ActiveRows,
     known: usize,
 }
@@ -217,7 +151,7 @@ pub(crate) struct TrackedPoints {
 impl TrackedPoints {
     /// The points `ts` (unit coordinates), evaluated once in `full`.
     pub fn new(full: &CdvBasis, ts: Vec<f64>) -> Self {
-        let mut cached = CachedRows::new();
+        let mut cached = EvaluationRows::new();
         cached.push(full, &ts);
         Self {
             ts,
@@ -315,7 +249,7 @@ impl NormalEquations {
     /// call's), `support(a)` giving the unit support of `a` and `level(a)` its level.
     pub fn update(
         &mut self,
-        cached: &CachedRows,
+        cached: &EvaluationRows,
         samples: &[Sample],
         columns: &[usize],
         support: impl Fn(usize) -> (f64, f64),
@@ -391,6 +325,15 @@ impl NormalEquations {
         self.gram.extend(new_columns);
     }
 
+    /// Coefficients by slot from coefficients in the order of `columns` (all active).
+    pub fn by_slot(&self, columns: &[usize], coefficients: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.globals.len()];
+        for (&a, &c) in columns.iter().zip(coefficients) {
+            out[self.slot(a).expect("every column is active")] = c;
+        }
+        out
+    }
+
     /// Slot of global index `a`.
     pub fn slot(&self, a: usize) -> Option<usize> {
         self.slot_of.get(&a).map(|&s| s as usize)
@@ -451,33 +394,6 @@ impl NormalEquations {
             }
         }
         (g, slot.iter().map(|&s| self.rhs[s]).collect())
-    }
-
-    /// `K` with columns in the order of `columns` (ascending global indices, all active).
-    pub fn kernel(&self, columns: &[usize]) -> CsMat<f64> {
-        let mut column_of_slot = vec![usize::MAX; self.globals.len()];
-        for (c, &a) in columns.iter().enumerate() {
-            if let Some(s) = self.slot(a) {
-                column_of_slot[s] = c;
-            }
-        }
-        let mut indptr = Vec::with_capacity(self.rows.rows.len() + 1);
-        indptr.push(0);
-        let (mut indices, mut data) = (Vec::new(), Vec::new());
-        let mut row: Vec<(usize, f64)> = Vec::new();
-        for r in &self.rows.rows {
-            row.clear();
-            row.extend(
-                r.iter()
-                    .map(|&(s, v)| (column_of_slot[s as usize], v))
-                    .filter(|e| e.0 != usize::MAX),
-            );
-            row.sort_unstable_by_key(|e| e.0);
-            indices.extend(row.iter().map(|e| e.0));
-            data.extend(row.iter().map(|e| e.1));
-            indptr.push(indices.len());
-        }
-        CsMat::new((self.rows.rows.len(), columns.len()), indptr, indices, data)
     }
 }
 

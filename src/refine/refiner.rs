@@ -11,13 +11,15 @@ use sprs::CsMat;
 use super::indicator::{coefficient_indication, residual_indication, Indication};
 use super::measure::ErrorFigures;
 use super::normal::{level_of, NormalEquations, TrackedPoints};
-use super::refinement::{evaluate_sparse, Refinement, RoundLog, RoundTimes};
+use super::refinement::{tree_fit, Refinement, RoundLog, RoundTimes};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
 use super::tree::{Leaf, WaveletTree};
 use super::{Indicator, RefineError, RefineParams, Sample, SampleOracle};
 
 use crate::basis::{CdvBasis, FilterBank};
-use crate::solve::{global_ls, GlobalMethod, GlobalReport};
+use crate::kernel::ActiveSet;
+use crate::reconstruct::Fit;
+use crate::solve::{global_ls, GlobalMethod};
 
 /// Why the refiner stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
@@ -43,11 +45,10 @@ const RESOLUTION_ULPS: f64 = 16.0;
 /// The fit of the current round and how it was made.
 #[derive(Clone, Debug)]
 struct Current {
-    columns: Vec<usize>,
-    coefficients: Vec<f64>,
+    /// The fit on the tree (one channel).
+    fit: Fit,
     /// Rows of `K` in this fit.
     samples: usize,
-    solve: GlobalReport,
     error: Option<ErrorFigures>,
     new_samples: usize,
     times: RoundTimes,
@@ -92,7 +93,7 @@ pub struct Refiner<'o, O: SampleOracle + ?Sized> {
     stop: Option<StopReason>,
     /// The normal equations, updated round by round.
     normal: NormalEquations,
-    /// The diagnostic reference grid (tracked rows) and the truth there.
+    /// The diagnostic reference grid (its kernel, kept up to date) and the truth there.
     reference: Option<(TrackedPoints, Vec<f64>)>,
     base_depth: u32,
 }
@@ -194,24 +195,24 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
     }
     /// The current columns (active global indices, ascending).
     pub fn columns(&self) -> &[usize] {
-        &self.current.columns
+        self.current.fit.active.indices()
     }
     /// The current coefficients, one per column.
     pub fn coefficients(&self) -> &[f64] {
-        &self.current.coefficients
+        &self.current.fit.coefficients[0]
     }
-    /// The current reconstruction at domain positions `xs`.
+    /// The current fit (the library's [`Fit`] on the tree's active set).
+    pub fn fit(&self) -> &Fit {
+        &self.current.fit
+    }
+    /// The current reconstruction at domain positions `xs` ([`Fit::evaluate`]).
     pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError> {
-        evaluate_sparse(
-            &self.tree.basis()?,
-            &self.current.columns,
-            &self.current.coefficients,
-            xs,
-        )
+        Ok(self.current.fit.evaluate(xs)?.swap_remove(0))
     }
-    /// The current kernel matrix (assembled from the active rows on each call).
+    /// The current kernel matrix (filtered from the cached evaluation rows on each call,
+    /// [`crate::kernel::EvaluationRows::kernel`]).
     pub fn kernel(&self) -> CsMat<f64> {
-        self.normal.kernel(&self.current.columns)
+        self.store.rows.kernel(&self.current.fit.active)
     }
     /// The normal equations as kept between rounds (tests).
     #[cfg(test)]
@@ -237,6 +238,22 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
 
     /// One round: indicate on the current fit, stop or mark, deepen, sample the new leaves,
     /// refit. Logs the current round either way.
+    ///
+    /// Cost, for `P` active functions, `dP` new ones, `ds` new samples (`ds <= ceil(rho)` per
+    /// new leaf, about `2 ceil(rho) dP`), `r` active functions per sample (about `(2p - 1)`
+    /// per level of the local depth) and `D - n` levels in the cached rows:
+    ///
+    /// ```text
+    /// indicate, leaves, mark, Fit:  O(P log P)               (tree walks, column lookups)
+    /// sample:                       O(ds (D - n) p^2)         (oracle + cached rows, once)
+    /// normal equations update:      O(sum_{new a} s_a r + ds r^2)   (module `normal`)
+    /// solve:                        O(nnz G) hand-over + symbolic + numeric Cholesky of G
+    /// ```
+    ///
+    /// All but the solve are linear in what changed (`dP`, `ds`) up to the `O(P log P)` tree
+    /// walks; the sparse Cholesky is still redone on the whole `G` each round (finest level
+    /// first: `nnz(L)` about `0.6 nnz(G)` on `jumps`), so a round costs
+    /// `O(dP rho r^2 + P log P) + C_chol(P)` and the factorization dominates.
     pub fn refine_once(&mut self) -> Result<Step, RefineError> {
         if let Some(reason) = self.stop {
             return Ok(Step::Stopped(reason));
@@ -310,11 +327,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             params.indicator,
             Indicator::Coefficients | Indicator::Both { .. }
         ) {
-            out.indication = Some(coefficient_indication(
-                &self.tree,
-                &self.current.columns,
-                &self.current.coefficients,
-            ));
+            out.indication = Some(coefficient_indication(&self.tree, &self.current.fit));
         }
         if let Indicator::Residual { probes } | Indicator::Both { probes } = params.indicator {
             let markable: Vec<Leaf> = leaves
@@ -509,7 +522,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             round: self.round,
             samples: c.samples,
             new_samples: c.new_samples,
-            basis_size: c.columns.len(),
+            basis_size: c.fit.active.len(),
             depth: self.tree.depth(),
             leaves,
             min_leaf_samples,
@@ -528,10 +541,8 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         Refinement {
             tree: self.tree,
             samples: self.store.samples,
-            columns: self.current.columns,
-            coefficients: self.current.coefficients,
+            fit: self.current.fit,
             kernel,
-            solve: self.current.solve,
             rounds: self.rounds,
             stop: self.stop.unwrap_or(StopReason::MaxRounds),
             base_depth: self.base_depth,
@@ -541,7 +552,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
 }
 
 /// Brings the normal equations to the current tree and samples and solves them (or, for
-/// CGLS, solves from `K` assembled from the active rows); the reference error if asked.
+/// CGLS, solves from `K` filtered from the cached rows); the reference error if asked.
 fn fit_round(
     tree: &WaveletTree,
     store: &SampleStore,
@@ -552,44 +563,41 @@ fn fit_round(
     sample_s: f64,
 ) -> Result<Current, RefineError> {
     let t0 = Instant::now();
-    let columns = tree.columns();
+    let active = ActiveSet::from_sorted(tree.basis()?, tree.columns());
+    let columns = active.indices();
     let coarse = tree.coarse();
     normal.update(
         &store.rows,
         &store.samples,
-        &columns,
+        columns,
         |a| tree.support_unit(a),
         |a| level_of(tree.function(a), coarse),
     );
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let (by_slot, solve) = if params.solve.method == GlobalMethod::Cholesky {
+    let (coefficients, solve) = if params.solve.method == GlobalMethod::Cholesky {
         let mut solved = normal.solve(&store.samples, &params.solve)?;
-        (solved.coefficients.swap_remove(0), solved.report)
+        let by_slot = solved.coefficients.swap_remove(0);
+        let coefficients = columns
+            .iter()
+            .map(|&a| by_slot[normal.slot(a).expect("every column is active")])
+            .collect();
+        (coefficients, solved.report)
     } else {
-        let kernel = normal.kernel(&columns);
+        let kernel = store.rows.kernel(&active);
         let values = store.values();
         let mut solved = global_ls(&kernel, &[&values], &params.solve)?;
-        let by_column = solved.coefficients.swap_remove(0);
-        let mut by_slot = vec![0.0; columns.len()];
-        for (c, &a) in columns.iter().enumerate() {
-            by_slot[normal.slot(a).expect("every column is active")] = by_column[c];
-        }
-        (by_slot, solved.report)
+        (solved.coefficients.swap_remove(0), solved.report)
     };
     let solve_s = t1.elapsed().as_secs_f64();
-    let coefficients: Vec<f64> = columns
-        .iter()
-        .map(|&a| by_slot[normal.slot(a).expect("every column is active")])
-        .collect();
-    let error = reference
-        .as_mut()
-        .map(|(points, truth)| ErrorFigures::between(&points.values(normal, &by_slot), truth));
+    let error = reference.as_mut().map(|(points, truth)| {
+        let by_slot = normal.by_slot(columns, &coefficients);
+        ErrorFigures::between(&points.values(normal, &by_slot), truth)
+    });
+    let fit = tree_fit(active, coefficients, solve, store.len());
     Ok(Current {
-        columns,
-        coefficients,
+        fit,
         samples: store.len(),
-        solve,
         error,
         new_samples,
         times: RoundTimes {

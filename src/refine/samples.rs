@@ -6,10 +6,10 @@ use rand::Rng;
 use rand_pcg::Pcg64;
 use serde::Serialize;
 
-use super::normal::CachedRows;
 use super::tree::Leaf;
 use super::{RefineError, SampleOracle};
 use crate::basis::CdvBasis;
+use crate::kernel::EvaluationRows;
 use crate::sampling::Domain;
 
 /// Whether a sample belongs to the base sampling or was added by refinement.
@@ -53,7 +53,7 @@ pub(crate) struct SampleStore {
     /// Unit positions, ascending (for counting per leaf).
     sorted: Vec<f64>,
     /// The evaluation of `Psi(n, D)` at every sample.
-    pub rows: CachedRows,
+    pub rows: EvaluationRows,
 }
 
 impl SampleStore {
@@ -61,7 +61,7 @@ impl SampleStore {
         Self {
             samples: Vec::new(),
             sorted: Vec::new(),
-            rows: CachedRows::new(),
+            rows: EvaluationRows::new(),
         }
     }
 

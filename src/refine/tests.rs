@@ -224,8 +224,9 @@ fn incremental_normal_equations_equal_a_fresh_k_transpose_k() {
 /// bound asserted, `1e3 eps cond(K)`, leaves the usual factor for `P`-dependent constants.
 #[test]
 fn tree_solve_reaches_svd_accuracy_on_ill_conditioned_k() {
-    use super::normal::{level_of, CachedRows, NormalEquations};
+    use super::normal::{level_of, NormalEquations};
     use super::Sample;
+    use crate::kernel::{ActiveSet, EvaluationRows};
     use crate::solve::{dense_pinv, GlobalLsParams};
     let p = 3;
     let n = minimum_level(p);
@@ -255,7 +256,7 @@ fn tree_solve_reaches_svd_accuracy_on_ill_conditioned_k() {
         }
     }
     let columns = tree.columns();
-    let mut cached = CachedRows::new();
+    let mut cached = EvaluationRows::new();
     cached.push(&full, &ts);
     let c_true: Vec<f64> = (0..columns.len()).map(|_| 2.0 * uniform() - 1.0).collect();
     let mut samples: Vec<Sample> = ts
@@ -277,7 +278,10 @@ fn tree_solve_reaches_svd_accuracy_on_ill_conditioned_k() {
         |a| tree.support_unit(a),
         |a| level_of(tree.function(a), coarse),
     );
-    let k = normal.kernel(&columns);
+    let k = cached.kernel(&ActiveSet::from_sorted(
+        tree.basis().unwrap(),
+        columns.clone(),
+    ));
     for (v, (i, j)) in k.iter() {
         samples[i].value += v * c_true[j];
     }

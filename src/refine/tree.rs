@@ -13,49 +13,14 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
+pub use crate::basis::{cell_of, support_cells};
 use crate::basis::{BasisError, CdvBasis, FilterBank, FunctionId, FunctionKind};
 use crate::kernel::ActiveSet;
 use crate::sampling::Domain;
 
-/// The level-`level` cell holding `t` in `[0, 1]`: `floor(2^level t)`, with `t = 1` in the last
-/// cell (the evaluator's convention).
-pub fn cell_of(t: f64, level: u32) -> u64 {
-    let size = 1u64 << level;
-    if t.is_nan() || t <= 0.0 {
-        return 0;
-    }
-    if t >= 1.0 {
-        return size - 1;
-    }
-    ((t * size as f64).floor() as u64).min(size - 1)
-}
-
 /// Deepest tree [`WaveletTree::active_set`] converts: the evaluator's limit (an [`ActiveSet`]
 /// of a sparse or deep tree looks columns up by binary search instead of a dense map).
 pub const ACTIVE_SET_MAX_LEVEL: u32 = crate::basis::MAX_LEVEL;
-
-/// Column of global index `a` in the ascending list `columns` (binary search).
-pub fn column_of(columns: &[usize], a: usize) -> Option<usize> {
-    columns.binary_search(&a).ok()
-}
-
-/// Structural support of function `index` of a level with `2^level` functions: the inclusive
-/// range of level-`level` cells on which it is (structurally) nonzero, for `p` vanishing
-/// moments (`p` edge functions per side, none for Haar).
-pub fn support_cells(p: usize, level: u32, index: usize) -> (u64, u64) {
-    let size = 1u64 << level;
-    let k = index as u64;
-    let p64 = p as u64;
-    let edges = if p >= 2 { p64 } else { 0 };
-    if k < edges {
-        (0, p64 + k - 1)
-    } else if k + edges >= size {
-        let r = size - 1 - k;
-        (size - p64 - r, size - 1)
-    } else {
-        (k.saturating_sub(p64 - 1), (k + p64 - 1).min(size - 1))
-    }
-}
 
 /// A leaf of the tree: the level-`level` cell `cell` of the unit interval, on which the local
 /// depth is `level - 1` (one slot of the local space `V_level`).
@@ -361,7 +326,7 @@ impl WaveletTree {
     }
 
     /// The columns of `K`: every active global index, ascending (column `c` is `columns[c]`,
-    /// the order of [`ActiveSet`]); look one up with [`column_of`].
+    /// the order of [`ActiveSet`]; look one up with [`ActiveSet::column`]).
     pub fn columns(&self) -> Vec<usize> {
         self.indices().collect()
     }

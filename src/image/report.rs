@@ -1,0 +1,242 @@
+//! Typed reports of the image-plane commands that take a renderer's samples: what a
+//! reconstruction from files or one call of the plan protocol did, for the text output and
+//! `--json` alike (the command line only prints them).
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::adaptive::protocol::{PlanReconstruction, PlanState, PlanStep};
+use super::adaptive::{SamplePositions, TreeFitReport};
+use super::experiment::{peak_memory_mb, Method, MethodExtras, StageTimes};
+use super::wavelet::WaveletReport;
+use super::{ImagePlane, ImageSamples};
+use crate::refine::StopReason;
+
+/// Seconds per stage of a reconstruction from a sample file.
+#[derive(Clone, Debug, Serialize)]
+pub struct FileStageSeconds {
+    /// Reading and checking the samples.
+    pub read: f64,
+    /// The fit (normal equations and solve; 0 for film filters).
+    pub fit: f64,
+    /// Pixel values from the fit or the splat.
+    pub pixels: f64,
+    /// Writing the image.
+    pub write: f64,
+    /// End to end.
+    pub total: f64,
+}
+
+/// A reconstruction of a renderer's samples onto pixels (`reconstruct --dim 2`).
+#[derive(Clone, Debug, Serialize)]
+pub struct FileReconstructionReport {
+    /// The sample file.
+    pub input: PathBuf,
+    /// The image written.
+    pub output: PathBuf,
+    /// `WxH`.
+    pub resolution: String,
+    /// Samples `m`.
+    pub samples: usize,
+    /// Value channels per sample.
+    pub channels: usize,
+    /// The reconstruction method.
+    pub method: Method,
+    /// Vanishing moments of the wavelet methods.
+    pub p: usize,
+    /// Basis functions (wavelet methods).
+    pub functions: Option<usize>,
+    /// The solve's report (wavelet methods).
+    pub solve: Option<WaveletReport>,
+    /// Seconds per stage.
+    pub time_s: FileStageSeconds,
+    /// Peak resident memory in MB, where the platform reports it.
+    pub peak_mb: Option<f64>,
+    /// Every fallback or cut-off, in words.
+    pub notes: Vec<String>,
+}
+
+impl FileReconstructionReport {
+    /// The report of `samples` from `input` reconstructed by `method` (basis `p`) into
+    /// `output`, with the method's `extras` and stage `times`; `read` and `write` seconds
+    /// measured by the caller, `total` since it started.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        input: &Path,
+        output: &Path,
+        plane: ImagePlane,
+        samples: &ImageSamples,
+        method: Method,
+        p: usize,
+        extras: MethodExtras,
+        times: &StageTimes,
+        read: f64,
+        write: f64,
+        total: f64,
+    ) -> Self {
+        Self {
+            input: input.to_path_buf(),
+            output: output.to_path_buf(),
+            resolution: plane.to_string(),
+            samples: samples.len(),
+            channels: samples.channels(),
+            method,
+            p,
+            functions: extras.functions,
+            solve: extras.solve,
+            time_s: FileStageSeconds {
+                read,
+                fit: times.fit,
+                pixels: times.pixels,
+                write,
+                total,
+            },
+            peak_mb: peak_memory_mb(),
+            notes: extras.notes,
+        }
+    }
+}
+
+/// One call of the plan protocol (`plan`): the positions written and where the plan stands.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanCallReport {
+    /// The state file.
+    pub state: PathBuf,
+    /// The positions file written.
+    pub out: PathBuf,
+    /// `WxH`.
+    pub resolution: String,
+    /// Rounds whose positions have been handed out, the ones just written included.
+    pub round: usize,
+    /// Positions written by this call.
+    pub positions: usize,
+    /// Positions handed out in all.
+    pub total_positions: usize,
+    /// The sample budget.
+    pub budget: usize,
+    /// Why the plan stopped (`None` while it runs).
+    pub stop: Option<StopReason>,
+    /// The round fitted on the samples given (`None` for a new plan).
+    pub step: Option<PlanStep>,
+}
+
+impl PlanCallReport {
+    /// The report of a call that left the plan in `state` (saved under `dir`) and wrote
+    /// `next` to `out`, after `step` (`None`: the call started the plan).
+    pub fn new(
+        state: &PlanState,
+        dir: &Path,
+        out: &Path,
+        next: &SamplePositions,
+        step: Option<PlanStep>,
+    ) -> Self {
+        Self {
+            state: PlanState::path(dir),
+            out: out.to_path_buf(),
+            resolution: state.plane.to_string(),
+            round: state.round(),
+            positions: next.len(),
+            total_positions: state.positions(),
+            budget: state.params.budget,
+            stop: state.stop,
+            step,
+        }
+    }
+}
+
+/// A reconstruction on the tree of a plan (`reconstruct --dim 2 --state`).
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanReconstructionReport {
+    /// The sample file.
+    pub input: PathBuf,
+    /// The image written.
+    pub output: PathBuf,
+    /// The state file.
+    pub state: PathBuf,
+    /// `WxH`.
+    pub resolution: String,
+    /// Samples `m`.
+    pub samples: usize,
+    /// Value channels per sample.
+    pub channels: usize,
+    /// The last round of the samples.
+    pub round: usize,
+    /// Whether the samples are the plan's final set.
+    pub complete: bool,
+    /// Vanishing moments of the plan's basis.
+    pub p: usize,
+    /// Levels of the plan's basis per axis.
+    pub levels: (u32, u32),
+    /// Active cells of the tree per step.
+    pub cells_per_step: Vec<usize>,
+    /// The solve on the tree.
+    pub fit: TreeFitReport,
+    /// Seconds end to end.
+    pub time_s: f64,
+    /// Every fallback, and the parameters the plan overrides, in words.
+    pub notes: Vec<String>,
+}
+
+impl PlanReconstructionReport {
+    /// The report of `done` (from `samples` in `input`, the plan in `dir`) written to
+    /// `output`; `overridden` names the caller's parameters the plan does not use, `time_s`
+    /// is the time end to end. The notes are `overridden`, then [`plan_fit_notes`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        state: &PlanState,
+        dir: &Path,
+        input: &Path,
+        output: &Path,
+        samples: &ImageSamples,
+        done: &PlanReconstruction,
+        overridden: Vec<String>,
+        time_s: f64,
+    ) -> Self {
+        let mut notes = overridden;
+        notes.extend(plan_fit_notes(done));
+        Self {
+            input: input.to_path_buf(),
+            output: output.to_path_buf(),
+            state: PlanState::path(dir),
+            resolution: state.plane.to_string(),
+            samples: samples.len(),
+            channels: samples.channels(),
+            round: done.round,
+            complete: done.complete,
+            p: state.params.p,
+            levels: done.tree.basis().levels(),
+            cells_per_step: done.tree.cells_per_step(),
+            fit: done.fit.report.clone(),
+            time_s,
+            notes,
+        }
+    }
+}
+
+/// What a reconstruction on a plan's tree must say: an unfinished plan, a ridge, functions
+/// without samples.
+pub fn plan_fit_notes(done: &PlanReconstruction) -> Vec<String> {
+    let mut notes = Vec::new();
+    if !done.complete {
+        notes.push(format!(
+            "the plan has not stopped: this is the fit of the samples of rounds 0..={} on \
+             their tree, not the final image",
+            done.round
+        ));
+    }
+    let fit = &done.fit.report;
+    if fit.ridge > 0.0 {
+        notes.push(format!(
+            "the normal matrix was numerically singular: a relative ridge {:.0e} was added",
+            fit.ridge
+        ));
+    }
+    if fit.unsampled > 0 {
+        notes.push(format!(
+            "{} functions have no sample in their support (held at 0 by the ridge)",
+            fit.unsampled
+        ));
+    }
+    notes
+}
