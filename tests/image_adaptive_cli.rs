@@ -5,8 +5,9 @@ mod common;
 
 /// `compare --adaptive` on a small scene: the JSON carries the adaptive comparison (the
 /// adaptive wavelet within the budget, the film filters on the adaptive samples beside the
-/// stratified ones), the table and the figure are written, the noisy run is said to have no
-/// adaptive rows, and nothing is replaced without --force.
+/// stratified ones), one adaptive run per noise level (the noisy one on noisy samples, its
+/// noise test's cut-offs in the notes), the table and the figures are written, and nothing is
+/// replaced without --force.
 #[test]
 fn compare_adaptive_adds_the_adaptive_rows() {
     let dir = common::scratch("cmpad", "rows");
@@ -52,14 +53,37 @@ fn compare_adaptive_adds_the_adaptive_rows() {
     let best = adaptive["best_uniform_film"][1].as_f64().unwrap();
     let psnr = rows[0]["metrics"]["psnr"].as_f64().unwrap();
     assert!((psnr - best - gain).abs() < 1e-9);
-    assert!(json["adaptive_notes"][0]
+    let noisy = &json["adaptive"][1];
+    assert_eq!(json["adaptive"].as_array().map(Vec::len), Some(2));
+    assert_eq!(adaptive["noise"], 0.0);
+    assert_eq!(noisy["noise"], 0.05);
+    let last = noisy["adaptive"]["rounds"]
+        .as_array()
+        .unwrap()
+        .last()
+        .unwrap();
+    let sigma = last["noise"]["sigma"].as_f64().unwrap();
+    assert!((0.03..0.08).contains(&sigma), "estimated sigma {sigma}");
+    assert!(noisy["rows"].as_array().unwrap().len() == rows.len());
+    assert!(json["adaptive_notes"].as_array().unwrap().iter().any(|n| n
         .as_str()
-        .is_some_and(|n| n.contains("noise-free")));
-    for f in ["compare_adaptive.md", "slanted_edge_adaptive.png"] {
+        .is_some_and(|n| n.contains("noise 0.05") && n.contains("not significant"))));
+    for f in [
+        "compare_adaptive.md",
+        "slanted_edge_adaptive.png",
+        "slanted_edge_noise0.05_adaptive.png",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
     let table = std::fs::read_to_string(out.join("compare_adaptive.md")).unwrap();
-    assert!(table.contains("| slanted_edge | 4 | adaptive |"), "{table}");
+    assert!(
+        table.contains("| slanted_edge | 4 | 0 | adaptive |"),
+        "{table}"
+    );
+    assert!(
+        table.contains("| slanted_edge | 4 | 0.05 | adaptive |"),
+        "{table}"
+    );
     let again = common::user_error(&args);
     assert!(again.contains("--force"), "{again}");
     let _ = std::fs::remove_dir_all(&dir);

@@ -8,7 +8,7 @@ use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError, STATE_VERSION};
 use rkwave::image::adaptive::{
-    refine_image, AdaptiveParams, ImageOracle, SamplePositions, SceneOracle,
+    refine_image, AdaptiveParams, ImageOracle, NoisyOracle, SamplePositions, SceneOracle,
 };
 use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples};
@@ -100,6 +100,39 @@ fn protocol_gives_the_in_process_image() {
     assert_eq!(rendered.ys, run.ys);
     assert_eq!(state.stop, Some(run.report.stop));
     assert_eq!(state.issued.len(), run.report.rounds.len());
+    let done = state.reconstruct(&rendered.samples(plane)).unwrap();
+    assert!(done.complete);
+    assert_eq!(done.tree.depth_map(), run.tree.depth_map());
+    let pixels = done.fit.box_pixels(&done.tree).unwrap();
+    assert_eq!(pixels, run.pixels().unwrap().channels);
+}
+
+/// With noise (a renderer's Monte Carlo estimates): the noise is a function of the seed and
+/// the position, the noise test's probes too, so the file protocol still repeats the
+/// in-process loop bit for bit, densifying rounds (no cell marked) included.
+#[test]
+fn protocol_with_noise_gives_the_in_process_image() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let oracle = NoisyOracle {
+        inner: &straight_edge,
+        sigma: 0.05,
+        seed: 3,
+    };
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        seed: 11,
+        ..AdaptiveParams::default()
+    };
+    let run = refine_image(&oracle, plane, &params).unwrap();
+    assert!(
+        run.report.rounds.iter().any(|r| r.densified_to.is_some()),
+        "the test needs a densifying round"
+    );
+    let (state, rendered) = drive(&oracle, plane, &params);
+    assert_eq!(rendered.xs, run.xs);
+    assert_eq!(rendered.ys, run.ys);
+    assert_eq!(rendered.values, run.values);
+    assert_eq!(state.stop, Some(run.report.stop));
     let done = state.reconstruct(&rendered.samples(plane)).unwrap();
     assert!(done.complete);
     assert_eq!(done.tree.depth_map(), run.tree.depth_map());

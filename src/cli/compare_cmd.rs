@@ -77,9 +77,9 @@ pub struct CompareArgs {
     /// Print the comparisons as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Also the adaptive rows (noise-free runs): the adaptive wavelet at an average of `--spp`
-    /// samples per pixel, and the film filters on its sample set; a table
-    /// `compare_adaptive.md` and one figure per scene (image, local depth, samples).
+    /// Also the adaptive rows, one run per scene and noise level: the adaptive wavelet at an
+    /// average of `--spp` samples per pixel, and the film filters on its (noisy) sample set; a
+    /// table `compare_adaptive.md` and one figure per run (image, local depth, samples).
     #[arg(long)]
     pub adaptive: bool,
 }
@@ -126,7 +126,9 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     if args.adaptive {
         check_writable(&args.out.join(ADAPTIVE_TABLE), args.force)?;
         for scene in &scenes {
-            check_writable(&adaptive_figure(args, scene), args.force)?;
+            for &noise in &args.noise {
+                check_writable(&adaptive_figure(args, scene, noise), args.force)?;
+            }
         }
     }
     std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
@@ -238,10 +240,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             args.out.display()
         );
         if let Some(a) = &adaptive {
-            println!(
-                "adaptive rows (PSNR dB, {} spp on average, noise-free):",
-                args.spp
-            );
+            println!("adaptive rows (PSNR dB, {} spp on average):", args.spp);
             print!("{}", a.markdown);
             for note in &a.notes {
                 println!("note (adaptive): {note}");
@@ -259,9 +258,14 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
 /// The table of the adaptive rows.
 const ADAPTIVE_TABLE: &str = "compare_adaptive.md";
 
-/// The adaptive figure of `scene` (image, local depth, samples).
-fn adaptive_figure(args: &CompareArgs, scene: &Scene) -> PathBuf {
-    args.out.join(format!("{}_adaptive.png", scene.name()))
+/// The adaptive figure of `scene` at `noise` (image, local depth, samples).
+fn adaptive_figure(args: &CompareArgs, scene: &Scene, noise: f64) -> PathBuf {
+    if noise == 0.0 {
+        args.out.join(format!("{}_adaptive.png", scene.name()))
+    } else {
+        args.out
+            .join(format!("{}_noise{noise}_adaptive.png", scene.name()))
+    }
 }
 
 /// What `--adaptive` adds.
@@ -271,8 +275,8 @@ struct AdaptiveRows {
     notes: Vec<String>,
 }
 
-/// The adaptive rows of every scene (noise-free): the library's comparison, its figure and
-/// the table.
+/// The adaptive rows of every scene and noise level: the library's comparison, its figure
+/// and the table.
 fn adaptive_rows(
     args: &CompareArgs,
     scenes: &[Scene],
@@ -287,30 +291,32 @@ fn adaptive_rows(
         ..AdaptiveParams::default()
     };
     let mut notes = Vec::new();
-    if args.noise.iter().any(|&n| n != 0.0) {
-        notes.push(
-            "the adaptive rows are noise-free: the noisy runs have no adaptive rows".to_string(),
-        );
-    }
-    let mut comparisons = Vec::with_capacity(scenes.len());
+    let mut comparisons = Vec::with_capacity(scenes.len() * args.noise.len());
     for scene in scenes {
-        let fig = adaptive_figure(args, scene);
-        let out = compare_adaptive(scene, plane, args.spp, &params, truth)
-            .map_err(|e| CliError::Invalid(e.to_string()))?;
-        let c = &out.comparison;
-        let title = format!(
-            "{} at {plane}, {} samples ({} spp on average), PSNR {:.2} dB ({:+.2} dB over {} \
-             on stratified samples)",
-            c.scene,
-            c.adaptive.samples,
-            args.spp,
-            c.rows[0].metrics.psnr,
-            c.gain_db,
-            c.best_uniform_film.0
-        );
-        save_adaptive_figure(&out.run, &out.image, &title, &fig, args.force)?;
-        notes.extend(c.adaptive.notes.iter().map(|n| format!("{}: {n}", c.scene)));
-        comparisons.push(out.comparison);
+        for &noise in &args.noise {
+            let fig = adaptive_figure(args, scene, noise);
+            let out = compare_adaptive(scene, plane, args.spp, noise, &params, truth)
+                .map_err(|e| CliError::Invalid(e.to_string()))?;
+            let c = &out.comparison;
+            let title = format!(
+                "{} at {plane}, noise {noise}, {} samples ({} spp on average), PSNR {:.2} dB \
+             ({:+.2} dB over {} on stratified samples)",
+                c.scene,
+                c.adaptive.samples,
+                args.spp,
+                c.rows[0].metrics.psnr,
+                c.gain_db,
+                c.best_uniform_film.0
+            );
+            save_adaptive_figure(&out.run, &out.image, &title, &fig, args.force)?;
+            notes.extend(
+                c.adaptive
+                    .notes
+                    .iter()
+                    .map(|n| format!("{} noise {noise}: {n}", c.scene)),
+            );
+            comparisons.push(out.comparison);
+        }
     }
     let markdown = format!(
         "{}\nEvery method on each sample set:\n\n{}",

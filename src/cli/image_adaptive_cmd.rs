@@ -34,6 +34,11 @@ pub struct AdaptiveArgs {
     /// Cholesky (experimental: iterations and condition estimates per round in the output).
     #[arg(long)]
     pub pcg: bool,
+    /// Adaptive mode: false-alarm rate of the noise test, the chance per round that noise
+    /// alone deepens a slot (the noise level is estimated from the fits' residuals; 0: no
+    /// noise test, every detail is deepened).
+    #[arg(long, default_value_t = 0.01)]
+    pub false_alarm: f64,
 }
 
 fn figure_path(out: &Path, what: &str) -> PathBuf {
@@ -60,10 +65,11 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         check_writable(path, args.force)?;
     }
     let plane = parse_resolution(&args.resolution)?;
-    if args.noise != 0.0 {
-        return Err(CliError::Invalid(
-            "--noise with --adaptive: the adaptive mode is noise-free for now".into(),
-        ));
+    if !(args.noise.is_finite() && args.noise >= 0.0) {
+        return Err(CliError::Invalid(format!(
+            "--noise {}: give a standard deviation >= 0",
+            args.noise
+        )));
     }
     let budget = a.budget.unwrap_or(args.spp.saturating_mul(plane.pixels()));
     let spp = budget / plane.pixels();
@@ -80,6 +86,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         p: check_p(args.p)?,
         rho: args.rho.map_or(Ok(2.0), check_rho)?,
         below_pixel: a.below_pixel,
+        false_alarm: a.false_alarm,
         seed: args.seed,
         budget,
         solver: if a.pcg {
@@ -94,7 +101,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         cache: args.truth_cache.clone(),
     };
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
-    let out = compare_adaptive(&scene, plane, spp, &params, &truth)
+    let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)
         .map_err(|e| CliError::Invalid(e.to_string()))?;
     bar.finish_and_clear();
     write(&args.out, &out.image, args.force)?;
@@ -123,9 +130,10 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     }
     let r = &c.adaptive;
     println!(
-        "{} {plane} adaptive: {} samples of {} (base {}), {} functions, {} rounds, stop {:?}, \
-         levels base {:?} limit {:?} -> {}",
+        "{} {plane} adaptive (noise {}): {} samples of {} (base {}), {} functions, {} rounds, \
+         stop {:?}, levels base {:?} limit {:?} -> {}",
         c.scene,
+        c.noise,
         r.samples,
         r.budget,
         r.base_samples,
@@ -168,6 +176,16 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             })
             .collect();
         println!("PCG per round: {}", per_round.join("; "));
+    }
+    if let Some(level) = r.rounds.last().and_then(|l| l.noise.as_ref()) {
+        let densified = r.rounds.iter().filter(|l| l.densified_to.is_some()).count();
+        println!(
+            "noise test: estimated sigma {:.4} (false-alarm rate {}), {} slots not deepened \
+             (not significant), {densified} densifying rounds",
+            level.sigma,
+            a.false_alarm,
+            r.rounds.last().map_or(0, |l| l.insignificant)
+        );
     }
     for note in &r.notes {
         println!("note: {note}");

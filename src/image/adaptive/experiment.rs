@@ -8,12 +8,17 @@
 //! * every film filter on the adaptive sample set (weighted splatting): separates what the
 //!   sample placement buys from what the reconstruction buys.
 //!
+//! With noise `sigma > 0` every sample value carries Gaussian noise of that deviation, the
+//! adaptive ones through [`super::NoisyOracle`] (seeded by the seed and the position), the
+//! stratified ones as in the uniform experiment; the refiner is not told `sigma` (it
+//! estimates the noise from its fits' residuals, [`super::significance`]).
+//!
 //! All against the box-filtered ground truth ([`crate::image::truth`]).
 
 use serde::Serialize;
 
 use super::refiner::{refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport};
-use super::{AdaptiveError, SceneOracle};
+use super::{AdaptiveError, ImageOracle, NoisyOracle, SceneOracle};
 use crate::image::experiment::{
     run_method, sample_scene, ImageRunError, Method, SamplingParams, TruthParams, WaveletParams,
 };
@@ -62,6 +67,8 @@ pub struct AdaptiveComparison {
     pub plane: ImagePlane,
     /// Average samples per pixel.
     pub spp: usize,
+    /// Standard deviation of the noise of every sample value (0: noise-free).
+    pub noise: f64,
     /// The adaptive run.
     pub adaptive: AdaptiveReport,
     /// Every method.
@@ -86,11 +93,13 @@ pub struct AdaptiveOutput {
     pub truth: PixelImage,
 }
 
-/// Runs the comparison on `scene` at `spp` samples per pixel on average.
+/// Runs the comparison on `scene` at `spp` samples per pixel on average, sample values with
+/// Gaussian noise of deviation `noise` (0: none).
 pub fn compare_adaptive(
     scene: &Scene,
     plane: ImagePlane,
     spp: usize,
+    noise: f64,
     params: &AdaptiveParams,
     truth: &TruthParams,
 ) -> Result<AdaptiveOutput, AdaptiveRunError> {
@@ -100,7 +109,22 @@ pub fn compare_adaptive(
         budget: spp * plane.pixels(),
         ..*params
     };
-    let run = refine_image(&SceneOracle { scene, plane }, plane, &params)?;
+    if !(noise.is_finite() && noise >= 0.0) {
+        return Err(AdaptiveError::Parameter {
+            parameter: "noise sigma",
+            value: noise.to_string(),
+            expected: "a finite deviation >= 0",
+        }
+        .into());
+    }
+    let clean = SceneOracle { scene, plane };
+    let noisy = NoisyOracle {
+        inner: &clean,
+        sigma: noise,
+        seed: params.seed.wrapping_add(1),
+    };
+    let oracle: &dyn ImageOracle = if noise > 0.0 { &noisy } else { &clean };
+    let run = refine_image(oracle, plane, &params)?;
     let image = run.pixels()?;
     let adaptive_s = t.elapsed().as_secs_f64();
     let mut rows = vec![AdaptiveRow {
@@ -116,7 +140,7 @@ pub fn compare_adaptive(
             plane,
             spp,
             sampler: Sampler::Stratified,
-            noise: 0.0,
+            noise,
             seed: params.seed,
         },
     )?;
@@ -152,6 +176,7 @@ pub fn compare_adaptive(
             scene: scene.name().to_string(),
             plane,
             spp,
+            noise,
             adaptive: run.report.clone(),
             rows,
             best_uniform_film: best,
@@ -169,8 +194,8 @@ pub fn compare_adaptive(
 /// film filter on the adaptive samples.
 pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut s = String::from(
-        "| scene | spp | adaptive wavelet | best film (stratified) | gain dB | wavelet \
-         (stratified) | best film (adaptive set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | spp | noise | adaptive wavelet | best film (stratified) | gain dB | wavelet \
+         (stratified) | best film (adaptive set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for c in rows {
         let psnr = |from: &str, pred: &dyn Fn(&str) -> bool| {
@@ -184,9 +209,10 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
         let wav = psnr("stratified", &|m| m == "wavelet");
         let film_adaptive = psnr("adaptive", &|m| m != "adaptive wavelet");
         s.push_str(&format!(
-            "| {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} ({}) | {} | {} | {:?} |\n",
+            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} ({}) | {} | {} | {:?} |\n",
             c.scene,
             c.spp,
+            c.noise,
             c.rows[0].metrics.psnr,
             c.best_uniform_film.1,
             c.best_uniform_film.0,
@@ -209,7 +235,7 @@ pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut methods = vec!["adaptive wavelet".to_string(), "wavelet".to_string()];
     methods.extend(FilmFilterKind::ALL.map(|k| k.name().to_string()));
     let mut s = format!(
-        "| scene | spp | samples from | samples | {} |\n|---|---|---|---|{}\n",
+        "| scene | spp | noise | samples from | samples | {} |\n|---|---|---|---|---|{}\n",
         methods.join(" | "),
         "---:|".repeat(methods.len())
     );
@@ -226,9 +252,10 @@ pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
                 .map(|m| of(m).map_or("—".into(), |r| format!("{:.2}", r.metrics.psnr)))
                 .collect();
             s.push_str(&format!(
-                "| {} | {} | {from} | {samples} | {} |\n",
+                "| {} | {} | {} | {from} | {samples} | {} |\n",
                 c.scene,
                 c.spp,
+                c.noise,
                 cells.join(" | ")
             ));
         }

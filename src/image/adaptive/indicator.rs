@@ -20,6 +20,11 @@
 //! basis on the rectangle, pixel units), so `sqrt(sum eta^2 / (W H))` is the estimated RMS
 //! error per unit area. Slots at the depth limit count in the estimate but cannot be marked.
 //!
+//! *Noise* ([`super::significance`]): with a test given, a slot below the depth limit is
+//! markable only if `m` exceeds its parent's threshold `sigma sqrt(v_P q)`; the others
+//! are counted (`insignificant`) and kept in `total_sq` (the estimate stays conservative) but
+//! never marked.
+//!
 //! Tried besides: nothing yet in 2D (the 1D refiner's residual indicator at probe points is the
 //! next candidate; see the issue notes).
 
@@ -33,8 +38,11 @@ pub struct Indication {
     pub units: Vec<(Cell, f64)>,
     /// Estimated squared error over the image, `sum eta^2` over every slot.
     pub total_sq: f64,
-    /// The part of it that marking can reduce (slots below the depth limit).
+    /// The part of it that marking can reduce (significant slots below the depth limit).
     pub markable_sq: f64,
+    /// Slots below the depth limit whose parent's detail is within the noise (not markable),
+    /// largest indicator first.
+    pub insignificant: Vec<(Cell, f64)>,
 }
 
 /// `max_a |c_a|` (norm over channels) over the three functions of `cell`.
@@ -65,8 +73,14 @@ fn neighbourhood(tree: &QuadTree, coefficients: &[Vec<f64>], cell: Cell) -> f64 
 }
 
 /// The indicator of every slot of `tree` from the fit's coefficients (full Mallat layout per
-/// channel), the decay ratio capped at `max_ratio` (`r_max`, at least `2^-(p+1)`).
-pub fn indicate(tree: &QuadTree, coefficients: &[Vec<f64>], max_ratio: f64) -> Indication {
+/// channel), the decay ratio capped at `max_ratio` (`r_max`, at least `2^-(p+1)`); with
+/// `threshold`, only slots whose parent `P` has `m > threshold(P)` are markable.
+pub fn indicate(
+    tree: &QuadTree,
+    coefficients: &[Vec<f64>],
+    max_ratio: f64,
+    threshold: Option<&dyn Fn(Cell) -> f64>,
+) -> Indication {
     let p = tree.basis().p() as i32;
     let min_ratio = (-(p + 1) as f64).exp2();
     let max_ratio = max_ratio.max(min_ratio);
@@ -90,11 +104,16 @@ pub fn indicate(tree: &QuadTree, coefficients: &[Vec<f64>], max_ratio: f64) -> I
         let eta = (3.0 * (r * m).powi(2) / (1.0 - (2.0 * r * r).min(0.81))).sqrt();
         out.total_sq += eta * eta;
         if slot.step < tree.steps() {
-            out.markable_sq += eta * eta;
-            out.units.push((slot, eta));
+            if threshold.is_some_and(|t| m <= t(parent)) {
+                out.insignificant.push((slot, eta));
+            } else {
+                out.markable_sq += eta * eta;
+                out.units.push((slot, eta));
+            }
         }
     }
-    out.units
-        .sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    for list in [&mut out.units, &mut out.insignificant] {
+        list.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    }
     out
 }

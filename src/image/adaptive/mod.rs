@@ -6,6 +6,7 @@
 //! * [`fit`]: least squares on the tree (sparse Cholesky of `K_T^T K_T`, all channels from
 //!   one factor) and exact box pixels through the 2D synthesis;
 //! * [`indicator`]: predicted coefficients of the missing children, per slot;
+//! * [`significance`]: which of them stand out of the samples' noise (probe fits);
 //! * [`refiner`]: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop): fit, indicate, mark (Dörfler, within the budget), deepen, add
 //!   samples in the new slots so that every slot keeps `ceil(rho)` samples; stop at a
 //!   tolerance, the depth limit or the sample budget;
@@ -22,6 +23,7 @@ pub mod marking;
 pub mod pcg;
 pub mod protocol;
 pub mod refiner;
+pub mod significance;
 pub mod tree;
 
 pub use fit::{fit_tree, fit_tree_with, TreeFit, TreeFitReport};
@@ -30,6 +32,7 @@ pub use refiner::{
     refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, Decision, ImagePlan, ImageRound,
     PlanProgress, Round, SamplePositions,
 };
+pub use significance::{NoiseLevel, Significance};
 pub use tree::{Cell, QuadTree};
 
 use thiserror::Error;
@@ -128,5 +131,51 @@ impl<F: Fn(f64, f64) -> f64 + Sync> ImageOracle for F {
     }
     fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
         out[0] = self(x, y);
+    }
+}
+
+/// 64-bit mix (SplitMix64's finaliser).
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A standard normal deviate that is a function of `seed`, the position's bits and the index
+/// `k` (Box–Muller on two uniforms from a 64-bit mix): the same position always gets the same
+/// deviate, whatever the order or the process that asks.
+pub fn position_normal(seed: u64, x: f64, y: f64, k: usize) -> f64 {
+    let h = mix64(seed ^ mix64(x.to_bits() ^ mix64(y.to_bits() ^ mix64(k as u64 + 1))));
+    let (a, b) = (mix64(h), mix64(h ^ 0x9E37_79B9_7F4A_7C15));
+    // 53-bit uniforms, u1 in (0, 1], u2 in [0, 1)
+    let u1 = ((a >> 11) + 1) as f64 / (1u64 << 53) as f64;
+    let u2 = (b >> 11) as f64 / (1u64 << 53) as f64;
+    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+}
+
+/// An oracle with Gaussian noise, a renderer's Monte Carlo estimate in miniature:
+/// `f(x, y) + sigma n_c(x, y)` per channel `c`, `n_c` standard normal deviates seeded by the
+/// seed and the position ([`position_normal`]), so the in-process loop and a renderer driving
+/// the file protocol see the same values, and runs are deterministic.
+pub struct NoisyOracle<'a> {
+    /// The noise-free oracle.
+    pub inner: &'a dyn ImageOracle,
+    /// Standard deviation `sigma` of the noise.
+    pub sigma: f64,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+impl ImageOracle for NoisyOracle<'_> {
+    fn channels(&self) -> usize {
+        self.inner.channels()
+    }
+    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
+        self.inner.sample(x, y, out);
+        if self.sigma > 0.0 {
+            for (c, v) in out.iter_mut().enumerate() {
+                *v += self.sigma * position_normal(self.seed, x, y, c);
+            }
+        }
     }
 }

@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::fit::{fit_tree, TreeFit};
+use super::fit::TreeFit;
 use super::refiner::{
     AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
 };
@@ -432,7 +432,7 @@ impl PlanState {
         let k = self.matching_round(samples)?;
         let plan = self.plan_at(k)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        let fit = fit_tree(plan.tree(), samples.xs(), samples.ys(), &values)?;
+        let (fit, _) = plan.fit(samples.xs(), samples.ys(), &values)?;
         Ok(PlanReconstruction {
             tree: plan.tree().clone(),
             fit,

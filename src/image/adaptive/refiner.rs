@@ -38,6 +38,7 @@ use super::fit::{fit_tree_with, TreeFit, TreeFitReport};
 use super::indicator::indicate;
 use super::marking::{dorfler, within_budget};
 use super::pcg::TreeSolver;
+use super::significance::{probe_values, NoiseLevel, Significance};
 use super::tree::{Cell, QuadTree};
 use super::{AdaptiveError, ImageOracle};
 use crate::basis::tensor::TensorBasis;
@@ -83,6 +84,22 @@ pub struct AdaptiveParams {
     /// [`super::pcg`]).
     #[serde(default = "direct_solver")]
     pub solver: TreeSolver,
+    /// False-alarm rate `alpha` of the noise test ([`super::significance`]): a slot is
+    /// deepened only where its parent's detail is significant, so that noise alone marks a
+    /// slot in a round with probability at most about `alpha`; the noise level is estimated
+    /// from the fit's residuals (0: no test, every detail counts).
+    #[serde(default = "default_false_alarm")]
+    pub false_alarm: f64,
+    /// Probe channels of the noise test (variance of the coefficients and the noise level).
+    #[serde(default = "default_probes")]
+    pub probes: usize,
+}
+
+fn default_false_alarm() -> f64 {
+    AdaptiveParams::default().false_alarm
+}
+fn default_probes() -> usize {
+    AdaptiveParams::default().probes
 }
 
 fn direct_solver() -> TreeSolver {
@@ -105,6 +122,8 @@ impl Default for AdaptiveParams {
             max_rounds: 40,
             seed: 1,
             solver: TreeSolver::Direct,
+            false_alarm: 0.01,
+            probes: 4,
         }
     }
 }
@@ -167,6 +186,20 @@ impl AdaptiveParams {
                 "a finite RMS error >= 0 (0: run until the budget is spent)",
             );
         }
+        if !(self.false_alarm.is_finite() && (0.0..1.0).contains(&self.false_alarm)) {
+            return bad(
+                "false_alarm",
+                self.false_alarm.to_string(),
+                "a false-alarm rate in [0, 1) (0: no noise test)",
+            );
+        }
+        if self.false_alarm > 0.0 && !(1..=64).contains(&self.probes) {
+            return bad(
+                "probes",
+                self.probes.to_string(),
+                "probe channels in 1..=64 for the noise test",
+            );
+        }
         if self.budget == 0 {
             return bad("budget", "0".into(), "a positive number of samples");
         }
@@ -204,6 +237,13 @@ pub struct ImageRound {
     pub estimate_rms: f64,
     /// Slots marked after this fit (0 in the last round).
     pub marked: usize,
+    /// Estimated noise of this round's samples (`None`: no noise test).
+    pub noise: Option<NoiseLevel>,
+    /// Slots below the depth limit not deepened because their detail is within the noise.
+    pub insignificant: usize,
+    /// Samples per slot after a densifying round (nothing significant left to deepen: the
+    /// budget raises the oversampling so that the fit averages the noise), `None` otherwise.
+    pub densified_to: Option<usize>,
     /// The solve.
     pub fit: TreeFitReport,
 }
@@ -300,7 +340,7 @@ impl SamplePositions {
 
     /// Appends `need` jittered-stratified positions in `rect`: a `k x k` grid (`k^2 >= need`),
     /// `need` of its strata chosen at random, one uniform point in each.
-    fn stratified(&mut self, rect: [f64; 4], need: usize, rng: &mut Pcg64) {
+    pub(crate) fn stratified(&mut self, rect: [f64; 4], need: usize, rng: &mut Pcg64) {
         if need == 0 {
             return;
         }
@@ -502,6 +542,43 @@ impl ImagePlan {
         out
     }
 
+    /// The round's fit on the tree as it stands, and with the noise test on, the test (the
+    /// probe channels fitted beside the image's with the same factorization, seeded by the
+    /// seed, the round and the positions). The file protocol reconstructs with this too, so
+    /// its pixels are the in-process loop's bit for bit.
+    pub fn fit(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+    ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
+        let params = &self.params;
+        let tree = &self.tree;
+        let ch = values.len();
+        if params.false_alarm <= 0.0 {
+            return Ok((
+                fit_tree_with(tree, xs, ys, values, params.solver, None)?,
+                None,
+            ));
+        }
+        let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
+        let mut all: Vec<&[f64]> = values.to_vec();
+        all.extend(probes.iter().map(|p| p.as_slice()));
+        let mut fit = fit_tree_with(tree, xs, ys, &all, params.solver, None)?;
+        let significance = Significance::new(
+            tree,
+            &fit.coefficients,
+            xs,
+            ys,
+            &all,
+            ch,
+            params.false_alarm,
+            tree.slots().len(),
+        );
+        fit.coefficients.truncate(ch);
+        Ok((fit, Some(significance)))
+    }
+
     /// One round on every sample so far (`values[c][i]` channel `c` at `(xs[i], ys[i])`):
     /// fit on the tree, indicate, then stop or mark, deepen and return the positions that
     /// top the marked slots' children up to `ceil(rho)` samples.
@@ -514,11 +591,19 @@ impl ImagePlan {
         let params = &self.params;
         let round = self.round();
         let t = Instant::now();
-        let fit = fit_tree_with(&self.tree, xs, ys, values, params.solver, None)?;
+        let tree = &self.tree;
+        let (fit, significance) = self.fit(xs, ys, values)?;
         let fit_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let tree = &self.tree;
-        let ind = indicate(tree, &fit.coefficients, params.max_ratio);
+        let threshold = significance
+            .as_ref()
+            .map(|s| move |cell: Cell| s.threshold(tree, cell));
+        let ind = indicate(
+            tree,
+            &fit.coefficients,
+            params.max_ratio,
+            threshold.as_ref().map(|f| f as &dyn Fn(Cell) -> f64),
+        );
         let estimate_rms = (ind.total_sq / self.plane.pixels() as f64).sqrt();
         let mut log = ImageRound {
             round,
@@ -528,11 +613,15 @@ impl ImagePlan {
             max_depth: tree.slots().iter().map(|c| c.step).max().unwrap_or(0),
             estimate_rms,
             marked: 0,
+            noise: significance.as_ref().map(|s| s.level.clone()),
+            insignificant: ind.insignificant.len(),
+            densified_to: None,
             fit: fit.report.clone(),
         };
+        let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
         let stop = if estimate_rms <= params.tolerance {
             Some(StopReason::Tolerance)
-        } else if ind.markable_sq <= 0.0 || ind.units.is_empty() {
+        } else if nothing_significant && ind.insignificant.is_empty() {
             Some(StopReason::DepthLimit)
         } else if round >= params.max_rounds {
             Some(StopReason::MaxRounds)
@@ -549,6 +638,50 @@ impl ImagePlan {
                 position_s: 0.0,
             });
         }
+        let left = params.budget.saturating_sub(xs.len());
+        // the oversampling so far: ceil(rho), or more after densifying rounds
+        let counts = tree.slot_counts(xs, ys);
+        let slots = tree.slots();
+        let target = slots
+            .iter()
+            .map(|s| counts.get(s).copied().unwrap_or(0))
+            .min()
+            .unwrap_or(0)
+            .max(self.per_slot);
+        if nothing_significant {
+            let refine_s = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let mut rng = round_rng(params.seed, round + 1);
+            let Some((next, to)) = densify(
+                tree,
+                &slots,
+                &counts,
+                &ind.insignificant,
+                target,
+                left,
+                &mut rng,
+            ) else {
+                return Ok(Round {
+                    log,
+                    fit,
+                    decision: Decision::Stop(StopReason::Budget),
+                    fit_s,
+                    refine_s,
+                    position_s: 0.0,
+                });
+            };
+            log.densified_to = Some(to);
+            self.progress.marked.push(Vec::new());
+            self.progress.samples_fitted = xs.len();
+            return Ok(Round {
+                log,
+                fit,
+                decision: Decision::Sample(next),
+                fit_s,
+                refine_s,
+                position_s: t.elapsed().as_secs_f64(),
+            });
+        }
         let etas: Vec<f64> = ind.units.iter().map(|u| u.1).collect();
         let n = dorfler(&etas, params.theta).max(1);
         // every unit is a candidate: the Dörfler set, extended to the least growth
@@ -563,12 +696,11 @@ impl ImagePlan {
                 child_counts[i][(c.ky & 1) * 2 + (c.kx & 1)] += 1;
             }
         }
-        let per_slot = self.per_slot;
+        let per_slot = target;
         let costs: Vec<usize> = child_counts
             .iter()
             .map(|cc| cc.iter().map(|&c| per_slot.saturating_sub(c)).sum())
             .collect();
-        let left = params.budget.saturating_sub(xs.len());
         let growth = (params.min_growth * xs.len() as f64).ceil() as usize;
         let mut k = n;
         let mut spent: usize = costs[..n].iter().sum();
@@ -623,6 +755,8 @@ impl ImagePlan {
         times: AdaptiveTimes,
     ) -> AdaptiveReport {
         let (cx, cy) = self.tree.basis().coarse_levels();
+        let mut notes = fit_notes(&fit.report);
+        notes.extend(noise_notes(&rounds, self.params.false_alarm));
         AdaptiveReport {
             levels: self.tree.basis().levels(),
             coarse_levels: (cx, cy),
@@ -635,7 +769,7 @@ impl ImagePlan {
             stop,
             rounds,
             times,
-            notes: fit_notes(&fit.report),
+            notes,
         }
     }
 }
@@ -662,6 +796,40 @@ impl Store<'_> {
             self.round_of.push(round);
         }
     }
+}
+
+/// A densifying round (nothing significant to deepen, budget left): raises the oversampling
+/// from `target` to `t' = min(2 target, the most every slot can get from `left`)` by
+/// jittered-stratified samples in each slot's rectangle; if not even `target + 1` fits, tops
+/// up the insignificant slots (largest indicator first) by one sample each while `left`
+/// lasts. `None`: not one sample fits. Returns the positions and the new per-slot count
+/// (`target` after a partial top-up).
+fn densify(
+    tree: &QuadTree,
+    slots: &[Cell],
+    counts: &HashMap<Cell, usize>,
+    insignificant: &[(Cell, f64)],
+    target: usize,
+    left: usize,
+    rng: &mut Pcg64,
+) -> Option<(SamplePositions, usize)> {
+    let count = |s: &Cell| counts.get(s).copied().unwrap_or(0);
+    let cost = |t: usize| -> usize { slots.iter().map(|s| t.saturating_sub(count(s))).sum() };
+    let mut to = target;
+    while to < 2 * target && cost(to + 1) <= left {
+        to += 1;
+    }
+    let mut next = SamplePositions::default();
+    if to > target {
+        for s in slots {
+            next.stratified(tree.rect(*s), to.saturating_sub(count(s)), rng);
+        }
+        return Some((next, to));
+    }
+    for (s, _) in insignificant.iter().take(left) {
+        next.stratified(tree.rect(*s), 1, rng);
+    }
+    (!next.is_empty()).then_some((next, target))
 }
 
 fn round_rng(seed: u64, round: usize) -> Pcg64 {
@@ -720,6 +888,36 @@ pub fn refine_image(
         fit,
         report,
     })
+}
+
+/// The noise test's cut-offs in words: slots left coarse, densifying rounds.
+fn noise_notes(rounds: &[ImageRound], false_alarm: f64) -> Vec<String> {
+    let mut notes = Vec::new();
+    let Some(last) = rounds.last() else {
+        return notes;
+    };
+    if let Some(level) = &last.noise {
+        if last.insignificant > 0 {
+            notes.push(format!(
+                "{} slots not deepened because their detail is not significant (within the \
+                 noise at false-alarm rate {false_alarm}; estimated noise sigma {:.3e} from the \
+                 residuals)",
+                last.insignificant, level.sigma
+            ));
+        }
+    }
+    let densified: Vec<String> = rounds
+        .iter()
+        .filter_map(|r| r.densified_to.map(|t| format!("round {} to {t}", r.round)))
+        .collect();
+    if !densified.is_empty() {
+        notes.push(format!(
+            "nothing significant left to deepen: the budget raised the samples per slot ({}), \
+             so the fit averages the noise",
+            densified.join(", ")
+        ));
+    }
+    notes
 }
 
 fn fit_notes(r: &TreeFitReport) -> Vec<String> {
