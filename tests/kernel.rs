@@ -103,7 +103,19 @@ fn deep_sparse_active_sets_look_columns_up_by_search() {
             .filter_map(|v| active.column(v.index).map(|c| (c, v.value)))
             .collect();
         let got: Vec<(usize, f64)> = row.iter().map(|(c, &v)| (c, v)).collect();
-        assert_eq!(got, expect);
+        // The same functions; values to round-off: the kernel's evaluation stops at the
+        // set's local depth, so its digit walk starts at another level (relative 1e-13 of the
+        // level's scale 2^{j/2} <= 2^16, a few ulps of the larger values).
+        assert_eq!(
+            got.iter().map(|e| e.0).collect::<Vec<_>>(),
+            expect.iter().map(|e| e.0).collect::<Vec<_>>()
+        );
+        for (&(c, a), &(_, b)) in got.iter().zip(&expect) {
+            assert!(
+                (a - b).abs() <= 1e-13 * 65536.0,
+                "column {c}: {a} against {b}"
+            );
+        }
         for &(c, _) in &got {
             assert!(keep.contains(&active.global(c)));
         }

@@ -30,15 +30,15 @@ pub struct AdaptiveArgs {
     /// Adaptive mode: depth limit in levels below the pixel.
     #[arg(long, default_value_t = 1)]
     pub below_pixel: u32,
+    /// Adaptive mode: solve each round's fit by matrix-free PCG instead of the direct sparse
+    /// Cholesky (experimental: iterations and condition estimates per round in the output).
+    #[arg(long)]
+    pub pcg: bool,
     /// Adaptive mode: false-alarm rate of the noise test, the chance per round that noise
     /// alone deepens a slot (the noise level is estimated from the fits' residuals; 0: no
     /// noise test, every detail is deepened).
     #[arg(long, default_value_t = 0.01)]
     pub false_alarm: f64,
-    /// Adaptive mode: solve each round's fit by matrix-free PCG instead of the direct sparse
-    /// Cholesky (experimental: iterations and condition estimates per round in the output).
-    #[arg(long)]
-    pub pcg: bool,
 }
 
 fn figure_path(out: &Path, what: &str) -> PathBuf {
@@ -164,16 +164,6 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         depth_path.display(),
         samples_path.display()
     );
-    if let Some(level) = r.rounds.last().and_then(|l| l.noise.as_ref()) {
-        let densified = r.rounds.iter().filter(|l| l.densified_to.is_some()).count();
-        println!(
-            "noise test: estimated sigma {:.4} (false-alarm rate {}), {} slots not deepened \
-             (not significant), {densified} densifying rounds",
-            level.sigma,
-            a.false_alarm,
-            r.rounds.last().map_or(0, |l| l.insignificant)
-        );
-    }
     if a.pcg {
         let per_round: Vec<String> = r
             .rounds
@@ -186,6 +176,16 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             })
             .collect();
         println!("PCG per round: {}", per_round.join("; "));
+    }
+    if let Some(level) = r.rounds.last().and_then(|l| l.noise.as_ref()) {
+        let densified = r.rounds.iter().filter(|l| l.densified_to.is_some()).count();
+        println!(
+            "noise test: estimated sigma {:.4} (false-alarm rate {}), {} slots not deepened \
+             (not significant), {densified} densifying rounds",
+            level.sigma,
+            a.false_alarm,
+            r.rounds.last().map_or(0, |l| l.insignificant)
+        );
     }
     for note in &r.notes {
         println!("note: {note}");

@@ -85,6 +85,10 @@ pub struct AdaptiveParams {
     pub max_rounds: usize,
     /// Seed of the sample positions.
     pub seed: u64,
+    /// Solver of every round's fit ([`TreeSolver::Direct`]: the reference; PCG: see
+    /// [`super::pcg`]).
+    #[serde(default = "direct_solver")]
+    pub solver: TreeSolver,
     /// False-alarm rate `alpha` of the noise test ([`super::significance`]): a slot is
     /// deepened only where its parent's detail is significant, so that noise alone marks a
     /// slot in a round with probability at most about `alpha`; the noise level is estimated
@@ -94,10 +98,6 @@ pub struct AdaptiveParams {
     /// Probe channels of the noise test (variance of the coefficients and the noise level).
     #[serde(default = "default_probes")]
     pub probes: usize,
-    /// Solver of every round's fit ([`TreeSolver::Direct`]: the reference; PCG: see
-    /// [`super::pcg`]).
-    #[serde(default = "direct_solver")]
-    pub solver: TreeSolver,
 }
 
 fn default_false_alarm() -> f64 {
@@ -126,9 +126,9 @@ impl Default for AdaptiveParams {
             budget: 0,
             max_rounds: 40,
             seed: 1,
+            solver: TreeSolver::Direct,
             false_alarm: 0.01,
             probes: 4,
-            solver: TreeSolver::Direct,
         }
     }
 }
