@@ -23,11 +23,12 @@
 //!
 //! for the update, `O(nnz(G))` to hand `G` (columns in order of arrival) to the sparse
 //! Cholesky of [`crate::solve::normal_ls_corrected`] (one corrected semi-normal step from the
-//! cached rows: `O(nnz(K))` more), and that factorization; the elimination order is
-//! finest level first (a function's neighbours on coarser levels overlap each other already,
-//! so eliminating fine functions first creates almost no fill), which needs no AMD pass and
-//! gives a sparser factor than AMD (measured on `jumps` at `P = 934`: `nnz(G) = 136,110`,
-//! `nnz(L) = 87,741` finest-first against `145,113` with AMD).
+//! cached rows: `O(nnz(K))` more), and that factorization, in AMD order. An earlier version
+//! eliminated the finest level first (sparser on a narrow adaptive tree: at `P = 934`,
+//! `nnz(L) = 87,741` against `145,113` with AMD), but on a full level the chain of same-level
+//! neighbours carries the fill of each elimination to the next one, so every coarser level
+//! ends up coupled to every other: with `2e4` base samples (`P = 8,273`) a round cost 3.3 s
+//! against 0.13 s with AMD, and at `1e6` samples the factor asked for 213 GB.
 
 use std::collections::HashMap;
 
@@ -339,7 +340,7 @@ impl NormalEquations {
         self.slot_of.get(&a).map(|&s| s as usize)
     }
 
-    /// Solves `G c = K^T f` (finest level eliminated first) with one corrected semi-normal
+    /// Solves `G c = K^T f` (sparse Cholesky in AMD order) with one corrected semi-normal
     /// step from the cached rows of `K` and the values of `samples` (the samples of the last
     /// [`NormalEquations::update`]): forward error of order `eps cond(K)`, not
     /// `eps cond(K)^2` ([`normal_ls_corrected`]); the coefficients by slot.
@@ -360,8 +361,6 @@ impl NormalEquations {
             indptr.push(indices.len());
         }
         let g = CsMat::new((p, p), indptr, indices, data);
-        let mut order: Vec<usize> = (0..p).collect();
-        order.sort_by_key(|&s| (std::cmp::Reverse(self.levels[s]), self.globals[s]));
         let residual = |c: &[Vec<f64>]| -> Vec<Vec<f64>> {
             c.iter()
                 .map(|c| self.rows.residual_product(samples, c))
@@ -372,7 +371,7 @@ impl NormalEquations {
             &[&self.rhs],
             self.rows.rows.len(),
             &self.counts,
-            Some(&order),
+            None,
             &residual,
             params,
         )?)
