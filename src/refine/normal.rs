@@ -37,7 +37,6 @@ use sprs::CsMat;
 
 use super::{RefineError, Sample};
 use crate::basis::CdvBasis;
-use crate::basis::FunctionId;
 use crate::kernel::EvaluationRows;
 use crate::solve::{normal_ls_corrected, GlobalLs, GlobalLsParams};
 
@@ -188,8 +187,6 @@ pub(crate) struct NormalEquations {
     slot_of: HashMap<usize, u32>,
     /// Unit support `[lo, hi]` of each slot.
     supports: Vec<(f64, f64)>,
-    /// Level of each slot (`n - 1` for the scaling functions: eliminated last).
-    levels: Vec<i32>,
     rows: ActiveRows,
     /// Column `s` of `G`: `(slot, value)` ascending in slot.
     gram: Vec<Vec<(u32, f64)>>,
@@ -247,14 +244,13 @@ fn accumulate(
 impl NormalEquations {
     /// Brings the system to the samples of `cached` (values `f_i`, unit positions `t_i`)
     /// and the active functions `columns` (ascending global indices; a superset of the last
-    /// call's), `support(a)` giving the unit support of `a` and `level(a)` its level.
+    /// call's), `support(a)` giving the unit support of `a`.
     pub fn update(
         &mut self,
         cached: &EvaluationRows,
         samples: &[Sample],
         columns: &[usize],
         support: impl Fn(usize) -> (f64, f64),
-        level: impl Fn(usize) -> i32,
     ) {
         let old = self.globals.len();
         let first_row = self.rows.rows.len();
@@ -290,7 +286,6 @@ impl NormalEquations {
             self.slot_of.insert(a, s);
             let sup = support(a);
             self.supports.push(sup);
-            self.levels.push(level(a));
             let mut list = Vec::new();
             self.rows
                 .activate(cached, a, s, sup, |i, v, _| list.push((i as u32, v)));
@@ -393,13 +388,5 @@ impl NormalEquations {
             }
         }
         (g, slot.iter().map(|&s| self.rhs[s]).collect())
-    }
-}
-
-/// The level of a function (`n - 1` for the scaling functions).
-pub(crate) fn level_of(id: FunctionId, coarse: u32) -> i32 {
-    match id.kind {
-        crate::basis::FunctionKind::Scaling => coarse as i32 - 1,
-        crate::basis::FunctionKind::Wavelet => id.level as i32,
     }
 }

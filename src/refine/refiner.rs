@@ -10,7 +10,7 @@ use sprs::CsMat;
 
 use super::indicator::{coefficient_indication, residual_indication, Indication};
 use super::measure::ErrorFigures;
-use super::normal::{level_of, NormalEquations, TrackedPoints};
+use super::normal::{NormalEquations, TrackedPoints};
 use super::refinement::{tree_fit, Refinement, RoundLog, RoundTimes};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
 use super::tree::{Leaf, WaveletTree};
@@ -565,14 +565,9 @@ fn fit_round(
     let t0 = Instant::now();
     let active = ActiveSet::from_sorted(tree.basis()?, tree.columns());
     let columns = active.indices();
-    let coarse = tree.coarse();
-    normal.update(
-        &store.rows,
-        &store.samples,
-        columns,
-        |a| tree.support_unit(a),
-        |a| level_of(tree.function(a), coarse),
-    );
+    normal.update(&store.rows, &store.samples, columns, |a| {
+        tree.support_unit(a)
+    });
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let (coefficients, solve) = if params.solve.method == GlobalMethod::Cholesky {

@@ -224,7 +224,7 @@ fn incremental_normal_equations_equal_a_fresh_k_transpose_k() {
 /// bound asserted, `1e3 eps cond(K)`, leaves the usual factor for `P`-dependent constants.
 #[test]
 fn tree_solve_reaches_svd_accuracy_on_ill_conditioned_k() {
-    use super::normal::{level_of, NormalEquations};
+    use super::normal::NormalEquations;
     use super::Sample;
     use crate::kernel::{ActiveSet, EvaluationRows};
     use crate::solve::{dense_pinv, GlobalLsParams};
@@ -269,15 +269,8 @@ fn tree_solve_reaches_svd_accuracy_on_ill_conditioned_k() {
         })
         .collect();
     let mut normal = NormalEquations::default();
-    let coarse = tree.coarse();
     // First the kernel (values are not needed for it), then f = K c* and the system again.
-    normal.update(
-        &cached,
-        &samples,
-        &columns,
-        |a| tree.support_unit(a),
-        |a| level_of(tree.function(a), coarse),
-    );
+    normal.update(&cached, &samples, &columns, |a| tree.support_unit(a));
     let k = cached.kernel(&ActiveSet::from_sorted(
         tree.basis().unwrap(),
         columns.clone(),
@@ -286,13 +279,7 @@ fn tree_solve_reaches_svd_accuracy_on_ill_conditioned_k() {
         samples[i].value += v * c_true[j];
     }
     let mut normal = NormalEquations::default();
-    normal.update(
-        &cached,
-        &samples,
-        &columns,
-        |a| tree.support_unit(a),
-        |a| level_of(tree.function(a), coarse),
-    );
+    normal.update(&cached, &samples, &columns, |a| tree.support_unit(a));
     let pinv = dense_pinv(&k, 1e-15).unwrap();
     assert_eq!(pinv.rank, columns.len(), "K has full column rank");
     let cond = pinv.condition;

@@ -55,21 +55,10 @@ fn magnitude(tree: &QuadTree, coefficients: &[Vec<f64>], cell: Cell) -> f64 {
 
 /// `max_a |c_a|` over the active cells within one cell of `cell` (`|dk| <= 1` per axis).
 fn neighbourhood(tree: &QuadTree, coefficients: &[Vec<f64>], cell: Cell) -> f64 {
-    let (w, h) = tree.cell_dims(cell.step);
-    let mut m = 0.0f64;
-    for ky in cell.ky.saturating_sub(1)..=(cell.ky + 1).min(h - 1) {
-        for kx in cell.kx.saturating_sub(1)..=(cell.kx + 1).min(w - 1) {
-            let q = Cell {
-                step: cell.step,
-                kx,
-                ky,
-            };
-            if tree.is_active(q) {
-                m = m.max(magnitude(tree, coefficients, q));
-            }
-        }
-    }
-    m
+    tree.neighbourhood(cell)
+        .filter(|&q| tree.is_active(q))
+        .map(|q| magnitude(tree, coefficients, q))
+        .fold(0.0, f64::max)
 }
 
 /// The indicator of every slot of `tree` from the fit's coefficients (full Mallat layout per

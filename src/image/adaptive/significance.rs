@@ -187,24 +187,16 @@ impl Significance {
         if self.probe_coefficients.is_empty() {
             return 0.0;
         }
-        let (w, h) = tree.cell_dims(cell.step);
         let own = self.mean_square(tree, std::iter::once(cell));
         let (mut sum, mut terms) = (0.0, 0usize);
-        for ky in cell.ky.saturating_sub(1)..=(cell.ky + 1).min(h - 1) {
-            for kx in cell.kx.saturating_sub(1)..=(cell.kx + 1).min(w - 1) {
-                let q = Cell {
-                    step: cell.step,
-                    kx,
-                    ky,
-                };
-                if q != cell && !tree.is_active(q) {
-                    continue;
-                }
-                for c in &self.probe_coefficients {
-                    for a in tree.cell_functions(q) {
-                        sum += c[a] * c[a];
-                        terms += 1;
-                    }
+        for q in tree.neighbourhood(cell) {
+            if q != cell && !tree.is_active(q) {
+                continue;
+            }
+            for c in &self.probe_coefficients {
+                for a in tree.cell_functions(q) {
+                    sum += c[a] * c[a];
+                    terms += 1;
                 }
             }
         }

@@ -95,6 +95,19 @@ impl QuadTree {
         let (cx, cy) = self.basis.coarse_levels();
         (1usize << (cx + step), 1usize << (cy + step))
     }
+    /// The cells at `cell`'s step within one cell of it (`|dk| <= 1` per axis, `cell`
+    /// included), row by row (`ky` outer, `kx` inner), clipped to the plane.
+    pub fn neighbourhood(&self, cell: Cell) -> impl Iterator<Item = Cell> {
+        let (w, h) = self.cell_dims(cell.step);
+        let xs = cell.kx.saturating_sub(1)..=(cell.kx + 1).min(w - 1);
+        (cell.ky.saturating_sub(1)..=(cell.ky + 1).min(h - 1)).flat_map(move |ky| {
+            xs.clone().map(move |kx| Cell {
+                step: cell.step,
+                kx,
+                ky,
+            })
+        })
+    }
     /// Whether `cell` is active (cells at step `L` and beyond never are).
     pub fn is_active(&self, cell: Cell) -> bool {
         let Some(flags) = self.active.get(cell.step as usize) else {
