@@ -375,3 +375,27 @@ fn adapt_residual_never_prints_a_nan_estimate() {
     assert_eq!(r.status.code(), Some(0), "{}", text(&r));
     assert!(!text(&r).contains("NaN"), "{}", text(&r));
 }
+
+/// At one sample per leaf a `p = 4` round can be singular (three jumps on a cosine, measured:
+/// pivot 0 at the 54th active function). The refusal names the refiner's own way out
+/// (`--rho`), not the flags of another command (`--method` is `reconstruct`'s).
+#[test]
+fn adapt_rank_deficient_round_names_rho() {
+    let e = user_error(&[
+        "adapt",
+        "--signal",
+        "cos(5*x)+(x>0.2360679774997897)+(x>0.41421356237309515)-(x>0.7320508075688772)",
+        "--budget",
+        "4096",
+        "--tolerance",
+        "1e-14",
+        "--max-depth",
+        "52",
+        "--p",
+        "4",
+        "--rho",
+        "1",
+    ]);
+    assert!(e.contains("rank deficient") && e.contains("--rho"), "{e}");
+    assert!(!e.contains("--method") && !e.contains("::"), "{e}");
+}
