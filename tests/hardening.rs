@@ -399,3 +399,50 @@ fn adapt_rank_deficient_round_names_rho() {
     assert!(e.contains("rank deficient") && e.contains("--rho"), "{e}");
     assert!(!e.contains("--method") && !e.contains("::"), "{e}");
 }
+
+/// `image --adaptive` budgets: one whose samples cannot fit in memory is refused before any
+/// sample is drawn (it used to run away: densifying rounds doubled the samples each round);
+/// one that is not a whole number of samples per pixel is refused (the film filters it is
+/// compared with take the same count), never rounded silently; `--spp 0` is named as given.
+#[test]
+fn adaptive_image_budgets_are_checked() {
+    let d = scratch("adaptive_budget");
+    let out = d.join("a.png");
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "image",
+            "--scene",
+            "shapes",
+            "--resolution",
+            "16x16",
+            "--adaptive",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        user_error(&args)
+    };
+    // 2^60: a whole number of samples per pixel, far beyond any memory
+    let e = base(&["--budget", "1152921504606846976"]);
+    assert!(
+        e.contains("memory") && e.contains("lower the budget"),
+        "{e}"
+    );
+    let e = base(&["--budget", "1000"]);
+    assert!(e.contains("--budget 768 or 1024"), "{e}");
+    let e = base(&["--spp", "0"]);
+    assert!(e.contains("--spp 0"), "{e}");
+    assert!(!out.exists());
+    let e = user_error(&[
+        "plan",
+        "--resolution",
+        "16x16",
+        "--budget",
+        MAX,
+        "--state",
+        d.join("plan").to_str().unwrap(),
+        "--out",
+        d.join("next.npy").to_str().unwrap(),
+    ]);
+    assert!(e.contains("memory"), "{e}");
+}
