@@ -39,7 +39,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
-use super::fit::{fit_tree_with, TreeFit, TreeFitReport};
+use super::fit::{fit_tree_updating, TreeFit, TreeFitReport};
+use super::gram::TreeGram;
 use super::indicator::indicate;
 use super::marking::{dorfler, within_budget};
 use super::pcg::TreeSolver;
@@ -420,6 +421,9 @@ pub struct ImagePlan {
     base_steps: u32,
     per_slot: usize,
     progress: PlanProgress,
+    /// The last fit's normal matrix, continued by the next round's fit (solver state only: the
+    /// fit is the same bits without it, see [`super::gram`]; a resumed plan starts without).
+    gram: Option<TreeGram>,
 }
 
 impl ImagePlan {
@@ -481,6 +485,7 @@ impl ImagePlan {
             base_steps: s0,
             per_slot,
             progress: PlanProgress::default(),
+            gram: None,
         })
     }
 
@@ -570,19 +575,30 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
+        self.fit_updating(xs, ys, values, &mut None)
+    }
+
+    /// [`ImagePlan::fit`], the direct solve continuing the normal matrix in `gram` (same bits).
+    fn fit_updating(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+        gram: &mut Option<TreeGram>,
+    ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
         let params = &self.params;
         let tree = &self.tree;
         let ch = values.len();
         if params.false_alarm <= 0.0 {
             return Ok((
-                fit_tree_with(tree, xs, ys, values, params.solver, None)?,
+                fit_tree_updating(tree, xs, ys, values, params.solver, None, gram)?,
                 None,
             ));
         }
         let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree_with(tree, xs, ys, &all, params.solver, None)?;
+        let mut fit = fit_tree_updating(tree, xs, ys, &all, params.solver, None, gram)?;
         let significance = Significance::new(
             tree,
             &fit.coefficients,
@@ -606,11 +622,14 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<Round, AdaptiveError> {
-        let params = &self.params;
         let round = self.round();
         let t = Instant::now();
+        let mut gram = self.gram.take();
+        let fitted = self.fit_updating(xs, ys, values, &mut gram);
+        self.gram = gram;
+        let (fit, significance) = fitted?;
+        let params = &self.params;
         let tree = &self.tree;
-        let (fit, significance) = self.fit(xs, ys, values)?;
         let fit_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let threshold = significance
