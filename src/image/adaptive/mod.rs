@@ -87,6 +87,9 @@ pub enum AdaptiveError {
     /// Pixel integrals.
     #[error(transparent)]
     Pixels(#[from] PixelError),
+    /// A budget whose samples cannot fit in memory (refused before any is drawn).
+    #[error(transparent)]
+    Resource(#[from] crate::resources::ResourceError),
     /// A recorded refinement history that does not fit the tree (a record of another run).
     #[error(
         "round {round} of the refinement history marks the cell {cell}, which is {reason}: \

@@ -431,6 +431,19 @@ impl ImagePlan {
     /// base tree (full up to the base step, chosen from the budget unless given).
     pub fn new(plane: ImagePlane, params: &AdaptiveParams) -> Result<Self, AdaptiveError> {
         params.validate()?;
+        // A lower bound of what the budget's samples hold at the last fit: the position (16
+        // bytes), one value (8) and the finest level's (2p - 1)^2 kernel entries (16 each).
+        let per_sample = 24.0 + 16.0 * ((2 * params.p - 1) as f64).powi(2);
+        crate::resources::check(
+            || format!("a budget of {} samples", params.budget),
+            params.budget as f64 * per_sample,
+            || {
+                format!(
+                    "lower the budget to at most {} samples",
+                    (crate::resources::memory_limit() as f64 / per_sample) as u64
+                )
+            },
+        )?;
         let (w, h) = (plane.width(), plane.height());
         let levels = (
             finest_level(w, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
