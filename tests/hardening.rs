@@ -446,3 +446,26 @@ fn adaptive_image_budgets_are_checked() {
     ]);
     assert!(e.contains("memory"), "{e}");
 }
+
+/// The tree's sparse Cholesky factor is sized by its symbolic step and refused above the memory
+/// limit before it is allocated (16x16, 4 spp: 430 functions, 51,253 factor entries, 400 KB;
+/// the budget's own samples, 168 KB, pass a 200 KB limit).
+#[test]
+fn adaptive_factor_above_the_memory_limit_is_refused() {
+    let d = scratch("adaptive_factor");
+    let out = d.join("a.png");
+    let e = user_error(&[
+        "image",
+        "--scene",
+        "shapes",
+        "--resolution",
+        "16x16",
+        "--adaptive",
+        "--memory-limit",
+        "200K",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(e.contains("Cholesky factor") && e.contains("memory"), "{e}");
+    assert!(!out.exists());
+}

@@ -136,6 +136,21 @@ pub(crate) fn factor_solve(
     } else {
         Par::rayon(0)
     };
+    // The factor is the largest allocation of the solve: refused before it is made.
+    crate::resources::check(
+        || {
+            format!(
+                "the sparse Cholesky factor of the {p} x {p} normal matrix ({} stored entries)",
+                symbolic.len_val()
+            )
+        },
+        8.0 * symbolic.len_val() as f64,
+        || {
+            "fewer basis functions (a smaller budget, depth limit or fine level) or an \
+             iterative solve"
+                .into()
+        },
+    )?;
     let mut lvals = vec![0.0f64; symbolic.len_val()];
     let mut mem = MemBuffer::new(
         symbolic
