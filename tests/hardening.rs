@@ -375,3 +375,74 @@ fn adapt_residual_never_prints_a_nan_estimate() {
     assert_eq!(r.status.code(), Some(0), "{}", text(&r));
     assert!(!text(&r).contains("NaN"), "{}", text(&r));
 }
+
+/// At one sample per leaf a `p = 4` round can be singular (three jumps on a cosine, measured:
+/// pivot 0 at the 54th active function). The refusal names the refiner's own way out
+/// (`--rho`), not the flags of another command (`--method` is `reconstruct`'s).
+#[test]
+fn adapt_rank_deficient_round_names_rho() {
+    let e = user_error(&[
+        "adapt",
+        "--signal",
+        "cos(5*x)+(x>0.2360679774997897)+(x>0.41421356237309515)-(x>0.7320508075688772)",
+        "--budget",
+        "4096",
+        "--tolerance",
+        "1e-14",
+        "--max-depth",
+        "52",
+        "--p",
+        "4",
+        "--rho",
+        "1",
+    ]);
+    assert!(e.contains("rank deficient") && e.contains("--rho"), "{e}");
+    assert!(!e.contains("--method") && !e.contains("::"), "{e}");
+}
+
+/// `image --adaptive` budgets: one whose samples cannot fit in memory is refused before any
+/// sample is drawn (it used to run away: densifying rounds doubled the samples each round);
+/// one that is not a whole number of samples per pixel is refused (the film filters it is
+/// compared with take the same count), never rounded silently; `--spp 0` is named as given.
+#[test]
+fn adaptive_image_budgets_are_checked() {
+    let d = scratch("adaptive_budget");
+    let out = d.join("a.png");
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "image",
+            "--scene",
+            "shapes",
+            "--resolution",
+            "16x16",
+            "--adaptive",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        user_error(&args)
+    };
+    // 2^60: a whole number of samples per pixel, far beyond any memory
+    let e = base(&["--budget", "1152921504606846976"]);
+    assert!(
+        e.contains("memory") && e.contains("lower the budget"),
+        "{e}"
+    );
+    let e = base(&["--budget", "1000"]);
+    assert!(e.contains("--budget 768 or 1024"), "{e}");
+    let e = base(&["--spp", "0"]);
+    assert!(e.contains("--spp 0"), "{e}");
+    assert!(!out.exists());
+    let e = user_error(&[
+        "plan",
+        "--resolution",
+        "16x16",
+        "--budget",
+        MAX,
+        "--state",
+        d.join("plan").to_str().unwrap(),
+        "--out",
+        d.join("next.npy").to_str().unwrap(),
+    ]);
+    assert!(e.contains("memory"), "{e}");
+}

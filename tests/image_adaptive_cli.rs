@@ -116,4 +116,60 @@ fn adaptive_params_overrides_are_checked() {
     assert!(e.contains("--adaptive-params"), "{e}");
     let e = run(r#"{"theta": 2.0}"#);
     assert!(e.contains("theta = 2"), "{e}");
+
+/// `plan --false-alarm` sets the noise test of a new plan; the state keeps it, a later call
+/// with another rate is refused naming the parameter, and a rate outside `[0, 1)` is refused.
+#[test]
+fn plan_takes_the_false_alarm_rate() {
+    let dir = common::scratch("cmpad", "plan_false_alarm");
+    let state = dir.join("state");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let bad = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--resolution",
+        "16x16",
+        "--budget",
+        "1024",
+        "--false-alarm",
+        "1.5",
+        "--out",
+        &s(&dir.join("bad.npy")),
+    ]);
+    assert!(
+        bad.contains("false_alarm") || bad.contains("false-alarm"),
+        "{bad}"
+    );
+    let run = common::rkwave(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--resolution",
+        "16x16",
+        "--budget",
+        "1024",
+        "--false-alarm",
+        "0",
+        "--out",
+        &s(&dir.join("next0.npy")),
+        "--json",
+    ]);
+    assert!(run.status.success(), "{}", common::text(&run));
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(state.join("state.json")).unwrap()).unwrap();
+    assert_eq!(saved["params"]["false_alarm"], 0.0, "{saved}");
+    let other = common::user_error(&[
+        "plan",
+        "--state",
+        &s(&state),
+        "--false-alarm",
+        "0.05",
+        "--samples",
+        &s(&dir.join("next0.npy")),
+        "--out",
+        &s(&dir.join("next1.npy")),
+    ]);
+    assert!(other.contains("false_alarm"), "{other}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,9 +1,14 @@
 //! The image part of the demo: one built-in scene reconstructed by the wavelet engine and by
-//! every film filter from the same samples, the figure and the table written to `out/`.
+//! every film filter from the same samples, the figure and the table written to `out/`; then
+//! the same scene by adaptive sampling (the wavelet tree grown with the samples), its figure
+//! of image, depth and samples, and its table.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
+use rkwave::image::adaptive::experiment::{adaptive_markdown, compare_adaptive};
+use rkwave::image::adaptive::figure::save_adaptive_figure;
+use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::experiment::{
     compare_methods, comparison_markdown, Method, SamplingParams, TruthParams, WaveletParams,
 };
@@ -17,6 +22,8 @@ use super::CliError;
 /// The demo's scene (a built-in one) and resolution.
 const DEMO_SCENE: &str = "shapes";
 const DEMO_SIDE: usize = 128;
+/// The adaptive demo's resolution (the same scene, 4 spp on average).
+const ADAPTIVE_SIDE: usize = 64;
 
 /// Renders the demo scene, writes `out/image_compare.png` and appends the table to `summary`.
 pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
@@ -52,5 +59,29 @@ pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
         comparison_markdown(std::slice::from_ref(&cmp))
     );
     eprintln!("image plane: {DEMO_SCENE} done");
+    let plane = ImagePlane::new(ADAPTIVE_SIDE, ADAPTIVE_SIDE).expect("valid demo resolution");
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    let adaptive = compare_adaptive(&scene, plane, 4, 0.0, &params, &truth)
+        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let c = &adaptive.comparison;
+    let fig = out.join("image_adaptive.png");
+    let title = format!(
+        "{DEMO_SCENE} at {plane}, {} adaptive samples, PSNR {:.2} dB ({:+.2} dB over {} on \
+         stratified samples)",
+        c.adaptive.samples, c.rows[0].metrics.psnr, c.gain_db, c.best_uniform_film.0
+    );
+    save_adaptive_figure(&adaptive.run, &adaptive.image, &title, &fig, true)?;
+    let _ = writeln!(
+        summary,
+        "\n## Adaptive sampling on the image plane: `{DEMO_SCENE}` at {plane}, 4 spp on \
+         average, against the film filters on stratified samples (and on the adaptive \
+         samples)\n\n{}\nFigure (image, local depth of the wavelet tree, samples by round): \
+         `image_adaptive.png`.",
+        adaptive_markdown(std::slice::from_ref(c))
+    );
+    eprintln!("adaptive image plane: {DEMO_SCENE} done");
     Ok(())
 }

@@ -23,6 +23,7 @@ const FLAG_SPELLINGS: &[(&str, &str)] = &[
     ("Levels::Fixed { fine, .. }", "--levels n..N"),
     ("Levels::Auto", "--levels auto"),
     ("LevelParams::rho", "--rho"),
+    ("RefineParams::rho", "--rho"),
     ("LevelParams::coarse_samples", "--coarse-samples"),
     ("Method::SingleScale", "--method single"),
     ("Method::Local", "--method local"),

@@ -100,11 +100,25 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     }
     let budget = a.budget.unwrap_or(args.spp.saturating_mul(plane.pixels()));
     let spp = budget / plane.pixels();
+    let given = match a.budget {
+        Some(b) => format!("--budget {b}"),
+        None => format!("--spp {}", args.spp),
+    };
     if spp == 0 {
         return Err(CliError::Invalid(format!(
-            "--budget {budget}: the comparison needs at least one sample per pixel on average \
-             ({} for {plane})",
+            "{given}: the comparison needs at least one sample per pixel on average ({} for \
+             {plane})",
             plane.pixels()
+        )));
+    }
+    if budget % plane.pixels() != 0 {
+        return Err(CliError::Invalid(format!(
+            "{given} is not a whole number of samples per pixel at {plane} ({} pixels): the \
+             film filters it is compared with take the same count on stratified samples; give \
+             --budget {} or {}, or --spp",
+            plane.pixels(),
+            spp * plane.pixels(),
+            (spp + 1).saturating_mul(plane.pixels())
         )));
     }
     let scene =

@@ -52,6 +52,10 @@ pub struct PlanArgs {
     /// Seed of the positions (default 1).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// False-alarm rate of the noise test, the chance per round that noise alone deepens a
+    /// slot (default 0.01; 0: no noise test, every detail is deepened).
+    #[arg(long)]
+    pub false_alarm: Option<f64>,
     /// Overwrite the positions file; without `--samples`, also replace an existing plan.
     #[arg(long)]
     pub force: bool,
@@ -77,6 +81,7 @@ fn params(
         rho: args.rho.unwrap_or(base.rho),
         below_pixel: args.below_pixel.unwrap_or(base.below_pixel),
         seed: args.seed.unwrap_or(base.seed),
+        false_alarm: args.false_alarm.unwrap_or(base.false_alarm),
         budget,
         ..*base
     })

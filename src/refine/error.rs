@@ -60,6 +60,25 @@ pub enum RefineError {
         /// Left end of the leaf, in the domain.
         x: f64,
     },
+    /// A round's normal equations are singular: some active function's samples do not
+    /// determine it (at one sample per leaf, `p >= 4` leaves such directions).
+    #[error(
+        "the refinement round's fit is rank deficient: pivot {pivot:.3e} at column {column} \
+         ({column_samples} samples in its support) with {per_leaf} sample(s) per leaf at \
+         p = {p}: raise RefineParams::rho to 2 or more, so that every leaf holds two samples"
+    )]
+    RankDeficient {
+        /// The column (active function, in the solve's order) where the pivot fell.
+        column: usize,
+        /// The pivot, relative to a unit diagonal.
+        pivot: f64,
+        /// Structural nonzeros of that column of `K`.
+        column_samples: usize,
+        /// Samples per leaf, `ceil(rho)`.
+        per_leaf: usize,
+        /// Vanishing moments.
+        p: usize,
+    },
     /// Basis parameters.
     #[error(transparent)]
     Basis(#[from] BasisError),

@@ -19,7 +19,7 @@ use super::{Indicator, RefineError, RefineParams, Sample, SampleOracle};
 use crate::basis::{CdvBasis, FilterBank};
 use crate::kernel::ActiveSet;
 use crate::reconstruct::Fit;
-use crate::solve::{global_ls, GlobalMethod};
+use crate::solve::{global_ls, GlobalMethod, SolveError};
 
 /// Why the refiner stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
@@ -571,7 +571,23 @@ fn fit_round(
     let kernel_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let (coefficients, solve) = if params.solve.method == GlobalMethod::Cholesky {
-        let mut solved = normal.solve(&store.samples, &params.solve)?;
+        let mut solved = normal
+            .solve(&store.samples, &params.solve)
+            .map_err(|e| match e {
+                RefineError::Solve(SolveError::RankDeficient {
+                    column,
+                    pivot,
+                    column_samples,
+                    ..
+                }) => RefineError::RankDeficient {
+                    column,
+                    pivot,
+                    column_samples,
+                    per_leaf: params.per_leaf(),
+                    p: params.p,
+                },
+                e => e,
+            })?;
         let by_slot = solved.coefficients.swap_remove(0);
         let coefficients = columns
             .iter()

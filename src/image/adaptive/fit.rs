@@ -11,7 +11,8 @@
 //!   takes over on trees of at most [`super::pcg::DIRECT_FALLBACK_MAX`] functions; either way
 //!   the report says so.
 //! - **Direct** (the reference and the default): `K_T` row by row from the multilevel evaluator (in parallel),
-//!   `G = K_T^T K_T` by a sparse product, and [`crate::solve::normal_ls`]: the equilibrated
+//!   `G = K_T^T K_T` by a parallel, deterministic assembly that a round continues from the
+//!   previous round's matrix ([`super::gram`]: bit for bit the rebuilt one), and [`crate::solve::normal_ls`]: the equilibrated
 //!   sparse Cholesky of the 1D refiner, one factorization for every channel, with
 //!   [`RankPolicy::Regularize`](crate::solve::RankPolicy): a direction the samples do not
 //!   determine (a function without samples, a rank-deficient patch) gets a relative ridge,
@@ -26,6 +27,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
+use super::gram::{assemble, TreeGram};
 use super::pcg::{pcg, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX};
 use super::tree::QuadTree;
 use super::AdaptiveError;
@@ -53,8 +55,13 @@ pub struct TreeFitReport {
     pub factor_nnz: usize,
     /// Seconds: kernel rows, `G`, factor and solve.
     pub kernel_s: f64,
-    /// Seconds: the normal matrix product.
+    /// Seconds: the normal matrix (assembly or update) and the right-hand sides.
     pub normal_s: f64,
+    /// Functions whose normal-matrix entries were carried over from the previous round's
+    /// matrix (0: assembled from scratch; see [`super::gram`]).
+    pub normal_kept_functions: usize,
+    /// Samples whose contributions to the normal matrix were carried over.
+    pub normal_kept_samples: usize,
     /// Seconds: factorization and solves.
     pub solve_s: f64,
     /// The solver that produced the coefficients: `"direct"`, `"pcg"`, or `"pcg->direct"`
@@ -161,9 +168,25 @@ pub fn fit_tree_with(
     solver: TreeSolver,
     start: Option<&[Vec<f64>]>,
 ) -> Result<TreeFit, AdaptiveError> {
+    fit_tree_updating(tree, xs, ys, values, solver, start, &mut None)
+}
+
+/// [`fit_tree_with`], the direct solve continuing the normal matrix `gram` of an earlier fit
+/// (same first samples, a tree that only grew; otherwise assembled afresh) and leaving this
+/// fit's matrix there. The coefficients are those of [`fit_tree_with`] bit for bit
+/// ([`super::gram`]); only the work differs.
+pub fn fit_tree_updating(
+    tree: &QuadTree,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+    solver: TreeSolver,
+    start: Option<&[Vec<f64>]>,
+    gram: &mut Option<TreeGram>,
+) -> Result<TreeFit, AdaptiveError> {
     check_samples(tree, xs, ys, values)?;
     match solver {
-        TreeSolver::Direct => fit_direct(tree, xs, ys, values),
+        TreeSolver::Direct => fit_direct(tree, xs, ys, values, gram),
         TreeSolver::Pcg {
             tolerance,
             max_iterations,
@@ -184,7 +207,7 @@ pub fn fit_tree_with(
             let solve_s = t.elapsed().as_secs_f64();
             let converged = solved.iter().all(|(_, r)| r.converged);
             if !converged && tree.len() <= DIRECT_FALLBACK_MAX {
-                let mut fit = fit_direct(tree, xs, ys, values)?;
+                let mut fit = fit_direct(tree, xs, ys, values, &mut None)?;
                 let worst = solved
                     .iter()
                     .map(|(_, r)| r)
@@ -220,12 +243,13 @@ pub fn fit_tree_with(
     }
 }
 
-/// The reference: assembled `G`, equilibrated sparse Cholesky.
+/// The reference: assembled (or updated) `G`, equilibrated sparse Cholesky.
 fn fit_direct(
     tree: &QuadTree,
     xs: &[f64],
     ys: &[f64],
     values: &[&[f64]],
+    gram: &mut Option<TreeGram>,
 ) -> Result<TreeFit, AdaptiveError> {
     let functions = tree.functions();
     let t = std::time::Instant::now();
@@ -233,7 +257,8 @@ fn fit_direct(
     let kernel_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
     let kt: CsMat<f64> = k.transpose_view().to_csr();
-    let g = &kt * &k;
+    let (g, kept, update) = assemble(&k, &kt, &functions, xs, ys, gram.as_ref());
+    *gram = Some(kept);
     let rhs: Vec<Vec<f64>> = values
         .iter()
         .map(|f| {
@@ -276,6 +301,8 @@ fn fit_direct(
             factor_nnz: solved.report.factor_nnz,
             kernel_s,
             normal_s,
+            normal_kept_functions: update.kept_functions,
+            normal_kept_samples: update.kept_samples,
             solve_s,
             solver: "direct".into(),
             converged: true,

@@ -5,6 +5,8 @@
 //!   depth per region, slots (leaves) and their samples;
 //! * [`fit`]: least squares on the tree (sparse Cholesky of `K_T^T K_T`, all channels from
 //!   one factor) and exact box pixels through the 2D synthesis;
+//! * [`gram`]: `K_T^T K_T`, assembled in parallel, deterministically, and updated between
+//!   rounds;
 //! * [`indicator`]: predicted coefficients of the missing children, per slot;
 //! * [`significance`]: which of them stand out of the samples' noise (probe fits);
 //! * [`refiner`]: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop): fit, indicate, mark (Dörfler, within the budget), deepen, add
@@ -20,6 +22,7 @@ pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;
 pub mod fit;
+pub mod gram;
 pub mod indicator;
 pub mod marking;
 pub mod pcg;
@@ -28,7 +31,8 @@ pub mod refiner;
 pub mod significance;
 pub mod tree;
 
-pub use fit::{fit_tree, fit_tree_with, TreeFit, TreeFitReport};
+pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, TreeFit, TreeFitReport};
+pub use gram::TreeGram;
 pub use pcg::TreeSolver;
 pub use refiner::{
     refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, Decision, ImagePlan, ImageRound,
@@ -85,6 +89,9 @@ pub enum AdaptiveError {
     /// Pixel integrals.
     #[error(transparent)]
     Pixels(#[from] PixelError),
+    /// A budget whose samples cannot fit in memory (refused before any is drawn).
+    #[error(transparent)]
+    Resource(#[from] crate::resources::ResourceError),
     /// A recorded refinement history that does not fit the tree (a record of another run).
     #[error(
         "round {round} of the refinement history marks the cell {cell}, which is {reason}: \

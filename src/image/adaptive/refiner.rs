@@ -47,7 +47,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
-use super::fit::{fit_tree_with, TreeFit, TreeFitReport};
+use super::fit::{fit_tree_updating, TreeFit, TreeFitReport};
+use super::gram::TreeGram;
 use super::indicator::indicate;
 use super::marking::{dorfler, spread, within_budget, SpreadRule};
 use super::pcg::TreeSolver;
@@ -465,6 +466,9 @@ pub struct ImagePlan {
     base_steps: u32,
     per_slot: usize,
     progress: PlanProgress,
+    /// The last fit's normal matrix, continued by the next round's fit (solver state only: the
+    /// fit is the same bits without it, see [`super::gram`]; a resumed plan starts without).
+    gram: Option<TreeGram>,
 }
 
 impl ImagePlan {
@@ -472,6 +476,19 @@ impl ImagePlan {
     /// base tree (full up to the base step, chosen from the budget unless given).
     pub fn new(plane: ImagePlane, params: &AdaptiveParams) -> Result<Self, AdaptiveError> {
         params.validate()?;
+        // A lower bound of what the budget's samples hold at the last fit: the position (16
+        // bytes), one value (8) and the finest level's (2p - 1)^2 kernel entries (16 each).
+        let per_sample = 24.0 + 16.0 * ((2 * params.p - 1) as f64).powi(2);
+        crate::resources::check(
+            || format!("a budget of {} samples", params.budget),
+            params.budget as f64 * per_sample,
+            || {
+                format!(
+                    "lower the budget to at most {} samples",
+                    (crate::resources::memory_limit() as f64 / per_sample) as u64
+                )
+            },
+        )?;
         let (w, h) = (plane.width(), plane.height());
         let levels = (
             finest_level(w, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
@@ -513,6 +530,7 @@ impl ImagePlan {
             base_steps: s0,
             per_slot,
             progress: PlanProgress::default(),
+            gram: None,
         })
     }
 
@@ -602,19 +620,30 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
+        self.fit_updating(xs, ys, values, &mut None)
+    }
+
+    /// [`ImagePlan::fit`], the direct solve continuing the normal matrix in `gram` (same bits).
+    fn fit_updating(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+        gram: &mut Option<TreeGram>,
+    ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
         let params = &self.params;
         let tree = &self.tree;
         let ch = values.len();
         if params.false_alarm <= 0.0 {
             return Ok((
-                fit_tree_with(tree, xs, ys, values, params.solver, None)?,
+                fit_tree_updating(tree, xs, ys, values, params.solver, None, gram)?,
                 None,
             ));
         }
         let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree_with(tree, xs, ys, &all, params.solver, None)?;
+        let mut fit = fit_tree_updating(tree, xs, ys, &all, params.solver, None, gram)?;
         let significance = Significance::new(
             tree,
             &fit.coefficients,
@@ -638,11 +667,14 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<Round, AdaptiveError> {
-        let params = &self.params;
         let round = self.round();
         let t = Instant::now();
+        let mut gram = self.gram.take();
+        let fitted = self.fit_updating(xs, ys, values, &mut gram);
+        self.gram = gram;
+        let (fit, significance) = fitted?;
+        let params = &self.params;
         let tree = &self.tree;
-        let (fit, significance) = self.fit(xs, ys, values)?;
         let fit_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let threshold = significance

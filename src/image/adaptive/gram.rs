@@ -1,0 +1,363 @@
+//! The normal matrix of the direct tree solve, `G = K_T^T K_T`, assembled in parallel and
+//! deterministically, and carried from round to round ([`TreeGram`]).
+//!
+//! **Assembly** (Gustavson by rows of the upper triangle): row `a` of the upper triangle is
+//!
+//! ```text
+//! G[a, b] = sum_{j in supp(a), ascending} K[j, a] K[j, b],      b >= a,
+//! ```
+//!
+//! accumulated in a dense accumulator over the samples `j` where function `a` lives (row `a`
+//! of `K^T`), each sample's row of `K` read from `a` on. Every entry is a sum in ascending
+//! sample order starting from `0.0`, whatever the thread count and the work split: the result
+//! is the same bits for the same `K` (and the same as `sprs`'s `K^T K`, which sums in the same
+//! order). The lower triangle is the mirror image (the solver takes both triangles).
+//!
+//! **Update between rounds.** A round adds samples (appended: indices `m_old..m`) and functions
+//! (the tree only grows). With the previous round's upper triangle `G_old` (over the old
+//! functions, old samples):
+//!
+//! ```text
+//! G[a, b] = G_old[a, b] + sum_{j >= m_old, ascending} K[j, a] K[j, b]     a, b old,
+//! G[a, b] = sum_{all j, ascending} K[j, a] K[j, b]                         a or b new.
+//! ```
+//!
+//! `G_old[a, b]` is the running sum after sample `m_old - 1`, so continuing it with the new
+//! samples in ascending order is the full assembly's sum operation for operation: the updated
+//! `G` equals the rebuilt one bit for bit, and a plan resumed from files (which rebuilds) fits
+//! exactly as the in-process loop (which updates). The update reads, for an old function `a`,
+//! only the new samples' rows and the old samples' entries on new functions, so its cost is
+//! that of what changed: `sum_{j new} r_j^2 / 2 + sum_{a} |supp(a)| r_new`, against
+//! `sum_j r_j^2 / 2` for a rebuild (`r_j` the nonzeros of row `j`).
+
+use rayon::prelude::*;
+use sprs::CsMat;
+
+/// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
+#[derive(Clone)]
+pub struct TreeGram {
+    /// The tree's functions (ascending Mallat indices): the columns of `upper`.
+    functions: Vec<usize>,
+    /// The samples the matrix was summed over (the next call's samples must start with them).
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    /// Upper triangle (`b >= a` in row `a`), CSR, sorted.
+    upper: CsMat<f64>,
+}
+
+impl std::fmt::Debug for TreeGram {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TreeGram")
+            .field("functions", &self.functions.len())
+            .field("samples", &self.xs.len())
+            .field("upper_nnz", &self.upper.nnz())
+            .finish()
+    }
+}
+
+/// How the normal matrix of one fit was obtained.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct GramUpdate {
+    /// Functions carried over from the previous matrix (0: assembled from scratch).
+    pub kept_functions: usize,
+    /// Samples carried over from the previous matrix.
+    pub kept_samples: usize,
+}
+
+/// Rows of the upper triangle computed per parallel work item at least (the result does not
+/// depend on the split: each row is summed on its own).
+const MIN_ROWS_PER_TASK: usize = 256;
+
+/// `G = K^T K` (both triangles, CSR, sorted) from `K` (`m x P` CSR, sorted rows) and `K^T`
+/// (`P x m` CSR, sorted rows), updating `previous` when it applies (its functions a subset of
+/// `functions`, its samples a prefix of `(xs, ys)`), and the upper triangle to keep.
+pub(crate) fn assemble(
+    k: &CsMat<f64>,
+    kt: &CsMat<f64>,
+    functions: &[usize],
+    xs: &[f64],
+    ys: &[f64],
+    previous: Option<&TreeGram>,
+) -> (CsMat<f64>, TreeGram, GramUpdate) {
+    let p = functions.len();
+    let m = xs.len();
+    // Old column -> new column, if the previous matrix can be continued.
+    let carried = previous.and_then(|prev| {
+        let mo = prev.xs.len();
+        if mo > m || prev.xs[..] != xs[..mo] || prev.ys[..] != ys[..mo] {
+            return None;
+        }
+        let mut map = Vec::with_capacity(prev.functions.len());
+        let mut q = 0;
+        for &f in &prev.functions {
+            while q < p && functions[q] < f {
+                q += 1;
+            }
+            if q == p || functions[q] != f {
+                return None;
+            }
+            map.push(q);
+        }
+        Some((prev, map, mo))
+    });
+    let (kp, ki, kd) = raw(k);
+    let (tp, ti, td) = raw(kt);
+    // Old-sample rows restricted to the new functions (only those rows are read).
+    let (is_old, newk) = match &carried {
+        Some((_, map, mo)) => {
+            let mut is_old = vec![false; p];
+            for &q in map {
+                is_old[q] = true;
+            }
+            let mut ptr = Vec::with_capacity(mo + 1);
+            ptr.push(0usize);
+            let (mut idx, mut val) = (Vec::new(), Vec::new());
+            for j in 0..*mo {
+                for s in kp[j]..kp[j + 1] {
+                    if !is_old[ki[s]] {
+                        idx.push(ki[s]);
+                        val.push(kd[s]);
+                    }
+                }
+                ptr.push(idx.len());
+            }
+            (is_old, Some((ptr, idx, val)))
+        }
+        None => (Vec::new(), None),
+    };
+    let old_index: Vec<usize> = match &carried {
+        Some((_, map, _)) => {
+            let mut inv = vec![usize::MAX; p];
+            for (o, &q) in map.iter().enumerate() {
+                inv[q] = o;
+            }
+            inv
+        }
+        None => Vec::new(),
+    };
+    let threads = rayon::current_num_threads().max(1);
+    let rows_per_task = p.div_ceil(threads * 16).max(MIN_ROWS_PER_TASK);
+    let starts: Vec<usize> = (0..p).step_by(rows_per_task).collect();
+    let parts: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = starts
+        .par_iter()
+        .map(|&start| {
+            let end = (start + rows_per_task).min(p);
+            let mut acc = vec![0.0f64; p];
+            let mut mark = vec![usize::MAX; p];
+            let mut touched: Vec<usize> = Vec::new();
+            let mut lens = Vec::with_capacity(end - start);
+            let (mut idx, mut val) = (Vec::new(), Vec::new());
+            for a in start..end {
+                touched.clear();
+                let mut add = |b: usize, v: f64, touched: &mut Vec<usize>| {
+                    if mark[b] != a {
+                        mark[b] = a;
+                        acc[b] = 0.0;
+                        touched.push(b);
+                    }
+                    acc[b] += v;
+                };
+                match (&carried, &newk) {
+                    (Some((prev, map, mo)), Some((np, ni, nd))) if is_old[a] => {
+                        // The old sums first (over old samples), continued below.
+                        let (up, ui, ud) = raw(&prev.upper);
+                        let o = old_index[a];
+                        for t in up[o]..up[o + 1] {
+                            add(map[ui[t]], ud[t], &mut touched);
+                        }
+                        for t in tp[a]..tp[a + 1] {
+                            let (j, kja) = (ti[t], td[t]);
+                            if j < *mo {
+                                // Old sample: only its entries on new functions are new.
+                                let row = &ni[np[j]..np[j + 1]];
+                                let from = np[j] + row.partition_point(|&b| b < a);
+                                for s in from..np[j + 1] {
+                                    add(ni[s], kja * nd[s], &mut touched);
+                                }
+                            } else {
+                                let row = &ki[kp[j]..kp[j + 1]];
+                                let from = kp[j] + row.partition_point(|&b| b < a);
+                                for s in from..kp[j + 1] {
+                                    add(ki[s], kja * kd[s], &mut touched);
+                                }
+                            }
+                        }
+                    }
+                    _ => {
+                        for t in tp[a]..tp[a + 1] {
+                            let (j, kja) = (ti[t], td[t]);
+                            let row = &ki[kp[j]..kp[j + 1]];
+                            let from = kp[j] + row.partition_point(|&b| b < a);
+                            for s in from..kp[j + 1] {
+                                add(ki[s], kja * kd[s], &mut touched);
+                            }
+                        }
+                    }
+                }
+                touched.sort_unstable();
+                for &b in &touched {
+                    idx.push(b);
+                    val.push(acc[b]);
+                }
+                lens.push(touched.len());
+            }
+            (lens, idx, val)
+        })
+        .collect();
+    let nnz: usize = parts.iter().map(|part| part.1.len()).sum();
+    let mut indptr = Vec::with_capacity(p + 1);
+    let mut indices = Vec::with_capacity(nnz);
+    let mut data = Vec::with_capacity(nnz);
+    indptr.push(0);
+    for (lens, idx, val) in parts {
+        for l in lens {
+            let last = *indptr.last().expect("indptr starts with 0");
+            indptr.push(last + l);
+        }
+        indices.extend_from_slice(&idx);
+        data.extend_from_slice(&val);
+    }
+    let upper = CsMat::new((p, p), indptr, indices, data);
+    let full = mirror(&upper);
+    let update = carried
+        .as_ref()
+        .map_or(GramUpdate::default(), |(prev, _, mo)| GramUpdate {
+            kept_functions: prev.functions.len(),
+            kept_samples: *mo,
+        });
+    let kept = TreeGram {
+        functions: functions.to_vec(),
+        xs: xs.to_vec(),
+        ys: ys.to_vec(),
+        upper,
+    };
+    (full, kept, update)
+}
+
+/// Both triangles from the upper one: row `a` is `(b, G[b, a])` for `b < a` (the upper rows'
+/// entries in column `a`, by ascending `b`), then the upper row.
+fn mirror(upper: &CsMat<f64>) -> CsMat<f64> {
+    let p = upper.rows();
+    let (up, ui, ud) = raw(upper);
+    let mut lower_len = vec![0usize; p];
+    for b in 0..p {
+        for &a in &ui[up[b]..up[b + 1]] {
+            if a > b {
+                lower_len[a] += 1;
+            }
+        }
+    }
+    let mut indptr = Vec::with_capacity(p + 1);
+    indptr.push(0usize);
+    for a in 0..p {
+        indptr.push(indptr[a] + lower_len[a] + (up[a + 1] - up[a]));
+    }
+    let nnz = indptr[p];
+    let mut indices = vec![0usize; nnz];
+    let mut data = vec![0.0f64; nnz];
+    // Lower parts: scatter by ascending b; next free slot per row.
+    let mut next: Vec<usize> = indptr[..p].to_vec();
+    for b in 0..p {
+        for t in up[b]..up[b + 1] {
+            let a = ui[t];
+            if a > b {
+                indices[next[a]] = b;
+                data[next[a]] = ud[t];
+                next[a] += 1;
+            }
+        }
+    }
+    for a in 0..p {
+        let (from, to) = (up[a], up[a + 1]);
+        let at = next[a];
+        indices[at..at + (to - from)].copy_from_slice(&ui[from..to]);
+        data[at..at + (to - from)].copy_from_slice(&ud[from..to]);
+    }
+    CsMat::new((p, p), indptr, indices, data)
+}
+
+/// Raw CSR arrays (proper `indptr`, as the tree kernel and its transpose are built).
+fn raw(a: &CsMat<f64>) -> (&[usize], &[usize], &[f64]) {
+    (a.indptr().into_raw_storage(), a.indices(), a.data())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A random sparse `m x p` matrix with sorted rows.
+    fn random(m: usize, p: usize, seed: u64) -> CsMat<f64> {
+        let mut s = seed;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut tri = sprs::TriMat::new((m, p));
+        for j in 0..m {
+            for a in 0..p {
+                if next() < 0.2 {
+                    tri.add_triplet(j, a, next() - 0.5);
+                }
+            }
+        }
+        tri.to_csr()
+    }
+
+    /// The assembly equals sprs's `K^T K` entry for entry (same summation order, so exactly).
+    #[test]
+    fn equals_sprs_product() {
+        let k = random(300, 40, 7);
+        let kt: CsMat<f64> = k.transpose_view().to_csr();
+        let reference: CsMat<f64> = &kt * &k;
+        let xs: Vec<f64> = (0..300).map(|i| i as f64).collect();
+        let functions: Vec<usize> = (0..40).collect();
+        let (g, _, update) = assemble(&k, &kt, &functions, &xs, &xs, None);
+        assert_eq!(update, GramUpdate::default());
+        assert_eq!(g.indptr(), reference.indptr());
+        assert_eq!(g.indices(), reference.indices());
+        assert_eq!(g.data(), reference.data());
+    }
+
+    /// Updating with appended samples and inserted functions equals rebuilding, bit for bit.
+    #[test]
+    fn update_equals_rebuild() {
+        let (m, p) = (400, 50);
+        let k = random(m, p, 11);
+        let xs: Vec<f64> = (0..m).map(|i| i as f64 * 0.5).collect();
+        let ys: Vec<f64> = (0..m).map(|i| i as f64 * 0.25).collect();
+        let functions: Vec<usize> = (0..p).map(|a| 3 * a + 1).collect();
+        // The previous round: the first 250 samples, every function but a few.
+        let kept: Vec<usize> = (0..p).filter(|a| a % 7 != 3).collect();
+        let mo = 250;
+        let k_old = {
+            let mut tri = sprs::TriMat::new((mo, kept.len()));
+            for (o, &a) in kept.iter().enumerate() {
+                for j in 0..mo {
+                    if let Some(&v) = k.get(j, a) {
+                        tri.add_triplet(j, o, v);
+                    }
+                }
+            }
+            tri.to_csr::<usize>()
+        };
+        let kt_old: CsMat<f64> = k_old.transpose_view().to_csr();
+        let old_functions: Vec<usize> = kept.iter().map(|&a| functions[a]).collect();
+        let (_, previous, _) =
+            assemble(&k_old, &kt_old, &old_functions, &xs[..mo], &ys[..mo], None);
+        let kt: CsMat<f64> = k.transpose_view().to_csr();
+        let (rebuilt, _, _) = assemble(&k, &kt, &functions, &xs, &ys, None);
+        let (updated, _, update) = assemble(&k, &kt, &functions, &xs, &ys, Some(&previous));
+        assert_eq!(update.kept_functions, kept.len());
+        assert_eq!(update.kept_samples, mo);
+        assert_eq!(updated.indptr(), rebuilt.indptr());
+        assert_eq!(updated.indices(), rebuilt.indices());
+        assert_eq!(updated.data(), rebuilt.data());
+        // Other samples: not continued.
+        let mut moved = xs.clone();
+        moved[3] += 1.0;
+        let (_, _, update) = assemble(&k, &kt, &functions, &moved, &ys, Some(&previous));
+        assert_eq!(update, GramUpdate::default());
+    }
+}
