@@ -371,3 +371,63 @@ fn bad_input_gives_typed_errors() {
     let e = fit_tree(&tree, &[1.0], &[1.0, 2.0], &[&[0.0]]).unwrap_err();
     assert!(e.to_string().contains("ys"), "{e}");
 }
+
+/// A one-channel scene.
+type Scene2 = dyn Fn(f64, f64) -> f64 + Sync;
+
+/// Fine detail everywhere (a chirp) beside a straight edge: the significant slots run out
+/// long before the budget does.
+fn edge_and_chirp(x: f64, y: f64) -> f64 {
+    straight_edge(x, y) + 0.2 * (0.02 * (x * x + y * y)).sin()
+}
+
+/// The round schedule: every round that samples adds at least `min_growth` times the
+/// samples of its fit, or the whole rest of the budget (the marked slots' children, and the
+/// spare samples spread over the other slots); so a run that stops at the budget has spent it
+/// exactly, in at most `log(budget / base) / log(1 + min_growth) + 1` sampling rounds.
+/// Both spreading rules, two budgets and scenes (a lone edge: few significant slots; an edge
+/// and a chirp: detail at the depth limit).
+#[test]
+fn every_round_grows_by_the_least_growth_or_spends_the_budget() {
+    use rkwave::image::adaptive::marking::SpreadRule;
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let scenes: [(&str, &Scene2); 2] = [
+        ("edge", &straight_edge),
+        ("edge and chirp", &edge_and_chirp),
+    ];
+    for (name, scene) in scenes {
+        for spread in [SpreadRule::Uniform, SpreadRule::Indicator] {
+            for budget in [4 * 1024, 8 * 1024 + 3] {
+                let p = AdaptiveParams {
+                    spread,
+                    ..params(budget)
+                };
+                let run = refine_image(&scene, plane, &p).unwrap();
+                let rounds = &run.report.rounds;
+                let what = format!("{name}, {spread:?}, budget {budget}");
+                for pair in rounds.windows(2) {
+                    let (now, next) = (pair[0].samples, pair[1].samples);
+                    let least = ((p.min_growth * now as f64).ceil() as usize).min(budget - now);
+                    assert!(
+                        next - now >= least,
+                        "{what}: round {} added {} samples to {now}, least {least}",
+                        pair[0].round,
+                        next - now
+                    );
+                }
+                assert!(run.xs.len() <= budget, "{what}");
+                if run.report.stop == StopReason::Budget {
+                    assert_eq!(run.xs.len(), budget, "{what}: budget left");
+                }
+                let most = (budget as f64 / run.report.base_samples as f64).ln()
+                    / (1.0 + p.min_growth).ln()
+                    + 1.0;
+                assert!(
+                    (rounds.len() - 1) as f64 <= most,
+                    "{what}: {} sampling rounds, at most {most:.1}",
+                    rounds.len() - 1
+                );
+            }
+        }
+    }
+}

@@ -89,6 +89,34 @@ fn compare_adaptive_adds_the_adaptive_rows() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `image --adaptive --adaptive-params JSON`: a field that is not a parameter, malformed JSON
+/// and an out-of-range value are refused with exit code 2, naming the way out; nothing is run.
+#[test]
+fn adaptive_params_overrides_are_checked() {
+    let dir = common::scratch("cmpad", "params");
+    let out = dir.join("o.png");
+    let out = out.to_str().unwrap();
+    let run = |json: &str| {
+        common::user_error(&[
+            "image",
+            "--scene",
+            "slanted_edge",
+            "--resolution",
+            "16x16",
+            "--adaptive",
+            "--out",
+            out,
+            "--adaptive-params",
+            json,
+        ])
+    };
+    let e = run(r#"{"thetta": 0.3}"#);
+    assert!(e.contains("no parameter named \"thetta\""), "{e}");
+    let e = run("{theta: 0.3");
+    assert!(e.contains("--adaptive-params"), "{e}");
+    let e = run(r#"{"theta": 2.0}"#);
+    assert!(e.contains("theta = 2"), "{e}");
+
 /// `plan --false-alarm` sets the noise test of a new plan; the state keeps it, a later call
 /// with another rate is refused naming the parameter, and a rate outside `[0, 1)` is refused.
 #[test]

@@ -39,6 +39,33 @@ pub struct AdaptiveArgs {
     /// noise test, every detail is deepened).
     #[arg(long, default_value_t = 0.01)]
     pub false_alarm: f64,
+    /// Adaptive mode: a JSON object overriding fields of the refiner's parameters
+    /// (`AdaptiveParams`, e.g. `{"theta": 0.3, "spread": "uniform", "rho_limit": 4}`), applied
+    /// after the other flags; for experiments on the refiner's policy.
+    #[arg(long, value_name = "JSON")]
+    pub adaptive_params: Option<String>,
+}
+
+/// `params` with the fields of the JSON object `json` replaced (validated by the library).
+fn override_params(params: AdaptiveParams, json: &str) -> Result<AdaptiveParams, CliError> {
+    let bad = |why: String| {
+        CliError::Invalid(format!(
+            "--adaptive-params {json}: {why}; give a JSON object of AdaptiveParams fields, \
+             e.g. '{{\"theta\": 0.3}}'"
+        ))
+    };
+    let given: serde_json::Value = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    let fields = given
+        .as_object()
+        .ok_or_else(|| bad("not a JSON object".into()))?;
+    let mut value = serde_json::to_value(params).expect("parameters serialise");
+    for (name, field) in fields {
+        if value.get(name).is_none() {
+            return Err(bad(format!("no parameter named {name:?}")));
+        }
+        value[name] = field.clone();
+    }
+    serde_json::from_value(value).map_err(|e| bad(e.to_string()))
 }
 
 fn figure_path(out: &Path, what: &str) -> PathBuf {
@@ -109,6 +136,10 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             TreeSolver::Direct
         },
         ..AdaptiveParams::default()
+    };
+    let params = match &a.adaptive_params {
+        Some(json) => override_params(params, json)?,
+        None => params,
     };
     let truth = TruthParams {
         rate: args.truth_rate,

@@ -6,7 +6,9 @@
 //! * every film filter and the uniform wavelet engine on `s` stratified samples per pixel
 //!   (the renderer's baseline at the same cost);
 //! * every film filter on the adaptive sample set (weighted splatting): separates what the
-//!   sample placement buys from what the reconstruction buys.
+//!   sample placement buys from what the reconstruction buys;
+//! * the adaptive fit as a control variate ([`super::correction`]): its box pixels plus the
+//!   significant mean residual per pixel (row `adaptive wavelet + residual`).
 //!
 //! With noise `sigma > 0` every sample value carries Gaussian noise of that deviation, the
 //! adaptive ones through [`super::NoisyOracle`] (seeded by the seed and the position), the
@@ -42,6 +44,10 @@ pub enum AdaptiveRunError {
     #[error(transparent)]
     Image(#[from] crate::image::ImageError),
 }
+
+/// Standard errors of the residual mean beyond which a pixel is corrected
+/// ([`super::correction`]).
+pub const RESIDUAL_Z: f64 = 3.0;
 
 /// One row of the comparison.
 #[derive(Clone, Debug, Serialize)]
@@ -134,6 +140,33 @@ pub fn compare_adaptive(
         metrics: compare(&image, &truth_image),
         notes: run.report.notes.clone(),
     }];
+    // the fit as a control variate (the noise level from the last round's test)
+    let sigma = run
+        .report
+        .rounds
+        .last()
+        .and_then(|r| r.noise.as_ref())
+        .map_or(0.0, |n| n.sigma);
+    let (channels, corrected) = super::correction::residual_corrected_pixels(
+        &run.tree,
+        &run.fit,
+        &run.xs,
+        &run.ys,
+        &run.values,
+        sigma,
+        RESIDUAL_Z,
+    )?;
+    let with_residual = PixelImage { plane, channels };
+    rows.push(AdaptiveRow {
+        method: "adaptive wavelet + residual".into(),
+        samples_from: "adaptive",
+        samples: run.xs.len(),
+        metrics: compare(&with_residual, &truth_image),
+        notes: vec![format!(
+            "{corrected} pixels corrected by their mean residual (significant at {RESIDUAL_Z} \
+             standard errors, noise sigma {sigma:.3e})"
+        )],
+    });
     let uniform = sample_scene(
         scene,
         &SamplingParams {
@@ -207,7 +240,7 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
                 .unwrap_or_default()
         };
         let wav = psnr("stratified", &|m| m == "wavelet");
-        let film_adaptive = psnr("adaptive", &|m| m != "adaptive wavelet");
+        let film_adaptive = psnr("adaptive", &|m| !m.starts_with("adaptive wavelet"));
         s.push_str(&format!(
             "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} ({}) | {} | {} | {:?} |\n",
             c.scene,
@@ -232,7 +265,11 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
 /// (`stratified`: the renderer's uniform samples at the same count; `adaptive`: the adaptive
 /// run's samples), one line per scene, spp and sample set.
 pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
-    let mut methods = vec!["adaptive wavelet".to_string(), "wavelet".to_string()];
+    let mut methods = vec![
+        "adaptive wavelet".to_string(),
+        "adaptive wavelet + residual".to_string(),
+        "wavelet".to_string(),
+    ];
     methods.extend(FilmFilterKind::ALL.map(|k| k.name().to_string()));
     let mut s = format!(
         "| scene | spp | noise | samples from | samples | {} |\n|---|---|---|---|---|{}\n",

@@ -43,6 +43,8 @@ pub struct Indication {
     /// Slots below the depth limit whose parent's detail is within the noise (not markable),
     /// largest indicator first.
     pub insignificant: Vec<(Cell, f64)>,
+    /// Slots at the depth limit (never markable) and their indicators, in slot order.
+    pub at_limit: Vec<(Cell, f64)>,
 }
 
 /// `max_a |c_a|` (norm over channels) over the three functions of `cell`.
@@ -99,6 +101,8 @@ pub fn indicate(
                 out.markable_sq += eta * eta;
                 out.units.push((slot, eta));
             }
+        } else {
+            out.at_limit.push((slot, eta));
         }
     }
     for list in [&mut out.units, &mut out.insignificant] {

@@ -42,3 +42,75 @@ pub fn within_budget(costs: &[usize], budget: usize) -> usize {
     }
     costs.len()
 }
+
+/// Where a round's spare samples go ([`spread`]): the samples left over when the marked slots
+/// cost less than the round's least growth.
+///
+/// Measured at 64², 4 spp, noise-free (PSNR dB, indicator / uniform): camera 30.78 / 30.17,
+/// text 19.75 / 18.30, thin_lines 32.11 / 32.03, shapes 34.98 / 34.98 (before the least
+/// growth: 29.40, 18.23, 30.81, 34.98).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpreadRule {
+    /// Every slot alike: the lowest counts are raised first (a densifying round).
+    Uniform,
+    /// In proportion to each slot's indicator `eta` (insignificant slots and slots at the depth
+    /// limit included): Neyman's allocation, the counts that minimise `sum eta_i^2 / n_i` for
+    /// a given `sum n_i`, are `n_i ~ eta_i`.
+    #[default]
+    Indicator,
+}
+
+/// Spreads `extra` samples over slots holding `counts[i]` samples with weights `w[i] >= 0`:
+/// the water level `lambda` with `sum_i max(0, lambda w_i - counts[i]) = extra` (bisection),
+/// each slot raised to `floor(lambda w_i)`, the rest one by one to the slots furthest below
+/// their level (ties by index). All-zero weights count as equal. Returns the samples added
+/// per slot, summing to `extra` (none if there is no slot).
+///
+/// ```
+/// use rkwave::image::adaptive::marking::spread;
+/// assert_eq!(spread(&[1.0, 1.0, 1.0], &[2, 4, 2], 4), vec![2, 0, 2]); // water-filling
+/// assert_eq!(spread(&[3.0, 1.0], &[0, 0], 8), vec![6, 2]); // n ~ w
+/// assert_eq!(spread(&[0.0, 0.0], &[1, 1], 3).iter().sum::<usize>(), 3);
+/// ```
+pub fn spread(w: &[f64], counts: &[usize], extra: usize) -> Vec<usize> {
+    let n = w.len();
+    if n == 0 || extra == 0 {
+        return vec![0; n];
+    }
+    let uniform = !w.iter().any(|&v| v > 0.0);
+    let weight = |i: usize| if uniform { 1.0 } else { w[i].max(0.0) };
+    let deficit = |lambda: f64, i: usize| (lambda * weight(i) - counts[i] as f64).max(0.0);
+    let total = |lambda: f64| (0..n).map(|i| deficit(lambda, i)).sum::<f64>();
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while total(hi) < extra as f64 {
+        hi *= 2.0;
+    }
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if total(mid) <= extra as f64 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let mut add: Vec<usize> = (0..n).map(|i| deficit(lo, i).floor() as usize).collect();
+    let mut left = extra.saturating_sub(add.iter().sum());
+    // the rest to the slots furthest below the level `hi` (ties by index)
+    let mut order: Vec<usize> = (0..n).filter(|&i| weight(i) > 0.0).collect();
+    order.sort_by(|&a, &b| {
+        let da = hi * weight(a) - (counts[a] + add[a]) as f64;
+        let db = hi * weight(b) - (counts[b] + add[b]) as f64;
+        db.total_cmp(&da).then(a.cmp(&b))
+    });
+    while left > 0 {
+        for &i in &order {
+            if left == 0 {
+                break;
+            }
+            add[i] += 1;
+            left -= 1;
+        }
+    }
+    add
+}

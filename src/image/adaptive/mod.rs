@@ -13,9 +13,11 @@
 //!   samples in the new slots so that every slot keeps `ceil(rho)` samples; stop at a
 //!   tolerance, the depth limit or the sample budget;
 //! * [`protocol`]: the rounds driven by a renderer through files (state, fingerprints);
+//! * [`correction`]: the fit as a control variate (box pixels plus the mean residual);
 //! * [`experiment`]: adaptive wavelet against film filters at equal total samples;
 //! * `figure`: the image, the local depth and the samples side by side.
 
+pub mod correction;
 pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;

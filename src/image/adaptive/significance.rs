@@ -43,11 +43,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::position_normal;
-use std::collections::HashMap;
-
-use rand_pcg::Pcg64;
-
-use super::refiner::{ImageRound, SamplePositions};
+use super::refiner::ImageRound;
 use super::tree::{Cell, QuadTree};
 
 /// Samples evaluated per parallel work item.
@@ -92,7 +88,7 @@ pub fn probe_values(seed: u64, round: usize, xs: &[f64], ys: &[f64], k: usize) -
 }
 
 /// Residuals `f - K c` of every channel at the samples (full-layout coefficients).
-fn residuals(
+pub(crate) fn residuals(
     tree: &QuadTree,
     coefficients: &[&[f64]],
     xs: &[f64],
@@ -240,40 +236,6 @@ pub fn chi_square_quantile(k: usize, p: f64) -> f64 {
     let a = 2.0 / (9.0 * k);
     let z = normal_upper_quantile(p);
     k * (1.0 - a + z * a.sqrt()).max(0.0).powi(3)
-}
-
-/// A densifying round (nothing significant to deepen, budget left): raises the oversampling
-/// from `target` to `t' = min(2 target, the most every slot can get from `left`)` by
-/// jittered-stratified samples in each slot's rectangle; if not even `target + 1` fits, tops
-/// up the insignificant slots (largest indicator first) by one sample each while `left`
-/// lasts. `None`: not one sample fits. Returns the positions and the new per-slot count
-/// (`target` after a partial top-up).
-pub(crate) fn densify(
-    tree: &QuadTree,
-    slots: &[Cell],
-    counts: &HashMap<Cell, usize>,
-    insignificant: &[(Cell, f64)],
-    target: usize,
-    left: usize,
-    rng: &mut Pcg64,
-) -> Option<(SamplePositions, usize)> {
-    let count = |s: &Cell| counts.get(s).copied().unwrap_or(0);
-    let cost = |t: usize| -> usize { slots.iter().map(|s| t.saturating_sub(count(s))).sum() };
-    let mut to = target;
-    while to < 2 * target && cost(to + 1) <= left {
-        to += 1;
-    }
-    let mut next = SamplePositions::default();
-    if to > target {
-        for s in slots {
-            next.stratified(tree.rect(*s), to.saturating_sub(count(s)), rng);
-        }
-        return Some((next, to));
-    }
-    for (s, _) in insignificant.iter().take(left) {
-        next.stratified(tree.rect(*s), 1, rng);
-    }
-    (!next.is_empty()).then_some((next, target))
 }
 
 /// The noise test's cut-offs in words: slots left coarse, densifying rounds.
