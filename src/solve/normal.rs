@@ -136,15 +136,18 @@ pub(crate) fn factor_solve(
     } else {
         Par::rayon(0)
     };
-    // The factor is the largest allocation of the solve: refused before it is made.
+    // The factor is the largest allocation of the solve: refused before it is made, counted
+    // with the two copies of the normal matrix held beside it (16 bytes an entry).
     crate::resources::check(
         || {
             format!(
-                "the sparse Cholesky factor of the {p} x {p} normal matrix ({} stored entries)",
-                symbolic.len_val()
+                "the sparse Cholesky factor of the {p} x {p} normal matrix ({} stored entries, \
+                 beside the matrix's {} entries)",
+                symbolic.len_val(),
+                g.nnz()
             )
         },
-        8.0 * symbolic.len_val() as f64,
+        8.0 * symbolic.len_val() as f64 + 16.0 * (g.nnz() + normal_nnz) as f64,
         || {
             "fewer basis functions (a smaller budget, depth limit or fine level) or an \
              iterative solve"

@@ -268,6 +268,8 @@ fn fit_direct(
         })
         .collect();
     let column_samples: Vec<usize> = kt.outer_iterator().map(|r| r.nnz()).collect();
+    // `K` and `K^T` are not needed by the solve: freed before the factor is allocated.
+    drop((k, kt));
     let normal_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
     let params = GlobalLsParams {
