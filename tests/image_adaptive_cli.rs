@@ -116,6 +116,7 @@ fn adaptive_params_overrides_are_checked() {
     assert!(e.contains("--adaptive-params"), "{e}");
     let e = run(r#"{"theta": 2.0}"#);
     assert!(e.contains("theta = 2"), "{e}");
+}
 
 /// `plan --false-alarm` sets the noise test of a new plan; the state keeps it, a later call
 /// with another rate is refused naming the parameter, and a rate outside `[0, 1)` is refused.
