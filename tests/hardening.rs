@@ -447,25 +447,32 @@ fn adaptive_image_budgets_are_checked() {
     assert!(e.contains("memory"), "{e}");
 }
 
-/// The tree's sparse Cholesky factor is sized by its symbolic step and refused above the memory
-/// limit before it is allocated (16x16, 4 spp: 430 functions, 51,253 factor entries, 400 KB;
-/// the budget's own samples, 168 KB, pass a 200 KB limit).
+/// The direct tree fit is sized before it allocates: its kernel rows (estimated from a sample
+/// of rows, with the previous round's normal matrix scaled to the new functions) and then the
+/// sparse Cholesky factor (from its symbolic step) are refused above the memory limit. At
+/// 16x16, 4 spp the first fit's kernel needs about 484 KB and its factor about 702 KB beside
+/// two copies of `G`; the budget's own samples (168 KB) pass either limit.
 #[test]
 fn adaptive_factor_above_the_memory_limit_is_refused() {
     let d = scratch("adaptive_factor");
     let out = d.join("a.png");
-    let e = user_error(&[
-        "image",
-        "--scene",
-        "shapes",
-        "--resolution",
-        "16x16",
-        "--adaptive",
-        "--memory-limit",
-        "200K",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let refused = |limit: &str| {
+        user_error(&[
+            "image",
+            "--scene",
+            "shapes",
+            "--resolution",
+            "16x16",
+            "--adaptive",
+            "--memory-limit",
+            limit,
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let e = refused("200K");
+    assert!(e.contains("kernel rows") && e.contains("memory"), "{e}");
+    let e = refused("600K");
     assert!(e.contains("Cholesky factor") && e.contains("memory"), "{e}");
     assert!(!out.exists());
 }

@@ -147,6 +147,49 @@ pub fn tree_kernel(tree: &QuadTree, functions: &[usize], xs: &[f64], ys: &[f64])
     CsMat::new((xs.len(), functions.len()), indptr, indices, data)
 }
 
+/// Samples whose kernel rows estimate the size of `K` before it is built.
+const SIZE_PROBE: usize = 4096;
+
+/// Refuses a direct fit whose kernel and normal matrix cannot fit in memory, before either is
+/// allocated. `K` and `K^T` hold `32 nnz(K)` bytes (value and index, twice), `nnz(K)`
+/// estimated as `m` times the mean row of every `ceil(m / 4096)`-th sample (exact up to
+/// sampling; the rows of a tree vary by its local depth); `G` and its kept upper triangle
+/// about `24 nnz(G)` bytes, `nnz(G)` scaled from the previous round's matrix by the growth of
+/// the functions (0 on a first fit, whose size the factor's own check bounds).
+fn check_direct_memory(
+    tree: &QuadTree,
+    functions: &[usize],
+    xs: &[f64],
+    ys: &[f64],
+    gram: Option<&TreeGram>,
+) -> Result<(), AdaptiveError> {
+    let m = xs.len();
+    if m == 0 {
+        return Ok(());
+    }
+    let step = m.div_ceil(SIZE_PROBE);
+    let px: Vec<f64> = xs.iter().step_by(step).copied().collect();
+    let py: Vec<f64> = ys.iter().step_by(step).copied().collect();
+    let per_row = tree_kernel(tree, functions, &px, &py).nnz() as f64 / px.len() as f64;
+    let kernel = 32.0 * per_row * m as f64;
+    let normal = gram.map_or(0.0, |g| {
+        let (nnz, p) = g.size();
+        24.0 * nnz as f64 * functions.len() as f64 / p.max(1) as f64
+    });
+    crate::resources::check(
+        || {
+            format!(
+                "the tree fit of {m} samples on {} functions (kernel rows of about {per_row:.0} \
+                 entries each, and the normal matrix)",
+                functions.len()
+            )
+        },
+        kernel + normal,
+        || "a smaller budget or depth limit, or the matrix-free PCG solve".into(),
+    )?;
+    Ok(())
+}
+
 /// Fits every channel on the tree from samples `(xs[i], ys[i])` with values `values[c][i]`,
 /// by the direct solve (the reference, [`TreeSolver::Direct`]).
 pub fn fit_tree(
@@ -253,6 +296,7 @@ fn fit_direct(
 ) -> Result<TreeFit, AdaptiveError> {
     let functions = tree.functions();
     let t = std::time::Instant::now();
+    check_direct_memory(tree, &functions, xs, ys, gram.as_ref())?;
     let k = tree_kernel(tree, &functions, xs, ys);
     let kernel_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();

@@ -45,6 +45,16 @@ pub struct TreeGram {
     upper: CsMat<f64>,
 }
 
+impl TreeGram {
+    /// Stored entries of the full `G` it holds (both triangles) and its functions.
+    pub(crate) fn size(&self) -> (usize, usize) {
+        (
+            (2 * self.upper.nnz()).saturating_sub(self.functions.len()),
+            self.functions.len(),
+        )
+    }
+}
+
 impl std::fmt::Debug for TreeGram {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("TreeGram")
