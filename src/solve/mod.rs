@@ -24,6 +24,7 @@ mod local;
 mod normal;
 mod params;
 mod sparse;
+pub(crate) use sparse::{csr_from_row_parts, raw as csr_raw};
 #[cfg(test)]
 mod tests;
 

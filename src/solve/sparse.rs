@@ -145,8 +145,17 @@ pub(crate) fn normal_matrix(k: &CsMat<f64>, kt: &CsMat<f64>) -> CsMat<f64> {
             (lens, idx, val)
         })
         .collect();
-    let nnz: usize = parts.iter().map(|p| p.1.len()).sum();
-    let mut indptr = Vec::with_capacity(p + 1);
+    csr_from_row_parts((p, p), parts)
+}
+
+/// A CSR matrix of `shape` from consecutive blocks of rows, each `(row lengths, column
+/// indices, values)` in row order (the output of a row-parallel sparse product).
+pub(crate) fn csr_from_row_parts(
+    shape: (usize, usize),
+    parts: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)>,
+) -> CsMat<f64> {
+    let nnz: usize = parts.iter().map(|part| part.1.len()).sum();
+    let mut indptr = Vec::with_capacity(shape.0 + 1);
     let mut indices = Vec::with_capacity(nnz);
     let mut data = Vec::with_capacity(nnz);
     indptr.push(0);
@@ -158,7 +167,7 @@ pub(crate) fn normal_matrix(k: &CsMat<f64>, kt: &CsMat<f64>) -> CsMat<f64> {
         indices.extend_from_slice(&idx);
         data.extend_from_slice(&val);
     }
-    CsMat::new((p, p), indptr, indices, data)
+    CsMat::new(shape, indptr, indices, data)
 }
 
 /// `Y = A X` for CSR `A` (`r x c`) and row-major blocks `X` (`c x ch`), `Y` (`r x ch`).

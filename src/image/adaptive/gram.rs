@@ -33,6 +33,8 @@
 use rayon::prelude::*;
 use sprs::CsMat;
 
+use crate::solve::{csr_from_row_parts, csr_raw as raw};
+
 /// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
 #[derive(Clone)]
 pub struct TreeGram {
@@ -214,20 +216,7 @@ pub(crate) fn assemble(
             (lens, idx, val)
         })
         .collect();
-    let nnz: usize = parts.iter().map(|part| part.1.len()).sum();
-    let mut indptr = Vec::with_capacity(p + 1);
-    let mut indices = Vec::with_capacity(nnz);
-    let mut data = Vec::with_capacity(nnz);
-    indptr.push(0);
-    for (lens, idx, val) in parts {
-        for l in lens {
-            let last = *indptr.last().expect("indptr starts with 0");
-            indptr.push(last + l);
-        }
-        indices.extend_from_slice(&idx);
-        data.extend_from_slice(&val);
-    }
-    let upper = CsMat::new((p, p), indptr, indices, data);
+    let upper = csr_from_row_parts((p, p), parts);
     let full = mirror(&upper);
     let update = carried
         .as_ref()
@@ -284,11 +273,6 @@ fn mirror(upper: &CsMat<f64>) -> CsMat<f64> {
         data[at..at + (to - from)].copy_from_slice(&ud[from..to]);
     }
     CsMat::new((p, p), indptr, indices, data)
-}
-
-/// Raw CSR arrays (proper `indptr`, as the tree kernel and its transpose are built).
-fn raw(a: &CsMat<f64>) -> (&[usize], &[usize], &[f64]) {
-    (a.indptr().into_raw_storage(), a.indices(), a.data())
 }
 
 #[cfg(test)]
