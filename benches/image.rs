@@ -11,6 +11,10 @@
 //! * `image_end_to_end_4spp_3ch/p{2,3}_{cholesky,cg_jacobi}/{256,512}` and
 //!   `image_end_to_end_4spp_3ch/gaussian_film/{256,512}`;
 //! * `image_cg_preconditioners/{none,jacobi,local}/256`;
+//! * `image_fwt_2d/{line_by_line,rows}/{256,1024}`: one 2D non-standard analysis of a
+//!   `w x w` single-scale grid (p = 2, levels 4..log2 w), by the 1D steps applied line by line
+//!   with strided column copies (the transform before 2026-12-02, kept here as the reference)
+//!   and by [`TensorBasis::analysis`] (parallel rows, whole-row column pass; the same bits);
 //! * `image_1024/p2_cg_jacobi/1024` and `image_1024/gaussian_film/1024`: only when the
 //!   environment variable `RKWAVE_BENCH_1024=1` is set (tens of seconds per iteration; the
 //!   Cholesky factor at 1024² needs about 2.7 GB, so only CG runs there).
@@ -24,6 +28,9 @@
 //! ```
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use rkwave::basis::fwt::analysis_step;
+use rkwave::basis::tensor::TensorBasis;
+use rkwave::basis::FilterFamily;
 use rkwave::image::filters::GaussianFilter;
 use rkwave::image::fit::{NormalSolver, Preconditioner};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
@@ -150,5 +157,55 @@ fn preconditioners(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, end_to_end, large, preconditioners);
+/// The 2D analysis as the 1D steps line by line (rows, then each column copied out and back).
+fn analysis_line_by_line(b: &TensorBasis, data: &[f64]) -> Vec<f64> {
+    let (nx, _) = b.dims();
+    let (cx, cy) = b.coarse_levels();
+    let bank = b.bank();
+    let mut x = data.to_vec();
+    let mut line = vec![0.0; nx];
+    let mut out = vec![0.0; nx];
+    for s in (0..b.steps()).rev() {
+        let (jx, jy) = (cx + s, cy + s);
+        let (lx, ly) = (2usize << jx, 2usize << jy);
+        for ky in 0..ly {
+            analysis_step(bank, jx, &x[ky * nx..ky * nx + lx], &mut out[..lx]);
+            x[ky * nx..ky * nx + lx].copy_from_slice(&out[..lx]);
+        }
+        for kx in 0..lx {
+            for ky in 0..ly {
+                line[ky] = x[ky * nx + kx];
+            }
+            analysis_step(bank, jy, &line[..ly], &mut out[..ly]);
+            for ky in 0..ly {
+                x[ky * nx + kx] = out[ky];
+            }
+        }
+    }
+    x
+}
+
+fn fwt_2d(c: &mut Criterion) {
+    let mut group = c.benchmark_group("image_fwt_2d");
+    group.sample_size(10);
+    for w in [256usize, 1024] {
+        let level = w.trailing_zeros();
+        let basis =
+            TensorBasis::new(2, FilterFamily::cdv_default(2), w, w, (level, level)).unwrap();
+        let data: Vec<f64> = (0..basis.len())
+            .map(|i| ((i * 7919) % 1000) as f64 * 1e-3)
+            .collect();
+        assert_eq!(basis.analysis(&data), analysis_line_by_line(&basis, &data));
+        group.throughput(Throughput::Elements(basis.len() as u64));
+        group.bench_with_input(BenchmarkId::new("line_by_line", w), &w, |b, _| {
+            b.iter(|| analysis_line_by_line(&basis, &data))
+        });
+        group.bench_with_input(BenchmarkId::new("rows", w), &w, |b, _| {
+            b.iter(|| basis.analysis(&data))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, end_to_end, large, preconditioners, fwt_2d);
 criterion_main!(benches);

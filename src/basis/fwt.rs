@@ -78,6 +78,74 @@ pub fn synthesis_step(bank: &FilterBank, level: u32, sd: &[f64], f: &mut [f64]) 
     analysis_entries(bank, level, true, |c, i, w| f[i] += w * d[c]);
 }
 
+/// One step (analysis or synthesis) at one level as a sparse matrix stored by output: for
+/// output `o`, the inputs and weights `ptr[o]..ptr[o + 1]` in the order [`analysis_step`] and
+/// [`synthesis_step`] sum them, so that `out[o] = sum w f[in]` from 0 in that order gives their
+/// bits exactly (a stable sort of [`analysis_entries`] by output).
+#[derive(Clone, Debug)]
+pub(crate) struct StepMatrix {
+    ptr: Vec<usize>,
+    input: Vec<usize>,
+    weight: Vec<f64>,
+}
+
+impl StepMatrix {
+    /// The analysis (`f -> [s | d]`) or synthesis (`[s | d] -> f`) step of level `level`.
+    pub(crate) fn new(bank: &FilterBank, level: u32, analysis: bool) -> Self {
+        let size = 1usize << level;
+        let mut triples: Vec<(usize, usize, f64)> = Vec::new();
+        for high in [false, true] {
+            let shift = if high { size } else { 0 };
+            analysis_entries(bank, level, high, |c, i, w| {
+                if analysis {
+                    triples.push((shift + c, i, w));
+                } else {
+                    triples.push((i, shift + c, w));
+                }
+            });
+        }
+        let mut ptr = vec![0usize; 2 * size + 1];
+        for &(o, _, _) in &triples {
+            ptr[o + 1] += 1;
+        }
+        for o in 0..2 * size {
+            ptr[o + 1] += ptr[o];
+        }
+        let mut next = ptr.clone();
+        let mut input = vec![0usize; triples.len()];
+        let mut weight = vec![0.0; triples.len()];
+        for (o, i, w) in triples {
+            input[next[o]] = i;
+            weight[next[o]] = w;
+            next[o] += 1;
+        }
+        Self { ptr, input, weight }
+    }
+
+    /// Outputs (and inputs): `2^{level+1}`.
+    pub(crate) fn len(&self) -> usize {
+        self.ptr.len() - 1
+    }
+
+    /// Inputs and weights of output `o`.
+    pub(crate) fn entries(&self, o: usize) -> (&[usize], &[f64]) {
+        let (a, b) = (self.ptr[o], self.ptr[o + 1]);
+        (&self.input[a..b], &self.weight[a..b])
+    }
+
+    /// `out = A f` for one vector.
+    pub(crate) fn apply(&self, f: &[f64], out: &mut [f64]) {
+        for (o, v) in out[..self.len()].iter_mut().enumerate() {
+            let (input, weight) = self.entries(o);
+            let mut acc = 0.0;
+            for (&i, &w) in input.iter().zip(weight) {
+                acc += w * f[i];
+            }
+            *v = acc;
+        }
+    }
+}
+
 /// Full analysis: `V_{N+1}` coefficients (length `2^{N+1}`) to `Psi(n, N)` coefficients.
 pub fn analysis(bank: &FilterBank, coarse: u32, fine: u32, data: &[f64]) -> Vec<f64> {
     let mut x = data.to_vec();

@@ -307,21 +307,19 @@ impl TensorBasis {
         self.transform(coefficients, false)
     }
 
+    /// The 2D non-standard FWT, level by level: every row by the x step, then every column
+    /// by the y step (they commute). Both passes run in parallel over rows, each entry summed
+    /// in the order of the 1D step ([`fwt::StepMatrix`]), so the bits are those of
+    /// [`fwt::analysis_step`] / [`fwt::synthesis_step`] applied line by line whatever the
+    /// thread count. The column pass combines whole rows (`y_o = sum_i w_oi x_i`, contiguous).
     fn transform(&self, data: &[f64], analysis: bool) -> Vec<f64> {
+        use rayon::prelude::*;
         let (nx, ny) = self.dims();
         assert_eq!(data.len(), nx * ny, "2D FWT input length");
         let bank = self.bank();
         let (cx, cy) = self.coarse_levels();
         let mut x = data.to_vec();
-        let mut line = vec![0.0; nx.max(ny)];
-        let mut out = vec![0.0; nx.max(ny)];
-        let step = |j: u32, f: &[f64], o: &mut [f64]| {
-            if analysis {
-                fwt::analysis_step(bank, j, f, o)
-            } else {
-                fwt::synthesis_step(bank, j, f, o)
-            }
-        };
+        let mut y = vec![0.0; nx * ny];
         let order: Vec<u32> = if analysis {
             (0..self.steps()).rev().collect()
         } else {
@@ -330,21 +328,32 @@ impl TensorBasis {
         for s in order {
             let (jx, jy) = (cx + s, cy + s);
             let (lx, ly) = (2usize << jx, 2usize << jy);
-            // rows, then columns (the two commute: they act on different indices)
-            for ky in 0..ly {
-                let row = &mut x[ky * nx..ky * nx + lx];
-                step(jx, row, &mut out[..lx]);
-                row.copy_from_slice(&out[..lx]);
-            }
-            for kx in 0..lx {
-                for ky in 0..ly {
-                    line[ky] = x[ky * nx + kx];
-                }
-                step(jy, &line[..ly], &mut out[..ly]);
-                for ky in 0..ly {
-                    x[ky * nx + kx] = out[ky];
-                }
-            }
+            let step_x = fwt::StepMatrix::new(bank, jx, analysis);
+            let step_y = fwt::StepMatrix::new(bank, jy, analysis);
+            x[..ly * nx].par_chunks_mut(nx).for_each_init(
+                || vec![0.0; lx],
+                |out, row| {
+                    step_x.apply(&row[..lx], out);
+                    row[..lx].copy_from_slice(out);
+                },
+            );
+            y[..ly * nx]
+                .par_chunks_mut(nx)
+                .enumerate()
+                .for_each(|(o, out)| {
+                    let out = &mut out[..lx];
+                    out.iter_mut().for_each(|v| *v = 0.0);
+                    let (input, weight) = step_y.entries(o);
+                    for (&i, &w) in input.iter().zip(weight) {
+                        for (v, &xv) in out.iter_mut().zip(&x[i * nx..i * nx + lx]) {
+                            *v += w * xv;
+                        }
+                    }
+                });
+            x[..ly * nx]
+                .par_chunks_mut(nx)
+                .zip(y[..ly * nx].par_chunks(nx))
+                .for_each(|(xr, yr)| xr[..lx].copy_from_slice(&yr[..lx]));
         }
         x
     }

@@ -6,7 +6,8 @@
 //!
 //! - **PCG** (opt-in: measured slower, see [`super::pcg`]): matrix-free preconditioned conjugate gradients on the normal
 //!   equations ([`super::pcg`]), `K_T = E S P_T` applied through the single-scale rows and the
-//!   2D FWT, one solve per channel, optionally warm-started; its iterations, relative residual
+//!   2D FWT, every channel's conjugate gradients in lockstep so that one pass over the rows
+//!   serves all of them ([`super::pcg::pcg_many`]), optionally warm-started; its iterations, relative residual
 //!   and condition estimate are reported. If it does not reach its tolerance the direct solve
 //!   takes over on trees of at most [`super::pcg::DIRECT_FALLBACK_MAX`] functions; either way
 //!   the report says so.
@@ -28,7 +29,7 @@ use serde::Serialize;
 use sprs::CsMat;
 
 use super::gram::{assemble, TreeGram};
-use super::pcg::{pcg, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX};
+use super::pcg::{pcg_many, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX};
 use super::tree::QuadTree;
 use super::AdaptiveError;
 use crate::basis::tensor::TensorValue;
@@ -239,14 +240,7 @@ pub fn fit_tree_updating(
             let op = TreeNormalOperator::new(tree, &rows, xs, ys);
             let kernel_s = t.elapsed().as_secs_f64();
             let t = std::time::Instant::now();
-            let solved: Vec<_> = values
-                .par_iter()
-                .enumerate()
-                .map(|(c, f)| {
-                    let s = start.and_then(|s| s.get(c)).map(|v| v.as_slice());
-                    pcg(&op, f, s, tolerance, max_iterations)
-                })
-                .collect();
+            let solved = pcg_many(&op, values, start, tolerance, max_iterations);
             let solve_s = t.elapsed().as_secs_f64();
             let converged = solved.iter().all(|(_, r)| r.converged);
             if !converged && tree.len() <= DIRECT_FALLBACK_MAX {

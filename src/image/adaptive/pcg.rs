@@ -156,42 +156,140 @@ impl SingleScaleRows {
 
     /// `out = E s` (single-scale coefficients `s` to values at the samples).
     pub fn apply(&self, s: &[f64], out: &mut [f64]) {
-        out.par_chunks_mut(CHUNK)
+        self.apply_many(s, 1, out);
+    }
+
+    /// `out = E s` for `k` vectors at once, interleaved: `s[j k + c]` is coefficient `j` of
+    /// vector `c`, `out[i k + c]` the value of vector `c` at sample `i` (one pass over the
+    /// rows for every vector).
+    pub fn apply_many(&self, s: &[f64], k: usize, out: &mut [f64]) {
+        let nx = self.nx;
+        out.par_chunks_mut(CHUNK * k)
             .enumerate()
             .for_each(|(chunk, o)| {
-                for (j, v) in o.iter_mut().enumerate() {
+                let mut acc = vec![0.0; k];
+                let mut inner = vec![0.0; k];
+                for (j, v) in o.chunks_mut(k).enumerate() {
                     let (ix, vx, iy, vy) = self.factors(chunk * CHUNK + j);
-                    let mut acc = 0.0;
+                    acc.iter_mut().for_each(|a| *a = 0.0);
                     for (&ky, &wy) in iy.iter().zip(vy) {
-                        let row = &s[ky as usize * self.nx..];
-                        let mut inner = 0.0;
+                        inner.iter_mut().for_each(|a| *a = 0.0);
                         for (&kx, &wx) in ix.iter().zip(vx) {
-                            inner += wx * row[kx as usize];
+                            let at = (ky as usize * nx + kx as usize) * k;
+                            for (a, &sv) in inner.iter_mut().zip(&s[at..at + k]) {
+                                *a += wx * sv;
+                            }
                         }
-                        acc += wy * inner;
+                        for (a, &b) in acc.iter_mut().zip(&inner) {
+                            *a += wy * b;
+                        }
                     }
-                    *v = acc;
+                    v.copy_from_slice(&acc);
                 }
             });
     }
 
     /// `out = E^T r` (sample residuals to single-scale coefficients), `out` overwritten.
     pub fn apply_transpose(&self, r: &[f64], out: &mut [f64]) {
-        out.iter_mut().for_each(|v| *v = 0.0);
-        for (i, &ri) in r.iter().enumerate() {
-            if ri == 0.0 {
-                continue;
-            }
-            let (ix, vx, iy, vy) = self.factors(i);
-            for (&ky, &wy) in iy.iter().zip(vy) {
-                let row = &mut out[ky as usize * self.nx..];
-                let w = ri * wy;
-                for (&kx, &wx) in ix.iter().zip(vx) {
-                    row[kx as usize] += w * wx;
+        let t = self.apply_transpose_many(r, 1, out.len());
+        out.copy_from_slice(&t);
+    }
+
+    /// `E^T r` for `k` vectors at once, interleaved as in [`Self::apply_many`] (`r[i k + c]`
+    /// in, `n k` coefficients out, `n` the single-scale functions), through the columns
+    /// ([`SingleScaleColumns`]).
+    pub fn apply_transpose_many(&self, r: &[f64], k: usize, n: usize) -> Vec<f64> {
+        self.columns(n).apply_many(r, k)
+    }
+
+    /// `E` by columns: for each single-scale function, its samples (ascending) and values.
+    pub fn columns(&self, n: usize) -> SingleScaleColumns {
+        let m = self.len();
+        let nx = self.nx;
+        let mut ptr = vec![0usize; n + 1];
+        for i in 0..m {
+            let (ix, _, iy, _) = self.factors(i);
+            for &ky in iy {
+                for &kx in ix {
+                    ptr[ky as usize * nx + kx as usize + 1] += 1;
                 }
             }
         }
+        for j in 0..n {
+            ptr[j + 1] += ptr[j];
+        }
+        let mut next = ptr.clone();
+        let mut sample = vec![0u32; ptr[n]];
+        let mut weight = vec![0.0; ptr[n]];
+        for i in 0..m {
+            let (ix, vx, iy, vy) = self.factors(i);
+            for (&ky, &wy) in iy.iter().zip(vy) {
+                for (&kx, &wx) in ix.iter().zip(vx) {
+                    let j = ky as usize * nx + kx as usize;
+                    sample[next[j]] = i as u32;
+                    weight[next[j]] = wy * wx;
+                    next[j] += 1;
+                }
+            }
+        }
+        SingleScaleColumns {
+            ptr,
+            sample,
+            weight,
+        }
     }
+}
+
+/// `E` stored by columns (CSC): `E^T r` as a gather, in parallel over the functions, each
+/// summed over its samples in ascending order (the bits do not depend on the thread count,
+/// and no per-thread copy of the output is needed).
+#[derive(Clone, Debug, Default)]
+pub struct SingleScaleColumns {
+    ptr: Vec<usize>,
+    sample: Vec<u32>,
+    weight: Vec<f64>,
+}
+
+impl SingleScaleColumns {
+    /// `E^T r` for `k` interleaved vectors (`r[i k + c]`), `n k` interleaved coefficients out.
+    pub fn apply_many(&self, r: &[f64], k: usize) -> Vec<f64> {
+        let n = self.ptr.len() - 1;
+        let mut out = vec![0.0; n * k];
+        out.par_chunks_mut(CHUNK * k)
+            .enumerate()
+            .for_each(|(chunk, o)| {
+                for (t, v) in o.chunks_mut(k).enumerate() {
+                    let j = chunk * CHUNK + t;
+                    for q in self.ptr[j]..self.ptr[j + 1] {
+                        let (i, w) = (self.sample[q] as usize, self.weight[q]);
+                        for (a, &ri) in v.iter_mut().zip(&r[i * k..(i + 1) * k]) {
+                            *a += w * ri;
+                        }
+                    }
+                }
+            });
+        out
+    }
+}
+
+/// `k` vectors of equal length interleaved: `out[j k + c] = vs[c][j]`.
+fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
+    let k = vs.len();
+    let n = vs.first().map_or(0, |v| v.len());
+    let mut out = vec![0.0; n * k];
+    for (c, v) in vs.iter().enumerate() {
+        for (j, &x) in v.iter().enumerate() {
+            out[j * k + c] = x;
+        }
+    }
+    out
+}
+
+/// The inverse of [`interleave`] for `k` vectors.
+fn deinterleave(v: &[f64], k: usize) -> Vec<Vec<f64>> {
+    (0..k)
+        .map(|c| v.iter().skip(c).step_by(k).copied().collect())
+        .collect()
 }
 
 /// The tree's normal operator `G = K_T^T K_T`, matrix-free, on full Mallat-layout vectors
@@ -199,6 +297,8 @@ impl SingleScaleRows {
 pub struct TreeNormalOperator<'a> {
     basis: &'a TensorBasis,
     rows: &'a SingleScaleRows,
+    /// `E` by columns, for `E^T r`.
+    columns: SingleScaleColumns,
     /// 1 on the tree's functions, 0 elsewhere.
     mask: Vec<bool>,
     /// Inverse of the estimated `diag G` on the tree (0 off it).
@@ -285,6 +385,7 @@ impl<'a> TreeNormalOperator<'a> {
         Self {
             basis,
             rows,
+            columns: rows.columns(n),
             mask,
             inv_diag,
             unsampled,
@@ -298,24 +399,45 @@ impl<'a> TreeNormalOperator<'a> {
 
     /// `K_T^T f` (zero off the tree).
     pub fn rhs(&self, f: &[f64]) -> Vec<f64> {
-        let mut u = vec![0.0; self.basis.len()];
-        self.rows.apply_transpose(f, &mut u);
-        let mut b = self.basis.analysis(&u);
-        self.restrict(&mut b);
-        b
+        self.rhs_many(f, 1).pop().expect("one vector")
+    }
+
+    /// `K_T^T f_c` for `k` sample vectors interleaved (`f[i k + c]`), one pass over the rows.
+    pub fn rhs_many(&self, f: &[f64], k: usize) -> Vec<Vec<f64>> {
+        let n = self.basis.len();
+        debug_assert_eq!(self.columns.ptr.len(), n + 1);
+        let u = deinterleave(&self.columns.apply_many(f, k), k);
+        u.par_iter()
+            .map(|u| {
+                let mut b = self.basis.analysis(u);
+                self.restrict(&mut b);
+                b
+            })
+            .collect()
     }
 
     /// `K_T v` for `v` zero off the tree: the fit's values at the samples.
     pub fn values(&self, v: &[f64]) -> Vec<f64> {
-        let s = self.basis.synthesis(v);
-        let mut out = vec![0.0; self.rows.len()];
-        self.rows.apply(&s, &mut out);
+        self.values_many(&[v])
+    }
+
+    /// `K_T v_c` for `k` vectors zero off the tree, interleaved (`out[i k + c]`).
+    pub fn values_many(&self, vs: &[&[f64]]) -> Vec<f64> {
+        let s: Vec<Vec<f64>> = vs.par_iter().map(|v| self.basis.synthesis(v)).collect();
+        let k = vs.len();
+        let mut out = vec![0.0; self.rows.len() * k];
+        self.rows.apply_many(&interleave(&s), k, &mut out);
         out
     }
 
     /// `G v` for `v` zero off the tree.
     pub fn apply(&self, v: &[f64]) -> Vec<f64> {
-        self.rhs(&self.values(v))
+        self.apply_many(&[v]).pop().expect("one vector")
+    }
+
+    /// `G v_c` for `k` vectors zero off the tree (one pass over the rows each way).
+    pub fn apply_many(&self, vs: &[&[f64]]) -> Vec<Vec<f64>> {
+        self.rhs_many(&self.values_many(vs), vs.len())
     }
 
     fn restrict(&self, v: &mut [f64]) {
@@ -353,77 +475,150 @@ pub fn pcg(
     tolerance: f64,
     max_iterations: usize,
 ) -> (Vec<f64>, PcgReport) {
-    let b = op.rhs(f);
-    let bnorm = dot(&b, &b).sqrt();
-    let n = b.len();
-    let mut x = match start {
-        Some(s) => {
-            let mut x = s.to_vec();
-            op.restrict(&mut x);
-            x
+    let starts = start.map(|s| vec![s.to_vec()]);
+    pcg_many(op, &[f], starts.as_deref(), tolerance, max_iterations)
+        .pop()
+        .expect("one channel")
+}
+
+/// One channel's conjugate-gradient state.
+struct Channel {
+    x: Vec<f64>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    rz: f64,
+    bnorm: f64,
+    alphas: Vec<f64>,
+    betas: Vec<f64>,
+    active: bool,
+}
+
+/// Solves `G c_c = K_T^T f_c` for every channel `c` by PCG from `starts` (per channel, zero
+/// off the tree; `None`: zero): independent conjugate-gradient runs in lockstep, whose
+/// products `G p_c` share one pass over the rows per iteration ([`TreeNormalOperator::apply_many`]).
+/// A channel stops at its own tolerance; the others go on.
+pub fn pcg_many(
+    op: &TreeNormalOperator<'_>,
+    fs: &[&[f64]],
+    starts: Option<&[Vec<f64>]>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> Vec<(Vec<f64>, PcgReport)> {
+    let k = fs.len();
+    let m = op.rows.len();
+    let mut f = vec![0.0; m * k];
+    for (c, fc) in fs.iter().enumerate() {
+        for (i, &v) in fc.iter().enumerate() {
+            f[i * k + c] = v;
         }
-        None => vec![0.0; n],
-    };
-    if bnorm == 0.0 {
-        return (
-            vec![0.0; n],
-            PcgReport {
-                converged: true,
-                condition: 1.0,
-                ..PcgReport::default()
-            },
-        );
     }
-    let mut r = if start.is_some() {
-        let gx = op.apply(&x);
-        b.iter().zip(&gx).map(|(b, g)| b - g).collect()
+    let b = op.rhs_many(&f, k);
+    let n = op.basis.len();
+    let xs: Vec<Vec<f64>> = (0..k)
+        .map(|c| match starts.and_then(|s| s.get(c)) {
+            Some(s) => {
+                let mut x = s.clone();
+                op.restrict(&mut x);
+                x
+            }
+            None => vec![0.0; n],
+        })
+        .collect();
+    let warm: Vec<bool> = xs.iter().map(|x| x.iter().any(|&v| v != 0.0)).collect();
+    let gx = if warm.iter().any(|&w| w) {
+        let refs: Vec<&[f64]> = xs.iter().map(|x| x.as_slice()).collect();
+        op.apply_many(&refs)
     } else {
-        b.clone()
+        vec![vec![0.0; n]; k]
     };
-    let mut z: Vec<f64> = r.iter().zip(&op.inv_diag).map(|(r, d)| r * d).collect();
-    let mut p = z.clone();
-    let mut rz = dot(&r, &z);
-    let (mut alphas, mut betas) = (Vec::new(), Vec::new());
-    let mut iterations = 0;
-    while iterations < max_iterations && dot(&r, &r).sqrt() > tolerance * bnorm && rz > 0.0 {
-        let q = op.apply(&p);
-        let pq = dot(&p, &q);
-        if pq <= 0.0 {
+    let mut ch: Vec<Channel> = xs
+        .into_iter()
+        .zip(b.iter().zip(&gx))
+        .map(|(x, (b, gx))| {
+            let r: Vec<f64> = b.iter().zip(gx).map(|(b, g)| b - g).collect();
+            let z: Vec<f64> = r.iter().zip(&op.inv_diag).map(|(r, d)| r * d).collect();
+            let rz = dot(&r, &z);
+            let bnorm = dot(b, b).sqrt();
+            let active = bnorm > 0.0 && rz > 0.0 && dot(&r, &r).sqrt() > tolerance * bnorm;
+            Channel {
+                p: z.clone(),
+                x,
+                r,
+                z,
+                rz,
+                bnorm,
+                alphas: Vec::new(),
+                betas: Vec::new(),
+                active,
+            }
+        })
+        .collect();
+    let mut iterations = vec![0usize; k];
+    for _ in 0..max_iterations {
+        let live: Vec<usize> = (0..k).filter(|&c| ch[c].active).collect();
+        if live.is_empty() {
             break;
         }
-        let alpha = rz / pq;
-        for ((x, r), (p, q)) in x.iter_mut().zip(r.iter_mut()).zip(p.iter().zip(&q)) {
-            *x += alpha * p;
-            *r -= alpha * q;
+        let ps: Vec<&[f64]> = live.iter().map(|&c| ch[c].p.as_slice()).collect();
+        let qs = op.apply_many(&ps);
+        for (&c, q) in live.iter().zip(&qs) {
+            let s = &mut ch[c];
+            let pq = dot(&s.p, q);
+            if pq <= 0.0 {
+                s.active = false;
+                continue;
+            }
+            let alpha = s.rz / pq;
+            for ((x, r), (p, q)) in s.x.iter_mut().zip(s.r.iter_mut()).zip(s.p.iter().zip(q)) {
+                *x += alpha * p;
+                *r -= alpha * q;
+            }
+            for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&op.inv_diag) {
+                *z = r * d;
+            }
+            let rz_new = dot(&s.r, &s.z);
+            let beta = rz_new / s.rz;
+            for (p, z) in s.p.iter_mut().zip(&s.z) {
+                *p = z + beta * *p;
+            }
+            s.rz = rz_new;
+            s.alphas.push(alpha);
+            s.betas.push(beta);
+            iterations[c] += 1;
+            s.active = rz_new > 0.0 && dot(&s.r, &s.r).sqrt() > tolerance * s.bnorm;
         }
-        for ((z, r), d) in z.iter_mut().zip(&r).zip(&op.inv_diag) {
-            *z = r * d;
-        }
-        let rz_new = dot(&r, &z);
-        let beta = rz_new / rz;
-        for (p, z) in p.iter_mut().zip(&z) {
-            *p = z + beta * *p;
-        }
-        rz = rz_new;
-        alphas.push(alpha);
-        betas.push(beta);
-        iterations += 1;
     }
-    let gx = op.apply(&x);
-    let res: f64 = b
-        .iter()
-        .zip(&gx)
-        .map(|(b, g)| (b - g) * (b - g))
-        .sum::<f64>()
-        .sqrt();
-    let relative_residual = res / bnorm;
-    let report = PcgReport {
-        iterations,
-        relative_residual,
-        condition: lanczos_condition(&alphas, &betas),
-        converged: relative_residual <= tolerance,
-    };
-    (x, report)
+    let refs: Vec<&[f64]> = ch.iter().map(|s| s.x.as_slice()).collect();
+    let gx = op.apply_many(&refs);
+    ch.into_iter()
+        .zip(gx.iter().zip(&b))
+        .zip(iterations)
+        .map(|((s, (gx, b)), iterations)| {
+            if s.bnorm == 0.0 {
+                let report = PcgReport {
+                    converged: true,
+                    condition: 1.0,
+                    ..PcgReport::default()
+                };
+                return (vec![0.0; n], report);
+            }
+            let res: f64 = b
+                .iter()
+                .zip(gx)
+                .map(|(b, g)| (b - g) * (b - g))
+                .sum::<f64>()
+                .sqrt();
+            let relative_residual = res / s.bnorm;
+            let report = PcgReport {
+                iterations,
+                relative_residual,
+                condition: lanczos_condition(&s.alphas, &s.betas),
+                converged: relative_residual <= tolerance,
+            };
+            (s.x, report)
+        })
+        .collect()
 }
 
 /// `lambda_max / lambda_min` of the Lanczos tridiagonal of a CG run: diagonal `1/alpha_k +

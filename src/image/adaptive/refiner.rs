@@ -35,9 +35,12 @@
 //! never exceed the budget. Deterministic for a seed: the marked slots are processed in
 //! indicator order (ties by cell) with one PCG-64 stream per round.
 //!
-//! Every round refits from scratch: by default the direct solve (kernel rows, `G`, Cholesky);
-//! [`AdaptiveParams::solver`] may choose matrix-free PCG ([`super::pcg`]), cold-started so
-//! the file protocol's rounds stay bit-identical to the in-process ones.
+//! Every round refits: by default the direct solve (kernel rows, `G` continued from the last
+//! round's, Cholesky), bit-identical to a rebuild, so the file protocol's rounds are the
+//! in-process ones bit for bit. [`AdaptiveParams::solver`] may choose matrix-free PCG
+//! ([`super::pcg`]), which in the in-process loop starts from the last round's coefficients;
+//! the file protocol starts each PCG round from 0, so under PCG its fits agree with the
+//! loop's to the PCG tolerance, not bit for bit.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -469,6 +472,10 @@ pub struct ImagePlan {
     /// The last fit's normal matrix, continued by the next round's fit (solver state only: the
     /// fit is the same bits without it, see [`super::gram`]; a resumed plan starts without).
     gram: Option<TreeGram>,
+    /// The last fit's coefficients per image channel, PCG's start in the next round (solver
+    /// state only, kept for [`TreeSolver::Pcg`]: the tree only grows, so they are a point of
+    /// the next tree's space with its new functions at 0; a resumed plan starts from 0).
+    start: Option<Vec<Vec<f64>>>,
 }
 
 impl ImagePlan {
@@ -531,6 +538,7 @@ impl ImagePlan {
             per_slot,
             progress: PlanProgress::default(),
             gram: None,
+            start: None,
         })
     }
 
@@ -620,15 +628,17 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
-        self.fit_updating(xs, ys, values, &mut None)
+        self.fit_updating(xs, ys, values, None, &mut None)
     }
 
-    /// [`ImagePlan::fit`], the direct solve continuing the normal matrix in `gram` (same bits).
+    /// [`ImagePlan::fit`], the direct solve continuing the normal matrix in `gram` (same bits),
+    /// PCG starting from `start` (per image channel; the probe channels start from 0).
     fn fit_updating(
         &self,
         xs: &[f64],
         ys: &[f64],
         values: &[&[f64]],
+        start: Option<&[Vec<f64>]>,
         gram: &mut Option<TreeGram>,
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
         let params = &self.params;
@@ -636,14 +646,14 @@ impl ImagePlan {
         let ch = values.len();
         if params.false_alarm <= 0.0 {
             return Ok((
-                fit_tree_updating(tree, xs, ys, values, params.solver, None, gram)?,
+                fit_tree_updating(tree, xs, ys, values, params.solver, start, gram)?,
                 None,
             ));
         }
         let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree_updating(tree, xs, ys, &all, params.solver, None, gram)?;
+        let mut fit = fit_tree_updating(tree, xs, ys, &all, params.solver, start, gram)?;
         let significance = Significance::new(
             tree,
             &fit.coefficients,
@@ -670,9 +680,13 @@ impl ImagePlan {
         let round = self.round();
         let t = Instant::now();
         let mut gram = self.gram.take();
-        let fitted = self.fit_updating(xs, ys, values, &mut gram);
+        let start = self.start.take();
+        let fitted = self.fit_updating(xs, ys, values, start.as_deref(), &mut gram);
         self.gram = gram;
         let (fit, significance) = fitted?;
+        if matches!(self.params.solver, TreeSolver::Pcg { .. }) {
+            self.start = Some(fit.coefficients.clone());
+        }
         let params = &self.params;
         let tree = &self.tree;
         let fit_s = t.elapsed().as_secs_f64();
