@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::{AdaptiveParams, TreeSolver};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, TreeSolver};
 use rkwave::image::experiment::TruthParams;
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
@@ -44,6 +44,10 @@ pub struct AdaptiveArgs {
     /// after the other flags; for experiments on the refiner's policy.
     #[arg(long, value_name = "JSON")]
     pub adaptive_params: Option<String>,
+    /// Adaptive mode: write the fit's box pixels alone, without adding the significant mean
+    /// residual of each pixel's samples (the default output; the rows show both either way).
+    #[arg(long)]
+    pub no_residual: bool,
 }
 
 /// `params` with the fields of the JSON object `json` replaced (validated by the library).
@@ -135,6 +139,11 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         } else {
             TreeSolver::Direct
         },
+        pixels: if a.no_residual {
+            PixelEstimate::FitOnly
+        } else {
+            PixelEstimate::ResidualCorrected
+        },
         ..AdaptiveParams::default()
     };
     let params = match &a.adaptive_params {
@@ -191,7 +200,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     );
     for row in &c.rows {
         println!(
-            "{:18} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
+            "{:26} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
             row.method, row.samples_from, row.samples, row.metrics.psnr, row.metrics.ssim
         );
     }

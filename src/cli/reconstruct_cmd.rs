@@ -55,10 +55,21 @@ pub struct ReconstructArgs {
     /// that plan built (its p, levels and depth map; `--method` and `--p` are not used).
     #[arg(long)]
     pub state: Option<PathBuf>,
+    /// With `--dim 2 --state`: write the fit's box pixels alone, without adding the
+    /// significant mean residual of each pixel's samples (the default output).
+    #[arg(long)]
+    pub no_residual: bool,
 }
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
+    if args.no_residual && (args.dim != 2 || args.state.is_none()) {
+        return Err(CliError::Invalid(
+            "--no-residual turns off the residual correction of an adaptive plan's image: use \
+             it with --dim 2 --state DIR"
+                .into(),
+        ));
+    }
     match args.dim {
         1 if args.state.is_some() => {
             return Err(CliError::Invalid(
