@@ -43,7 +43,7 @@ fn compare_adaptive_adds_the_adaptive_rows() {
     assert_eq!(rows[1]["method"], "adaptive wavelet, fit only");
     // the default output is the residual-corrected image, its pixels counted
     let pixels = &adaptive["adaptive"]["pixels"];
-    assert_eq!(pixels["estimate"], "residual_corrected");
+    assert_eq!(pixels["estimate"], "residual_clamped");
     assert!(pixels["corrected"].as_u64().unwrap() <= pixels["sampled"].as_u64().unwrap());
     for from in ["stratified", "adaptive"] {
         for film in ["box", "triangle", "gaussian", "mitchell", "lanczos"] {
@@ -218,7 +218,7 @@ fn image_adaptive_no_residual() {
     );
     let corrected = json(run(&["--json"]));
     let c = &corrected["adaptive"]["pixels"];
-    assert_eq!(c["estimate"], "residual_corrected");
+    assert_eq!(c["estimate"], "residual_clamped");
     assert!(c["corrected"].as_u64().unwrap() > 0, "{c}");
     let text = common::text(&run(&[]));
     assert!(

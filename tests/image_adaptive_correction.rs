@@ -2,7 +2,8 @@
 //! plus the mean residual of each pixel's samples where it is significant
 //! (`src/image/adaptive/correction.rs`). The mathematics, not snapshots: no residual, no
 //! correction; a constant residual moves its pixel by itself; a mean residual within
-//! `z sigma sqrt(ch / n)` moves nothing.
+//! `z sigma sqrt(ch / n)` moves nothing; the default output is then clamped to the range of
+//! the samples in each pixel's 3x3 neighbourhood.
 
 use rkwave::image::adaptive::correction::{
     add_significant_mean_residual, output_pixels, PixelEstimate, RESIDUAL_Z,
@@ -31,6 +32,7 @@ fn run(oracle: &dyn rkwave::image::adaptive::ImageOracle) -> AdaptiveImage {
     let plane = ImagePlane::new(W, H).unwrap();
     let params = AdaptiveParams {
         budget: 4 * plane.pixels(),
+        pixels: PixelEstimate::ResidualCorrected,
         ..AdaptiveParams::default()
     };
     refine_image(oracle, plane, &params).unwrap()
@@ -209,6 +211,47 @@ fn insignificant_mean_residuals_are_not_added() {
         "{corrected} of {} pixels corrected on pure noise",
         W * H
     );
+}
+
+/// The default output clamps the corrected pixels to the range of the samples in their 3x3
+/// neighbourhood: on an edge (where the fit rings) every pixel lies in that range, pixels
+/// inside it keep the corrected value bit for bit, and the clamp moved some pixels (counted).
+#[test]
+fn the_default_output_is_clamped_to_the_local_sample_range() {
+    let plane = ImagePlane::new(W, H).unwrap();
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    assert_eq!(params.pixels, PixelEstimate::ResidualClamped);
+    let clamped = refine_image(&straight_edge, plane, &params).unwrap();
+    let corrected = run(&straight_edge);
+    assert_eq!(clamped.xs, corrected.xs);
+    let mut range = vec![(f64::INFINITY, f64::NEG_INFINITY); W * H];
+    for (i, (&x, &y)) in clamped.xs.iter().zip(&clamped.ys).enumerate() {
+        let (px, py) = ((x as usize).min(W - 1), (y as usize).min(H - 1));
+        for qy in py.saturating_sub(1)..(py + 2).min(H) {
+            for qx in px.saturating_sub(1)..(px + 2).min(W) {
+                let r = &mut range[qy * W + qx];
+                *r = (r.0.min(clamped.values[0][i]), r.1.max(clamped.values[0][i]));
+            }
+        }
+    }
+    let mut moved = 0;
+    for (p, &(lo, hi)) in range.iter().enumerate() {
+        let (a, b) = (clamped.image.channels[0][p], corrected.image.channels[0][p]);
+        if lo > hi {
+            assert_eq!(a, b);
+            continue;
+        }
+        assert!(lo <= a && a <= hi, "pixel {p}: {a} outside [{lo}, {hi}]");
+        assert_eq!(a, b.clamp(lo, hi));
+        moved += usize::from((a - b).abs() > 1e-9);
+    }
+    let report = &clamped.report.pixels;
+    assert!(moved > 0);
+    assert_eq!(report.clamped, moved);
+    assert_eq!(report.corrected, corrected.report.pixels.corrected);
 }
 
 /// The test at its threshold `z sigma sqrt(ch / n)`, on given residuals: `n = 4`,

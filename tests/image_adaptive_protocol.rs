@@ -65,7 +65,7 @@ fn same_pixels(done: &PlanReconstruction, run: &AdaptiveImage) {
     assert_eq!(done.fit_image, fit_only);
     assert_eq!(done.image, run.image);
     assert_eq!(done.correction, run.report.pixels);
-    assert_eq!(done.correction.estimate, PixelEstimate::ResidualCorrected);
+    assert_eq!(done.correction.estimate, PixelEstimate::ResidualClamped);
     assert!(done.correction.corrected > 0, "{:?}", done.correction);
     assert_ne!(done.image, done.fit_image);
 }
@@ -476,7 +476,7 @@ fn command_line_protocol_gives_the_in_process_image() {
         "--json",
     ]);
     let report: serde_json::Value = serde_json::from_slice(&corrected.stdout).unwrap();
-    assert_eq!(report["pixels"]["estimate"], "residual_corrected");
+    assert_eq!(report["pixels"]["estimate"], "residual_clamped");
     assert_eq!(
         report["pixels"]["corrected"].as_u64(),
         Some(run.report.pixels.corrected as u64)

@@ -142,7 +142,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         pixels: if a.no_residual {
             PixelEstimate::FitOnly
         } else {
-            PixelEstimate::ResidualCorrected
+            PixelEstimate::ResidualClamped
         },
         ..AdaptiveParams::default()
     };
@@ -200,7 +200,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     );
     for row in &c.rows {
         println!(
-            "{:26} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
+            "{:27} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
             row.method, row.samples_from, row.samples, row.metrics.psnr, row.metrics.ssim
         );
     }

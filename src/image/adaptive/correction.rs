@@ -24,7 +24,19 @@
 //! no noise test, or `z = 0`: every pixel whose mean residual is not exactly zero is corrected).
 //! Pixels without a sample keep the fit's value.
 //!
-//! [`PixelEstimate`] chooses between this (the default) and the fit's box pixels alone; both
+//! *Range clamp.* The box-filtered truth of `P` is a mean of `f` over `P`, so it lies in
+//! `[inf_P f, sup_P f]`; the samples of `P` and its eight neighbours give the range
+//! `[lo_P, hi_P]` of their values, which covers that interval where the neighbourhood's
+//! samples see the extremes of `f` in `P`. Each channel of the corrected pixel is clamped to
+//! it, `I'_P = min(max(I_P, lo_P), hi_P)`: a projection onto an interval, so wherever the
+//! truth lies in `[lo_P, hi_P]`, `|I'_P - t_P| <= |I_P - t_P|` (it removes the fit's ringing
+//! beside edges and sub-pixel lines). Pixels without a sample in their neighbourhood are
+//! kept. Measured (PSNR dB, 4 spp, noise-free): at 128² shapes 43.80 -> 44.36, slanted_edge
+//! 55.77 -> 56.01, thin_lines 37.77 -> 38.12, text 17.85 -> 17.99, camera 33.56 -> 34.05; at
+//! 64² with noise 0.05 it gained on those five scenes too (0.03 to 1.52 dB).
+//!
+//! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
+//! clamp and the fit's box pixels alone; all
 //! the in-process loop ([`super::refine_image`]) and the file protocol
 //! ([`super::protocol::PlanState::reconstruct`]) compute it here from the final fit and its
 //! noise estimate, so the two give the same pixels bit for bit.
@@ -44,13 +56,22 @@ use crate::image::{ImagePlane, PixelImage};
 /// about `0.27%` (one channel, known `sigma`).
 pub const RESIDUAL_Z: f64 = 3.0;
 
+/// Moves of the range clamp at most this large are applied but not counted in
+/// [`ResidualCorrection::clamped`] (the fit's rounding in regions of constant value, where
+/// every sample has the same value and the fit is within ulps of it).
+pub const CLAMP_COUNT_TOLERANCE: f64 = 1e-9;
+
 /// Which pixels the adaptive engine outputs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PixelEstimate {
-    /// Box pixels of the fit plus the significant mean residual of each pixel's samples (the
-    /// fit as a control variate; this module).
+    /// Box pixels of the fit plus the significant mean residual of each pixel's samples,
+    /// clamped to the range of the sample values in the pixel and its eight neighbours (the
+    /// default; this module).
     #[default]
+    ResidualClamped,
+    /// Box pixels of the fit plus the significant mean residual of each pixel's samples (the
+    /// fit as a control variate), without the clamp.
     ResidualCorrected,
     /// Box pixels of the fit alone (smoother under noise where the correction is not
     /// significant anyway; loses what the fit cannot represent below the depth limit).
@@ -72,6 +93,11 @@ pub struct ResidualCorrection {
     pub corrected: usize,
     /// Largest correction applied, `max_P |m_P|_2` over the corrected pixels (0 if none).
     pub largest: f64,
+    /// Pixels the range clamp moved by more than [`CLAMP_COUNT_TOLERANCE`] in some channel
+    /// (0 without the clamp).
+    pub clamped: usize,
+    /// Largest move of the range clamp (0 without the clamp).
+    pub largest_clamp: f64,
 }
 
 impl ResidualCorrection {
@@ -81,12 +107,22 @@ impl ResidualCorrection {
             PixelEstimate::FitOnly => {
                 "output pixels: the fit's box pixels only (no residual correction)".to_string()
             }
-            PixelEstimate::ResidualCorrected => format!(
-                "output pixels: the fit's box pixels plus the mean residual in {} of {} sampled \
-                 pixels (significant at {} standard errors of noise sigma {:.3e}; largest \
-                 correction {:.3e})",
-                self.corrected, self.sampled, self.z, self.sigma, self.largest
-            ),
+            PixelEstimate::ResidualCorrected | PixelEstimate::ResidualClamped => {
+                let mut s = format!(
+                    "output pixels: the fit's box pixels plus the mean residual in {} of {} \
+                     sampled pixels (significant at {} standard errors of noise sigma {:.3e}; \
+                     largest correction {:.3e})",
+                    self.corrected, self.sampled, self.z, self.sigma, self.largest
+                );
+                if self.estimate == PixelEstimate::ResidualClamped {
+                    s += &format!(
+                        "; {} pixels clamped to the range of the samples in their 3x3 \
+                         neighbourhood (largest move {:.3e})",
+                        self.clamped, self.largest_clamp
+                    );
+                }
+                s
+            }
         }
     }
 }
@@ -138,9 +174,61 @@ pub fn add_significant_mean_residual(
     (sampled, corrected, largest)
 }
 
+/// Clamps every channel of `pixels` (per channel, `W H` row-major on `plane`) to the range
+/// `[lo_P, hi_P]` of `values` over the samples at `(xs[i], ys[i])` in the pixel and its eight
+/// neighbours (pixels with none keep their value). Returns the pixels moved by more than
+/// [`CLAMP_COUNT_TOLERANCE`] in some channel and the largest move.
+pub fn clamp_to_local_range(
+    pixels: &mut [Vec<f64>],
+    plane: ImagePlane,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[Vec<f64>],
+) -> (usize, f64) {
+    let (w, h) = (plane.width(), plane.height());
+    // the range of each pixel's own samples, then of its 3x3 neighbourhood
+    let mut own = vec![(f64::INFINITY, f64::NEG_INFINITY); w * h * values.len()];
+    for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
+        let px = (x.max(0.0).floor() as usize).min(w - 1);
+        let py = (y.max(0.0).floor() as usize).min(h - 1);
+        for (c, v) in values.iter().enumerate() {
+            let r = &mut own[(py * w + px) * values.len() + c];
+            *r = (r.0.min(v[i]), r.1.max(v[i]));
+        }
+    }
+    let (mut clamped, mut largest) = (0, 0.0f64);
+    for py in 0..h {
+        for px in 0..w {
+            let p = py * w + px;
+            let mut moved = false;
+            for (c, channel) in pixels.iter_mut().enumerate() {
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for qy in py.saturating_sub(1)..(py + 2).min(h) {
+                    for qx in px.saturating_sub(1)..(px + 2).min(w) {
+                        let r = own[(qy * w + qx) * values.len() + c];
+                        (lo, hi) = (lo.min(r.0), hi.max(r.1));
+                    }
+                }
+                if lo > hi {
+                    continue;
+                }
+                let v = channel[p].clamp(lo, hi);
+                let d = (v - channel[p]).abs();
+                moved |= d > CLAMP_COUNT_TOLERANCE;
+                largest = largest.max(d);
+                channel[p] = v;
+            }
+            clamped += usize::from(moved);
+        }
+    }
+    (clamped, largest)
+}
+
 /// The output pixels of `fit` on `tree` for the samples `(xs, ys, values)`: with
 /// [`PixelEstimate::ResidualCorrected`], the box pixels plus the significant mean residual
-/// (`z` standard errors at noise `sigma`); with [`PixelEstimate::FitOnly`], the box pixels.
+/// (`z` standard errors at noise `sigma`); with [`PixelEstimate::ResidualClamped`], those
+/// clamped to the local range of the samples; with [`PixelEstimate::FitOnly`], the box
+/// pixels.
 /// Returns the fit's box pixels, the output pixels and what the correction did.
 #[allow(clippy::too_many_arguments)]
 pub fn output_pixels(
@@ -166,7 +254,7 @@ pub fn output_pixels(
         ..ResidualCorrection::default()
     };
     let mut image = fit_image.clone();
-    if estimate == PixelEstimate::ResidualCorrected {
+    if estimate != PixelEstimate::FitOnly {
         let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
         let vals: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
         let r = residuals(tree, &coef, xs, ys, &vals);
@@ -175,6 +263,11 @@ pub fn output_pixels(
         report.sampled = sampled;
         report.corrected = corrected;
         report.largest = largest;
+    }
+    if estimate == PixelEstimate::ResidualClamped {
+        let (clamped, largest) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
+        report.clamped = clamped;
+        report.largest_clamp = largest;
     }
     Ok((fit_image, image, report))
 }
@@ -200,5 +293,22 @@ mod tests {
         assert_eq!((sampled, corrected), (3, 1));
         assert_eq!(largest, d);
         assert_eq!(pixels[0], vec![0.5, 0.5 + d, 0.5, 0.5, 0.5, 0.5]);
+    }
+
+    /// The clamp: a value above the neighbourhood's samples comes down to their largest, one
+    /// below comes up to their least, one inside stays bit for bit, and a pixel with no sample
+    /// in its 3x3 neighbourhood keeps its value.
+    #[test]
+    fn the_clamp_projects_onto_the_neighbourhood_range() {
+        let plane = ImagePlane::new(5, 1).unwrap();
+        // samples in pixels 0 and 1 only: pixels 0..=2 see them, 3 and 4 see none
+        let xs = [0.5, 1.2, 1.7];
+        let ys = [0.5; 3];
+        let values = vec![vec![0.1, 0.8, 0.4]];
+        let mut pixels = vec![vec![1.2, -0.3, 0.45, 7.0, -7.0]];
+        let (clamped, largest) = clamp_to_local_range(&mut pixels, plane, &xs, &ys, &values);
+        assert_eq!(pixels[0], vec![0.8, 0.1, 0.45, 7.0, -7.0]);
+        assert_eq!(clamped, 2);
+        assert!((largest - 0.4).abs() <= 1e-15);
     }
 }

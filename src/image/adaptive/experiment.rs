@@ -4,8 +4,9 @@
 //!
 //! * the adaptive wavelet image ([`super::refine_image`], budget `B`): its output pixels, by
 //!   default the fit as a control variate ([`super::correction`]: exact box pixels of the fit
-//!   plus the significant mean residual per pixel);
-//! * the fit's exact box pixels alone (row `adaptive wavelet, fit only`);
+//!   plus the significant mean residual per pixel, clamped to the local sample range);
+//! * the fit's exact box pixels alone (row `adaptive wavelet, fit only`), and the fit plus the
+//!   mean residual without the range clamp (row `adaptive wavelet, unclamped`);
 //! * every film filter and the uniform wavelet engine on `s` stratified samples per pixel
 //!   (the renderer's baseline at the same cost);
 //! * every film filter on the adaptive sample set (weighted splatting): separates what the
@@ -50,6 +51,10 @@ pub use super::correction::RESIDUAL_Z;
 
 /// The method name of the adaptive fit's box pixels alone.
 pub const FIT_ONLY: &str = "adaptive wavelet, fit only";
+
+/// The method name of the adaptive fit plus the significant mean residual, not clamped to the
+/// local sample range.
+pub const UNCLAMPED: &str = "adaptive wavelet, unclamped";
 
 /// One row of the comparison.
 #[derive(Clone, Debug, Serialize)]
@@ -153,6 +158,24 @@ pub fn compare_adaptive(
             notes: vec!["the fit's box pixels, no residual correction".into()],
         },
     ];
+    let sigma = run.report.pixels.sigma;
+    let (_, unclamped, correction) = super::correction::output_pixels(
+        &run.tree,
+        &run.fit,
+        &run.xs,
+        &run.ys,
+        &run.values,
+        super::PixelEstimate::ResidualCorrected,
+        sigma,
+        params.residual_z,
+    )?;
+    rows.push(AdaptiveRow {
+        method: UNCLAMPED.into(),
+        samples_from: "adaptive",
+        samples: run.xs.len(),
+        metrics: compare(&unclamped, &truth_image),
+        notes: vec![correction.note()],
+    });
     let uniform = sample_scene(
         scene,
         &SamplingParams {
@@ -209,14 +232,14 @@ pub fn compare_adaptive(
 }
 
 /// A Markdown table of comparisons: one line per scene and spp, PSNR of the adaptive wavelet
-/// (its output pixels), the best film filter on stratified samples, the gain, the fit alone,
-/// the pixels the residual corrected, the uniform wavelet, and the best film filter on the
-/// adaptive samples.
+/// (its output pixels), the best film filter on stratified samples, the gain, the output
+/// without the range clamp, the fit alone, the pixels the residual corrected and the clamp
+/// moved, the uniform wavelet, and the best film filter on the adaptive samples.
 pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut s = String::from(
-        "| scene | spp | noise | adaptive wavelet | best film (stratified) | gain dB | fit only \
-         | pixels corrected | wavelet (stratified) | best film (adaptive set) | functions | \
-         rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | spp | noise | adaptive wavelet | best film (stratified) | gain dB | unclamped \
+         | fit only | pixels corrected / clamped | wavelet (stratified) | best film (adaptive \
+         set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for c in rows {
         let psnr = |from: &str, pred: &dyn Fn(&str) -> bool| {
@@ -229,10 +252,11 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
         };
         let wav = psnr("stratified", &|m| m == "wavelet");
         let fit = psnr("adaptive", &|m| m == FIT_ONLY);
+        let unclamped = psnr("adaptive", &|m| m == UNCLAMPED);
         let film_adaptive = psnr("adaptive", &|m| !m.starts_with("adaptive wavelet"));
         s.push_str(&format!(
-            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {} of {} | {:.2} | {:.2} ({}) | {} \
-             | {} | {:?} |\n",
+            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} | {} / {} of {} | {:.2} | \
+             {:.2} ({}) | {} | {} | {:?} |\n",
             c.scene,
             c.spp,
             c.noise,
@@ -240,8 +264,10 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
             c.best_uniform_film.1,
             c.best_uniform_film.0,
             c.gain_db,
+            unclamped.1,
             fit.1,
             c.adaptive.pixels.corrected,
+            c.adaptive.pixels.clamped,
             c.adaptive.pixels.sampled,
             wav.1,
             film_adaptive.1,
@@ -260,6 +286,7 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
 pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut methods = vec![
         "adaptive wavelet".to_string(),
+        UNCLAMPED.to_string(),
         FIT_ONLY.to_string(),
         "wavelet".to_string(),
     ];

@@ -122,9 +122,10 @@ pub struct AdaptiveParams {
     #[serde(default = "default_probes")]
     pub probes: usize,
     /// The output pixels ([`super::correction`]): the fit's box pixels plus the significant
-    /// mean residual of each pixel's samples (the default; restores detail the fit cannot
-    /// represent, at the cost of some noise where it passes the test), or the box pixels
-    /// alone. Does not change the rounds.
+    /// mean residual of each pixel's samples, clamped to the local range of the samples (the
+    /// default; restores detail the fit cannot represent and removes its ringing, at the cost
+    /// of some noise where the residual passes the test), without the clamp, or the box
+    /// pixels alone. Does not change the rounds.
     #[serde(default)]
     pub pixels: PixelEstimate,
     /// Standard errors `z` of the residual mean beyond which a pixel is corrected: larger
@@ -174,7 +175,7 @@ impl Default for AdaptiveParams {
             solver: TreeSolver::Direct,
             false_alarm: 0.01,
             probes: 4,
-            pixels: PixelEstimate::ResidualCorrected,
+            pixels: PixelEstimate::ResidualClamped,
             residual_z: RESIDUAL_Z,
         }
     }
