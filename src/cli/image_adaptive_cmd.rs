@@ -44,8 +44,11 @@ pub struct AdaptiveArgs {
     /// after the other flags; for experiments on the refiner's policy.
     #[arg(long, value_name = "JSON")]
     pub adaptive_params: Option<String>,
-    /// Adaptive mode: write the fit's box pixels alone, without adding the significant mean
-    /// residual of each pixel's samples (the default output; the rows show both either way).
+    /// Adaptive mode: write the fit's box pixels alone. The default output adds the
+    /// significant mean residual of each pixel's samples and clamps the result to the range
+    /// of the samples in the pixel's 3x3 neighbourhood; the rows show both either way
+    /// (`--adaptive-params '{"pixels": "residual_corrected"}'`: the residual without the
+    /// clamp).
     #[arg(long)]
     pub no_residual: bool,
 }

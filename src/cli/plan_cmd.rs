@@ -236,8 +236,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
 }
 
 /// `rkwave reconstruct --dim 2 --state DIR`: the samples fitted on the tree of the plan in
-/// `dir`, the output pixels (the fit's box pixels plus the significant mean residual; with
-/// `--no-residual` the box pixels alone) written to `--output`.
+/// `dir`, the output pixels (by default the fit's box pixels plus the significant mean
+/// residual, clamped to the local sample range; with `--no-residual` the box pixels alone)
+/// written to `--output`.
 pub fn reconstruct(
     args: &super::reconstruct_cmd::ReconstructArgs,
     dir: &std::path::Path,

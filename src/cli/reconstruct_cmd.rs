@@ -55,8 +55,9 @@ pub struct ReconstructArgs {
     /// that plan built (its p, levels and depth map; `--method` and `--p` are not used).
     #[arg(long)]
     pub state: Option<PathBuf>,
-    /// With `--dim 2 --state`: write the fit's box pixels alone, without adding the
-    /// significant mean residual of each pixel's samples (the default output).
+    /// With `--dim 2 --state`: write the fit's box pixels alone. The default output adds the
+    /// significant mean residual of each pixel's samples and clamps the result to the range
+    /// of the samples in the pixel's 3x3 neighbourhood (the plan's `pixels` parameter).
     #[arg(long)]
     pub no_residual: bool,
 }

@@ -238,8 +238,8 @@ pub fn compare_adaptive(
 pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut s = String::from(
         "| scene | spp | noise | adaptive wavelet | best film (stratified) | gain dB | unclamped \
-         | fit only | pixels corrected / clamped | wavelet (stratified) | best film (adaptive \
-         set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         | fit only | corrected (of sampled) | clamped | wavelet (stratified) | best film \
+         (adaptive set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for c in rows {
         let psnr = |from: &str, pred: &dyn Fn(&str) -> bool| {
@@ -255,7 +255,7 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
         let unclamped = psnr("adaptive", &|m| m == UNCLAMPED);
         let film_adaptive = psnr("adaptive", &|m| !m.starts_with("adaptive wavelet"));
         s.push_str(&format!(
-            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} | {} / {} of {} | {:.2} | \
+            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} | {} ({}) | {} | {:.2} | \
              {:.2} ({}) | {} | {} | {:?} |\n",
             c.scene,
             c.spp,
@@ -267,8 +267,8 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
             unclamped.1,
             fit.1,
             c.adaptive.pixels.corrected,
-            c.adaptive.pixels.clamped,
             c.adaptive.pixels.sampled,
+            c.adaptive.pixels.clamped,
             wav.1,
             film_adaptive.1,
             film_adaptive.0,
