@@ -121,6 +121,10 @@ fn adaptive_params_overrides_are_checked() {
     assert!(e.contains("--adaptive-params"), "{e}");
     let e = run(r#"{"theta": 2.0}"#);
     assert!(e.contains("theta = 2"), "{e}");
+    let e = run(r#"{"residual_z": -1.0}"#);
+    assert!(e.contains("residual_z = -1"), "{e}");
+    let e = run(r#"{"pixels": "sharpest"}"#);
+    assert!(e.contains("residual_clamped"), "{e}");
 }
 
 /// `plan --false-alarm` sets the noise test of a new plan; the state keeps it, a later call

@@ -236,6 +236,29 @@ fn earlier_rounds_are_recognised() {
     assert!(done.tree.slots().iter().all(|c| c.step == base_depth));
 }
 
+/// A state written before the output pixels were a parameter (no `pixels`, no `residual_z`)
+/// still parses, with the defaults: the residual correction, clamped, at `z = 3`; its
+/// reconstruction is the current in-process image.
+#[test]
+fn a_state_without_the_output_parameters_parses_with_the_defaults() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    let (state, rendered) = drive(&straight_edge, plane, &params);
+    let mut value: serde_json::Value = serde_json::from_str(&state.to_json()).unwrap();
+    let fields = value["params"].as_object_mut().unwrap();
+    assert!(fields.remove("pixels").is_some() && fields.remove("residual_z").is_some());
+    let old = PlanState::from_json(&value.to_string(), "state.json".as_ref()).unwrap();
+    assert_eq!(old.params.pixels, PixelEstimate::ResidualClamped);
+    assert_eq!(old.params.residual_z, 3.0);
+    assert_eq!(old, state);
+    let run = refine_image(&straight_edge, plane, &params).unwrap();
+    let done = old.reconstruct(&rendered.samples(plane)).unwrap();
+    assert_eq!(done.image, run.image);
+}
+
 #[test]
 fn bad_input_is_refused() {
     let plane = ImagePlane::new(32, 32).unwrap();
