@@ -40,6 +40,11 @@ fn compare_adaptive_adds_the_adaptive_rows() {
     assert!(samples > 0 && samples <= 4 * 32 * 32, "{samples}");
     let rows = adaptive["rows"].as_array().unwrap();
     assert_eq!(rows[0]["method"], "adaptive wavelet");
+    assert_eq!(rows[1]["method"], "adaptive wavelet, fit only");
+    // the default output is the residual-corrected image, its pixels counted
+    let pixels = &adaptive["adaptive"]["pixels"];
+    assert_eq!(pixels["estimate"], "residual_clamped");
+    assert!(pixels["corrected"].as_u64().unwrap() <= pixels["sampled"].as_u64().unwrap());
     for from in ["stratified", "adaptive"] {
         for film in ["box", "triangle", "gaussian", "mitchell", "lanczos"] {
             assert!(
@@ -116,6 +121,10 @@ fn adaptive_params_overrides_are_checked() {
     assert!(e.contains("--adaptive-params"), "{e}");
     let e = run(r#"{"theta": 2.0}"#);
     assert!(e.contains("theta = 2"), "{e}");
+    let e = run(r#"{"residual_z": -1.0}"#);
+    assert!(e.contains("residual_z = -1"), "{e}");
+    let e = run(r#"{"pixels": "sharpest"}"#);
+    assert!(e.contains("residual_clamped"), "{e}");
 }
 
 /// `plan --false-alarm` sets the noise test of a new plan; the state keeps it, a later call
@@ -172,5 +181,53 @@ fn plan_takes_the_false_alarm_rate() {
         &s(&dir.join("next1.npy")),
     ]);
     assert!(other.contains("false_alarm"), "{other}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `image --adaptive --no-residual`: the output is the fit's box pixels (the first row equals
+/// the fit-only row, nothing corrected); without it the corrections are counted in the JSON
+/// and in the text's notes.
+#[test]
+fn image_adaptive_no_residual() {
+    let dir = common::scratch("cmpad", "no_residual");
+    let out = dir.join("o.png");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "image",
+            "--scene",
+            "slanted_edge",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "4",
+            "--adaptive",
+            "--force",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = common::rkwave(&args);
+        assert!(o.status.success(), "{}", common::text(&o));
+        o
+    };
+    let json = |o: std::process::Output| -> serde_json::Value {
+        serde_json::from_slice(&o.stdout).expect("one JSON object")
+    };
+    let plain = json(run(&["--json", "--no-residual"]));
+    assert_eq!(plain["adaptive"]["pixels"]["estimate"], "fit_only");
+    assert_eq!(plain["adaptive"]["pixels"]["corrected"], 0);
+    assert_eq!(
+        plain["rows"][0]["metrics"]["psnr"],
+        plain["rows"][1]["metrics"]["psnr"]
+    );
+    let corrected = json(run(&["--json"]));
+    let c = &corrected["adaptive"]["pixels"];
+    assert_eq!(c["estimate"], "residual_clamped");
+    assert!(c["corrected"].as_u64().unwrap() > 0, "{c}");
+    let text = common::text(&run(&[]));
+    assert!(
+        text.contains(&format!("mean residual in {} of", c["corrected"])),
+        "{text}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -6,9 +6,12 @@ mod common;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use rkwave::image::adaptive::protocol::{PlanState, ProtocolError, STATE_VERSION};
+use rkwave::image::adaptive::protocol::{
+    PlanReconstruction, PlanState, ProtocolError, STATE_VERSION,
+};
 use rkwave::image::adaptive::{
-    refine_image, AdaptiveParams, ImageOracle, NoisyOracle, SamplePositions, SceneOracle,
+    refine_image, AdaptiveImage, AdaptiveParams, ImageOracle, NoisyOracle, PixelEstimate,
+    SamplePositions, SceneOracle,
 };
 use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples};
@@ -51,6 +54,20 @@ impl Rendered {
     fn samples(&self, plane: ImagePlane) -> ImageSamples {
         ImageSamples::new(plane, self.xs.clone(), self.ys.clone(), self.values.clone()).unwrap()
     }
+}
+
+/// The protocol's reconstruction and the in-process run agree bit for bit: the fit's box
+/// pixels, the output pixels (the fit plus the significant mean residual, with the same noise
+/// estimate and `z`) and the count of pixels corrected; and the correction did something.
+fn same_pixels(done: &PlanReconstruction, run: &AdaptiveImage) {
+    let fit_only = run.fit_pixels().unwrap();
+    assert_eq!(done.fit.box_pixels(&done.tree).unwrap(), fit_only.channels);
+    assert_eq!(done.fit_image, fit_only);
+    assert_eq!(done.image, run.image);
+    assert_eq!(done.correction, run.report.pixels);
+    assert_eq!(done.correction.estimate, PixelEstimate::ResidualClamped);
+    assert!(done.correction.corrected > 0, "{:?}", done.correction);
+    assert_ne!(done.image, done.fit_image);
 }
 
 /// Drives a plan to its stop, passing the state through its JSON between calls as the
@@ -103,8 +120,7 @@ fn protocol_gives_the_in_process_image() {
     let done = state.reconstruct(&rendered.samples(plane)).unwrap();
     assert!(done.complete);
     assert_eq!(done.tree.depth_map(), run.tree.depth_map());
-    let pixels = done.fit.box_pixels(&done.tree).unwrap();
-    assert_eq!(pixels, run.pixels().unwrap().channels);
+    same_pixels(&done, &run);
 }
 
 /// With noise (a renderer's Monte Carlo estimates): the noise is a function of the seed and
@@ -140,8 +156,7 @@ fn protocol_with_noise_gives_the_in_process_image() {
     let done = state.reconstruct(&rendered.samples(plane)).unwrap();
     assert!(done.complete);
     assert_eq!(done.tree.depth_map(), run.tree.depth_map());
-    let pixels = done.fit.box_pixels(&done.tree).unwrap();
-    assert_eq!(pixels, run.pixels().unwrap().channels);
+    same_pixels(&done, &run);
 }
 
 /// A renderer may return the samples in any order: the fingerprint is order-free, and the fit
@@ -168,13 +183,20 @@ fn samples_in_any_order() {
     .unwrap();
     let done = state.reconstruct(&shuffled).unwrap();
     let pixels = done.fit.box_pixels(&done.tree).unwrap();
-    let reference = run.pixels().unwrap().channels;
-    let err = pixels[0]
-        .iter()
-        .zip(&reference[0])
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let reference = run.fit_pixels().unwrap().channels;
+    let largest = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    };
+    let err = largest(&pixels[0], &reference[0]);
     assert!(err <= 1e-12, "max pixel difference {err:e}");
+    // the mean residuals too (sums of the same residuals in another order; no pixel at the
+    // significance threshold for this seed: the same pixels are corrected)
+    assert_eq!(done.correction.corrected, run.report.pixels.corrected);
+    let err = largest(&done.image.channels[0], &run.image.channels[0]);
+    assert!(err <= 1e-12, "max corrected pixel difference {err:e}");
 }
 
 /// The samples of an earlier round reconstruct on that round's tree (what the in-process loop
@@ -212,6 +234,29 @@ fn earlier_rounds_are_recognised() {
     assert_eq!(done.fit.report.functions, step.log.functions);
     let base_depth = done.tree.slots()[0].step;
     assert!(done.tree.slots().iter().all(|c| c.step == base_depth));
+}
+
+/// A state written before the output pixels were a parameter (no `pixels`, no `residual_z`)
+/// still parses, with the defaults: the residual correction, clamped, at `z = 3`; its
+/// reconstruction is the current in-process image.
+#[test]
+fn a_state_without_the_output_parameters_parses_with_the_defaults() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    let (state, rendered) = drive(&straight_edge, plane, &params);
+    let mut value: serde_json::Value = serde_json::from_str(&state.to_json()).unwrap();
+    let fields = value["params"].as_object_mut().unwrap();
+    assert!(fields.remove("pixels").is_some() && fields.remove("residual_z").is_some());
+    let old = PlanState::from_json(&value.to_string(), "state.json".as_ref()).unwrap();
+    assert_eq!(old.params.pixels, PixelEstimate::ResidualClamped);
+    assert_eq!(old.params.residual_z, 3.0);
+    assert_eq!(old, state);
+    let run = refine_image(&straight_edge, plane, &params).unwrap();
+    let done = old.reconstruct(&rendered.samples(plane)).unwrap();
+    assert_eq!(done.image, run.image);
 }
 
 #[test]
@@ -418,7 +463,60 @@ fn command_line_protocol_gives_the_in_process_image() {
     )
     .unwrap();
     assert_eq!(set.positions, run.xs);
-    assert_eq!(npy_image(&image), run.pixels().unwrap().channels[0]);
+    assert_eq!(npy_image(&image), run.image.channels[0]);
+    assert!(run.report.pixels.corrected > 0);
+    assert_ne!(run.image, run.fit_pixels().unwrap());
+    // --no-residual: the fit's box pixels, bit for bit; the JSON counts the pixels corrected
+    let fit_only = dir.join("fit_only.npy");
+    let out = common::rkwave(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--state",
+        &s(&state),
+        "--input",
+        &s(&final_samples),
+        "--output",
+        &s(&fit_only),
+        "--no-residual",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", common::text(&out));
+    assert_eq!(npy_image(&fit_only), run.fit_pixels().unwrap().channels[0]);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["pixels"]["estimate"], "fit_only");
+    assert_eq!(report["pixels"]["corrected"], 0);
+    let corrected = common::rkwave(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--state",
+        &s(&state),
+        "--input",
+        &s(&final_samples),
+        "--output",
+        &s(&dir.join("again.npy")),
+        "--json",
+    ]);
+    let report: serde_json::Value = serde_json::from_slice(&corrected.stdout).unwrap();
+    assert_eq!(report["pixels"]["estimate"], "residual_clamped");
+    assert_eq!(
+        report["pixels"]["corrected"].as_u64(),
+        Some(run.report.pixels.corrected as u64)
+    );
+    let without_state = common::user_error(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--resolution",
+        "32x24",
+        "--input",
+        &s(&final_samples),
+        "--output",
+        &s(&dir.join("x.npy")),
+        "--no-residual",
+    ]);
+    assert!(without_state.contains("--state"), "{without_state}");
     // outputs are never replaced without --force; a plan is not restarted over another
     let again = common::user_error(&[
         "reconstruct",

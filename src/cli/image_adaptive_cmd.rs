@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::{AdaptiveParams, TreeSolver};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, TreeSolver};
 use rkwave::image::experiment::TruthParams;
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
@@ -44,6 +44,13 @@ pub struct AdaptiveArgs {
     /// after the other flags; for experiments on the refiner's policy.
     #[arg(long, value_name = "JSON")]
     pub adaptive_params: Option<String>,
+    /// Adaptive mode: write the fit's box pixels alone. The default output adds the
+    /// significant mean residual of each pixel's samples and clamps the result to the range
+    /// of the samples in the pixel's 3x3 neighbourhood; the rows show both either way
+    /// (`--adaptive-params '{"pixels": "residual_corrected"}'`: the residual without the
+    /// clamp).
+    #[arg(long)]
+    pub no_residual: bool,
 }
 
 /// `params` with the fields of the JSON object `json` replaced (validated by the library).
@@ -135,6 +142,11 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         } else {
             TreeSolver::Direct
         },
+        pixels: if a.no_residual {
+            PixelEstimate::FitOnly
+        } else {
+            PixelEstimate::ResidualClamped
+        },
         ..AdaptiveParams::default()
     };
     let params = match &a.adaptive_params {
@@ -191,7 +203,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     );
     for row in &c.rows {
         println!(
-            "{:18} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
+            "{:27} {:10} {:>8} samples: PSNR {:.2} dB, SSIM {:.4}",
             row.method, row.samples_from, row.samples, row.metrics.psnr, row.metrics.ssim
         );
     }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
-use rkwave::image::adaptive::{AdaptiveParams, SamplePositions};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, SamplePositions};
 use rkwave::image::experiment::image_samples_from_table;
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::ImagePlane;
@@ -236,7 +236,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
 }
 
 /// `rkwave reconstruct --dim 2 --state DIR`: the samples fitted on the tree of the plan in
-/// `dir`, exact box pixels written to `--output`.
+/// `dir`, the output pixels (by default the fit's box pixels plus the significant mean
+/// residual, clamped to the local sample range; with `--no-residual` the box pixels alone)
+/// written to `--output`.
 pub fn reconstruct(
     args: &super::reconstruct_cmd::ReconstructArgs,
     dir: &std::path::Path,
@@ -257,15 +259,13 @@ pub fn reconstruct(
     let table = read_samples(&args.input)?;
     let samples = image_samples_from_table(table, state.plane)
         .map_err(|e| CliError::Invalid(format!("{}: {e}", args.input.display())))?;
-    let done = state.reconstruct(&samples).map_err(protocol)?;
-    let image = rkwave::image::PixelImage {
-        plane: state.plane,
-        channels: done
-            .fit
-            .box_pixels(&done.tree)
-            .map_err(|e| CliError::Invalid(e.to_string()))?,
+    let estimate = if args.no_residual {
+        PixelEstimate::FitOnly
+    } else {
+        state.params.pixels
     };
-    rkwave::io::image_file::write_image(&args.output, &image, args.force).map_err(|e| {
+    let done = state.reconstruct_as(&samples, estimate).map_err(protocol)?;
+    rkwave::io::image_file::write_image(&args.output, &done.image, args.force).map_err(|e| {
         CliError::Write {
             path: args.output.clone(),
             source: std::io::Error::other(e.to_string()),

@@ -55,10 +55,22 @@ pub struct ReconstructArgs {
     /// that plan built (its p, levels and depth map; `--method` and `--p` are not used).
     #[arg(long)]
     pub state: Option<PathBuf>,
+    /// With `--dim 2 --state`: write the fit's box pixels alone. The default output adds the
+    /// significant mean residual of each pixel's samples and clamps the result to the range
+    /// of the samples in the pixel's 3x3 neighbourhood (the plan's `pixels` parameter).
+    #[arg(long)]
+    pub no_residual: bool,
 }
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
+    if args.no_residual && (args.dim != 2 || args.state.is_none()) {
+        return Err(CliError::Invalid(
+            "--no-residual turns off the residual correction of an adaptive plan's image: use \
+             it with --dim 2 --state DIR"
+                .into(),
+        ));
+    }
     match args.dim {
         1 if args.state.is_some() => {
             return Err(CliError::Invalid(

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::adaptive::protocol::{PlanReconstruction, PlanState, PlanStep};
-use super::adaptive::{SamplePositions, TreeFitReport};
+use super::adaptive::{ResidualCorrection, SamplePositions, TreeFitReport};
 use super::experiment::{peak_memory_mb, Method, MethodExtras, StageTimes};
 use super::wavelet::WaveletReport;
 use super::{ImagePlane, ImageSamples};
@@ -172,16 +172,20 @@ pub struct PlanReconstructionReport {
     pub cells_per_step: Vec<usize>,
     /// The solve on the tree.
     pub fit: TreeFitReport,
+    /// The output pixels: what the residual correction did (pixels corrected, noise, `z`).
+    pub pixels: ResidualCorrection,
     /// Seconds end to end.
     pub time_s: f64,
-    /// Every fallback, and the parameters the plan overrides, in words.
+    /// Every fallback, the parameters the plan overrides and the output's correction, in
+    /// words.
     pub notes: Vec<String>,
 }
 
 impl PlanReconstructionReport {
     /// The report of `done` (from `samples` in `input`, the plan in `dir`) written to
     /// `output`; `overridden` names the caller's parameters the plan does not use, `time_s`
-    /// is the time end to end. The notes are `overridden`, then [`plan_fit_notes`].
+    /// is the time end to end. The notes are `overridden`, then [`plan_fit_notes`], then the
+    /// residual correction's.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         state: &PlanState,
@@ -195,6 +199,7 @@ impl PlanReconstructionReport {
     ) -> Self {
         let mut notes = overridden;
         notes.extend(plan_fit_notes(done));
+        notes.push(done.correction.note());
         Self {
             input: input.to_path_buf(),
             output: output.to_path_buf(),
@@ -208,6 +213,7 @@ impl PlanReconstructionReport {
             levels: done.tree.basis().levels(),
             cells_per_step: done.tree.cells_per_step(),
             fit: done.fit.report.clone(),
+            pixels: done.correction.clone(),
             time_s,
             notes,
         }

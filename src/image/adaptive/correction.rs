@@ -1,59 +1,166 @@
-//! The fit as a control variate: box pixels of the tree fit plus the mean residual of the
-//! samples in each pixel.
+//! The fit as a control variate, the adaptive engine's output pixels: box pixels of the tree
+//! fit plus the significant mean residual of the samples in each pixel.
 //!
-//! For a pixel `P` with samples `i in P`, `f~` the tree fit, the estimate
+//! For a pixel `P` (unit area) with `n_P` samples `i in P`, `f~` the tree fit and
+//! `r_i = f_i - f~(x_i)` the residuals, the estimate
 //!
-//! `I_P = int_P f~ + (|P| / n_P) sum_{i in P} (f_i - f~(x_i))`
+//! `I_P = int_P f~ + (1 / n_P) sum_{i in P} r_i`
 //!
 //! is the box filter's estimate of `int_P f` with the fit as a control variate: where the fit
 //! resolves the scene the residuals vanish and `I_P` is the fit's pixel; where it cannot
 //! (detail below the depth limit: a sub-pixel line, an edge inside a finest cell fitted by two
 //! samples, where least squares nearly interpolates and rings) the residual mean of the
 //! stratified samples restores it as a box filter would, with the variance of the residual
-//! instead of that of `f`. Under noise of deviation `sigma` the mean adds noise
-//! `sigma / sqrt(n_P)`, undoing the least-squares smoothing: the correction is applied only
-//! where it is significant, `|mean r| > z sigma / sqrt(n_P)` (norm over the channels against
-//! `z sqrt(ch)`), with `sigma` the noise test's estimate from the same residuals.
+//! instead of that of `f`.
+//!
+//! *Significance.* Under noise of deviation `sigma` the mean adds noise `sigma / sqrt(n_P)`
+//! per channel, undoing the least-squares smoothing, so the mean `m_P` (one entry per channel,
+//! `ch` channels) is added only where it stands out of that noise:
+//!
+//! `|m_P|_2 > z sigma sqrt(ch / n_P)`
+//!
+//! (`z` standard errors of the residual mean, [`AdaptiveParams::residual_z`], 3 by default;
+//! `sigma` the noise test's estimate from the same fit, [`super::significance`]; `sigma = 0`,
+//! no noise test, or `z = 0`: every pixel whose mean residual is not exactly zero is corrected).
+//! Pixels without a sample keep the fit's value.
+//!
+//! *Range clamp.* The box-filtered truth of `P` is a mean of `f` over `P`, so it lies in
+//! `[inf_P f, sup_P f]`; the samples of `P` and its eight neighbours give the range
+//! `[lo_P, hi_P]` of their values, which covers that interval where the neighbourhood's
+//! samples see the extremes of `f` in `P`. Each channel of the corrected pixel is clamped to
+//! it, `I'_P = min(max(I_P, lo_P), hi_P)`: a projection onto an interval, so wherever the
+//! truth lies in `[lo_P, hi_P]`, `|I'_P - t_P| <= |I_P - t_P|` (it removes the fit's ringing
+//! beside edges and sub-pixel lines). Pixels without a sample in their neighbourhood are
+//! kept. Measured (PSNR dB, 4 spp, noise-free): at 128² shapes 43.80 -> 44.36, slanted_edge
+//! 55.77 -> 56.01, thin_lines 37.77 -> 38.12, text 17.85 -> 17.99, camera 33.56 -> 34.05; at
+//! 64² with noise 0.05 it gained on those five scenes too (0.03 to 1.52 dB).
+//!
+//! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
+//! clamp and the fit's box pixels alone; all
+//! the in-process loop ([`super::refine_image`]) and the file protocol
+//! ([`super::protocol::PlanState::reconstruct`]) compute it here from the final fit and its
+//! noise estimate, so the two give the same pixels bit for bit.
+//!
+//! [`AdaptiveParams::residual_z`]: super::AdaptiveParams::residual_z
+
+use serde::{Deserialize, Serialize};
 
 use super::fit::TreeFit;
 use super::significance::residuals;
 use super::tree::QuadTree;
 use super::AdaptiveError;
+use crate::image::{ImagePlane, PixelImage};
 
-/// Box pixels of `fit` on `tree` plus the significant mean residual of the samples in each
-/// pixel (`z` standard errors of the residual mean at noise `sigma`; `sigma = 0` or `z = 0`:
-/// every pixel with a sample is corrected). Returns the channels and the pixels corrected.
-pub fn residual_corrected_pixels(
-    tree: &QuadTree,
-    fit: &TreeFit,
+/// Standard errors of the residual mean beyond which a pixel is corrected (the default of
+/// [`super::AdaptiveParams::residual_z`]): a pixel of pure noise is corrected with probability
+/// about `0.27%` (one channel, known `sigma`).
+pub const RESIDUAL_Z: f64 = 3.0;
+
+/// Moves of the range clamp at most this large are applied but not counted in
+/// [`ResidualCorrection::clamped`] (the fit's rounding in regions of constant value, where
+/// every sample has the same value and the fit is within ulps of it).
+pub const CLAMP_COUNT_TOLERANCE: f64 = 1e-9;
+
+/// Which pixels the adaptive engine outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PixelEstimate {
+    /// Box pixels of the fit plus the significant mean residual of each pixel's samples,
+    /// clamped to the range of the sample values in the pixel and its eight neighbours (the
+    /// default; this module).
+    #[default]
+    ResidualClamped,
+    /// Box pixels of the fit plus the significant mean residual of each pixel's samples (the
+    /// fit as a control variate), without the clamp.
+    ResidualCorrected,
+    /// Box pixels of the fit alone (smoother under noise where the correction is not
+    /// significant anyway; loses what the fit cannot represent below the depth limit).
+    FitOnly,
+}
+
+/// What the residual correction did: every pixel corrected is counted.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ResidualCorrection {
+    /// The output chosen.
+    pub estimate: PixelEstimate,
+    /// Standard errors of the residual mean beyond which a pixel is corrected.
+    pub z: f64,
+    /// The noise deviation the test used (the noise test's estimate; 0 without one).
+    pub sigma: f64,
+    /// Pixels holding at least one sample.
+    pub sampled: usize,
+    /// Pixels corrected by their mean residual (0 for [`PixelEstimate::FitOnly`]).
+    pub corrected: usize,
+    /// Largest correction applied, `max_P |m_P|_2` over the corrected pixels (0 if none).
+    pub largest: f64,
+    /// Pixels the range clamp moved by more than [`CLAMP_COUNT_TOLERANCE`] in some channel
+    /// (0 without the clamp).
+    pub clamped: usize,
+    /// Largest move of the range clamp (0 without the clamp).
+    pub largest_clamp: f64,
+}
+
+impl ResidualCorrection {
+    /// The correction in words (for the notes of a report).
+    pub fn note(&self) -> String {
+        match self.estimate {
+            PixelEstimate::FitOnly => {
+                "output pixels: the fit's box pixels only (no residual correction)".to_string()
+            }
+            PixelEstimate::ResidualCorrected | PixelEstimate::ResidualClamped => {
+                let mut s = format!(
+                    "output pixels: the fit's box pixels plus the mean residual in {} of {} \
+                     sampled pixels (significant at {} standard errors of noise sigma {:.3e}; \
+                     largest correction {:.3e})",
+                    self.corrected, self.sampled, self.z, self.sigma, self.largest
+                );
+                if self.estimate == PixelEstimate::ResidualClamped {
+                    s += &format!(
+                        "; {} pixels clamped to the range of the samples in their 3x3 \
+                         neighbourhood (largest move {:.3e})",
+                        self.clamped, self.largest_clamp
+                    );
+                }
+                s
+            }
+        }
+    }
+}
+
+/// Adds to `pixels` (per channel, `W H` row-major on `plane`) the mean of `residuals` (per
+/// channel, one per sample at `(xs[i], ys[i])`, pixel units) of each pixel where it is
+/// significant, `|m_P|_2 > z sigma sqrt(ch / n_P)`. Returns the pixels holding a sample, the
+/// pixels corrected and the largest correction `|m_P|_2` applied.
+///
+/// A sample on the right or bottom border (`x = W`) belongs to the last pixel.
+pub fn add_significant_mean_residual(
+    pixels: &mut [Vec<f64>],
+    plane: ImagePlane,
     xs: &[f64],
     ys: &[f64],
-    values: &[Vec<f64>],
+    residuals: &[Vec<f64>],
     sigma: f64,
     z: f64,
-) -> Result<(Vec<Vec<f64>>, usize), AdaptiveError> {
-    let mut pixels = fit.box_pixels(tree)?;
-    let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
-    let vals: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
-    let r = residuals(tree, &coef, xs, ys, &vals);
-    let (w, h) = (tree.basis().width(), tree.basis().height());
-    let ch = r.len();
+) -> (usize, usize, f64) {
+    let (w, h) = (plane.width(), plane.height());
+    let ch = residuals.len();
     let mut sum = vec![0.0; w * h * ch];
     let mut count = vec![0usize; w * h];
     for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
-        let px = (x.floor() as usize).min(w - 1);
-        let py = (y.floor() as usize).min(h - 1);
+        let px = (x.max(0.0).floor() as usize).min(w - 1);
+        let py = (y.max(0.0).floor() as usize).min(h - 1);
         let p = py * w + px;
         count[p] += 1;
-        for (c, rc) in r.iter().enumerate() {
+        for (c, rc) in residuals.iter().enumerate() {
             sum[p * ch + c] += rc[i];
         }
     }
-    let mut corrected = 0;
+    let (mut sampled, mut corrected, mut largest) = (0, 0, 0.0f64);
     for (p, &n) in count.iter().enumerate() {
         if n == 0 {
             continue;
         }
+        sampled += 1;
         let mean: Vec<f64> = (0..ch).map(|c| sum[p * ch + c] / n as f64).collect();
         let norm = mean.iter().map(|m| m * m).sum::<f64>().sqrt();
         if norm > z * sigma * (ch as f64 / n as f64).sqrt() {
@@ -61,7 +168,147 @@ pub fn residual_corrected_pixels(
                 pixels[c][p] += m;
             }
             corrected += 1;
+            largest = largest.max(norm);
         }
     }
-    Ok((pixels, corrected))
+    (sampled, corrected, largest)
+}
+
+/// Clamps every channel of `pixels` (per channel, `W H` row-major on `plane`) to the range
+/// `[lo_P, hi_P]` of `values` over the samples at `(xs[i], ys[i])` in the pixel and its eight
+/// neighbours (pixels with none keep their value). Returns the pixels moved by more than
+/// [`CLAMP_COUNT_TOLERANCE`] in some channel and the largest move.
+pub fn clamp_to_local_range(
+    pixels: &mut [Vec<f64>],
+    plane: ImagePlane,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[Vec<f64>],
+) -> (usize, f64) {
+    let (w, h) = (plane.width(), plane.height());
+    // the range of each pixel's own samples, then of its 3x3 neighbourhood
+    let mut own = vec![(f64::INFINITY, f64::NEG_INFINITY); w * h * values.len()];
+    for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
+        let px = (x.max(0.0).floor() as usize).min(w - 1);
+        let py = (y.max(0.0).floor() as usize).min(h - 1);
+        for (c, v) in values.iter().enumerate() {
+            let r = &mut own[(py * w + px) * values.len() + c];
+            *r = (r.0.min(v[i]), r.1.max(v[i]));
+        }
+    }
+    let (mut clamped, mut largest) = (0, 0.0f64);
+    for py in 0..h {
+        for px in 0..w {
+            let p = py * w + px;
+            let mut moved = false;
+            for (c, channel) in pixels.iter_mut().enumerate() {
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for qy in py.saturating_sub(1)..(py + 2).min(h) {
+                    for qx in px.saturating_sub(1)..(px + 2).min(w) {
+                        let r = own[(qy * w + qx) * values.len() + c];
+                        (lo, hi) = (lo.min(r.0), hi.max(r.1));
+                    }
+                }
+                if lo > hi {
+                    continue;
+                }
+                let v = channel[p].clamp(lo, hi);
+                let d = (v - channel[p]).abs();
+                moved |= d > CLAMP_COUNT_TOLERANCE;
+                largest = largest.max(d);
+                channel[p] = v;
+            }
+            clamped += usize::from(moved);
+        }
+    }
+    (clamped, largest)
+}
+
+/// The output pixels of `fit` on `tree` for the samples `(xs, ys, values)`: with
+/// [`PixelEstimate::ResidualCorrected`], the box pixels plus the significant mean residual
+/// (`z` standard errors at noise `sigma`); with [`PixelEstimate::ResidualClamped`], those
+/// clamped to the local range of the samples; with [`PixelEstimate::FitOnly`], the box
+/// pixels.
+/// Returns the fit's box pixels, the output pixels and what the correction did.
+#[allow(clippy::too_many_arguments)]
+pub fn output_pixels(
+    tree: &QuadTree,
+    fit: &TreeFit,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[Vec<f64>],
+    estimate: PixelEstimate,
+    sigma: f64,
+    z: f64,
+) -> Result<(PixelImage, PixelImage, ResidualCorrection), AdaptiveError> {
+    let b = tree.basis();
+    let plane = ImagePlane::new(b.width(), b.height()).expect("the basis has a valid size");
+    let fit_image = PixelImage {
+        plane,
+        channels: fit.box_pixels(tree)?,
+    };
+    let mut report = ResidualCorrection {
+        estimate,
+        z,
+        sigma,
+        ..ResidualCorrection::default()
+    };
+    let mut image = fit_image.clone();
+    if estimate != PixelEstimate::FitOnly {
+        let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
+        let vals: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
+        let r = residuals(tree, &coef, xs, ys, &vals);
+        let (sampled, corrected, largest) =
+            add_significant_mean_residual(&mut image.channels, plane, xs, ys, &r, sigma, z);
+        report.sampled = sampled;
+        report.corrected = corrected;
+        report.largest = largest;
+    }
+    if estimate == PixelEstimate::ResidualClamped {
+        let (clamped, largest) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
+        report.clamped = clamped;
+        report.largest_clamp = largest;
+    }
+    Ok((fit_image, image, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pixel whose samples all carry the residual `d` moves by exactly `d` (the mean of
+    /// equal numbers is that number in floating point for these counts, checked to one ulp);
+    /// pixels whose residuals are zero do not move and are not counted.
+    #[test]
+    fn a_constant_residual_moves_its_pixel_by_itself() {
+        let plane = ImagePlane::new(3, 2).unwrap();
+        let d = 0.125;
+        // four samples in pixel (1, 0), two in (0, 1), one on the bottom-right border
+        let xs = [1.1, 1.4, 1.6, 1.9, 0.2, 0.7, 3.0];
+        let ys = [0.1, 0.6, 0.3, 0.9, 1.5, 1.2, 2.0];
+        let r = vec![vec![d, d, d, d, 0.0, 0.0, 0.0]];
+        let mut pixels = vec![vec![0.5; 6]];
+        let (sampled, corrected, largest) =
+            add_significant_mean_residual(&mut pixels, plane, &xs, &ys, &r, 0.01, RESIDUAL_Z);
+        assert_eq!((sampled, corrected), (3, 1));
+        assert_eq!(largest, d);
+        assert_eq!(pixels[0], vec![0.5, 0.5 + d, 0.5, 0.5, 0.5, 0.5]);
+    }
+
+    /// The clamp: a value above the neighbourhood's samples comes down to their largest, one
+    /// below comes up to their least, one inside stays bit for bit, and a pixel with no sample
+    /// in its 3x3 neighbourhood keeps its value.
+    #[test]
+    fn the_clamp_projects_onto_the_neighbourhood_range() {
+        let plane = ImagePlane::new(5, 1).unwrap();
+        // samples in pixels 0 and 1 only: pixels 0..=2 see them, 3 and 4 see none
+        let xs = [0.5, 1.2, 1.7];
+        let ys = [0.5; 3];
+        let values = vec![vec![0.1, 0.8, 0.4]];
+        let mut pixels = vec![vec![1.2, -0.3, 0.45, 7.0, -7.0]];
+        let (clamped, largest) = clamp_to_local_range(&mut pixels, plane, &xs, &ys, &values);
+        assert_eq!(pixels[0], vec![0.8, 0.1, 0.45, 7.0, -7.0]);
+        assert_eq!(clamped, 2);
+        assert!((largest - 0.4).abs() <= 1e-15);
+    }
 }

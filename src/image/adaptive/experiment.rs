@@ -2,13 +2,15 @@
 //!
 //! For one scene and an average of `s` samples per pixel (budget `B = s W H`):
 //!
-//! * the adaptive wavelet image ([`super::refine_image`], budget `B`), exact box pixels;
+//! * the adaptive wavelet image ([`super::refine_image`], budget `B`): its output pixels, by
+//!   default the fit as a control variate ([`super::correction`]: exact box pixels of the fit
+//!   plus the significant mean residual per pixel, clamped to the local sample range);
+//! * the fit's exact box pixels alone (row `adaptive wavelet, fit only`), and the fit plus the
+//!   mean residual without the range clamp (row `adaptive wavelet, unclamped`);
 //! * every film filter and the uniform wavelet engine on `s` stratified samples per pixel
 //!   (the renderer's baseline at the same cost);
 //! * every film filter on the adaptive sample set (weighted splatting): separates what the
-//!   sample placement buys from what the reconstruction buys;
-//! * the adaptive fit as a control variate ([`super::correction`]): its box pixels plus the
-//!   significant mean residual per pixel (row `adaptive wavelet + residual`).
+//!   sample placement buys from what the reconstruction buys.
 //!
 //! With noise `sigma > 0` every sample value carries Gaussian noise of that deviation, the
 //! adaptive ones through [`super::NoisyOracle`] (seeded by the seed and the position), the
@@ -45,14 +47,20 @@ pub enum AdaptiveRunError {
     Image(#[from] crate::image::ImageError),
 }
 
-/// Standard errors of the residual mean beyond which a pixel is corrected
-/// ([`super::correction`]).
-pub const RESIDUAL_Z: f64 = 3.0;
+pub use super::correction::RESIDUAL_Z;
+
+/// The method name of the adaptive fit's box pixels alone.
+pub const FIT_ONLY: &str = "adaptive wavelet, fit only";
+
+/// The method name of the adaptive fit plus the significant mean residual, not clamped to the
+/// local sample range.
+pub const UNCLAMPED: &str = "adaptive wavelet, unclamped";
 
 /// One row of the comparison.
 #[derive(Clone, Debug, Serialize)]
 pub struct AdaptiveRow {
-    /// `adaptive wavelet`, `wavelet`, or a film filter's name.
+    /// `adaptive wavelet` (the output pixels), [`FIT_ONLY`], `wavelet`, or a film filter's
+    /// name.
     pub method: String,
     /// `adaptive` or `stratified`.
     pub samples_from: &'static str,
@@ -93,7 +101,7 @@ pub struct AdaptiveOutput {
     pub comparison: AdaptiveComparison,
     /// The adaptive run (tree, samples, fit).
     pub run: AdaptiveImage,
-    /// The adaptive wavelet's pixels.
+    /// The adaptive wavelet's output pixels.
     pub image: PixelImage,
     /// The truth.
     pub truth: PixelImage,
@@ -131,41 +139,42 @@ pub fn compare_adaptive(
     };
     let oracle: &dyn ImageOracle = if noise > 0.0 { &noisy } else { &clean };
     let run = refine_image(oracle, plane, &params)?;
-    let image = run.pixels()?;
+    let image = run.image.clone();
     let adaptive_s = t.elapsed().as_secs_f64();
-    let mut rows = vec![AdaptiveRow {
-        method: "adaptive wavelet".into(),
-        samples_from: "adaptive",
-        samples: run.xs.len(),
-        metrics: compare(&image, &truth_image),
-        notes: run.report.notes.clone(),
-    }];
-    // the fit as a control variate (the noise level from the last round's test)
-    let sigma = run
-        .report
-        .rounds
-        .last()
-        .and_then(|r| r.noise.as_ref())
-        .map_or(0.0, |n| n.sigma);
-    let (channels, corrected) = super::correction::residual_corrected_pixels(
+    let fit_only = run.fit_pixels()?;
+    let mut rows = vec![
+        AdaptiveRow {
+            method: "adaptive wavelet".into(),
+            samples_from: "adaptive",
+            samples: run.xs.len(),
+            metrics: compare(&image, &truth_image),
+            notes: run.report.notes.clone(),
+        },
+        AdaptiveRow {
+            method: FIT_ONLY.into(),
+            samples_from: "adaptive",
+            samples: run.xs.len(),
+            metrics: compare(&fit_only, &truth_image),
+            notes: vec!["the fit's box pixels, no residual correction".into()],
+        },
+    ];
+    let sigma = run.report.pixels.sigma;
+    let (_, unclamped, correction) = super::correction::output_pixels(
         &run.tree,
         &run.fit,
         &run.xs,
         &run.ys,
         &run.values,
+        super::PixelEstimate::ResidualCorrected,
         sigma,
-        RESIDUAL_Z,
+        params.residual_z,
     )?;
-    let with_residual = PixelImage { plane, channels };
     rows.push(AdaptiveRow {
-        method: "adaptive wavelet + residual".into(),
+        method: UNCLAMPED.into(),
         samples_from: "adaptive",
         samples: run.xs.len(),
-        metrics: compare(&with_residual, &truth_image),
-        notes: vec![format!(
-            "{corrected} pixels corrected by their mean residual (significant at {RESIDUAL_Z} \
-             standard errors, noise sigma {sigma:.3e})"
-        )],
+        metrics: compare(&unclamped, &truth_image),
+        notes: vec![correction.note()],
     });
     let uniform = sample_scene(
         scene,
@@ -222,13 +231,15 @@ pub fn compare_adaptive(
     })
 }
 
-/// A Markdown table of comparisons: one line per scene and spp, PSNR of the adaptive wavelet,
-/// the best film filter on stratified samples, the gain, the uniform wavelet, and the best
-/// film filter on the adaptive samples.
+/// A Markdown table of comparisons: one line per scene and spp, PSNR of the adaptive wavelet
+/// (its output pixels), the best film filter on stratified samples, the gain, the output
+/// without the range clamp, the fit alone, the pixels the residual corrected and the clamp
+/// moved, the uniform wavelet, and the best film filter on the adaptive samples.
 pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut s = String::from(
-        "| scene | spp | noise | adaptive wavelet | best film (stratified) | gain dB | wavelet \
-         (stratified) | best film (adaptive set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | spp | noise | adaptive wavelet | best film (stratified) | gain dB | unclamped \
+         | fit only | corrected (of sampled) | clamped | wavelet (stratified) | best film \
+         (adaptive set) | functions | rounds | stop |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for c in rows {
         let psnr = |from: &str, pred: &dyn Fn(&str) -> bool| {
@@ -240,9 +251,12 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
                 .unwrap_or_default()
         };
         let wav = psnr("stratified", &|m| m == "wavelet");
+        let fit = psnr("adaptive", &|m| m == FIT_ONLY);
+        let unclamped = psnr("adaptive", &|m| m == UNCLAMPED);
         let film_adaptive = psnr("adaptive", &|m| !m.starts_with("adaptive wavelet"));
         s.push_str(&format!(
-            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} ({}) | {} | {} | {:?} |\n",
+            "| {} | {} | {} | {:.2} | {:.2} ({}) | {:+.2} | {:.2} | {:.2} | {} ({}) | {} | {:.2} | \
+             {:.2} ({}) | {} | {} | {:?} |\n",
             c.scene,
             c.spp,
             c.noise,
@@ -250,6 +264,11 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
             c.best_uniform_film.1,
             c.best_uniform_film.0,
             c.gain_db,
+            unclamped.1,
+            fit.1,
+            c.adaptive.pixels.corrected,
+            c.adaptive.pixels.sampled,
+            c.adaptive.pixels.clamped,
             wav.1,
             film_adaptive.1,
             film_adaptive.0,
@@ -267,7 +286,8 @@ pub fn adaptive_markdown(rows: &[AdaptiveComparison]) -> String {
 pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
     let mut methods = vec![
         "adaptive wavelet".to_string(),
-        "adaptive wavelet + residual".to_string(),
+        UNCLAMPED.to_string(),
+        FIT_ONLY.to_string(),
         "wavelet".to_string(),
     ];
     methods.extend(FilmFilterKind::ALL.map(|k| k.name().to_string()));

@@ -13,7 +13,8 @@
 //!   samples in the new slots so that every slot keeps `ceil(rho)` samples; stop at a
 //!   tolerance, the depth limit or the sample budget;
 //! * [`protocol`]: the rounds driven by a renderer through files (state, fingerprints);
-//! * [`correction`]: the fit as a control variate (box pixels plus the mean residual);
+//! * [`correction`]: the output pixels, the fit as a control variate (box pixels plus the
+//!   significant mean residual of each pixel's samples; the default output);
 //! * [`experiment`]: adaptive wavelet against film filters at equal total samples;
 //! * `figure`: the image, the local depth and the samples side by side.
 
@@ -31,6 +32,7 @@ pub mod refiner;
 pub mod significance;
 pub mod tree;
 
+pub use correction::{PixelEstimate, ResidualCorrection};
 pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, TreeFit, TreeFitReport};
 pub use gram::TreeGram;
 pub use pcg::TreeSolver;

@@ -8,7 +8,10 @@
 //! 1. *starts* a plan ([`PlanState::start`]): the base positions for the seed;
 //! 2. *advances* it ([`PlanState::advance`]) with every sample so far (positions as handed out,
 //!    values rendered): the round's fit on the tree, then the next positions or the stop;
-//! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for.
+//! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for:
+//!    the fit, and the output pixels ([`super::correction`]: by default the fit's box pixels
+//!    plus the significant mean residual, with the noise estimate of the same fit and the
+//!    plan's `z`).
 //!
 //! Driven with the positions as handed out (in order, as `f64`), this is the in-process loop
 //! [`super::refine_image`] step for step: the same tree, the same fits, the same pixels
@@ -30,13 +33,14 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use super::correction::{output_pixels, PixelEstimate, ResidualCorrection};
 use super::fit::TreeFit;
 use super::refiner::{
     AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
 };
 use super::tree::QuadTree;
 use super::AdaptiveError;
-use crate::image::{ImagePlane, ImageSamples};
+use crate::image::{ImagePlane, ImageSamples, PixelImage};
 use crate::io::output::{write_new, OutputError};
 use crate::refine::StopReason;
 
@@ -203,6 +207,13 @@ pub struct PlanReconstruction {
     pub tree: QuadTree,
     /// The fit on it.
     pub fit: TreeFit,
+    /// The fit's box pixels alone.
+    pub fit_image: PixelImage,
+    /// The output pixels (by the estimate asked for; by default the fit's box pixels plus
+    /// the significant mean residual).
+    pub image: PixelImage,
+    /// What the residual correction did.
+    pub correction: ResidualCorrection,
     /// The last round of the samples.
     pub round: usize,
     /// Whether the plan has stopped at that round (the samples are the final set).
@@ -426,16 +437,42 @@ impl PlanState {
     }
 
     /// The fit of `samples` (the positions of rounds `0..=k` handed out by this plan, for some
-    /// `k`) on the tree they were planned for: after the markings of rounds `1..=k`. With the
+    /// `k`) on the tree they were planned for: after the markings of rounds `1..=k`, and the
+    /// output pixels the plan's parameters ask for ([`AdaptiveParams::pixels`]). With the
     /// samples of the round at which the plan stopped, this is the in-process loop's result.
     pub fn reconstruct(&self, samples: &ImageSamples) -> Result<PlanReconstruction, ProtocolError> {
+        self.reconstruct_as(samples, self.params.pixels)
+    }
+
+    /// [`PlanState::reconstruct`] with the output pixels `estimate` instead of the plan's
+    /// (the fit, its noise estimate and `z` are the plan's: the rounds do not depend on it).
+    pub fn reconstruct_as(
+        &self,
+        samples: &ImageSamples,
+        estimate: PixelEstimate,
+    ) -> Result<PlanReconstruction, ProtocolError> {
         let k = self.matching_round(samples)?;
         let plan = self.plan_at(k)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        let (fit, _) = plan.fit(samples.xs(), samples.ys(), &values)?;
+        let (fit, significance) = plan.fit(samples.xs(), samples.ys(), &values)?;
+        // the noise estimate of this fit, as the in-process loop's last round
+        let sigma = significance.map_or(0.0, |s| s.level.sigma);
+        let (fit_image, image, correction) = output_pixels(
+            plan.tree(),
+            &fit,
+            samples.xs(),
+            samples.ys(),
+            samples.values(),
+            estimate,
+            sigma,
+            self.params.residual_z,
+        )?;
         Ok(PlanReconstruction {
             tree: plan.tree().clone(),
             fit,
+            fit_image,
+            image,
+            correction,
             round: k,
             complete: self.stop.is_some() && k + 1 == self.issued.len(),
         })

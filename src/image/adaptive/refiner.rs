@@ -50,6 +50,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
+use super::correction::{output_pixels, PixelEstimate, ResidualCorrection, RESIDUAL_Z};
 use super::fit::{fit_tree_updating, TreeFit, TreeFitReport};
 use super::gram::TreeGram;
 use super::indicator::indicate;
@@ -123,6 +124,22 @@ pub struct AdaptiveParams {
     /// Probe channels of the noise test (variance of the coefficients and the noise level).
     #[serde(default = "default_probes")]
     pub probes: usize,
+    /// The output pixels ([`super::correction`]): the fit's box pixels plus the significant
+    /// mean residual of each pixel's samples, clamped to the local range of the samples (the
+    /// default; restores detail the fit cannot represent and removes its ringing, at the cost
+    /// of some noise where the residual passes the test), without the clamp, or the box
+    /// pixels alone. Does not change the rounds.
+    #[serde(default)]
+    pub pixels: PixelEstimate,
+    /// Standard errors `z` of the residual mean beyond which a pixel is corrected: larger
+    /// values add less noise and restore less detail (0: every pixel with a nonzero mean
+    /// residual).
+    #[serde(default = "default_residual_z")]
+    pub residual_z: f64,
+}
+
+fn default_residual_z() -> f64 {
+    RESIDUAL_Z
 }
 
 fn default_false_alarm() -> f64 {
@@ -161,6 +178,8 @@ impl Default for AdaptiveParams {
             solver: TreeSolver::Direct,
             false_alarm: 0.01,
             probes: 4,
+            pixels: PixelEstimate::ResidualClamped,
+            residual_z: RESIDUAL_Z,
         }
     }
 }
@@ -251,6 +270,13 @@ impl AdaptiveParams {
                 "probe channels in 1..=64 for the noise test",
             );
         }
+        if !(self.residual_z.is_finite() && self.residual_z >= 0.0) {
+            return bad(
+                "residual_z",
+                self.residual_z.to_string(),
+                "a finite number of standard errors >= 0",
+            );
+        }
         if self.budget == 0 {
             return bad("budget", "0".into(), "a positive number of samples");
         }
@@ -338,7 +364,9 @@ pub struct AdaptiveReport {
     pub rounds: Vec<ImageRound>,
     /// Seconds by stage.
     pub times: AdaptiveTimes,
-    /// Fallbacks, in words.
+    /// The output pixels: the residual correction's counts ([`super::correction`]).
+    pub pixels: ResidualCorrection,
+    /// Fallbacks and the output's correction, in words.
     pub notes: Vec<String>,
 }
 
@@ -357,13 +385,16 @@ pub struct AdaptiveImage {
     pub round_of: Vec<u32>,
     /// The fit on the final tree.
     pub fit: TreeFit,
+    /// The output pixels ([`AdaptiveParams::pixels`]; by default the fit's box pixels plus
+    /// the significant mean residual, [`super::correction`]).
+    pub image: PixelImage,
     /// What happened.
     pub report: AdaptiveReport,
 }
 
 impl AdaptiveImage {
-    /// Exact box pixels of the final fit.
-    pub fn pixels(&self) -> Result<PixelImage, AdaptiveError> {
+    /// Exact box pixels of the final fit alone (no residual correction).
+    pub fn fit_pixels(&self) -> Result<PixelImage, AdaptiveError> {
         let b = self.tree.basis();
         let plane = ImagePlane::new(b.width(), b.height()).expect("the basis has a valid size");
         Ok(PixelImage {
@@ -927,7 +958,8 @@ impl ImagePlan {
     }
 
     /// The report of a finished run: `base_samples` of `samples` in total, the final `fit`,
-    /// the reason to stop and the log of every round.
+    /// the reason to stop and the log of every round ([`AdaptiveReport::pixels`] empty: the
+    /// caller that computes the output pixels fills it in, as [`refine_image`] does).
     pub fn report(
         &self,
         base_samples: usize,
@@ -966,6 +998,7 @@ impl ImagePlan {
             stop,
             rounds,
             times,
+            pixels: ResidualCorrection::default(),
             notes,
         }
     }
@@ -1041,7 +1074,24 @@ pub fn refine_image(
             }
         }
     };
-    let report = plan.report(base_samples, store.xs.len(), &fit, stop, rounds, times);
+    // the output pixels, with the final round's noise estimate (as the protocol's)
+    let sigma = rounds
+        .last()
+        .and_then(|r| r.noise.as_ref())
+        .map_or(0.0, |n| n.sigma);
+    let (_, image, correction) = output_pixels(
+        &plan.tree,
+        &fit,
+        &store.xs,
+        &store.ys,
+        &store.values,
+        params.pixels,
+        sigma,
+        params.residual_z,
+    )?;
+    let mut report = plan.report(base_samples, store.xs.len(), &fit, stop, rounds, times);
+    report.notes.push(correction.note());
+    report.pixels = correction;
     Ok(AdaptiveImage {
         tree: plan.tree,
         xs: store.xs,
@@ -1049,6 +1099,7 @@ pub fn refine_image(
         values: store.values,
         round_of: store.round_of,
         fit,
+        image,
         report,
     })
 }
