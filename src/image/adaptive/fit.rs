@@ -186,7 +186,11 @@ fn check_direct_memory(
             )
         },
         kernel + normal,
-        || "a smaller budget or depth limit, or the matrix-free PCG solve".into(),
+        || {
+            "a smaller budget or depth limit, or the matrix-free PCG solve (`--pcg` on \
+             `image --adaptive`)"
+                .into()
+        },
     )?;
     Ok(())
 }
