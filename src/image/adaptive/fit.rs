@@ -30,6 +30,7 @@ use sprs::CsMat;
 
 use super::gram::{assemble, TreeGram};
 use super::pcg::{pcg_many, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX};
+use super::schwarz::{schwarz_pcg, Schwarz, SchwarzPcgReport, SchwarzReport};
 use super::tree::QuadTree;
 use super::AdaptiveError;
 use crate::basis::tensor::TensorValue;
@@ -76,6 +77,10 @@ pub struct TreeFitReport {
     pub condition: f64,
     /// Whether PCG reached its tolerance on every channel (true for the direct solve).
     pub converged: bool,
+    /// The Schwarz preconditioner's blocks ([`TreeSolver::Schwarz`] only).
+    pub schwarz: Option<SchwarzReport>,
+    /// Seconds of `solve_s` spent building and factoring the Schwarz blocks.
+    pub schwarz_setup_s: f64,
 }
 
 /// A fit on a tree: coefficients in the full Mallat layout (zero off the tree).
@@ -234,7 +239,9 @@ pub fn fit_tree_updating(
 ) -> Result<TreeFit, AdaptiveError> {
     check_samples(tree, xs, ys, values)?;
     match solver {
-        TreeSolver::Direct => fit_direct(tree, xs, ys, values, gram),
+        TreeSolver::Direct | TreeSolver::Schwarz { .. } => {
+            fit_direct(tree, xs, ys, values, gram, solver)
+        }
         TreeSolver::Pcg {
             tolerance,
             max_iterations,
@@ -248,7 +255,7 @@ pub fn fit_tree_updating(
             let solve_s = t.elapsed().as_secs_f64();
             let converged = solved.iter().all(|(_, r)| r.converged);
             if !converged && tree.len() <= DIRECT_FALLBACK_MAX {
-                let mut fit = fit_direct(tree, xs, ys, values, &mut None)?;
+                let mut fit = fit_direct(tree, xs, ys, values, &mut None, TreeSolver::Direct)?;
                 let worst = solved
                     .iter()
                     .map(|(_, r)| r)
@@ -284,13 +291,16 @@ pub fn fit_tree_updating(
     }
 }
 
-/// The reference: assembled (or updated) `G`, equilibrated sparse Cholesky.
+/// The reference: assembled (or updated) `G`, equilibrated sparse Cholesky; or, for
+/// [`TreeSolver::Schwarz`], conjugate gradients on the same `G` preconditioned by
+/// [`Schwarz`] blocks.
 fn fit_direct(
     tree: &QuadTree,
     xs: &[f64],
     ys: &[f64],
     values: &[&[f64]],
     gram: &mut Option<TreeGram>,
+    solver: TreeSolver,
 ) -> Result<TreeFit, AdaptiveError> {
     let functions = tree.functions();
     let t = std::time::Instant::now();
@@ -314,6 +324,50 @@ fn fit_direct(
     drop((k, kt));
     let normal_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
+    if let TreeSolver::Schwarz {
+        tolerance,
+        max_iterations,
+        tile,
+        halo,
+    } = solver
+    {
+        let pre = Schwarz::new(tree, &functions, &g, tile, halo);
+        let setup_s = t.elapsed().as_secs_f64();
+        let solved = schwarz_pcg(&g, &rhs, &pre, tolerance, max_iterations);
+        let n = tree.basis().len();
+        let fold =
+            |f: fn(&SchwarzPcgReport) -> f64| solved.iter().map(|(_, r)| f(r)).fold(0.0, f64::max);
+        return Ok(TreeFit {
+            report: TreeFitReport {
+                functions: functions.len(),
+                samples: xs.len(),
+                unsampled: column_samples.iter().filter(|&&c| c == 0).count(),
+                normal_nnz: g.nnz(),
+                kernel_s,
+                normal_s,
+                normal_kept_functions: update.kept_functions,
+                normal_kept_samples: update.kept_samples,
+                solve_s: t.elapsed().as_secs_f64(),
+                solver: "schwarz".into(),
+                iterations: solved.iter().map(|(_, r)| r.iterations).max().unwrap_or(0),
+                relative_residual: fold(|r| r.relative_residual),
+                converged: solved.iter().all(|(_, r)| r.converged),
+                schwarz: Some(pre.report()),
+                schwarz_setup_s: setup_s,
+                ..TreeFitReport::default()
+            },
+            coefficients: solved
+                .into_iter()
+                .map(|(c, _)| {
+                    let mut full = vec![0.0; n];
+                    for (&f, &v) in functions.iter().zip(&c) {
+                        full[f] = v;
+                    }
+                    full
+                })
+                .collect(),
+        });
+    }
     let params = GlobalLsParams {
         rank_policy: RankPolicy::Regularize,
         ..GlobalLsParams::default()

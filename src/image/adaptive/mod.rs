@@ -29,6 +29,7 @@ pub mod marking;
 pub mod pcg;
 pub mod protocol;
 pub mod refiner;
+pub mod schwarz;
 pub mod significance;
 pub mod tree;
 

@@ -52,6 +52,19 @@ pub enum TreeSolver {
     /// The assembled `G` and the equilibrated sparse Cholesky of [`crate::solve::normal_ls`]
     /// (the reference: cost grows with `G`'s ~300 entries per column).
     Direct,
+    /// Conjugate gradients on the assembled `G` of the direct path, preconditioned by
+    /// additive Schwarz on overlapping tiles with every level ([`super::schwarz`]; opt-in,
+    /// experimental: the reference for a matrix-free assembly of the same blocks).
+    Schwarz {
+        /// Relative residual of the normal equations to reach.
+        tolerance: f64,
+        /// Most iterations (past them the coefficients are used as they are, reported).
+        max_iterations: usize,
+        /// Tile side in pixels.
+        tile: f64,
+        /// Halo in pixels: a function belongs to every tile its cell, grown by the halo, meets.
+        halo: f64,
+    },
     /// Matrix-free preconditioned conjugate gradients ([`self`](crate::image::adaptive::pcg)).
     Pcg {
         /// Relative residual of the normal equations to reach.

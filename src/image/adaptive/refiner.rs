@@ -280,6 +280,26 @@ impl AdaptiveParams {
         if self.budget == 0 {
             return bad("budget", "0".into(), "a positive number of samples");
         }
+        if let TreeSolver::Schwarz {
+            tolerance,
+            max_iterations,
+            tile,
+            halo,
+        } = self.solver
+        {
+            if !(tolerance > 0.0 && tolerance < 1.0)
+                || max_iterations == 0
+                || !(tile.is_finite() && tile >= 1.0)
+                || !(halo.is_finite() && halo >= 0.0)
+            {
+                return bad(
+                    "solver",
+                    format!("{:?}", self.solver),
+                    "a Schwarz tolerance in (0, 1), at least one iteration, tiles of at least \
+                     one pixel and a finite halo >= 0",
+                );
+            }
+        }
         if let TreeSolver::Pcg {
             tolerance,
             max_iterations,
