@@ -231,3 +231,57 @@ fn image_adaptive_no_residual() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `image --adaptive --solver`: every round's fit is made by the solver asked for (named in
+/// each round's JSON; PCG may hand a stalled round to the direct solve, `pcg->direct`), the
+/// iterative ones print their iterations per round, the Schwarz CG (to 1e-10) gives the
+/// direct solve's image to 1e-6 dB of PSNR, and an unknown solver is refused naming the
+/// choices.
+#[test]
+fn image_adaptive_solver_choice() {
+    let dir = common::scratch("cmpad", "solver");
+    let out = dir.join("o.png");
+    let run = |solver: &str, json: bool| {
+        let mut args = vec![
+            "image",
+            "--scene",
+            "slanted_edge",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "4",
+            "--adaptive",
+            "--force",
+            "--out",
+            out.to_str().unwrap(),
+            "--solver",
+            solver,
+        ];
+        if json {
+            args.push("--json");
+        }
+        let o = common::rkwave(&args);
+        assert!(o.status.success(), "{}", common::text(&o));
+        o
+    };
+    let mut psnr = Vec::new();
+    for solver in ["direct", "pcg", "schwarz"] {
+        let v: serde_json::Value =
+            serde_json::from_slice(&run(solver, true).stdout).expect("one JSON object");
+        let rounds = v["adaptive"]["rounds"].as_array().unwrap();
+        assert!(!rounds.is_empty());
+        for r in rounds {
+            let used = r["fit"]["solver"].as_str().unwrap();
+            assert!(used.starts_with(solver), "{solver}: round fitted by {used}");
+        }
+        psnr.push(v["rows"][1]["metrics"]["psnr"].as_f64().unwrap());
+    }
+    assert!((psnr[0] - psnr[2]).abs() < 1e-6, "{psnr:?}");
+    let text = common::text(&run("schwarz", false));
+    assert!(
+        text.contains("CG per round:") && text.contains("schwarz"),
+        "{text}"
+    );
+    let e = common::user_error(&["image", "--adaptive", "--solver", "lu"]);
+    assert!(e.contains("direct, pcg, schwarz"), "{e}");
+}

@@ -192,8 +192,8 @@ fn check_direct_memory(
         },
         kernel + normal,
         || {
-            "a smaller budget or depth limit, or the matrix-free PCG solve (`--pcg` on \
-             `image --adaptive`)"
+            "a smaller budget or depth limit, or the matrix-free PCG solve (`--solver pcg` \
+             on `image --adaptive`)"
                 .into()
         },
     )?;
