@@ -19,12 +19,15 @@
 //! it above 1,000.
 //!
 //! Here the blocks are read from an assembled `G` (the direct path's, [`super::gram`]) and
-//! factored densely (Cholesky; a function without samples has a zero row and is pinned by a
+//! factored densely (faer's Cholesky, blocked triangular solves for all channels at once; a function without samples has a zero row and is pinned by a
 //! unit diagonal; a block that is still singular gets a relative ridge, counted). That is the
 //! reference for a matrix-free assembly of the same blocks, which the 512² target needs: `G`
 //! itself, built from the kernel rows, does not fit at 512² (see the README).
 
-use nalgebra::{Cholesky, DMatrix, Dyn};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::solve::solve_in_place_with_conj;
+use faer::linalg::solvers::Llt;
+use faer::{Conj, Mat, Par, Side};
 use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
@@ -49,7 +52,7 @@ pub struct SchwarzReport {
 /// `G_tt`.
 struct Block {
     columns: Vec<usize>,
-    factor: Cholesky<f64, Dyn>,
+    factor: Llt<f64>,
 }
 
 /// `M^{-1} = sum_t R_t^T G_tt^{-1} R_t` over overlapping tiles.
@@ -100,7 +103,7 @@ impl Schwarz {
             .into_par_iter()
             .map(|columns| {
                 let n = columns.len();
-                let mut m = DMatrix::<f64>::zeros(n, n);
+                let mut m = Mat::<f64>::zeros(n, n);
                 for (i, &a) in columns.iter().enumerate() {
                     for t in gp[a]..gp[a + 1] {
                         if let Ok(j) = columns.binary_search(&gi[t]) {
@@ -115,9 +118,9 @@ impl Schwarz {
                     }
                 }
                 let mut ridged = false;
-                let factor = match Cholesky::new(m.clone()) {
-                    Some(f) => f,
-                    None => {
+                let factor = match Llt::new(m.as_ref(), Side::Lower) {
+                    Ok(f) => f,
+                    Err(_) => {
                         ridged = true;
                         let mut ridge = 1e-12 * scale;
                         loop {
@@ -125,7 +128,7 @@ impl Schwarz {
                             for i in 0..n {
                                 r[(i, i)] += ridge;
                             }
-                            if let Some(f) = Cholesky::new(r) {
+                            if let Ok(f) = Llt::new(r.as_ref(), Side::Lower) {
                                 break f;
                             }
                             ridge *= 100.0;
@@ -163,12 +166,19 @@ impl Schwarz {
     /// order (the bits do not depend on the thread count).
     pub fn apply_many(&self, rs: &[&[f64]]) -> Vec<Vec<f64>> {
         let k = rs.len();
-        let parts: Vec<DMatrix<f64>> = self
+        let parts: Vec<Mat<f64>> = self
             .blocks
             .par_iter()
             .map(|b| {
-                let mut local = DMatrix::from_fn(b.columns.len(), k, |i, c| rs[c][b.columns[i]]);
-                b.factor.solve_mut(&mut local);
+                let mut local = Mat::from_fn(b.columns.len(), k, |i, c| rs[c][b.columns[i]]);
+                let mut mem = MemBuffer::new(faer::dyn_stack::StackReq::EMPTY);
+                solve_in_place_with_conj(
+                    b.factor.L(),
+                    Conj::No,
+                    local.as_mut(),
+                    Par::Seq,
+                    MemStack::new(&mut mem),
+                );
                 local
             })
             .collect();
