@@ -184,6 +184,28 @@ fn plan_takes_the_false_alarm_rate() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `rkwave image --scene slanted_edge --resolution 16x16 --spp 4 --adaptive --force --out OUT`
+/// with `extra` flags, which must succeed.
+fn slanted_edge_16(out: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "image",
+        "--scene",
+        "slanted_edge",
+        "--resolution",
+        "16x16",
+        "--spp",
+        "4",
+        "--adaptive",
+        "--force",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    let o = common::rkwave(&args);
+    assert!(o.status.success(), "{}", common::text(&o));
+    o
+}
+
 /// `image --adaptive --no-residual`: the output is the fit's box pixels (the first row equals
 /// the fit-only row, nothing corrected); without it the corrections are counted in the JSON
 /// and in the text's notes.
@@ -191,25 +213,7 @@ fn plan_takes_the_false_alarm_rate() {
 fn image_adaptive_no_residual() {
     let dir = common::scratch("cmpad", "no_residual");
     let out = dir.join("o.png");
-    let run = |extra: &[&str]| {
-        let mut args = vec![
-            "image",
-            "--scene",
-            "slanted_edge",
-            "--resolution",
-            "16x16",
-            "--spp",
-            "4",
-            "--adaptive",
-            "--force",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend(extra);
-        let o = common::rkwave(&args);
-        assert!(o.status.success(), "{}", common::text(&o));
-        o
-    };
+    let run = |extra: &[&str]| slanted_edge_16(&out, extra);
     let json = |o: std::process::Output| -> serde_json::Value {
         serde_json::from_slice(&o.stdout).expect("one JSON object")
     };
@@ -242,27 +246,8 @@ fn image_adaptive_solver_choice() {
     let dir = common::scratch("cmpad", "solver");
     let out = dir.join("o.png");
     let run = |solver: &str, json: bool| {
-        let mut args = vec![
-            "image",
-            "--scene",
-            "slanted_edge",
-            "--resolution",
-            "16x16",
-            "--spp",
-            "4",
-            "--adaptive",
-            "--force",
-            "--out",
-            out.to_str().unwrap(),
-            "--solver",
-            solver,
-        ];
-        if json {
-            args.push("--json");
-        }
-        let o = common::rkwave(&args);
-        assert!(o.status.success(), "{}", common::text(&o));
-        o
+        let extra = ["--solver", solver, "--json"];
+        slanted_edge_16(&out, &extra[..if json { 3 } else { 2 }])
     };
     let mut psnr = Vec::new();
     for solver in ["direct", "pcg", "schwarz"] {

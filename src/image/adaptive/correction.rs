@@ -147,8 +147,7 @@ pub fn add_significant_mean_residual(
     let mut sum = vec![0.0; w * h * ch];
     let mut count = vec![0usize; w * h];
     for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
-        let px = (x.max(0.0).floor() as usize).min(w - 1);
-        let py = (y.max(0.0).floor() as usize).min(h - 1);
+        let (px, py) = plane.pixel_of(x, y);
         let p = py * w + px;
         count[p] += 1;
         for (c, rc) in residuals.iter().enumerate() {
@@ -189,8 +188,7 @@ pub fn clamp_to_local_range(
     // the range of each pixel's own samples, then of its 3x3 neighbourhood
     let mut own = vec![(f64::INFINITY, f64::NEG_INFINITY); w * h * values.len()];
     for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
-        let px = (x.max(0.0).floor() as usize).min(w - 1);
-        let py = (y.max(0.0).floor() as usize).min(h - 1);
+        let (px, py) = plane.pixel_of(x, y);
         for (c, v) in values.iter().enumerate() {
             let r = &mut own[(py * w + px) * values.len() + c];
             *r = (r.0.min(v[i]), r.1.max(v[i]));

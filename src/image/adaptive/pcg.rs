@@ -299,7 +299,7 @@ fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
 }
 
 /// The inverse of [`interleave`] for `k` vectors.
-fn deinterleave(v: &[f64], k: usize) -> Vec<Vec<f64>> {
+pub(super) fn deinterleave(v: &[f64], k: usize) -> Vec<Vec<f64>> {
     (0..k)
         .map(|c| v.iter().skip(c).step_by(k).copied().collect())
         .collect()
@@ -476,7 +476,7 @@ pub struct PcgReport {
     pub converged: bool,
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 

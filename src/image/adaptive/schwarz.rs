@@ -32,6 +32,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
+use super::pcg::{deinterleave, dot};
 use super::tree::{Cell, QuadTree};
 use crate::solve::csr_raw as raw;
 
@@ -205,10 +206,6 @@ pub struct SchwarzPcgReport {
     pub converged: bool,
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 /// `y_c = G x_c` for CSR `G`, one pass over `G` for every vector.
 fn times_many(g: &CsMat<f64>, xs: &[&[f64]]) -> Vec<Vec<f64>> {
     let (gp, gi, gd) = raw(g);
@@ -222,9 +219,7 @@ fn times_many(g: &CsMat<f64>, xs: &[&[f64]]) -> Vec<Vec<f64>> {
             }
         }
     });
-    (0..k)
-        .map(|c| rows.iter().skip(c).step_by(k).copied().collect())
-        .collect()
+    deinterleave(&rows, k)
 }
 
 /// Solves `G x_c = b_c` for every right-hand side by conjugate gradients preconditioned by
