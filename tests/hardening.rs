@@ -106,6 +106,11 @@ fn every_count_at_u64_max_is_refused_by_the_parser() {
         &["scaling", "--channels", MAX],
         &["scaling", "--channels", "0"],
         &["eval", "--x", "0.5", "--fine", MAX],
+        // j_min(p) of an absurd p once looped forever before p was checked.
+        &["basis", "--p", MAX],
+        &["eval", "--x", "0.5", "--p", MAX],
+        &["adapt", "--signal", "smooth", "--p", MAX],
+        &["report", "--p", MAX],
     ] {
         user_error(args);
     }
@@ -475,4 +480,17 @@ fn adaptive_factor_above_the_memory_limit_is_refused() {
     let e = refused("600K");
     assert!(e.contains("Cholesky factor") && e.contains("memory"), "{e}");
     assert!(!out.exists());
+}
+
+#[test]
+fn coarsest_level_is_ceil_log2_of_4p_minus_2_for_every_p() {
+    use rkwave::basis::minimum_level;
+    assert_eq!(minimum_level(1), 0);
+    for p in 2..=5000usize {
+        let target = 4 * p as u128 - 2;
+        let j = (0..).find(|&j| (1u128 << j) >= target).unwrap();
+        assert_eq!(minimum_level(p), j, "p = {p}");
+    }
+    // Saturates instead of overflowing (the basis refuses such p with a clear error).
+    assert_eq!(minimum_level(usize::MAX), 64);
 }

@@ -111,12 +111,10 @@ pub fn minimum_level(p: usize) -> u32 {
     if p <= 1 {
         return 0;
     }
-    let target = 4 * p - 2;
-    let mut j = 0;
-    while (1usize << j) < target {
-        j += 1;
-    }
-    j
+    // ceil(log2(t)) = bits of (t - 1); saturating, so an absurd p (which `CdvBasis::new`
+    // refuses) gives a level instead of overflowing.
+    let target = p.saturating_mul(4).saturating_sub(2);
+    usize::BITS - (target - 1).leading_zeros()
 }
 
 /// A CDV basis `Psi(n, N)` on a domain `[a, b]` (mapped affinely to `[0, 1]`, values scaled by
