@@ -247,6 +247,26 @@ fn unwritable_outputs_fail_before_computing() {
         "--plot",
         "/proc/rkwave-no/a.png",
     ]);
+    // An image name without a known format is refused before the adaptive run, which once
+    // computed for minutes and then failed; nothing is written.
+    let out = d.join("adaptive-image");
+    let e = user_error(&[
+        "image",
+        "--adaptive",
+        "--scene",
+        "shapes",
+        "--resolution",
+        "32x32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(e.contains("--out") && e.contains(".png"), "{e}");
+    let written: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(written.len(), 1, "only the input exists: {written:?}");
 }
 
 #[test]

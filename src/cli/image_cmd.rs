@@ -184,10 +184,11 @@ fn filter_csv_path(out: &Path, x: usize, y: usize) -> PathBuf {
 
 /// Runs `rkwave image`.
 pub fn run(args: &ImageArgs) -> Result<(), CliError> {
+    // Before any work, in both modes: a format we cannot write is refused up front.
+    ImageFormat::from_path(&args.out).map_err(|e| CliError::Invalid(format!("--out: {e}")))?;
     if args.adaptive.adaptive {
         return super::image_adaptive_cmd::run(args);
     }
-    ImageFormat::from_path(&args.out).map_err(|e| CliError::Invalid(format!("--out: {e}")))?;
     check_writable(&args.out, args.force)?;
     let plane = parse_resolution(&args.resolution)?;
     let sampler = parse_sampler(&args.sampler)?;
