@@ -276,3 +276,103 @@ fn bad_schwarz_parameters_are_refused() {
         }
     }
 }
+
+/// Loose rounds, accurate output ([`AdaptiveParams::round_tolerance`]): the rounds' PCG fits
+/// stop at the round tolerance (they only feed the indicator), and the fit of the stopping
+/// round is continued to the solver's own tolerance, so the output coefficients are the least
+/// squares solution on the final tree and samples. Checked against the direct solve there:
+/// within `1e-7` relative (the continuation stops at a normal-equation residual of `1e-12`;
+/// with a condition of the Jacobi-scaled `G` of order `1e3` the coefficient error is below
+/// `1e-9`), while a fit stopped at the round tolerance is off by more than `1e-5`. The direct
+/// solve has no tolerance: the setting leaves its run bit for bit unchanged.
+#[test]
+fn loose_rounds_end_in_the_accurate_fit() {
+    use rkwave::image::adaptive::{fit_tree, refine_image, AdaptiveParams};
+    use rkwave::image::ImagePlane;
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let edge = |x: f64, y: f64| if x + 0.4 * y < 17.0 { 0.2 } else { 0.9 };
+    let pcg = TreeSolver::Pcg {
+        tolerance: 1e-12,
+        max_iterations: 5000,
+    };
+    let params = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        solver: pcg,
+        round_tolerance: Some(1e-2),
+        ..AdaptiveParams::default()
+    };
+    let run = refine_image(&edge, plane, &params).unwrap();
+    let rounds = &run.report.rounds;
+    assert!(rounds.len() >= 3, "{} rounds", rounds.len());
+    for r in &rounds[..rounds.len() - 1] {
+        assert!(r.final_fit.is_none(), "round {}", r.round);
+    }
+    for r in rounds {
+        assert!(
+            r.fit.converged && r.fit.relative_residual <= 1e-2,
+            "round {}",
+            r.round
+        );
+    }
+    let last = rounds
+        .last()
+        .unwrap()
+        .final_fit
+        .as_ref()
+        .expect("continued");
+    assert!(
+        last.converged && last.relative_residual <= 1e-12,
+        "{last:?}"
+    );
+    let values: Vec<&[f64]> = run.values.iter().map(|v| v.as_slice()).collect();
+    let direct = fit_tree(&run.tree, &run.xs, &run.ys, &values).unwrap();
+    let loose = fit_tree_with(
+        &run.tree,
+        &run.xs,
+        &run.ys,
+        &values,
+        TreeSolver::Pcg {
+            tolerance: 1e-2,
+            max_iterations: 5000,
+        },
+        None,
+    )
+    .unwrap();
+    let d = &direct.coefficients[0];
+    let scale = norm(d);
+    let diff = |c: &[f64]| norm(&c.iter().zip(d).map(|(a, b)| a - b).collect::<Vec<_>>()) / scale;
+    let (accurate, early) = (diff(&run.fit.coefficients[0]), diff(&loose.coefficients[0]));
+    assert!(accurate <= 1e-7, "continued fit off by {accurate:e}");
+    assert!(
+        early > 1e-5,
+        "a loose fit is already accurate ({early:e}): the test shows nothing"
+    );
+    // the direct solve ignores it
+    let reference = AdaptiveParams {
+        budget: 4 * plane.pixels(),
+        ..AdaptiveParams::default()
+    };
+    let with = AdaptiveParams {
+        round_tolerance: Some(1e-2),
+        ..reference
+    };
+    let (a, b) = (
+        refine_image(&edge, plane, &reference).unwrap(),
+        refine_image(&edge, plane, &with).unwrap(),
+    );
+    assert_eq!(a.image.channels, b.image.channels);
+    assert!(b.report.rounds.iter().all(|r| r.final_fit.is_none()));
+    // out of range
+    for t in [0.0, 1.0, f64::NAN, -1e-3] {
+        let bad = AdaptiveParams {
+            round_tolerance: Some(t),
+            ..params
+        };
+        match bad.validate() {
+            Err(rkwave::image::adaptive::AdaptiveError::Parameter { parameter, .. }) => {
+                assert_eq!(parameter, "round_tolerance")
+            }
+            other => panic!("{t}: {other:?}"),
+        }
+    }
+}

@@ -32,10 +32,12 @@ pub struct AdaptiveArgs {
     pub below_pixel: u32,
     /// Adaptive mode: the solver of each round's fit. `direct`: the sparse Cholesky of the
     /// assembled normal matrix (the reference); `pcg`: matrix-free Jacobi-preconditioned CG
-    /// (about 7x less memory, hundreds of iterations a round; to 1e-10, at most 400);
-    /// `schwarz`: CG on the assembled matrix preconditioned by additive Schwarz on 8-pixel
-    /// tiles (tens of iterations; to 1e-10, at most 400). Iterations per round are printed for
-    /// the last two; `--adaptive-params` sets their tolerances.
+    /// (about 7x less memory; to 1e-10, at most 400 iterations); `schwarz`: CG on the
+    /// assembled matrix preconditioned by additive Schwarz on 8-pixel tiles (to 1e-10, at most
+    /// 400). For both, the rounds' fits, which only steer the refinement, stop at relative
+    /// residual 1e-2 (tens of iterations) and the final fit is continued to 1e-10.
+    /// Iterations per round are printed for the last two; `--adaptive-params` sets the
+    /// tolerances (`{"round_tolerance": null}`: every round to the solver's tolerance).
     #[arg(long, value_enum, default_value_t = SolverChoice::Direct)]
     pub solver: SolverChoice,
     /// Adaptive mode: false-alarm rate of the noise test, the chance per round that noise
@@ -263,7 +265,17 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
                 )
             })
             .collect();
-        println!("CG per round: {}", per_round.join("; "));
+        let last = r
+            .rounds
+            .last()
+            .and_then(|x| x.final_fit.as_ref())
+            .map_or_else(String::new, |f| {
+                format!(
+                    "; final fit continued to {} it (res {:.0e})",
+                    f.iterations, f.relative_residual
+                )
+            });
+        println!("CG per round: {}{last}", per_round.join("; "));
     }
     if let Some(level) = r.rounds.last().and_then(|l| l.noise.as_ref()) {
         let densified = r.rounds.iter().filter(|l| l.densified_to.is_some()).count();

@@ -75,6 +75,31 @@ pub enum TreeSolver {
     },
 }
 
+impl TreeSolver {
+    /// The same iterative solver stopping at relative residual `tolerance` (`None` for the
+    /// direct solve, which has no tolerance).
+    pub fn with_tolerance(self, tolerance: f64) -> Option<Self> {
+        match self {
+            Self::Direct => None,
+            Self::Pcg { max_iterations, .. } => Some(Self::Pcg {
+                tolerance,
+                max_iterations,
+            }),
+            Self::Schwarz {
+                max_iterations,
+                tile,
+                halo,
+                ..
+            } => Some(Self::Schwarz {
+                tolerance,
+                max_iterations,
+                tile,
+                halo,
+            }),
+        }
+    }
+}
+
 impl Default for TreeSolver {
     fn default() -> Self {
         Self::Pcg {
@@ -286,7 +311,7 @@ impl SingleScaleColumns {
 }
 
 /// `k` vectors of equal length interleaved: `out[j k + c] = vs[c][j]`.
-fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
+pub(super) fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
     let k = vs.len();
     let n = vs.first().map_or(0, |v| v.len());
     let mut out = vec![0.0; n * k];

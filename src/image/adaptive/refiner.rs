@@ -115,6 +115,18 @@ pub struct AdaptiveParams {
     /// [`super::pcg`]).
     #[serde(default = "direct_solver")]
     pub solver: TreeSolver,
+    /// Relative residual of the iterative solvers ([`TreeSolver::Pcg`],
+    /// [`TreeSolver::Schwarz`]) in the rounds' fits, which only feed the indicator (`None`:
+    /// the solver's own tolerance). The final fit, the output, is always continued from the
+    /// round's coefficients to the solver's tolerance. Ignored by the direct solve.
+    ///
+    /// Measured (PCG to `1e-6`, `shapes`, 8 spp): at 128² loose rounds at `1e-2` take 18-31
+    /// iterations against 218-254 and the run 14 s against 52 s, and at 256² 62 s against
+    /// 158 s, with the fit's PSNR within 0.5 dB and the output's higher (the round fits'
+    /// residuals raise the noise estimate of a noise-free scene from `1e-5` to `3e-3`, so
+    /// fewer pixels take a residual correction).
+    #[serde(default = "default_round_tolerance")]
+    pub round_tolerance: Option<f64>,
     /// False-alarm rate `alpha` of the noise test ([`super::significance`]): a slot is
     /// deepened only where its parent's detail is significant, so that noise alone marks a
     /// slot in a round with probability at most about `alpha`; the noise level is estimated
@@ -149,6 +161,10 @@ fn default_probes() -> usize {
     AdaptiveParams::default().probes
 }
 
+fn default_round_tolerance() -> Option<f64> {
+    AdaptiveParams::default().round_tolerance
+}
+
 fn default_rho_limit() -> f64 {
     AdaptiveParams::default().rho_limit
 }
@@ -176,6 +192,7 @@ impl Default for AdaptiveParams {
             max_rounds: 40,
             seed: 1,
             solver: TreeSolver::Direct,
+            round_tolerance: Some(1e-2),
             false_alarm: 0.01,
             probes: 4,
             pixels: PixelEstimate::ResidualClamped,
@@ -300,6 +317,15 @@ impl AdaptiveParams {
                 );
             }
         }
+        if let Some(t) = self.round_tolerance {
+            if !(t > 0.0 && t < 1.0) {
+                return bad(
+                    "round_tolerance",
+                    t.to_string(),
+                    "a relative residual in (0, 1) (or null: the solver's tolerance)",
+                );
+            }
+        }
         if let TreeSolver::Pcg {
             tolerance,
             max_iterations,
@@ -346,6 +372,9 @@ pub struct ImageRound {
     pub spread: usize,
     /// The solve.
     pub fit: TreeFitReport,
+    /// The last round's fit continued to the solver's tolerance from the round's
+    /// coefficients ([`AdaptiveParams::round_tolerance`] only; `None` otherwise).
+    pub final_fit: Option<TreeFitReport>,
 }
 
 /// Seconds by stage.
@@ -679,7 +708,7 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
-        self.fit_updating(xs, ys, values, None, &mut None)
+        self.fit_updating(xs, ys, values, self.params.solver, None, &mut None)
     }
 
     /// [`ImagePlan::fit`], the direct solve continuing the normal matrix in `gram` (same bits),
@@ -689,6 +718,7 @@ impl ImagePlan {
         xs: &[f64],
         ys: &[f64],
         values: &[&[f64]],
+        solver: TreeSolver,
         start: Option<&[Vec<f64>]>,
         gram: &mut Option<TreeGram>,
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
@@ -697,14 +727,14 @@ impl ImagePlan {
         let ch = values.len();
         if params.false_alarm <= 0.0 {
             return Ok((
-                fit_tree_updating(tree, xs, ys, values, params.solver, start, gram)?,
+                fit_tree_updating(tree, xs, ys, values, solver, start, gram)?,
                 None,
             ));
         }
         let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree_updating(tree, xs, ys, &all, params.solver, start, gram)?;
+        let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, gram)?;
         let significance = Significance::new(
             tree,
             &fit.coefficients,
@@ -722,17 +752,56 @@ impl ImagePlan {
     /// One round on every sample so far (`values[c][i]` channel `c` at `(xs[i], ys[i])`):
     /// fit on the tree, indicate, then stop or mark, deepen and return the positions that
     /// top the marked slots' children up to `ceil(rho)` samples.
+    ///
+    /// With [`AdaptiveParams::round_tolerance`] and an iterative solver the round's fit stops
+    /// at the round tolerance; when the round stops the refinement, its fit is continued from
+    /// those coefficients to the solver's own tolerance (reported in
+    /// [`ImageRound::final_fit`]), so the output is the accurate fit.
     pub fn step(
         &mut self,
         xs: &[f64],
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<Round, AdaptiveError> {
+        let solver = self.params.solver;
+        let loose = self
+            .params
+            .round_tolerance
+            .and_then(|t| solver.with_tolerance(t))
+            .filter(|&s| s != solver);
+        let mut round = self.step_with(xs, ys, values, loose.unwrap_or(solver))?;
+        if loose.is_some() && matches!(round.decision, Decision::Stop(_)) {
+            // The tree is unchanged by a stopping round: continue the same system.
+            let t = Instant::now();
+            let last = fit_tree_updating(
+                &self.tree,
+                xs,
+                ys,
+                values,
+                solver,
+                Some(&round.fit.coefficients),
+                &mut None,
+            )?;
+            round.fit_s += t.elapsed().as_secs_f64();
+            round.log.final_fit = Some(last.report.clone());
+            round.fit = last;
+        }
+        Ok(round)
+    }
+
+    /// [`ImagePlan::step`] with the round's fit by `solver`.
+    fn step_with(
+        &mut self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+        solver: TreeSolver,
+    ) -> Result<Round, AdaptiveError> {
         let round = self.round();
         let t = Instant::now();
         let mut gram = self.gram.take();
         let start = self.start.take();
-        let fitted = self.fit_updating(xs, ys, values, start.as_deref(), &mut gram);
+        let fitted = self.fit_updating(xs, ys, values, solver, start.as_deref(), &mut gram);
         self.gram = gram;
         let (fit, significance) = fitted?;
         if matches!(self.params.solver, TreeSolver::Pcg { .. }) {
@@ -765,6 +834,7 @@ impl ImagePlan {
             densified_to: None,
             spread: 0,
             fit: fit.report.clone(),
+            final_fit: None,
         };
         let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
         let stop = if estimate_rms <= params.tolerance {
