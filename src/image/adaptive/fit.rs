@@ -29,7 +29,9 @@ use serde::Serialize;
 use sprs::CsMat;
 
 use super::gram::{assemble, TreeGram};
-use super::pcg::{pcg_many, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX};
+use super::pcg::{
+    pcg_many, DiagonalSums, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX,
+};
 use super::schwarz::{schwarz_pcg, Schwarz, SchwarzPcgReport, SchwarzReport};
 use super::tree::QuadTree;
 use super::AdaptiveError;
@@ -81,6 +83,18 @@ pub struct TreeFitReport {
     pub schwarz: Option<SchwarzReport>,
     /// Seconds of `solve_s` spent building and factoring the Schwarz blocks.
     pub schwarz_setup_s: f64,
+}
+
+/// What a fit leaves for the next round's fit (more samples after the same ones, a tree that
+/// only grew): the direct solve's normal matrix ([`super::gram`]), PCG's exact diagonal
+/// ([`DiagonalSums`]). Solver state only: with a fresh state a fit computes the same
+/// coefficients (the direct solve bit for bit; PCG up to the rounding of its preconditioner).
+#[derive(Clone, Debug, Default)]
+pub struct FitState {
+    /// The direct solve's normal matrix.
+    pub gram: Option<TreeGram>,
+    /// PCG's diagonal of `G`.
+    pub diagonal: Option<DiagonalSums>,
 }
 
 /// A fit on a tree: coefficients in the full Mallat layout (zero off the tree).
@@ -221,13 +235,21 @@ pub fn fit_tree_with(
     solver: TreeSolver,
     start: Option<&[Vec<f64>]>,
 ) -> Result<TreeFit, AdaptiveError> {
-    fit_tree_updating(tree, xs, ys, values, solver, start, &mut None)
+    fit_tree_updating(
+        tree,
+        xs,
+        ys,
+        values,
+        solver,
+        start,
+        &mut FitState::default(),
+    )
 }
 
-/// [`fit_tree_with`], the direct solve continuing the normal matrix `gram` of an earlier fit
-/// (same first samples, a tree that only grew; otherwise assembled afresh) and leaving this
-/// fit's matrix there. The coefficients are those of [`fit_tree_with`] bit for bit
-/// ([`super::gram`]); only the work differs.
+/// [`fit_tree_with`] continuing the state of an earlier fit (same first samples, a tree that
+/// only grew; otherwise built afresh) and leaving this fit's there: the direct solve's normal
+/// matrix (the coefficients are those of [`fit_tree_with`] bit for bit, [`super::gram`]),
+/// PCG's exact diagonal of `G` (the same up to rounding).
 pub fn fit_tree_updating(
     tree: &QuadTree,
     xs: &[f64],
@@ -235,12 +257,12 @@ pub fn fit_tree_updating(
     values: &[&[f64]],
     solver: TreeSolver,
     start: Option<&[Vec<f64>]>,
-    gram: &mut Option<TreeGram>,
+    state: &mut FitState,
 ) -> Result<TreeFit, AdaptiveError> {
     check_samples(tree, xs, ys, values)?;
     match solver {
         TreeSolver::Direct | TreeSolver::Schwarz { .. } => {
-            fit_direct(tree, xs, ys, values, gram, solver)
+            fit_direct(tree, xs, ys, values, &mut state.gram, solver)
         }
         TreeSolver::Pcg {
             tolerance,
@@ -248,7 +270,9 @@ pub fn fit_tree_updating(
         } => {
             let t = std::time::Instant::now();
             let rows = SingleScaleRows::new(tree.basis(), xs, ys);
-            let op = TreeNormalOperator::new(tree, &rows, xs, ys);
+            let diagonal = DiagonalSums::new(tree, xs, ys, state.diagonal.as_ref());
+            let op = TreeNormalOperator::with_diagonal(tree, &rows, xs, ys, &diagonal);
+            state.diagonal = Some(diagonal);
             let kernel_s = t.elapsed().as_secs_f64();
             let t = std::time::Instant::now();
             let solved = pcg_many(&op, values, start, tolerance, max_iterations);

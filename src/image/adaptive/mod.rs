@@ -34,7 +34,7 @@ pub mod significance;
 pub mod tree;
 
 pub use correction::{PixelEstimate, ResidualCorrection};
-pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, TreeFit, TreeFitReport};
+pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, FitState, TreeFit, TreeFitReport};
 pub use gram::TreeGram;
 pub use pcg::TreeSolver;
 pub use refiner::{

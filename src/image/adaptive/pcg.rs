@@ -348,12 +348,23 @@ pub struct TreeNormalOperator<'a> {
 impl<'a> TreeNormalOperator<'a> {
     /// The operator of `tree` with the samples `(xs, ys)` whose rows are `rows`.
     pub fn new(tree: &'a QuadTree, rows: &'a SingleScaleRows, xs: &[f64], ys: &[f64]) -> Self {
+        let diagonal = DiagonalSums::new(tree, xs, ys, None);
+        Self::with_diagonal(tree, rows, xs, ys, &diagonal)
+    }
+
+    /// [`Self::new`] with the exact diagonal `G_aa` given ([`DiagonalSums`] of the same tree
+    /// and samples).
+    pub fn with_diagonal(
+        tree: &'a QuadTree,
+        rows: &'a SingleScaleRows,
+        xs: &[f64],
+        ys: &[f64],
+        diagonal: &DiagonalSums,
+    ) -> Self {
         let basis = tree.basis();
         let n = basis.len();
-        let mut mask = vec![false; n];
-        for f in tree.functions() {
-            mask[f] = true;
-        }
+        let mask = diagonal.mask.clone();
+        debug_assert_eq!(diagonal.samples, xs.len());
         let p = basis.p() as i64;
         let radius = p - 1;
         // samples per cell of the deepest step, summed up step by step
@@ -400,7 +411,7 @@ impl<'a> TreeNormalOperator<'a> {
         let mut unsampled = 0;
         let (nx, _) = basis.dims();
         let (cx, cy) = basis.coarse_levels();
-        let exact = exact_diagonal(basis, &mask, xs, ys);
+        let exact = &diagonal.sums;
         for (f, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
             let (s, kx, ky) = match tree.cell_of_function(f) {
                 Some(cell) => (cell.step, cell.kx, cell.ky),
@@ -689,6 +700,115 @@ fn lanczos_condition(alphas: &[f64], betas: &[f64]) -> f64 {
     } else {
         f64::INFINITY
     }
+}
+
+/// The exact diagonal `G_aa = sum_i Psi_a(x_i, y_i)^2` of a tree's normal matrix over the
+/// first `samples` samples, kept so that the next round continues it: a round's samples are
+/// the previous ones plus new ones and its tree holds the previous tree, so
+///
+/// ```text
+/// G'_aa = G_aa + sum_{new i} Psi_a(x_i)^2                         (a in the previous tree),
+/// G'_aa = sum_{old i in supp a} Psi_a(x_i)^2 + sum_{new i} ...     (a new function),
+/// ```
+///
+/// the old samples evaluated only where a new function's support covers them (new functions
+/// sit in the marked cells). The sums are added in another order than a rebuild's, so the
+/// bits differ by rounding; the diagonal only preconditions CG.
+#[derive(Clone, Debug)]
+pub struct DiagonalSums {
+    samples: usize,
+    mask: Vec<bool>,
+    sums: Vec<f64>,
+}
+
+impl DiagonalSums {
+    /// The diagonal of `tree` over the samples `(xs, ys)`, continuing `previous` when it is
+    /// a prefix of them on a subtree (otherwise summed afresh).
+    pub fn new(tree: &QuadTree, xs: &[f64], ys: &[f64], previous: Option<&Self>) -> Self {
+        let basis = tree.basis();
+        let mut mask = vec![false; basis.len()];
+        for f in tree.functions() {
+            mask[f] = true;
+        }
+        let usable = previous.filter(|d| {
+            d.samples <= xs.len()
+                && d.mask.len() == mask.len()
+                && d.mask.iter().zip(&mask).all(|(&was, &is)| !was || is)
+        });
+        let Some(previous) = usable else {
+            let sums = exact_diagonal(basis, &mask, xs, ys);
+            return Self {
+                samples: xs.len(),
+                mask,
+                sums,
+            };
+        };
+        let old = previous.samples;
+        let mut sums = previous.sums.clone();
+        let add = |sums: &mut Vec<f64>, part: Vec<f64>| {
+            for (s, v) in sums.iter_mut().zip(part) {
+                *s += v;
+            }
+        };
+        add(
+            &mut sums,
+            exact_diagonal(basis, &mask, &xs[old..], &ys[old..]),
+        );
+        let fresh: Vec<bool> = mask
+            .iter()
+            .zip(&previous.mask)
+            .map(|(&is, &was)| is && !was)
+            .collect();
+        if fresh.iter().any(|&f| f) {
+            let covered = support_cover(tree, &fresh);
+            let (w, _) = tree.cell_dims(tree.steps());
+            let (cx, cy): (Vec<f64>, Vec<f64>) = xs[..old]
+                .iter()
+                .zip(&ys[..old])
+                .filter(|(&x, &y)| {
+                    let c = tree.cell_at(tree.steps(), x, y);
+                    covered[c.ky * w + c.kx]
+                })
+                .map(|(&x, &y)| (x, y))
+                .unzip();
+            add(&mut sums, exact_diagonal(basis, &fresh, &cx, &cy));
+        }
+        Self {
+            samples: xs.len(),
+            mask,
+            sums,
+        }
+    }
+
+    /// `G_aa` per function (full Mallat layout, 0 off the tree).
+    pub fn sums(&self) -> &[f64] {
+        &self.sums
+    }
+}
+
+/// The cells of the deepest step (row-major) inside the support of a function of `functions`
+/// (a mask over the Mallat layout; no coarse scaling function among them): per axis, the
+/// structural support of the function's level ([`crate::basis::support_cells`]).
+fn support_cover(tree: &QuadTree, functions: &[bool]) -> Vec<bool> {
+    let steps = tree.steps();
+    let (w, h) = tree.cell_dims(steps);
+    let (cx, cy) = tree.basis().coarse_levels();
+    let p = tree.basis().p();
+    let mut covered = vec![false; w * h];
+    for (f, _) in functions.iter().enumerate().filter(|(_, &m)| m) {
+        let cell = tree
+            .cell_of_function(f)
+            .expect("coarse scaling functions are in every tree");
+        let scale = 1usize << (steps - cell.step);
+        let (x0, x1) = crate::basis::support_cells(p, cx + cell.step, cell.kx);
+        let (y0, y1) = crate::basis::support_cells(p, cy + cell.step, cell.ky);
+        for ky in y0 as usize * scale..(y1 as usize + 1) * scale {
+            covered[ky * w + x0 as usize * scale..(x1 as usize + 1) * scale + ky * w]
+                .iter_mut()
+                .for_each(|c| *c = true);
+        }
+    }
+    covered
 }
 
 /// Parts of the exact diagonal's sum (fixed, so the sum's order does not depend on threads).

@@ -51,8 +51,7 @@ use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
 use super::correction::{output_pixels, PixelEstimate, ResidualCorrection, RESIDUAL_Z};
-use super::fit::{fit_tree_updating, TreeFit, TreeFitReport};
-use super::gram::TreeGram;
+use super::fit::{fit_tree_updating, FitState, TreeFit, TreeFitReport};
 use super::indicator::indicate;
 use super::marking::{dorfler, spread, within_budget, SpreadRule};
 use super::pcg::TreeSolver;
@@ -550,9 +549,10 @@ pub struct ImagePlan {
     base_steps: u32,
     per_slot: usize,
     progress: PlanProgress,
-    /// The last fit's normal matrix, continued by the next round's fit (solver state only: the
-    /// fit is the same bits without it, see [`super::gram`]; a resumed plan starts without).
-    gram: Option<TreeGram>,
+    /// The last fit's solver state, continued by the next round's fit ([`FitState`]: the
+    /// direct solve's normal matrix, the same bits without it, see [`super::gram`]; PCG's
+    /// diagonal; a resumed plan starts without).
+    state: FitState,
     /// The last fit's coefficients per image channel, PCG's start in the next round (solver
     /// state only, kept for [`TreeSolver::Pcg`]: the tree only grows, so they are a point of
     /// the next tree's space with its new functions at 0; a resumed plan starts from 0).
@@ -618,7 +618,7 @@ impl ImagePlan {
             base_steps: s0,
             per_slot,
             progress: PlanProgress::default(),
-            gram: None,
+            state: FitState::default(),
             start: None,
         })
     }
@@ -709,10 +709,17 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
-        self.fit_updating(xs, ys, values, self.params.solver, None, &mut None)
+        self.fit_updating(
+            xs,
+            ys,
+            values,
+            self.params.solver,
+            None,
+            &mut FitState::default(),
+        )
     }
 
-    /// [`ImagePlan::fit`], the direct solve continuing the normal matrix in `gram` (same bits),
+    /// [`ImagePlan::fit`] continuing the solver state `state` ([`FitState`]),
     /// PCG starting from `start` (per image channel; the probe channels start from 0).
     fn fit_updating(
         &self,
@@ -721,21 +728,21 @@ impl ImagePlan {
         values: &[&[f64]],
         solver: TreeSolver,
         start: Option<&[Vec<f64>]>,
-        gram: &mut Option<TreeGram>,
+        state: &mut FitState,
     ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
         let params = &self.params;
         let tree = &self.tree;
         let ch = values.len();
         if params.false_alarm <= 0.0 {
             return Ok((
-                fit_tree_updating(tree, xs, ys, values, solver, start, gram)?,
+                fit_tree_updating(tree, xs, ys, values, solver, start, state)?,
                 None,
             ));
         }
         let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, gram)?;
+        let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, state)?;
         let significance = Significance::new(
             tree,
             &fit.coefficients,
@@ -781,7 +788,7 @@ impl ImagePlan {
                 values,
                 solver,
                 Some(&round.fit.coefficients),
-                &mut None,
+                &mut self.state,
             )?;
             round.fit_s += t.elapsed().as_secs_f64();
             round.log.final_fit = Some(last.report.clone());
@@ -800,10 +807,10 @@ impl ImagePlan {
     ) -> Result<Round, AdaptiveError> {
         let round = self.round();
         let t = Instant::now();
-        let mut gram = self.gram.take();
+        let mut state = std::mem::take(&mut self.state);
         let start = self.start.take();
-        let fitted = self.fit_updating(xs, ys, values, solver, start.as_deref(), &mut gram);
-        self.gram = gram;
+        let fitted = self.fit_updating(xs, ys, values, solver, start.as_deref(), &mut state);
+        self.state = state;
         let (fit, significance) = fitted?;
         if matches!(self.params.solver, TreeSolver::Pcg { .. }) {
             self.start = Some(fit.coefficients.clone());
