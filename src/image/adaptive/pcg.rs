@@ -201,6 +201,44 @@ impl SingleScaleRows {
     /// vector `c`, `out[i k + c]` the value of vector `c` at sample `i` (one pass over the
     /// rows for every vector).
     pub fn apply_many(&self, s: &[f64], k: usize, out: &mut [f64]) {
+        // The channel count as a constant for the counts the refiner uses (3 image channels,
+        // and 4 probes beside them): the same sums in the same order, unrolled.
+        match k {
+            1 => self.apply_fixed::<1>(s, out),
+            3 => self.apply_fixed::<3>(s, out),
+            4 => self.apply_fixed::<4>(s, out),
+            7 => self.apply_fixed::<7>(s, out),
+            _ => self.apply_dynamic(s, k, out),
+        }
+    }
+
+    fn apply_fixed<const K: usize>(&self, s: &[f64], out: &mut [f64]) {
+        let nx = self.nx;
+        out.par_chunks_mut(CHUNK * K)
+            .enumerate()
+            .for_each(|(chunk, o)| {
+                for (j, v) in o.chunks_exact_mut(K).enumerate() {
+                    let (ix, vx, iy, vy) = self.factors(chunk * CHUNK + j);
+                    let mut acc = [0.0; K];
+                    for (&ky, &wy) in iy.iter().zip(vy) {
+                        let mut inner = [0.0; K];
+                        for (&kx, &wx) in ix.iter().zip(vx) {
+                            let at = (ky as usize * nx + kx as usize) * K;
+                            let sv: &[f64; K] = s[at..at + K].try_into().expect("K values");
+                            for c in 0..K {
+                                inner[c] += wx * sv[c];
+                            }
+                        }
+                        for c in 0..K {
+                            acc[c] += wy * inner[c];
+                        }
+                    }
+                    v.copy_from_slice(&acc);
+                }
+            });
+    }
+
+    fn apply_dynamic(&self, s: &[f64], k: usize, out: &mut [f64]) {
         let nx = self.nx;
         out.par_chunks_mut(CHUNK * k)
             .enumerate()
@@ -291,6 +329,39 @@ pub struct SingleScaleColumns {
 impl SingleScaleColumns {
     /// `E^T r` for `k` interleaved vectors (`r[i k + c]`), `n k` interleaved coefficients out.
     pub fn apply_many(&self, r: &[f64], k: usize) -> Vec<f64> {
+        match k {
+            1 => self.apply_fixed::<1>(r),
+            3 => self.apply_fixed::<3>(r),
+            4 => self.apply_fixed::<4>(r),
+            7 => self.apply_fixed::<7>(r),
+            _ => self.apply_dynamic(r, k),
+        }
+    }
+
+    /// [`Self::apply_many`] for `K` vectors, a constant (the same sums in the same order).
+    fn apply_fixed<const K: usize>(&self, r: &[f64]) -> Vec<f64> {
+        let n = self.ptr.len() - 1;
+        let mut out = vec![0.0; n * K];
+        out.par_chunks_mut(CHUNK * K)
+            .enumerate()
+            .for_each(|(chunk, o)| {
+                for (t, v) in o.chunks_exact_mut(K).enumerate() {
+                    let j = chunk * CHUNK + t;
+                    let mut acc = [0.0; K];
+                    for q in self.ptr[j]..self.ptr[j + 1] {
+                        let (i, w) = (self.sample[q] as usize, self.weight[q]);
+                        let ri: &[f64; K] = r[i * K..(i + 1) * K].try_into().expect("K values");
+                        for c in 0..K {
+                            acc[c] += w * ri[c];
+                        }
+                    }
+                    v.copy_from_slice(&acc);
+                }
+            });
+        out
+    }
+
+    fn apply_dynamic(&self, r: &[f64], k: usize) -> Vec<f64> {
         let n = self.ptr.len() - 1;
         let mut out = vec![0.0; n * k];
         out.par_chunks_mut(CHUNK * k)
