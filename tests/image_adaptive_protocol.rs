@@ -439,18 +439,26 @@ fn command_line_protocol_gives_the_in_process_image() {
         call += 1;
         assert!(call < 60, "the plan did not stop");
     };
+    // `reconstruct --dim 2` from the plan's state and the final samples into `output`
+    let reconstruct_args = |output: &std::path::Path, extra: &[&str]| -> Vec<String> {
+        let mut args: Vec<String> = ["reconstruct", "--dim", "2", "--state"]
+            .map(String::from)
+            .to_vec();
+        args.extend([
+            s(&state),
+            "--input".into(),
+            s(&final_samples),
+            "--output".into(),
+        ]);
+        args.push(s(output));
+        args.extend(extra.iter().map(|e| e.to_string()));
+        args
+    };
+    fn strs(v: &[String]) -> Vec<&str> {
+        v.iter().map(String::as_str).collect()
+    }
     let image = dir.join("image.npy");
-    let out = common::rkwave(&[
-        "reconstruct",
-        "--dim",
-        "2",
-        "--state",
-        &s(&state),
-        "--input",
-        &s(&final_samples),
-        "--output",
-        &s(&image),
-    ]);
+    let out = common::rkwave(&strs(&reconstruct_args(&image, &[])));
     assert!(out.status.success(), "{}", common::text(&out));
     let plane = ImagePlane::new(w, h).unwrap();
     let run = refine_image(
@@ -468,36 +476,19 @@ fn command_line_protocol_gives_the_in_process_image() {
     assert_ne!(run.image, run.fit_pixels().unwrap());
     // --no-residual: the fit's box pixels, bit for bit; the JSON counts the pixels corrected
     let fit_only = dir.join("fit_only.npy");
-    let out = common::rkwave(&[
-        "reconstruct",
-        "--dim",
-        "2",
-        "--state",
-        &s(&state),
-        "--input",
-        &s(&final_samples),
-        "--output",
-        &s(&fit_only),
-        "--no-residual",
-        "--json",
-    ]);
+    let out = common::rkwave(&strs(&reconstruct_args(
+        &fit_only,
+        &["--no-residual", "--json"],
+    )));
     assert!(out.status.success(), "{}", common::text(&out));
     assert_eq!(npy_image(&fit_only), run.fit_pixels().unwrap().channels[0]);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["pixels"]["estimate"], "fit_only");
     assert_eq!(report["pixels"]["corrected"], 0);
-    let corrected = common::rkwave(&[
-        "reconstruct",
-        "--dim",
-        "2",
-        "--state",
-        &s(&state),
-        "--input",
-        &s(&final_samples),
-        "--output",
-        &s(&dir.join("again.npy")),
-        "--json",
-    ]);
+    let corrected = common::rkwave(&strs(&reconstruct_args(
+        &dir.join("again.npy"),
+        &["--json"],
+    )));
     let report: serde_json::Value = serde_json::from_slice(&corrected.stdout).unwrap();
     assert_eq!(report["pixels"]["estimate"], "residual_clamped");
     assert_eq!(
@@ -518,17 +509,7 @@ fn command_line_protocol_gives_the_in_process_image() {
     ]);
     assert!(without_state.contains("--state"), "{without_state}");
     // outputs are never replaced without --force; a plan is not restarted over another
-    let again = common::user_error(&[
-        "reconstruct",
-        "--dim",
-        "2",
-        "--state",
-        &s(&state),
-        "--input",
-        &s(&final_samples),
-        "--output",
-        &s(&image),
-    ]);
+    let again = common::user_error(&strs(&reconstruct_args(&image, &[])));
     assert!(again.contains("--force"), "{again}");
     let restart = common::user_error(&[
         "plan",

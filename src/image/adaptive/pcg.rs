@@ -12,8 +12,8 @@
 //! with `P_T` the injection of the tree's coefficients into the Mallat layout. One product
 //! `G v = K_T^T K_T v = P_T^T S^T E^T E S P_T v` costs two 2D FWTs and two passes over `E`:
 //! `O(nx ny + m (2p - 1)^2)`, against the `~300 P` entries of an assembled `G` whose rows mix
-//! every level. `E` does not depend on the tree, so a round only appends the rows of its new
-//! samples.
+//! every level. `E` does not depend on the tree (a round's fit builds it afresh for all
+//! samples; [`SingleScaleRows::append`] could continue it).
 //!
 //! The normal equations `G c = K_T^T f` are solved by conjugate gradients preconditioned by
 //! `diag G`, `G_aa = sum_i Psi_a(x_i, y_i)^2`, from one pass of the multilevel evaluator over
@@ -381,8 +381,23 @@ impl SingleScaleColumns {
     }
 }
 
+/// `K v_c = E S v_c` for `k` multilevel vectors `v_c` (full Mallat layout of `basis`) at the
+/// samples of `rows`, interleaved (`out[i k + c]`): each synthesized to single scale, then one
+/// pass over the rows for all of them.
+pub(super) fn multilevel_values(
+    basis: &TensorBasis,
+    rows: &SingleScaleRows,
+    vs: &[&[f64]],
+) -> Vec<f64> {
+    let s: Vec<Vec<f64>> = vs.par_iter().map(|v| basis.synthesis(v)).collect();
+    let k = vs.len();
+    let mut out = vec![0.0; rows.len() * k];
+    rows.apply_many(&interleave(&s), k, &mut out);
+    out
+}
+
 /// `k` vectors of equal length interleaved: `out[j k + c] = vs[c][j]`.
-pub(super) fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
+fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
     let k = vs.len();
     let n = vs.first().map_or(0, |v| v.len());
     let mut out = vec![0.0; n * k];
@@ -543,11 +558,7 @@ impl<'a> TreeNormalOperator<'a> {
 
     /// `K_T v_c` for `k` vectors zero off the tree, interleaved (`out[i k + c]`).
     pub fn values_many(&self, vs: &[&[f64]]) -> Vec<f64> {
-        let s: Vec<Vec<f64>> = vs.par_iter().map(|v| self.basis.synthesis(v)).collect();
-        let k = vs.len();
-        let mut out = vec![0.0; self.rows.len() * k];
-        self.rows.apply_many(&interleave(&s), k, &mut out);
-        out
+        multilevel_values(self.basis, self.rows, vs)
     }
 
     /// `G v` for `v` zero off the tree.

@@ -42,7 +42,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::pcg::{interleave, SingleScaleRows};
+use super::pcg::{multilevel_values, SingleScaleRows};
 use super::position_normal;
 use super::refiner::ImageRound;
 use super::tree::{Cell, QuadTree};
@@ -100,13 +100,8 @@ pub(crate) fn residuals(
 ) -> Vec<Vec<f64>> {
     let basis = tree.basis();
     let rows = SingleScaleRows::new(basis, xs, ys);
-    let single: Vec<Vec<f64>> = coefficients
-        .par_iter()
-        .map(|c| basis.synthesis(c))
-        .collect();
-    let k = single.len();
-    let mut fit = vec![0.0; xs.len() * k];
-    rows.apply_many(&interleave(&single), k, &mut fit);
+    let fit = multilevel_values(basis, &rows, coefficients);
+    let k = coefficients.len();
     (0..k)
         .into_par_iter()
         .map(|c| {
