@@ -79,13 +79,18 @@ fn position_normal_is_deterministic_and_standard() {
     );
     let se = (0.0027f64 * (1.0 - 0.0027) / n as f64).sqrt();
     assert!((tail - 0.0027).abs() < 4.0 * se, "tail {tail}");
-    // probes: order-free (a function of the positions), differ by round
+    // probes: order-free (a function of the positions: a sample keeps its values from
+    // round to round), differ by seed and by probe, and are not the oracle's noise
     let (xs, ys) = (vec![1.5, 2.5, 3.5], vec![0.5, 7.0, 9.25]);
-    let a = probe_values(3, 1, &xs, &ys, 2);
-    let b = probe_values(3, 1, &[3.5, 1.5, 2.5], &[9.25, 0.5, 7.0], 2);
+    let a = probe_values(3, &xs, &ys, 2);
+    let b = probe_values(3, &[3.5, 1.5, 2.5], &[9.25, 0.5, 7.0], 2);
     assert_eq!(a[0][0], b[0][1]);
     assert_eq!(a[1][2], b[1][0]);
-    assert_ne!(a, probe_values(3, 2, &xs, &ys, 2));
+    assert_ne!(a, probe_values(4, &xs, &ys, 2));
+    assert_ne!(a[0], a[1]);
+    for (i, (&x, &y)) in xs.iter().zip(&ys).enumerate() {
+        assert_ne!(a[0][i], position_normal(3, x, y, 0));
+    }
 }
 
 /// A polynomial scene with noise: the detail of every fit is noise, and the test's false-alarm

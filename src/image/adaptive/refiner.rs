@@ -553,7 +553,8 @@ pub struct ImagePlan {
     /// direct solve's normal matrix, the same bits without it, see [`super::gram`]; PCG's
     /// diagonal; a resumed plan starts without).
     state: FitState,
-    /// The last fit's coefficients per image channel, PCG's start in the next round (solver
+    /// The last fit's coefficients per image channel, then per probe channel of the noise
+    /// test (a sample keeps its probe values), PCG's start in the next round (solver
     /// state only, kept for [`TreeSolver::Pcg`]: the tree only grows, so they are a point of
     /// the next tree's space with its new functions at 0; a resumed plan starts from 0).
     start: Option<Vec<Vec<f64>>>,
@@ -720,7 +721,8 @@ impl ImagePlan {
     }
 
     /// [`ImagePlan::fit`] continuing the solver state `state` ([`FitState`]),
-    /// PCG starting from `start` (per image channel; the probe channels start from 0).
+    /// PCG starting from `start` (per image channel, then per probe channel; channels
+    /// without one start from 0).
     fn fit_updating(
         &self,
         xs: &[f64],
@@ -739,7 +741,7 @@ impl ImagePlan {
                 None,
             ));
         }
-        let probes = probe_values(params.seed, self.round(), xs, ys, params.probes);
+        let probes = probe_values(params.seed, xs, ys, params.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
         let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, state)?;
@@ -813,7 +815,12 @@ impl ImagePlan {
         self.state = state;
         let (fit, significance) = fitted?;
         if matches!(self.params.solver, TreeSolver::Pcg { .. }) {
-            self.start = Some(fit.coefficients.clone());
+            // the next round starts from this one's image and probe coefficients
+            let mut start = fit.coefficients.clone();
+            if let Some(s) = &significance {
+                start.extend(s.probe_coefficients().iter().cloned());
+            }
+            self.start = Some(start);
         }
         let params = &self.params;
         let tree = &self.tree;
