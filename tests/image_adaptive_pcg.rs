@@ -463,3 +463,55 @@ fn interleaved_products_equal_one_vector_at_a_time() {
         }
     }
 }
+
+/// [`AdaptiveParams::measure_rebuild`] measures each round's fit against the same fit from
+/// scratch and changes nothing else: the run's pixels are bit for bit those of the run
+/// without it (PCG and the direct solve), every round reports a rebuild of the same system
+/// (functions, samples) solved to the round's tolerance, and the rebuilds' seconds are kept
+/// out of the stage times.
+#[test]
+fn measuring_rebuilds_changes_nothing_else() {
+    use rkwave::image::adaptive::{refine_image, AdaptiveParams};
+    use rkwave::image::ImagePlane;
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let edge = |x: f64, y: f64| if x + 0.4 * y < 17.0 { 0.2 } else { 0.9 };
+    let pcg = TreeSolver::Pcg {
+        tolerance: 1e-10,
+        max_iterations: 5000,
+    };
+    for solver in [pcg, TreeSolver::Direct] {
+        let plain = AdaptiveParams {
+            budget: 4 * plane.pixels(),
+            solver,
+            ..AdaptiveParams::default()
+        };
+        let measured = AdaptiveParams {
+            measure_rebuild: true,
+            ..plain
+        };
+        let (a, b) = (
+            refine_image(&edge, plane, &plain).unwrap(),
+            refine_image(&edge, plane, &measured).unwrap(),
+        );
+        assert_eq!(a.image.channels, b.image.channels, "{solver:?}");
+        assert_eq!(a.xs, b.xs);
+        assert_eq!(a.report.times.rebuild_s, 0.0);
+        assert!(b.report.times.rebuild_s > 0.0);
+        assert!(b.report.rounds.len() >= 3);
+        for r in &a.report.rounds {
+            assert!(r.rebuild.is_none());
+        }
+        for r in &b.report.rounds {
+            let rebuild = r.rebuild.as_ref().expect("measured");
+            assert_eq!(rebuild.fit.functions, r.fit.functions, "round {}", r.round);
+            assert_eq!(rebuild.fit.samples, r.fit.samples);
+            assert!(
+                rebuild.fit.converged,
+                "round {}: {:?}",
+                r.round, rebuild.fit
+            );
+            assert!(rebuild.fit.relative_residual <= 1e-2 || rebuild.fit.solver == "direct");
+            assert!((rebuild.ratio - rebuild.round_s / rebuild.rebuild_s).abs() < 1e-12);
+        }
+    }
+}

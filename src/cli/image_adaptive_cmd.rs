@@ -277,6 +277,20 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             });
         println!("CG per round: {}{last}", per_round.join("; "));
     }
+    let rebuilds: Vec<String> = r
+        .rounds
+        .iter()
+        .filter_map(|x| x.rebuild.as_ref())
+        .map(|b| format!("{:.2}/{:.2} s ({:.2})", b.round_s, b.rebuild_s, b.ratio))
+        .collect();
+    if !rebuilds.is_empty() {
+        println!(
+            "round fit against a rebuild from scratch (continued/rebuilt s, ratio): {} \
+             (rebuilds, {:.2} s, not in the times above)",
+            rebuilds.join("; "),
+            r.times.rebuild_s
+        );
+    }
     if let Some(level) = r.rounds.last().and_then(|l| l.noise.as_ref()) {
         let densified = r.rounds.iter().filter(|l| l.densified_to.is_some()).count();
         println!(

@@ -148,6 +148,12 @@ pub struct AdaptiveParams {
     /// residual).
     #[serde(default = "default_residual_z")]
     pub residual_z: f64,
+    /// Measure each round's fit against the same fit rebuilt from scratch (fresh solver
+    /// state, zero start: no continued normal matrix or diagonal, no warm start), reported
+    /// in [`ImageRound::rebuild`]. Doubles the fits' cost; the rebuilds' seconds are kept
+    /// apart ([`AdaptiveTimes::rebuild_s`]) and change nothing else.
+    #[serde(default)]
+    pub measure_rebuild: bool,
 }
 
 fn default_residual_z() -> f64 {
@@ -197,6 +203,7 @@ impl Default for AdaptiveParams {
             probes: 4,
             pixels: PixelEstimate::ResidualClamped,
             residual_z: RESIDUAL_Z,
+            measure_rebuild: false,
         }
     }
 }
@@ -375,6 +382,24 @@ pub struct ImageRound {
     /// The last round's fit continued to the solver's tolerance from the round's
     /// coefficients ([`AdaptiveParams::round_tolerance`] only; `None` otherwise).
     pub final_fit: Option<TreeFitReport>,
+    /// The round's fit against a rebuild from scratch ([`AdaptiveParams::measure_rebuild`]
+    /// only; `None` otherwise).
+    pub rebuild: Option<RebuildCost>,
+}
+
+/// One round's fit, continued from the last round's solver state, against the same fit
+/// rebuilt from scratch: `round_s / rebuild_s` is what the continuation saves (both with the
+/// noise test's probe fits and residuals when the test is on).
+#[derive(Clone, Debug, Serialize)]
+pub struct RebuildCost {
+    /// Seconds of the round's fit (continued state, warm start).
+    pub round_s: f64,
+    /// Seconds of the same fit from scratch.
+    pub rebuild_s: f64,
+    /// `round_s / rebuild_s`.
+    pub ratio: f64,
+    /// The rebuild's solve.
+    pub fit: TreeFitReport,
 }
 
 /// Seconds by stage.
@@ -386,6 +411,9 @@ pub struct AdaptiveTimes {
     pub fit_s: f64,
     /// Indicators, marking, deepening.
     pub refine_s: f64,
+    /// Fits rebuilt from scratch to measure the rounds against
+    /// ([`AdaptiveParams::measure_rebuild`]; 0 otherwise), in none of the stages above.
+    pub rebuild_s: f64,
 }
 
 /// What the adaptive run did.
@@ -814,6 +842,21 @@ impl ImagePlan {
         let fitted = self.fit_updating(xs, ys, values, solver, start.as_deref(), &mut state);
         self.state = state;
         let (fit, significance) = fitted?;
+        let fit_s = t.elapsed().as_secs_f64();
+        let rebuild = if self.params.measure_rebuild {
+            let t = Instant::now();
+            let (again, _) =
+                self.fit_updating(xs, ys, values, solver, None, &mut FitState::default())?;
+            let rebuild_s = t.elapsed().as_secs_f64();
+            Some(RebuildCost {
+                round_s: fit_s,
+                rebuild_s,
+                ratio: fit_s / rebuild_s,
+                fit: again.report,
+            })
+        } else {
+            None
+        };
         if matches!(self.params.solver, TreeSolver::Pcg { .. }) {
             // the next round starts from this one's image and probe coefficients
             let mut start = fit.coefficients.clone();
@@ -824,7 +867,6 @@ impl ImagePlan {
         }
         let params = &self.params;
         let tree = &self.tree;
-        let fit_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let threshold = significance
             .as_ref()
@@ -850,6 +892,7 @@ impl ImagePlan {
             spread: 0,
             fit: fit.report.clone(),
             final_fit: None,
+            rebuild,
         };
         let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
         let stop = if estimate_rms <= params.tolerance {
@@ -1169,6 +1212,7 @@ pub fn refine_image(
         times.fit_s += round.fit_s;
         times.refine_s += round.refine_s;
         times.sample_s += round.position_s;
+        times.rebuild_s += round.log.rebuild.as_ref().map_or(0.0, |r| r.rebuild_s);
         rounds.push(round.log);
         match round.decision {
             Decision::Stop(stop) => break (round.fit, stop),
