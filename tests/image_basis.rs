@@ -112,7 +112,8 @@ fn orthonormality_at_a_small_level() {
 }
 
 /// Synthesis followed by single-scale evaluation equals direct evaluation of the multilevel
-/// basis (Mallat layout, from the 1D evaluations of each axis).
+/// basis (Mallat layout, from the 1D evaluations of each axis); the unordered row is the
+/// sorted one permuted, bit for bit.
 #[test]
 fn multilevel_evaluation_matches_synthesis() {
     let mut rng = Pcg64::seed_from_u64(SEED + 1);
@@ -134,6 +135,15 @@ fn multilevel_evaluation_matches_synthesis() {
             };
             ev.eval_into(x, y, &mut r1).unwrap();
             mev.eval_into(x, y, &mut r2).unwrap();
+            // the unordered row holds the same entries, bit for bit, each index once
+            let mut r3 = Vec::new();
+            mev.eval_unordered_into(x, y, &mut r3).unwrap();
+            r3.sort_by_key(|v| v.index);
+            assert!(r2.windows(2).all(|w| w[0].index < w[1].index));
+            assert_eq!(r2.len(), r3.len());
+            for (a, b) in r2.iter().zip(&r3) {
+                assert_eq!((a.index, a.value.to_bits()), (b.index, b.value.to_bits()));
+            }
             let f1: f64 = r1.iter().map(|v| single[v.index] * v.value).sum();
             let f2: f64 = r2.iter().map(|v| c[v.index] * v.value).sum();
             let scale = 1.0 + f1.abs();

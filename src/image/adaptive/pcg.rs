@@ -907,7 +907,7 @@ fn exact_diagonal(basis: &TensorBasis, mask: &[bool], xs: &[f64], ys: &[f64]) ->
             let mut row = Vec::new();
             let mut acc = vec![0.0; mask.len()];
             for (&x, &y) in cx.iter().zip(cy) {
-                ev.eval_into(x, y, &mut row)
+                ev.eval_unordered_into(x, y, &mut row)
                     .expect("positions are checked before the solve");
                 for v in &row {
                     if mask[v.index] {
