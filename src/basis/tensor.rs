@@ -319,7 +319,10 @@ impl TensorBasis {
         let bank = self.bank();
         let (cx, cy) = self.coarse_levels();
         let mut x = data.to_vec();
-        let mut y = vec![0.0; nx * ny];
+        // the column pass's output: a buffer kept per thread (a fresh one per call cost its
+        // page faults every PCG iteration); every entry read is written first
+        let mut y = FWT_SCRATCH.with(|b| b.take());
+        y.resize(nx * ny, 0.0);
         let order: Vec<u32> = if analysis {
             (0..self.steps()).rev().collect()
         } else {
@@ -350,11 +353,17 @@ impl TensorBasis {
                         }
                     }
                 });
-            x[..ly * nx]
-                .par_chunks_mut(nx)
-                .zip(y[..ly * nx].par_chunks(nx))
-                .for_each(|(xr, yr)| xr[..lx].copy_from_slice(&yr[..lx]));
+            if lx == nx && ly == ny {
+                // the level covers the whole layout: the output is all of `y`
+                std::mem::swap(&mut x, &mut y);
+            } else {
+                x[..ly * nx]
+                    .par_chunks_mut(nx)
+                    .zip(y[..ly * nx].par_chunks(nx))
+                    .for_each(|(xr, yr)| xr[..lx].copy_from_slice(&yr[..lx]));
+            }
         }
+        FWT_SCRATCH.with(|b| b.replace(y));
         x
     }
 
@@ -372,6 +381,11 @@ impl TensorBasis {
             buf_sy: vec![Vec::new(); self.levels_y.len()],
         }
     }
+}
+
+thread_local! {
+    /// Scratch of [`TensorBasis`]'s 2D FWT, one per thread.
+    static FWT_SCRATCH: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Evaluates every nonzero single-scale tensor function at a point; one per thread.
