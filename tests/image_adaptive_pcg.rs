@@ -515,3 +515,49 @@ fn measuring_rebuilds_changes_nothing_else() {
         }
     }
 }
+
+/// A round continues the single-scale rows ([`SingleScaleRows::continued`]): the previous
+/// rows plus the new samples' rows are the rows afresh, bit for bit (each row is evaluated
+/// alone); a previous state that is not a prefix (another last position, more rows than
+/// positions, another basis) is ignored.
+#[test]
+fn continued_rows_equal_the_rows_afresh() {
+    let (tree, xs, ys) = random_case(7, 30, 3);
+    let basis = tree.basis();
+    let n = basis.len();
+    let mut rng = Pcg64::seed_from_u64(71);
+    let s: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.5).collect();
+    let values = |rows: &SingleScaleRows| {
+        let mut out = vec![0.0; rows.len()];
+        rows.apply(&s, &mut out);
+        out.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    };
+    let fresh = values(&SingleScaleRows::new(basis, &xs, &ys));
+    let m = xs.len();
+    let mut rows = SingleScaleRows::continued(None, basis, &xs[..m / 3], &ys[..m / 3]);
+    rows = SingleScaleRows::continued(Some(rows), basis, &xs[..m / 2], &ys[..m / 2]);
+    rows = SingleScaleRows::continued(Some(rows), basis, &xs, &ys);
+    assert_eq!(rows.len(), m);
+    assert_eq!(values(&rows), fresh);
+    // not a prefix: the positions changed under the rows
+    let prefix = SingleScaleRows::new(basis, &xs[..m / 2], &ys[..m / 2]);
+    let mut moved = xs.clone();
+    moved[m / 2 - 1] = (moved[m / 2 - 1] + 0.5) % 16.0;
+    let again = SingleScaleRows::continued(Some(prefix.clone()), basis, &moved, &ys);
+    assert_eq!(
+        values(&again),
+        values(&SingleScaleRows::new(basis, &moved, &ys))
+    );
+    // more rows than positions, another basis
+    let few = SingleScaleRows::continued(Some(prefix.clone()), basis, &xs[..3], &ys[..3]);
+    assert_eq!(few.len(), 3);
+    let other = TensorBasis::new(2, FilterFamily::cdv_default(2), 16, 16, (6, 6)).unwrap();
+    let s6: Vec<f64> = (0..other.len())
+        .map(|_| rng.random::<f64>() - 0.5)
+        .collect();
+    let on_other = SingleScaleRows::continued(Some(prefix), &other, &xs, &ys);
+    let (mut a, mut b) = (vec![0.0; m], vec![0.0; m]);
+    on_other.apply(&s6, &mut a);
+    SingleScaleRows::new(&other, &xs, &ys).apply(&s6, &mut b);
+    assert_eq!(a, b);
+}

@@ -87,7 +87,8 @@ pub struct TreeFitReport {
 
 /// What a fit leaves for the next round's fit (more samples after the same ones, a tree that
 /// only grew): the direct solve's normal matrix ([`super::gram`]), PCG's exact diagonal
-/// ([`DiagonalSums`]). Solver state only: with a fresh state a fit computes the same
+/// ([`DiagonalSums`]) and single-scale rows ([`SingleScaleRows::continued`]; the noise test's
+/// residuals use them too). Solver state only: with a fresh state a fit computes the same
 /// coefficients (the direct solve bit for bit; PCG up to the rounding of its preconditioner).
 #[derive(Clone, Debug, Default)]
 pub struct FitState {
@@ -95,6 +96,8 @@ pub struct FitState {
     pub gram: Option<TreeGram>,
     /// PCG's diagonal of `G`.
     pub diagonal: Option<DiagonalSums>,
+    /// The single-scale rows of the samples so far.
+    pub rows: Option<SingleScaleRows>,
 }
 
 /// A fit on a tree: coefficients in the full Mallat layout (zero off the tree).
@@ -269,7 +272,7 @@ pub fn fit_tree_updating(
             max_iterations,
         } => {
             let t = std::time::Instant::now();
-            let rows = SingleScaleRows::new(tree.basis(), xs, ys);
+            let rows = SingleScaleRows::continued(state.rows.take(), tree.basis(), xs, ys);
             let diagonal = DiagonalSums::new(tree, xs, ys, state.diagonal.as_ref());
             let op = TreeNormalOperator::with_diagonal(tree, &rows, xs, ys, &diagonal);
             state.diagonal = Some(diagonal);
@@ -277,6 +280,9 @@ pub fn fit_tree_updating(
             let t = std::time::Instant::now();
             let solved = pcg_many(&op, values, start, tolerance, max_iterations);
             let solve_s = t.elapsed().as_secs_f64();
+            let unsampled = op.unsampled();
+            drop(op);
+            state.rows = Some(rows);
             let converged = solved.iter().all(|(_, r)| r.converged);
             if !converged && tree.len() <= DIRECT_FALLBACK_MAX {
                 let mut fit = fit_direct(tree, xs, ys, values, &mut None, TreeSolver::Direct)?;
@@ -299,7 +305,7 @@ pub fn fit_tree_updating(
                 report: TreeFitReport {
                     functions: tree.len(),
                     samples: xs.len(),
-                    unsampled: op.unsampled(),
+                    unsampled,
                     kernel_s,
                     solve_s,
                     solver: "pcg".into(),

@@ -116,6 +116,10 @@ pub const DIRECT_FALLBACK_MAX: usize = 40_000;
 #[derive(Clone, Debug, Default)]
 pub struct SingleScaleRows {
     nx: usize,
+    /// What the rows depend on ([`basis_key`]).
+    basis_key: [usize; 6],
+    /// The bits of the last row's position (a check that a continued prefix is one).
+    last: (u64, u64),
     ptr_x: Vec<u32>,
     ix: Vec<u32>,
     vx: Vec<f64>,
@@ -124,11 +128,26 @@ pub struct SingleScaleRows {
     vy: Vec<f64>,
 }
 
+/// The single-scale space's order, image size and levels: what [`SingleScaleRows`] depend on
+/// besides the filters (a state continued on the same tree's basis has the same ones).
+fn basis_key(basis: &TensorBasis) -> [usize; 6] {
+    let (jx, jy) = basis.levels();
+    [
+        basis.p(),
+        basis.width(),
+        basis.height(),
+        jx as usize,
+        jy as usize,
+        basis.dims().1,
+    ]
+}
+
 impl SingleScaleRows {
     /// Rows of the positions `(xs[i], ys[i])` (checked to lie in the image).
     pub fn new(basis: &TensorBasis, xs: &[f64], ys: &[f64]) -> Self {
         let mut rows = Self {
             nx: basis.dims().0,
+            basis_key: basis_key(basis),
             ptr_x: vec![0],
             ptr_y: vec![0],
             ..Self::default()
@@ -144,6 +163,28 @@ impl SingleScaleRows {
     /// Whether there are no rows.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// The rows of `(xs, ys)` continuing `previous`, the rows of a prefix of them on the
+    /// same basis (a round's samples are the previous ones plus new ones): only the new
+    /// positions are evaluated. Anything else (`None`, another basis, more rows than
+    /// positions, a last row at another position) is evaluated afresh.
+    pub fn continued(previous: Option<Self>, basis: &TensorBasis, xs: &[f64], ys: &[f64]) -> Self {
+        let usable = previous.filter(|r| {
+            let old = r.len();
+            r.nx == basis.dims().0
+                && r.basis_key == basis_key(basis)
+                && old <= xs.len()
+                && (old == 0 || r.last == (xs[old - 1].to_bits(), ys[old - 1].to_bits()))
+        });
+        match usable {
+            Some(mut rows) => {
+                let old = rows.len();
+                rows.append(basis, &xs[old..], &ys[old..]);
+                rows
+            }
+            None => Self::new(basis, xs, ys),
+        }
     }
 
     /// Appends the rows of new positions (a round's new samples).
@@ -167,6 +208,9 @@ impl SingleScaleRows {
                 part
             })
             .collect();
+        if let (Some(&x), Some(&y)) = (xs.last(), ys.last()) {
+            self.last = (x.to_bits(), y.to_bits());
+        }
         for (cx, ix, vx, cy, iy, vy) in parts {
             for c in cx {
                 self.ptr_x.push(self.ptr_x.last().unwrap() + c);

@@ -54,7 +54,7 @@ use super::correction::{output_pixels, PixelEstimate, ResidualCorrection, RESIDU
 use super::fit::{fit_tree_updating, FitState, TreeFit, TreeFitReport};
 use super::indicator::indicate;
 use super::marking::{dorfler, spread, within_budget, SpreadRule};
-use super::pcg::TreeSolver;
+use super::pcg::{SingleScaleRows, TreeSolver};
 use super::significance::{noise_notes, probe_values, NoiseLevel, Significance};
 use super::tree::{Cell, QuadTree};
 use super::{AdaptiveError, ImageOracle};
@@ -773,16 +773,18 @@ impl ImagePlan {
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
         let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, state)?;
+        // the rows of the fit (PCG's, continued) or continued here (the direct solve's)
+        let rows = SingleScaleRows::continued(state.rows.take(), tree.basis(), xs, ys);
         let significance = Significance::new(
             tree,
             &fit.coefficients,
-            xs,
-            ys,
+            &rows,
             &all,
             ch,
             params.false_alarm,
             tree.slots().len(),
         );
+        state.rows = Some(rows);
         fit.coefficients.truncate(ch);
         Ok((fit, Some(significance)))
     }

@@ -104,9 +104,19 @@ pub(crate) fn residuals(
     ys: &[f64],
     values: &[&[f64]],
 ) -> Vec<Vec<f64>> {
+    let rows = SingleScaleRows::new(tree.basis(), xs, ys);
+    residuals_with(tree, &rows, coefficients, values)
+}
+
+/// [`residuals`] with the samples' single-scale rows given.
+fn residuals_with(
+    tree: &QuadTree,
+    rows: &SingleScaleRows,
+    coefficients: &[&[f64]],
+    values: &[&[f64]],
+) -> Vec<Vec<f64>> {
     let basis = tree.basis();
-    let rows = SingleScaleRows::new(basis, xs, ys);
-    let fit = multilevel_values(basis, &rows, coefficients);
+    let fit = multilevel_values(basis, rows, coefficients);
     let k = coefficients.len();
     (0..k)
         .into_par_iter()
@@ -132,21 +142,20 @@ fn median_sq(values: impl Iterator<Item = f64>) -> f64 {
 
 impl Significance {
     /// The test from a fit of `channels` image channels followed by probe channels
-    /// (`coefficients` and `values` hold both, image first; probes from [`probe_values`]),
-    /// at the false-alarm rate `false_alarm` over `slots` tested slots.
-    #[allow(clippy::too_many_arguments)]
+    /// (`coefficients` and `values` hold both, image first; probes from [`probe_values`]) at
+    /// the samples whose single-scale rows are `rows`, at the false-alarm rate `false_alarm`
+    /// over `slots` tested slots.
     pub fn new(
         tree: &QuadTree,
         coefficients: &[Vec<f64>],
-        xs: &[f64],
-        ys: &[f64],
+        rows: &SingleScaleRows,
         values: &[&[f64]],
         channels: usize,
         false_alarm: f64,
         slots: usize,
     ) -> Self {
         let coef: Vec<&[f64]> = coefficients.iter().map(|c| c.as_slice()).collect();
-        let r = residuals(tree, &coef, xs, ys, values);
+        let r = residuals_with(tree, rows, &coef, values);
         let signal = median_sq(r[..channels].iter().flatten().copied());
         let probe = median_sq(r[channels..].iter().flatten().copied());
         let sigma = if probe > 0.0 {
