@@ -667,6 +667,44 @@ struct Channel {
     alphas: Vec<f64>,
     betas: Vec<f64>,
     active: bool,
+    /// Whether the last [`Channel::step`] took a step (not stopped by `p^T G p <= 0`).
+    stepped: bool,
+}
+
+impl Channel {
+    /// One conjugate-gradient step with `q = G p` (Jacobi `inv_diag`): `x += alpha p`,
+    /// `r -= alpha q`, `z = D^{-1} r`, `p = z + beta p`, stopping at `||r|| <= tolerance
+    /// ||b||`. The sums run in index order, so the bits do not depend on the thread.
+    fn step(&mut self, q: &[f64], inv_diag: &[f64], tolerance: f64) {
+        let pq = dot(&self.p, q);
+        if pq <= 0.0 {
+            self.active = false;
+            return;
+        }
+        let alpha = self.rz / pq;
+        for ((x, r), (p, q)) in self
+            .x
+            .iter_mut()
+            .zip(self.r.iter_mut())
+            .zip(self.p.iter().zip(q))
+        {
+            *x += alpha * p;
+            *r -= alpha * q;
+        }
+        for ((z, r), d) in self.z.iter_mut().zip(&self.r).zip(inv_diag) {
+            *z = r * d;
+        }
+        let rz_new = dot(&self.r, &self.z);
+        let beta = rz_new / self.rz;
+        for (p, z) in self.p.iter_mut().zip(&self.z) {
+            *p = z + beta * *p;
+        }
+        self.rz = rz_new;
+        self.alphas.push(alpha);
+        self.betas.push(beta);
+        self.stepped = true;
+        self.active = rz_new > 0.0 && dot(&self.r, &self.r).sqrt() > tolerance * self.bnorm;
+    }
 }
 
 /// Solves `G c_c = K_T^T f_c` for every channel `c` by PCG from `starts` (per channel, zero
@@ -726,6 +764,7 @@ pub fn pcg_many(
                 alphas: Vec::new(),
                 betas: Vec::new(),
                 active,
+                stepped: false,
             }
         })
         .collect();
@@ -736,32 +775,18 @@ pub fn pcg_many(
             break;
         }
         let ps: Vec<&[f64]> = live.iter().map(|&c| ch[c].p.as_slice()).collect();
-        let qs = op.apply_many(&ps);
-        for (&c, q) in live.iter().zip(&qs) {
-            let s = &mut ch[c];
-            let pq = dot(&s.p, q);
-            if pq <= 0.0 {
-                s.active = false;
-                continue;
-            }
-            let alpha = s.rz / pq;
-            for ((x, r), (p, q)) in s.x.iter_mut().zip(s.r.iter_mut()).zip(s.p.iter().zip(q)) {
-                *x += alpha * p;
-                *r -= alpha * q;
-            }
-            for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&op.inv_diag) {
-                *z = r * d;
-            }
-            let rz_new = dot(&s.r, &s.z);
-            let beta = rz_new / s.rz;
-            for (p, z) in s.p.iter_mut().zip(&s.z) {
-                *p = z + beta * *p;
-            }
-            s.rz = rz_new;
-            s.alphas.push(alpha);
-            s.betas.push(beta);
-            iterations[c] += 1;
-            s.active = rz_new > 0.0 && dot(&s.r, &s.r).sqrt() > tolerance * s.bnorm;
+        let mut qs = op.apply_many(&ps).into_iter();
+        // the live channels' updates in parallel, each channel's sums in index order
+        let mut work: Vec<(&mut Channel, Vec<f64>)> = ch
+            .iter_mut()
+            .filter(|s| s.active)
+            .map(|s| (s, qs.next().expect("one product per live channel")))
+            .collect();
+        work.par_iter_mut()
+            .for_each(|(s, q)| s.step(q, &op.inv_diag, tolerance));
+        for &c in &live {
+            iterations[c] += usize::from(ch[c].stepped);
+            ch[c].stepped = false;
         }
     }
     let refs: Vec<&[f64]> = ch.iter().map(|s| s.x.as_slice()).collect();
