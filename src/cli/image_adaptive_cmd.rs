@@ -32,10 +32,11 @@ pub struct AdaptiveArgs {
     pub below_pixel: u32,
     /// Adaptive mode: the solver of each round's fit. `direct`: the sparse Cholesky of the
     /// assembled normal matrix (the reference); `pcg`: matrix-free Jacobi-preconditioned CG
-    /// (about 7x less memory; to 1e-10, at most 400 iterations); `schwarz`: CG on the
+    /// (about 7x less memory; to 1e-6, at most 400 iterations); `schwarz`: CG on the
     /// assembled matrix preconditioned by additive Schwarz on 8-pixel tiles (to 1e-10, at most
     /// 400). For both, the rounds' fits, which only steer the refinement, stop at relative
-    /// residual 1e-2 (tens of iterations) and the final fit is continued to 1e-10.
+    /// residual 1e-2 (tens of iterations) and the final fit is continued to the solver's
+    /// tolerance.
     /// Iterations per round are printed for the last two; `--adaptive-params` sets the
     /// tolerances (`{"round_tolerance": null}`: every round to the solver's tolerance).
     #[arg(long, value_enum, default_value_t = SolverChoice::Direct)]
