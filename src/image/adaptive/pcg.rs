@@ -445,24 +445,61 @@ pub(super) fn multilevel_values(
     out
 }
 
-/// `k` vectors of equal length interleaved: `out[j k + c] = vs[c][j]`.
+/// Entries per parallel work item of [`interleave`] and [`deinterleave`].
+const SHUFFLE_BLOCK: usize = 1 << 14;
+
+/// `k` vectors of equal length interleaved: `out[j k + c] = vs[c][j]` (in parallel over
+/// blocks of `j`, each block's rows written in order: a pure copy, so the bits are the
+/// inputs'; measured at 512², 8 spp, 7 channels, the serial channel-by-channel version and
+/// its inverse took 9.4 s of a run's 33 s of operator products).
 fn interleave(vs: &[Vec<f64>]) -> Vec<f64> {
     let k = vs.len();
     let n = vs.first().map_or(0, |v| v.len());
     let mut out = vec![0.0; n * k];
-    for (c, v) in vs.iter().enumerate() {
-        for (j, &x) in v.iter().enumerate() {
-            out[j * k + c] = x;
-        }
+    if k == 0 {
+        return out;
     }
+    out.par_chunks_mut(SHUFFLE_BLOCK * k)
+        .enumerate()
+        .for_each(|(b, block)| {
+            let j0 = b * SHUFFLE_BLOCK;
+            for (jj, row) in block.chunks_exact_mut(k).enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = vs[c][j0 + jj];
+                }
+            }
+        });
     out
 }
 
-/// The inverse of [`interleave`] for `k` vectors.
+/// The inverse of [`interleave`] for `k` vectors (in parallel over blocks of `j`).
 pub(super) fn deinterleave(v: &[f64], k: usize) -> Vec<Vec<f64>> {
-    (0..k)
-        .map(|c| v.iter().skip(c).step_by(k).copied().collect())
-        .collect()
+    if k == 0 {
+        return Vec::new();
+    }
+    let n = v.len() / k;
+    let mut outs = vec![vec![0.0; n]; k];
+    // per block of `j`, the block's slice of every channel
+    let mut blocks: Vec<Vec<&mut [f64]>> = (0..n.div_ceil(SHUFFLE_BLOCK))
+        .map(|_| Vec::with_capacity(k))
+        .collect();
+    for out in outs.iter_mut() {
+        for (b, part) in out.chunks_mut(SHUFFLE_BLOCK).enumerate() {
+            blocks[b].push(part);
+        }
+    }
+    blocks
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(b, mut parts)| {
+            let rows = &v[b * SHUFFLE_BLOCK * k..];
+            for (c, part) in parts.iter_mut().enumerate() {
+                for (jj, x) in part.iter_mut().enumerate() {
+                    *x = rows[jj * k + c];
+                }
+            }
+        });
+    outs
 }
 
 /// The tree's normal operator `G = K_T^T K_T`, matrix-free, on full Mallat-layout vectors
@@ -998,4 +1035,30 @@ fn exact_diagonal(basis: &TensorBasis, mask: &[bool], xs: &[f64], ys: &[f64]) ->
         }
     }
     total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `interleave` is `out[j k + c] = vs[c][j]` and `deinterleave` its inverse, bit for bit,
+    /// for every channel count and lengths around the parallel block.
+    #[test]
+    fn interleave_and_deinterleave_are_inverse_copies() {
+        for k in 1..=8 {
+            for n in [0, 1, 7, SHUFFLE_BLOCK, 2 * SHUFFLE_BLOCK + 5] {
+                let vs: Vec<Vec<f64>> = (0..k)
+                    .map(|c| (0..n).map(|j| (j * 31 + c) as f64 * 0.5 - 3.0).collect())
+                    .collect();
+                let v = interleave(&vs);
+                assert_eq!(v.len(), n * k);
+                for (c, vc) in vs.iter().enumerate() {
+                    for (j, &x) in vc.iter().enumerate() {
+                        assert_eq!(v[j * k + c].to_bits(), x.to_bits());
+                    }
+                }
+                assert_eq!(deinterleave(&v, k), vs);
+            }
+        }
+    }
 }
