@@ -122,7 +122,7 @@ pub const DIRECT_FALLBACK_MAX: usize = 40_000;
 pub struct SingleScaleRows {
     nx: usize,
     /// What the rows depend on ([`basis_key`]).
-    basis_key: [usize; 6],
+    basis_key: [usize; 7],
     /// The bits of the last row's position (a check that a continued prefix is one).
     last: (u64, u64),
     ptr_x: Vec<u32>,
@@ -133,17 +133,20 @@ pub struct SingleScaleRows {
     vy: Vec<f64>,
 }
 
-/// The single-scale space's order, image size and levels: what [`SingleScaleRows`] depend on
-/// besides the filters (a state continued on the same tree's basis has the same ones).
-fn basis_key(basis: &TensorBasis) -> [usize; 6] {
+/// The single-scale space's order, image size, levels and layout: what [`SingleScaleRows`]
+/// depend on besides the filters (a state continued on the same tree's basis has the same
+/// ones).
+fn basis_key(basis: &TensorBasis) -> [usize; 7] {
     let (jx, jy) = basis.levels();
+    let (nx, ny) = basis.dims();
     [
         basis.p(),
         basis.width(),
         basis.height(),
         jx as usize,
         jy as usize,
-        basis.dims().1,
+        nx,
+        ny,
     ]
 }
 
@@ -177,8 +180,7 @@ impl SingleScaleRows {
     pub fn continued(previous: Option<Self>, basis: &TensorBasis, xs: &[f64], ys: &[f64]) -> Self {
         let usable = previous.filter(|r| {
             let old = r.len();
-            r.nx == basis.dims().0
-                && r.basis_key == basis_key(basis)
+            r.basis_key == basis_key(basis)
                 && old <= xs.len()
                 && (old == 0 || r.last == (xs[old - 1].to_bits(), ys[old - 1].to_bits()))
         });
