@@ -91,7 +91,6 @@ fn compare_adaptive_adds_the_adaptive_rows() {
     );
     let again = common::user_error(&args);
     assert!(again.contains("--force"), "{again}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `image --adaptive --adaptive-params JSON`: a field that is not a parameter, malformed JSON
@@ -181,7 +180,6 @@ fn plan_takes_the_false_alarm_rate() {
         &s(&dir.join("next1.npy")),
     ]);
     assert!(other.contains("false_alarm"), "{other}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `rkwave image --scene slanted_edge --resolution 16x16 --spp 4 --adaptive --force --out OUT`
@@ -233,7 +231,6 @@ fn image_adaptive_no_residual() {
         text.contains(&format!("mean residual in {} of", c["corrected"])),
         "{text}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `image --adaptive --solver`: every round's fit is made by the solver asked for (named in
