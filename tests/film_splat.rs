@@ -90,20 +90,12 @@ impl Formula {
                 (g(t) - g(1.5)).max(0.0)
             }
             Self::Mitchell => {
-                // Mitchell & Netravali (1988), eq. 8, with B = C = 1/3, argument 2x / r = x.
-                let (b, c) = (1.0 / 3.0, 1.0 / 3.0);
-                let s = t;
-                if s < 1.0 {
-                    ((12.0 - 9.0 * b - 6.0 * c) * s * s * s
-                        + (-18.0 + 12.0 * b + 6.0 * c) * s * s
-                        + (6.0 - 2.0 * b))
-                        / 6.0
-                } else if s < 2.0 {
-                    ((-b - 6.0 * c) * s * s * s
-                        + (6.0 * b + 30.0 * c) * s * s
-                        + (-12.0 * b - 48.0 * c) * s
-                        + (8.0 * b + 24.0 * c))
-                        / 6.0
+                // Mitchell & Netravali (1988), eq. 8, with B = C = 1/3 substituted (the
+                // argument 2x / r is x itself for r = 2).
+                if t < 1.0 {
+                    (7.0 * t.powi(3) - 12.0 * t.powi(2) + 16.0 / 3.0) / 6.0
+                } else if t < 2.0 {
+                    (-7.0 / 3.0 * t.powi(3) + 12.0 * t.powi(2) - 20.0 * t + 32.0 / 3.0) / 6.0
                 } else {
                     0.0
                 }
@@ -137,15 +129,8 @@ struct Pixel {
 }
 
 /// The naive weighted average of pixel `(px, py)`: every sample visited.
-fn naive_pixel(
-    formula: Formula,
-    plane: ImagePlane,
-    xs: &[f64],
-    ys: &[f64],
-    values: &[Vec<f64>],
-    px: usize,
-    py: usize,
-) -> Pixel {
+fn naive_pixel(formula: Formula, samples: &ImageSamples, px: usize, py: usize) -> Pixel {
+    let (xs, ys, values) = (samples.xs(), samples.ys(), samples.values());
     let eps = f64::EPSILON;
     let channels = values.len();
     let r = formula.radius();
@@ -174,7 +159,7 @@ fn naive_pixel(
         }
     }
     if den_abs == 0.0 {
-        let (values, tolerance) = ring_mean(plane, xs, ys, values, px, py);
+        let (values, tolerance) = ring_mean(samples, px, py);
         return Pixel {
             values,
             tolerance,
@@ -213,14 +198,8 @@ fn naive_pixel(
 /// Mean of the samples whose pixel is nearest to `(px, py)` in Chebyshev distance (all of
 /// them at that distance), and its rounding bound `2 n eps max |f|` (a sum of `n` terms in
 /// another order).
-fn ring_mean(
-    plane: ImagePlane,
-    xs: &[f64],
-    ys: &[f64],
-    values: &[Vec<f64>],
-    px: usize,
-    py: usize,
-) -> (Vec<f64>, Vec<f64>) {
+fn ring_mean(samples: &ImageSamples, px: usize, py: usize) -> (Vec<f64>, Vec<f64>) {
+    let (plane, xs, ys) = (samples.plane(), samples.xs(), samples.ys());
     let distance = |i: usize| {
         let qx = (xs[i].floor() as usize).min(plane.width() - 1);
         let qy = (ys[i].floor() as usize).min(plane.height() - 1);
@@ -229,7 +208,8 @@ fn ring_mean(
     let nearest = (0..xs.len()).map(distance).min().expect("some sample");
     let ring: Vec<usize> = (0..xs.len()).filter(|&i| distance(i) == nearest).collect();
     let n = ring.len() as f64;
-    values
+    samples
+        .values()
         .iter()
         .map(|v| {
             let mean = ring.iter().map(|&i| v[i]).sum::<f64>() / n;
@@ -280,7 +260,6 @@ fn every_film_filter_splats_as_the_naive_weighted_average() {
     ];
     for (plane, count, seed) in cases {
         let samples = random_samples(plane, count, seed);
-        let values: Vec<Vec<f64>> = samples.values().to_vec();
         for kind in FilmFilterKind::ALL {
             let formula = Formula::of(kind);
             let filter = kind.build();
@@ -290,8 +269,7 @@ fn every_film_filter_splats_as_the_naive_weighted_average() {
             let mut worst: f64 = 0.0;
             for py in 0..plane.height() {
                 for px in 0..plane.width() {
-                    let pixel =
-                        naive_pixel(formula, plane, samples.xs(), samples.ys(), &values, px, py);
+                    let pixel = naive_pixel(formula, &samples, px, py);
                     cancelled += pixel.cancelled as usize;
                     empty += pixel.empty as usize;
                     if pixel.ambiguous {
@@ -372,13 +350,12 @@ fn cancelling_weights_fall_back_to_absolute_weights() {
         // weights are rounding-level and either branch is right
         let ys = vec![4.4, 4.4, 0.4, 8.9];
         let values = vec![vec![0.25, 0.75, 0.5, 0.1]];
-        let samples = ImageSamples::new(plane, xs, ys, values.clone()).unwrap();
+        let samples = ImageSamples::new(plane, xs, ys, values).unwrap();
         let (image, report) = splat(&samples, kind.build().as_ref());
         let mut cancelled = 0;
         for py in 0..plane.height() {
             for px in 0..plane.width() {
-                let pixel =
-                    naive_pixel(formula, plane, samples.xs(), samples.ys(), &values, px, py);
+                let pixel = naive_pixel(formula, &samples, px, py);
                 assert!(!pixel.ambiguous, "{kind}: pixel ({px}, {py})");
                 cancelled += pixel.cancelled as usize;
                 let got = image.channels[0][py * plane.width() + px];
@@ -389,7 +366,7 @@ fn cancelling_weights_fall_back_to_absolute_weights() {
                 );
             }
         }
-        let centre = naive_pixel(formula, plane, samples.xs(), samples.ys(), &values, 4, 4);
+        let centre = naive_pixel(formula, &samples, 4, 4);
         assert!(centre.cancelled, "{kind}: the centre pixel cancels");
         assert_eq!(report.cancelled_pixels, cancelled, "{kind}");
     }

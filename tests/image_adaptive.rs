@@ -7,15 +7,14 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rkwave::basis::tensor::TensorBasis;
 use rkwave::basis::FilterFamily;
-use rkwave::image::adaptive::{
-    fit_tree, refine_image, AdaptiveError, AdaptiveParams, Cell, QuadTree,
-};
+use rkwave::image::adaptive::{fit_tree, refine_image, AdaptiveError, AdaptiveParams, QuadTree};
 use rkwave::image::fit::{fit_image, ImageFitParams, ImageLevels};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
 use rkwave::image::ImagePlane;
 use rkwave::refine::StopReason;
 
 use common::scenes::{edge_distance, jittered, polynomial, straight_edge};
+use common::trees::deepen_randomly;
 
 fn basis(p: usize, w: usize, h: usize, j: (u32, u32)) -> TensorBasis {
     TensorBasis::new(p, FilterFamily::cdv_default(p), w, h, j).unwrap()
@@ -86,19 +85,7 @@ fn full_tree_equals_uniform_engine() {
 /// A random tree closed under "parent present": activate random slots below the limit.
 fn random_tree(b: TensorBasis, base: u32, cells: usize, seed: u64) -> QuadTree {
     let mut tree = QuadTree::uniform(b, base);
-    let mut rng = Pcg64::seed_from_u64(seed);
-    for _ in 0..cells {
-        let slots: Vec<Cell> = tree
-            .slots()
-            .into_iter()
-            .filter(|c| c.step < tree.steps())
-            .collect();
-        if slots.is_empty() {
-            break;
-        }
-        let c = slots[rng.random_range(0..slots.len())];
-        assert!(tree.activate(c));
-    }
+    deepen_randomly(&mut tree, cells, &mut Pcg64::seed_from_u64(seed));
     tree
 }
 

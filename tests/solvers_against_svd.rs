@@ -21,14 +21,15 @@
 mod common;
 
 use common::oracle::{check_with, Accuracy, DenseLs};
-use common::scenes::{jittered, straight_edge};
+use common::scenes::{jittered, jittered_with, straight_edge};
+use common::trees::{deepen_randomly, sample_slots};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rkwave::basis::tensor::TensorBasis;
 use rkwave::basis::{minimum_level, CdvBasis, FilterFamily};
 use rkwave::image::adaptive::fit::tree_kernel;
-use rkwave::image::adaptive::{fit_tree_with, Cell, QuadTree, TreeSolver};
+use rkwave::image::adaptive::{fit_tree_with, QuadTree, TreeSolver};
 use rkwave::image::fit::{
     fit_image, kernel_matrix_2d, ImageFitParams, ImageLevels, NormalSolver, Preconditioner,
 };
@@ -100,19 +101,20 @@ impl Problem1d {
     }
 }
 
-/// `K^T K` (CSR, sorted, both triangles), `K^T f` per channel and the samples per column: the
-/// input of [`normal_ls`].
-fn normal_equations(k: &CsMat<f64>, values: &[&[f64]]) -> (CsMat<f64>, Vec<Vec<f64>>, Vec<usize>) {
+/// `K^T K` (CSR, sorted, both triangles), `K^T f` per channel (from the oracle's dense `K`)
+/// and the samples per column: the input of [`normal_ls`].
+fn normal_equations(
+    k: &CsMat<f64>,
+    oracle: &DenseLs,
+    values: &[&[f64]],
+) -> (CsMat<f64>, Vec<Vec<f64>>, Vec<usize>) {
     let k = k.to_csr();
     let kt: CsMat<f64> = k.transpose_view().to_csr();
     let gram: CsMat<f64> = &kt * &k;
+    let zero = vec![0.0; k.cols()];
     let rhs = values
         .iter()
-        .map(|f| {
-            kt.outer_iterator()
-                .map(|r| r.iter().map(|(i, v)| v * f[i]).sum())
-                .collect()
-        })
+        .map(|f| oracle.normal_residual(f, &zero))
         .collect();
     let column_samples = kt.outer_iterator().map(|r| r.nnz()).collect();
     (gram.to_csr(), rhs, column_samples)
@@ -189,7 +191,7 @@ fn one_dimensional_solvers_match_the_dense_svd() {
             let c = global_ls(&k, &values, &cgls).unwrap().coefficients;
             check("global CGLS", &c, Accuracy::Iterative);
 
-            let (gram, rhs, column_samples) = normal_equations(&k, &values);
+            let (gram, rhs, column_samples) = normal_equations(&k, &oracle, &values);
             let rhs: Vec<&[f64]> = rhs.iter().map(|r| r.as_slice()).collect();
             let params = GlobalLsParams::default();
             let m = problem.xs.len();
@@ -449,22 +451,9 @@ fn random_tree(seed: u64, deepen: usize) -> (QuadTree, Vec<f64>, Vec<f64>) {
     let basis = TensorBasis::new(2, FilterFamily::cdv_default(2), 8, 8, (5, 5)).unwrap();
     let mut tree = QuadTree::uniform(basis, 1);
     let mut rng = Pcg64::seed_from_u64(seed);
-    for _ in 0..deepen {
-        let slots: Vec<Cell> = tree
-            .slots()
-            .into_iter()
-            .filter(|c| c.step < tree.steps())
-            .collect();
-        tree.activate(slots[rng.random_range(0..slots.len())]);
-    }
-    let (mut xs, mut ys) = jittered(8, 8, 12, seed + 1);
-    for slot in tree.slots() {
-        let r = tree.rect(slot);
-        for _ in 0..4 {
-            xs.push(r[0] + (r[1] - r[0]) * rng.random::<f64>());
-            ys.push(r[2] + (r[3] - r[2]) * rng.random::<f64>());
-        }
-    }
+    deepen_randomly(&mut tree, deepen, &mut rng);
+    let (mut xs, mut ys) = jittered_with(8, 8, 12, &mut rng);
+    sample_slots(&tree, 4, &mut rng, &mut xs, &mut ys);
     (tree, xs, ys)
 }
 

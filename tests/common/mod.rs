@@ -4,6 +4,7 @@
 //!   folders that remove themselves;
 //! - [`scenes`]: the image-plane scenes several tests fit (a straight edge, a polynomial the
 //!   basis reproduces);
+//! - [`trees`]: random quadtrees and samples in every slot, for the tree fits;
 //! - [`oracle`]: the dense least-squares oracle `c = K^+ f` by an SVD (nalgebra), with the
 //!   one tolerance rule every solver is held to.
 //!
@@ -14,5 +15,6 @@
 pub mod oracle;
 pub mod runner;
 pub mod scenes;
+pub mod trees;
 
 pub use runner::{rkwave, rkwave_bounded, scratch, succeeds, text, user_error, write, Scratch};

@@ -30,7 +30,11 @@ pub fn polynomial(x: f64, y: f64) -> f64 {
 /// `spp` jittered (stratified) sample positions per pixel of a `w x h` image, row by row,
 /// uniform in each pixel, from the seed.
 pub fn jittered(w: usize, h: usize, spp: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
-    let mut rng = Pcg64::seed_from_u64(seed);
+    jittered_with(w, h, spp, &mut Pcg64::seed_from_u64(seed))
+}
+
+/// [`jittered`] drawing from `rng`.
+pub fn jittered_with(w: usize, h: usize, spp: usize, rng: &mut impl Rng) -> (Vec<f64>, Vec<f64>) {
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for py in 0..h {
         for px in 0..w {
