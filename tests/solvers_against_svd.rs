@@ -354,7 +354,8 @@ proptest! {
         check_with(&oracle, "proptest: banded QR", &values, &c, Accuracy::BackwardStable);
         let (c, rep) = single_scale_ls(&problem.basis, &problem.xs, &values, 0.0).unwrap();
         prop_assert_eq!(rep.deficient, 0);
-        check_with(&oracle, "proptest: banded normal equations", &values, &c, Accuracy::NormalEquations);
+        let name = "proptest: banded normal equations";
+        check_with(&oracle, name, &values, &c, Accuracy::NormalEquations);
     }
 }
 
