@@ -8,14 +8,16 @@
 //!   global Cholesky (corrected semi-normal) and CGLS, the normal equations from a given
 //!   `K^T K` (plain and corrected), the dense pseudo-inverse, local inversion with rings that
 //!   reach every function (each block is then `K` itself, so `K~ = K^+`), and `fit_active`'s
-//!   methods on a uniform and on an adaptive (sparse) active set;
+//!   methods on a uniform and on an adaptive (sparse) active set; and the same on
+//!   ill-conditioned problems (a dense cluster beside a sparse stretch), where the classes of
+//!   the tolerance rule differ by `kappa`;
 //! - 2D uniform (`V_J (x) V_J` on an 8 x 8 image): `fit_image` by sparse Cholesky, by CG with
 //!   each preconditioner, and by local inversion with full rings;
 //! - 2D tree (random quadtrees): `fit_tree_with` by the direct solve, matrix-free PCG and
 //!   Schwarz-preconditioned CG.
 //!
-//! Problems are well posed (jittered samples, several per function) and small (`P <= 400`
-//! unknowns) so that the dense SVD takes milliseconds. Seeds are named in each test; a
+//! Problems are well posed (jittered samples, at least two per function) and small
+//! (`P <= 400` unknowns) so that the dense SVD takes milliseconds. Seeds are named in each test; a
 //! proptest draws further 1D problems.
 
 mod common;
@@ -86,6 +88,22 @@ impl Problem1d {
             xs,
             values: vec![smooth, noise],
         }
+    }
+
+    /// An ill-conditioned problem: two jittered samples per function over `[0, 1]` beside a
+    /// cluster of `cluster` samples in `[0.400, 0.401]`, which makes the functions there
+    /// weigh far more than the rest (`cond(K)` 59 to 127 for the seeds below, against 1 to 3
+    /// for jittered samples alone).
+    fn clustered(p: usize, cluster: usize, seed: u64) -> Self {
+        let mut problem = Self::new(p, 2, 2, seed);
+        let mut rng = Pcg64::seed_from_u64(seed + 1);
+        let extra: Vec<f64> = (0..cluster)
+            .map(|_| 0.40 + 0.001 * rng.random::<f64>())
+            .collect();
+        problem.xs.extend(&extra);
+        problem.values[0].extend(extra.iter().map(|&x| (7.0 * x).sin() + x.exp()));
+        problem.values[1].extend(extra.iter().map(|_| rng.random::<f64>() - 0.5));
+        problem
     }
 
     fn values(&self) -> Vec<&[f64]> {
@@ -245,6 +263,64 @@ fn one_dimensional_solvers_match_the_dense_svd() {
                 );
             }
         }
+    }
+}
+
+/// Ill-conditioned 1D problems (a dense cluster beside two samples per function): the
+/// backward stable solvers (banded QR, corrected global Cholesky, dense SVD, local inversion
+/// with full rings by SVD) within `C eps kappa`, the normal equations within `C eps kappa^2`.
+#[test]
+fn ill_conditioned_one_dimensional_problems_match_the_dense_svd() {
+    for (p, seed) in [(2, 41), (3, 42), (4, 43)] {
+        let problem = Problem1d::clustered(p, 3000, seed);
+        let values = problem.values();
+        let k = kernel_matrix(&ActiveSet::uniform(problem.basis.clone()), &problem.xs).unwrap();
+        let oracle = DenseLs::new(&k);
+        assert!(
+            oracle.condition() >= 30.0,
+            "p = {p}: {}",
+            oracle.condition()
+        );
+        let check = |solver: &str, c: &[Vec<f64>], accuracy| {
+            let name = format!("1D clustered, p = {p}: {solver}");
+            check_with(&oracle, &name, &values, c, accuracy)
+        };
+        let b = &problem.basis;
+        let (c, _) = single_scale_qr(b, &problem.xs, &values, 0.0).unwrap();
+        check("single-scale banded QR", &c, Accuracy::BackwardStable);
+        let (c, _) = single_scale_ls(b, &problem.xs, &values, 0.0).unwrap();
+        check(
+            "single-scale normal equations",
+            &c,
+            Accuracy::NormalEquations,
+        );
+        let c = global_ls(&k, &values, &GlobalLsParams::default())
+            .unwrap()
+            .coefficients;
+        check(
+            "global sparse Cholesky, corrected",
+            &c,
+            Accuracy::BackwardStable,
+        );
+        let dense = dense_pinv(&k, 1e-14).unwrap();
+        let c: Vec<Vec<f64>> = values.iter().map(|f| dense.apply(f).unwrap()).collect();
+        check(
+            "dense pseudo-inverse (faer SVD)",
+            &c,
+            Accuracy::BackwardStable,
+        );
+        let params = LocalInversionParams {
+            rings: FULL_RINGS,
+            cutoff: 1e-14,
+            ..LocalInversionParams::default()
+        };
+        let local = apply_local(&k, &values, &params).unwrap();
+        assert_full_rings(&local.stats, k.cols());
+        check(
+            "local inversion, full rings",
+            &local.coefficients,
+            Accuracy::BackwardStable,
+        );
     }
 }
 
