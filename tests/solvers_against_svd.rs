@@ -166,161 +166,119 @@ fn the_oracle_recovers_known_coefficients() {
     );
 }
 
-/// The single-scale paths (banded normal equations, banded QR), the sparse global solves
-/// (corrected semi-normal Cholesky, CGLS), the normal equations from a given `K^T K` (plain,
-/// corrected), the dense pseudo-inverse and local inversion with full rings (SVD, QR and
-/// Cholesky blocks), for `p = 1..4` on two to three levels.
-#[test]
-fn one_dimensional_solvers_match_the_dense_svd() {
-    for (t, &seed) in SEEDS_1D.iter().enumerate() {
-        for p in 1..=4 {
-            let problem = Problem1d::new(p, t as u32 % 2, 4, seed + p as u64);
-            let values = problem.values();
-            let k = kernel_matrix(&ActiveSet::uniform(problem.basis.clone()), &problem.xs).unwrap();
-            let oracle = DenseLs::new(&k);
-            let name = |solver: &str| format!("1D p = {p}, seed {seed}: {solver}");
-            let check = |solver: &str, c: &[Vec<f64>], accuracy| {
-                check_with(&oracle, &name(solver), &values, c, accuracy)
-            };
-            let b = &problem.basis;
-            let (c, rep) = single_scale_ls(b, &problem.xs, &values, 0.0).unwrap();
-            assert_eq!(rep.deficient, 0);
-            check(
-                "single-scale normal equations",
-                &c,
-                Accuracy::NormalEquations,
-            );
-            let (c, rep) = single_scale_qr(b, &problem.xs, &values, 0.0).unwrap();
-            assert_eq!(rep.deficient, 0);
-            check("single-scale banded QR", &c, Accuracy::BackwardStable);
+/// Every 1D solver on `problem` against the dense SVD: the single-scale paths (banded normal
+/// equations, banded QR), the sparse global solves (corrected semi-normal Cholesky, CGLS), the
+/// normal equations from a given `K^T K` (plain, corrected), the dense pseudo-inverse and
+/// local inversion with full rings (SVD, QR and Cholesky blocks). Returns `cond(K)`.
+fn check_every_1d_solver(problem: &Problem1d, label: &str) -> f64 {
+    let values = problem.values();
+    let k = kernel_matrix(&ActiveSet::uniform(problem.basis.clone()), &problem.xs).unwrap();
+    let oracle = DenseLs::new(&k);
+    let check = |solver: &str, c: &[Vec<f64>], accuracy| {
+        check_with(&oracle, &format!("{label}: {solver}"), &values, c, accuracy)
+    };
+    let b = &problem.basis;
+    let (c, rep) = single_scale_ls(b, &problem.xs, &values, 0.0).unwrap();
+    assert_eq!(rep.deficient, 0);
+    check(
+        "single-scale normal equations",
+        &c,
+        Accuracy::NormalEquations,
+    );
+    let (c, rep) = single_scale_qr(b, &problem.xs, &values, 0.0).unwrap();
+    assert_eq!(rep.deficient, 0);
+    check("single-scale banded QR", &c, Accuracy::BackwardStable);
 
-            let global = global_ls(&k, &values, &GlobalLsParams::default()).unwrap();
-            assert_eq!(global.report.ridge, 0.0);
-            check(
-                "global sparse Cholesky, corrected",
-                &global.coefficients,
-                Accuracy::BackwardStable,
-            );
-            let cgls = GlobalLsParams {
-                method: GlobalMethod::Cgls,
-                tol: ITERATIVE_TOLERANCE,
-                ..GlobalLsParams::default()
-            };
-            let c = global_ls(&k, &values, &cgls).unwrap().coefficients;
-            check("global CGLS", &c, Accuracy::Iterative);
+    let global = global_ls(&k, &values, &GlobalLsParams::default()).unwrap();
+    assert_eq!(global.report.ridge, 0.0);
+    check(
+        "global sparse Cholesky, corrected",
+        &global.coefficients,
+        Accuracy::BackwardStable,
+    );
+    let cgls = GlobalLsParams {
+        method: GlobalMethod::Cgls,
+        tol: ITERATIVE_TOLERANCE,
+        ..GlobalLsParams::default()
+    };
+    let c = global_ls(&k, &values, &cgls).unwrap().coefficients;
+    check("global CGLS", &c, Accuracy::Iterative);
 
-            let (gram, rhs, column_samples) = normal_equations(&k, &oracle, &values);
-            let rhs: Vec<&[f64]> = rhs.iter().map(|r| r.as_slice()).collect();
-            let params = GlobalLsParams::default();
-            let m = problem.xs.len();
-            let plain = normal_ls(&gram, &rhs, m, &column_samples, None, &params).unwrap();
-            check(
-                "normal equations from K^T K",
-                &plain.coefficients,
-                Accuracy::NormalEquations,
-            );
-            let residual = |c: &[Vec<f64>]| -> Vec<Vec<f64>> {
-                values
-                    .iter()
-                    .zip(c)
-                    .map(|(f, c)| oracle.normal_residual(f, c))
-                    .collect()
-            };
-            let corrected =
-                normal_ls_corrected(&gram, &rhs, m, &column_samples, None, &residual, &params)
-                    .unwrap();
-            check(
-                "normal equations from K^T K, corrected",
-                &corrected.coefficients,
-                Accuracy::BackwardStable,
-            );
+    let (gram, rhs, column_samples) = normal_equations(&k, &oracle, &values);
+    let rhs: Vec<&[f64]> = rhs.iter().map(|r| r.as_slice()).collect();
+    let params = GlobalLsParams::default();
+    let m = problem.xs.len();
+    let plain = normal_ls(&gram, &rhs, m, &column_samples, None, &params).unwrap();
+    check(
+        "normal equations from K^T K",
+        &plain.coefficients,
+        Accuracy::NormalEquations,
+    );
+    let residual = |c: &[Vec<f64>]| -> Vec<Vec<f64>> {
+        values
+            .iter()
+            .zip(c)
+            .map(|(f, c)| oracle.normal_residual(f, c))
+            .collect()
+    };
+    let corrected =
+        normal_ls_corrected(&gram, &rhs, m, &column_samples, None, &residual, &params).unwrap();
+    check(
+        "normal equations from K^T K, corrected",
+        &corrected.coefficients,
+        Accuracy::BackwardStable,
+    );
 
-            let dense = dense_pinv(&k, 1e-14).unwrap();
-            let c: Vec<Vec<f64>> = values.iter().map(|f| dense.apply(f).unwrap()).collect();
-            check(
-                "dense pseudo-inverse (faer SVD)",
-                &c,
-                Accuracy::BackwardStable,
-            );
+    let dense = dense_pinv(&k, 1e-14).unwrap();
+    let c: Vec<Vec<f64>> = values.iter().map(|f| dense.apply(f).unwrap()).collect();
+    check(
+        "dense pseudo-inverse (faer SVD)",
+        &c,
+        Accuracy::BackwardStable,
+    );
 
-            for (solver, accuracy) in [
-                (Solver::Svd, Accuracy::BackwardStable),
-                (Solver::Qr, Accuracy::BackwardStable),
-                (Solver::Cholesky, Accuracy::NormalEquations),
-            ] {
-                let params = LocalInversionParams {
-                    rings: FULL_RINGS,
-                    solver,
-                    cutoff: 1e-14,
-                    ..LocalInversionParams::default()
-                };
-                let local = apply_local(&k, &values, &params).unwrap();
-                assert_full_rings(&local.stats, k.cols());
-                check(
-                    &format!("local inversion, full rings, {solver:?} blocks"),
-                    &local.coefficients,
-                    accuracy,
-                );
-            }
-        }
-    }
-}
-
-/// Ill-conditioned 1D problems (a dense cluster beside two samples per function): the
-/// backward stable solvers (banded QR, corrected global Cholesky, dense SVD, local inversion
-/// with full rings by SVD) within `C eps kappa`, the normal equations within `C eps kappa^2`.
-#[test]
-fn ill_conditioned_one_dimensional_problems_match_the_dense_svd() {
-    for (p, seed) in [(2, 41), (3, 42), (4, 43)] {
-        let problem = Problem1d::clustered(p, 3000, seed);
-        let values = problem.values();
-        let k = kernel_matrix(&ActiveSet::uniform(problem.basis.clone()), &problem.xs).unwrap();
-        let oracle = DenseLs::new(&k);
-        assert!(
-            oracle.condition() >= 30.0,
-            "p = {p}: {}",
-            oracle.condition()
-        );
-        let check = |solver: &str, c: &[Vec<f64>], accuracy| {
-            let name = format!("1D clustered, p = {p}: {solver}");
-            check_with(&oracle, &name, &values, c, accuracy)
-        };
-        let b = &problem.basis;
-        let (c, _) = single_scale_qr(b, &problem.xs, &values, 0.0).unwrap();
-        check("single-scale banded QR", &c, Accuracy::BackwardStable);
-        let (c, _) = single_scale_ls(b, &problem.xs, &values, 0.0).unwrap();
-        check(
-            "single-scale normal equations",
-            &c,
-            Accuracy::NormalEquations,
-        );
-        let c = global_ls(&k, &values, &GlobalLsParams::default())
-            .unwrap()
-            .coefficients;
-        check(
-            "global sparse Cholesky, corrected",
-            &c,
-            Accuracy::BackwardStable,
-        );
-        let dense = dense_pinv(&k, 1e-14).unwrap();
-        let c: Vec<Vec<f64>> = values.iter().map(|f| dense.apply(f).unwrap()).collect();
-        check(
-            "dense pseudo-inverse (faer SVD)",
-            &c,
-            Accuracy::BackwardStable,
-        );
+    for (solver, accuracy) in [
+        (Solver::Svd, Accuracy::BackwardStable),
+        (Solver::Qr, Accuracy::BackwardStable),
+        (Solver::Cholesky, Accuracy::NormalEquations),
+    ] {
         let params = LocalInversionParams {
             rings: FULL_RINGS,
+            solver,
             cutoff: 1e-14,
             ..LocalInversionParams::default()
         };
         let local = apply_local(&k, &values, &params).unwrap();
         assert_full_rings(&local.stats, k.cols());
         check(
-            "local inversion, full rings",
+            &format!("local inversion, full rings, {solver:?} blocks"),
             &local.coefficients,
-            Accuracy::BackwardStable,
+            accuracy,
         );
+    }
+    oracle.condition()
+}
+
+/// Every 1D solver ([`check_every_1d_solver`]) for `p = 1..4` on two to three levels.
+#[test]
+fn one_dimensional_solvers_match_the_dense_svd() {
+    for (t, &seed) in SEEDS_1D.iter().enumerate() {
+        for p in 1..=4 {
+            let problem = Problem1d::new(p, t as u32 % 2, 4, seed + p as u64);
+            check_every_1d_solver(&problem, &format!("1D p = {p}, seed {seed}"));
+        }
+    }
+}
+
+/// Every 1D solver on ill-conditioned problems (a dense cluster beside two samples per
+/// function), where the backward stable solvers' bound `C eps kappa` and the normal
+/// equations' `C eps kappa^2` differ by `kappa`.
+#[test]
+fn ill_conditioned_one_dimensional_problems_match_the_dense_svd() {
+    for (p, seed) in [(2, 41), (3, 42), (4, 43)] {
+        let problem = Problem1d::clustered(p, 3000, seed);
+        let kappa = check_every_1d_solver(&problem, &format!("1D clustered, p = {p}"));
+        assert!(kappa >= 30.0, "p = {p}: cond(K) = {kappa}");
     }
 }
 
