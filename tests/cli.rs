@@ -1,14 +1,9 @@
 //! The command line as a user meets it: the acceptance command for every p, JSON
 //! fields, and bad input as a clear error with exit code 2.
 
-use std::process::Command;
+mod common;
 
-fn rkwave(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+use common::{rkwave, scratch};
 
 #[test]
 fn basis_json_meets_the_targets_for_every_p() {
@@ -99,8 +94,7 @@ fn bad_input_exits_with_code_2_and_names_the_fix() {
 
 #[test]
 fn plot_is_written_and_not_overwritten_without_force() {
-    let dir = std::env::temp_dir().join(format!("rkwave_cli_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("cli", "plot");
     let path = dir.join("basis.png");
     let p = path.to_str().unwrap();
     let out = rkwave(&["basis", "--p", "2", "--fine", "4", "--plot", p]);
@@ -116,7 +110,6 @@ fn plot_is_written_and_not_overwritten_without_force() {
     assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
     let forced = rkwave(&["basis", "--p", "2", "--fine", "4", "--plot", p, "--force"]);
     assert!(forced.status.success());
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -182,8 +175,7 @@ fn report_json_at_the_paper_setting_meets_the_error_target() {
 
 #[test]
 fn reconstruct_reads_csv_writes_the_grid_and_reports() {
-    let dir = std::env::temp_dir().join(format!("rkwave_rec_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("cli", "reconstruct");
     let input = dir.join("samples.csv");
     let mut text = String::from("x,a,b\n");
     for i in 0..3000 {
@@ -248,7 +240,6 @@ fn reconstruct_reads_csv_writes_the_grid_and_reports() {
         output.to_str().unwrap(),
     ]);
     assert_eq!(again.status.code(), Some(2));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `--output FILE.npy` writes the grid as NumPy float64 `G x (1 + channels)`: read back with
@@ -256,8 +247,7 @@ fn reconstruct_reads_csv_writes_the_grid_and_reports() {
 /// error of `sin(6x)` at p = 3 from 20,000 random samples (measured 3e-8; bound 1e-6).
 #[test]
 fn reconstruct_writes_npy_output_that_reads_back() {
-    let dir = std::env::temp_dir().join(format!("rkwave_npy_out_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("cli", "npy");
     let input = dir.join("s.csv");
     let mut text = String::from("x,y\n");
     let mut state = 12345u64;
@@ -294,5 +284,4 @@ fn reconstruct_writes_npy_output_that_reads_back() {
         .map(|(x, v)| (v - (6.0 * x).sin()).abs())
         .fold(0.0, f64::max);
     assert!(err < 1e-6, "max error {err:e}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }

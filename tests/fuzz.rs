@@ -4,8 +4,9 @@
 //! with 0, 1 or 2 and never prints a panic report. Case counts are fixed so the whole file
 //! runs in well under a minute on the CI machine.
 
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+mod common;
+
+use std::time::Duration;
 
 use proptest::prelude::*;
 use rkwave::io::{parse_csv, read_samples};
@@ -218,35 +219,6 @@ fn subcommand() -> impl Strategy<Value = &'static str> {
     ]
 }
 
-/// Runs the binary with a deadline; `None` if it had to be killed.
-fn run_bounded(args: &[String], limit: Duration) -> Option<(i32, String)> {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .args(["--memory-limit", "1G"])
-        .current_dir(std::env::temp_dir())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("binary starts");
-    let start = Instant::now();
-    loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            let mut err = String::new();
-            use std::io::Read;
-            if let Some(mut e) = child.stderr.take() {
-                let _ = e.read_to_string(&mut err);
-            }
-            return Some((status.code().unwrap_or(-1), err));
-        }
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-}
-
 proptest! {
     // Each case starts the binary once (tens of milliseconds); 150 cases take ~10-30 s.
     #![proptest_config(ProptestConfig::with_cases(150))]
@@ -274,7 +246,8 @@ proptest! {
                 args.push(v);
             }
         }
-        let Some((code, err)) = run_bounded(&args, Duration::from_secs(30)) else {
+        args.extend(["--memory-limit", "1G"].map(String::from));
+        let Some((code, err)) = common::rkwave_bounded(&args, Duration::from_secs(30)) else {
             return Err(TestCaseError::fail(format!("{args:?} ran past 30 s")));
         };
         prop_assert!(matches!(code, 0..=2), "{:?} exited {}: {}", args, code, err);

@@ -1,11 +1,12 @@
 //! The streamed grid writer: `.npy` and CSV written block by block read back bit for bit.
 
+mod common;
+
 use rkwave::io::{read_csv, read_npy, GridWriter};
 
 #[test]
 fn grid_written_in_blocks_reads_back_exactly() {
-    let dir = std::env::temp_dir().join(format!("rkwave_grid_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("grid", "blocks");
     let rows = 1000;
     let xs: Vec<f64> = (0..rows).map(|i| i as f64 / (rows - 1) as f64).collect();
     let a: Vec<f64> = xs.iter().map(|x| (20.0 * x).sin() * 1e-7).collect();
@@ -50,5 +51,4 @@ fn grid_written_in_blocks_reads_back_exactly() {
     w.write_block(&[0.5], &[vec![1.0], vec![2.0]]).unwrap();
     assert!(w.finish(false).is_err());
     assert_eq!(std::fs::read(&kept).unwrap(), before);
-    std::fs::remove_dir_all(&dir).ok();
 }

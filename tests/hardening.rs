@@ -5,11 +5,9 @@
 
 mod common;
 
-use std::path::PathBuf;
+use common::{rkwave, text, user_error, write, Scratch};
 
-use common::{rkwave, text, user_error, write};
-
-fn scratch(name: &str) -> PathBuf {
+fn scratch(name: &str) -> Scratch {
     common::scratch("hardening", name)
 }
 

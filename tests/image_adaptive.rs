@@ -1,35 +1,23 @@
 //! The adaptive image engine (issue 13): the 2D wavelet tree, least squares on it, and the
 //! refiner's rounds.
 
+mod common;
+
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rkwave::basis::tensor::TensorBasis;
 use rkwave::basis::FilterFamily;
-use rkwave::image::adaptive::{
-    fit_tree, refine_image, AdaptiveError, AdaptiveParams, Cell, QuadTree,
-};
+use rkwave::image::adaptive::{fit_tree, refine_image, AdaptiveError, AdaptiveParams, QuadTree};
 use rkwave::image::fit::{fit_image, ImageFitParams, ImageLevels};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
 use rkwave::image::ImagePlane;
 use rkwave::refine::StopReason;
 
+use common::scenes::{edge_distance, jittered, polynomial, straight_edge};
+use common::trees::deepen_randomly;
+
 fn basis(p: usize, w: usize, h: usize, j: (u32, u32)) -> TensorBasis {
     TensorBasis::new(p, FilterFamily::cdv_default(p), w, h, j).unwrap()
-}
-
-/// `spp` jittered samples per pixel.
-fn samples(w: usize, h: usize, spp: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let (mut xs, mut ys) = (Vec::new(), Vec::new());
-    for py in 0..h {
-        for px in 0..w {
-            for _ in 0..spp {
-                xs.push(px as f64 + rng.random::<f64>());
-                ys.push(py as f64 + rng.random::<f64>());
-            }
-        }
-    }
-    (xs, ys)
 }
 
 fn edge_scene(x: f64, y: f64) -> f64 {
@@ -48,7 +36,7 @@ fn edge_scene(x: f64, y: f64) -> f64 {
 #[test]
 fn full_tree_equals_uniform_engine() {
     let (w, h) = (32, 24);
-    let (xs, ys) = samples(w, h, 8, 3);
+    let (xs, ys) = jittered(w, h, 8, 3);
     let f: Vec<f64> = xs
         .iter()
         .zip(&ys)
@@ -97,19 +85,7 @@ fn full_tree_equals_uniform_engine() {
 /// A random tree closed under "parent present": activate random slots below the limit.
 fn random_tree(b: TensorBasis, base: u32, cells: usize, seed: u64) -> QuadTree {
     let mut tree = QuadTree::uniform(b, base);
-    let mut rng = Pcg64::seed_from_u64(seed);
-    for _ in 0..cells {
-        let slots: Vec<Cell> = tree
-            .slots()
-            .into_iter()
-            .filter(|c| c.step < tree.steps())
-            .collect();
-        if slots.is_empty() {
-            break;
-        }
-        let c = slots[rng.random_range(0..slots.len())];
-        assert!(tree.activate(c));
-    }
+    deepen_randomly(&mut tree, cells, &mut Pcg64::seed_from_u64(seed));
     tree
 }
 
@@ -140,7 +116,7 @@ fn tensor_polynomials_reproduced_on_any_tree() {
                 1.0 + u * u - 0.5 * v * v * u + 0.2 * u * u * v * v - v
             }
         };
-        let (xs, ys) = samples(w, h, 6, seed + 10);
+        let (xs, ys) = jittered(w, h, 6, seed + 10);
         let f: Vec<f64> = xs.iter().zip(&ys).map(|(&x, &y)| poly(x, y)).collect();
         let fit = fit_tree(&tree, &xs, &ys, &[&f]).unwrap();
         let mut rng = Pcg64::seed_from_u64(seed);
@@ -209,30 +185,16 @@ fn params(budget: usize) -> AdaptiveParams {
 #[test]
 fn polynomial_scene_is_not_deepened() {
     let plane = ImagePlane::new(32, 32).unwrap();
-    let poly = |x: f64, y: f64| 0.5 + 0.01 * x - 0.02 * y + 0.0003 * x * y;
     let p = AdaptiveParams {
         tolerance: 1e-8,
         ..params(20_000)
     };
-    let run = refine_image(&poly, plane, &p).unwrap();
+    let run = refine_image(&polynomial, plane, &p).unwrap();
     assert_eq!(run.report.stop, StopReason::Tolerance);
     assert_eq!(run.report.rounds.len(), 1);
     assert_eq!(run.xs.len(), run.report.base_samples);
     let base_step = run.report.base_levels.0 - run.report.coarse_levels.0;
     assert!(run.tree.slots().iter().all(|c| c.step == base_step));
-}
-
-fn straight_edge(x: f64, y: f64) -> f64 {
-    if x + 0.3 * y < 20.0 {
-        0.1
-    } else {
-        0.8
-    }
-}
-
-/// Distance of `(x, y)` from the line `x + 0.3 y = 20`.
-fn edge_distance(x: f64, y: f64) -> f64 {
-    (x + 0.3 * y - 20.0).abs() / (1.0f64 + 0.09).sqrt()
 }
 
 /// A single straight edge: the refiner deepens along it and nowhere far from it.

@@ -91,7 +91,6 @@ fn compare_adaptive_adds_the_adaptive_rows() {
     );
     let again = common::user_error(&args);
     assert!(again.contains("--force"), "{again}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `image --adaptive --adaptive-params JSON`: a field that is not a parameter, malformed JSON
@@ -181,7 +180,6 @@ fn plan_takes_the_false_alarm_rate() {
         &s(&dir.join("next1.npy")),
     ]);
     assert!(other.contains("false_alarm"), "{other}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `rkwave image --scene slanted_edge --resolution 16x16 --spp 4 --adaptive --force --out OUT`
@@ -233,14 +231,22 @@ fn image_adaptive_no_residual() {
         text.contains(&format!("mean residual in {} of", c["corrected"])),
         "{text}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `image --adaptive --solver`: every round's fit is made by the solver asked for (named in
 /// each round's JSON; PCG may hand a stalled round to the direct solve, `pcg->direct`), the
-/// iterative ones print their iterations per round, the Schwarz CG (to 1e-10) gives the
-/// direct solve's image to 1e-6 dB of PSNR, and an unknown solver is refused naming the
-/// choices.
+/// iterative ones print their iterations per round, and an unknown solver is refused naming
+/// the choices. Every round run to the solver's tolerance, the iterative solvers grow the
+/// direct solve's tree (the same functions and samples in every round) and give its image:
+///
+/// - Schwarz CG (to 1e-10) to 1e-6 dB of PSNR;
+/// - PCG (to relative residual `rho = 1e-6` of the equilibrated normal equations
+///   `A^T A y = A^T f`, `A = K D`) within what `rho` allows: the fit at the samples moves by
+///   `||A dy|| <= rho sqrt(kappa) ||f||` (`kappa` the condition of `A^T A`, which PCG
+///   estimates and reports), so with values in `[0, 1]` the RMS change is at most
+///   `rho sqrt(kappa)`; a pixel is a mean of the fit, so its RMS change is the same up to the
+///   samples' quadrature of the image (a factor 2 allowed); and
+///   `PSNR = -20 log10(RMSE)` moves by at most `(20 / ln 10) dRMSE / RMSE`.
 #[test]
 fn image_adaptive_solver_choice() {
     let dir = common::scratch("cmpad", "solver");
@@ -258,6 +264,8 @@ fn image_adaptive_solver_choice() {
         slanted_edge_16(&out, &extra[..if json { 5 } else { 4 }])
     };
     let mut psnr = Vec::new();
+    let mut trees = Vec::new();
+    let (mut rho, mut kappa) = (0.0f64, 0.0f64);
     for solver in ["direct", "pcg", "schwarz"] {
         let v: serde_json::Value =
             serde_json::from_slice(&run(solver, true).stdout).expect("one JSON object");
@@ -266,10 +274,39 @@ fn image_adaptive_solver_choice() {
         for r in rounds {
             let used = r["fit"]["solver"].as_str().unwrap();
             assert!(used.starts_with(solver), "{solver}: round fitted by {used}");
+            if solver == "pcg" {
+                assert_eq!(r["fit"]["converged"], true, "{}", r["fit"]);
+                rho = rho.max(r["fit"]["relative_residual"].as_f64().unwrap());
+                kappa = kappa.max(r["fit"]["condition"].as_f64().unwrap());
+            }
         }
+        let tree: Vec<(u64, u64)> = rounds
+            .iter()
+            .map(|r| {
+                (
+                    r["functions"].as_u64().unwrap(),
+                    r["samples"].as_u64().unwrap(),
+                )
+            })
+            .collect();
+        trees.push(tree);
         psnr.push(v["rows"][1]["metrics"]["psnr"].as_f64().unwrap());
     }
+    assert!(trees[1] == trees[0] && trees[2] == trees[0], "{trees:?}");
     assert!((psnr[0] - psnr[2]).abs() < 1e-6, "{psnr:?}");
+    assert!(
+        rho > 0.0 && rho <= 1e-6 && kappa >= 1.0,
+        "rho {rho:e}, kappa {kappa}"
+    );
+    let rmse = 10f64.powf(-psnr[0] / 20.0);
+    let allowed = 20.0 / std::f64::consts::LN_10 * 2.0 * rho * kappa.sqrt() / rmse;
+    assert!(
+        (psnr[1] - psnr[0]).abs() <= allowed,
+        "PCG {} dB against direct {} dB: more than {allowed:e} dB apart (rho {rho:e}, \
+         kappa {kappa})",
+        psnr[1],
+        psnr[0]
+    );
     let text = common::text(&run("schwarz", false));
     assert!(
         text.contains("CG per round:") && text.contains("schwarz"),

@@ -5,28 +5,20 @@
 //! `z sigma sqrt(ch / n)` moves nothing; the default output is then clamped to the range of
 //! the samples in each pixel's 3x3 neighbourhood.
 
+mod common;
+
 use rkwave::image::adaptive::correction::{
     add_significant_mean_residual, output_pixels, PixelEstimate, RESIDUAL_Z,
 };
 use rkwave::image::adaptive::{refine_image, AdaptiveImage, AdaptiveParams, NoisyOracle};
 use rkwave::image::ImagePlane;
 
+// `polynomial`: in the coarse space every tree holds, so the fit reproduces it and its
+// residuals are rounding.
+use common::scenes::{polynomial, straight_edge};
+
 const W: usize = 32;
 const H: usize = 32;
-
-/// A tensor polynomial of degree < p = 2 per variable: in the coarse space every tree holds,
-/// so the fit reproduces it and its residuals are rounding.
-fn polynomial(x: f64, y: f64) -> f64 {
-    0.5 + 0.01 * x - 0.02 * y + 0.0003 * x * y
-}
-
-fn straight_edge(x: f64, y: f64) -> f64 {
-    if x + 0.3 * y < 20.0 {
-        0.1
-    } else {
-        0.8
-    }
-}
 
 fn run(oracle: &dyn rkwave::image::adaptive::ImageOracle) -> AdaptiveImage {
     let plane = ImagePlane::new(W, H).unwrap();

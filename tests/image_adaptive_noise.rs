@@ -11,6 +11,9 @@ use rkwave::image::adaptive::{
 use rkwave::image::ImagePlane;
 use rkwave::refine::StopReason;
 
+// `polynomial`: every wavelet coefficient is zero, the detail of a fit is noise alone.
+use common::scenes::{edge_distance, polynomial, straight_edge};
+
 /// Noise deviation of the tests: 5% of a unit range, 1/14 of the edge's contrast 0.7.
 const SIGMA: f64 = 0.05;
 
@@ -19,24 +22,6 @@ fn params(budget: usize) -> AdaptiveParams {
         budget,
         ..AdaptiveParams::default()
     }
-}
-
-fn straight_edge(x: f64, y: f64) -> f64 {
-    if x + 0.3 * y < 20.0 {
-        0.1
-    } else {
-        0.8
-    }
-}
-
-fn edge_distance(x: f64, y: f64) -> f64 {
-    (x + 0.3 * y - 20.0).abs() / (1.0f64 + 0.09).sqrt()
-}
-
-/// A tensor polynomial of degree < p = 2 per variable: every wavelet coefficient is zero, the
-/// detail of a fit is noise alone.
-fn polynomial(x: f64, y: f64) -> f64 {
-    0.5 + 0.01 * x - 0.02 * y + 0.0003 * x * y
 }
 
 fn noisy(inner: &dyn ImageOracle, seed: u64) -> NoisyOracle<'_> {
@@ -271,5 +256,4 @@ fn image_adaptive_with_noise_on_the_command_line() {
     bad.push("--force");
     let err = common::user_error(&bad);
     assert!(err.contains("-0.1"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

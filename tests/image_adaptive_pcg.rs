@@ -1,6 +1,10 @@
 //! The matrix-free PCG tree solve (issue 13, "each round costs what changed") against the
 //! assembled kernel and the direct solve, on random trees and samples.
 
+mod common;
+
+use common::scenes::jittered_with;
+use common::trees::{deepen_randomly, sample_slots};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -17,31 +21,9 @@ fn random_case(seed: u64, deepen: usize, spp: usize) -> (QuadTree, Vec<f64>, Vec
     let basis = TensorBasis::new(2, FilterFamily::cdv_default(2), 16, 16, (5, 5)).unwrap();
     let mut tree = QuadTree::uniform(basis, 1);
     let mut rng = Pcg64::seed_from_u64(seed);
-    for _ in 0..deepen {
-        let slots: Vec<_> = tree
-            .slots()
-            .into_iter()
-            .filter(|c| c.step < tree.steps())
-            .collect();
-        let cell = slots[rng.random_range(0..slots.len())];
-        tree.activate(cell);
-    }
-    let (mut xs, mut ys) = (Vec::new(), Vec::new());
-    for py in 0..16 {
-        for px in 0..16 {
-            for _ in 0..spp {
-                xs.push(px as f64 + rng.random::<f64>());
-                ys.push(py as f64 + rng.random::<f64>());
-            }
-        }
-    }
-    for slot in tree.slots() {
-        let r = tree.rect(slot);
-        for _ in 0..4 {
-            xs.push(r[0] + (r[1] - r[0]) * rng.random::<f64>());
-            ys.push(r[2] + (r[3] - r[2]) * rng.random::<f64>());
-        }
-    }
+    deepen_randomly(&mut tree, deepen, &mut rng);
+    let (mut xs, mut ys) = jittered_with(16, 16, spp, &mut rng);
+    sample_slots(&tree, 4, &mut rng, &mut xs, &mut ys);
     (tree, xs, ys)
 }
 

@@ -17,13 +17,7 @@ use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples};
 use rkwave::io::{read_npy, write_npy, SampleSet};
 
-fn straight_edge(x: f64, y: f64) -> f64 {
-    if x + 0.3 * y < 20.0 {
-        0.1
-    } else {
-        0.8
-    }
-}
+use common::scenes::straight_edge;
 
 /// The samples so far, grown round by round as a renderer would.
 struct Rendered {
@@ -591,5 +585,4 @@ fn command_line_protocol_gives_the_in_process_image() {
         &s(&dir.join("other.npy")),
     ]);
     assert!(out_msg.contains("40"), "{out_msg}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

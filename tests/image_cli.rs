@@ -1,20 +1,14 @@
 //! `rkwave image`, `rkwave compare` and `rkwave reconstruct --dim 2` from the outside: bad
 //! input is a clear message and exit code 2, good input writes what it says.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn rkwave(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+use std::process::Output;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rkwave-image-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+use common::{rkwave, Scratch};
+
+fn scratch(name: &str) -> Scratch {
+    common::scratch("image-cli", name)
 }
 
 /// Exit code 2 and a stderr message containing every `needle`.
@@ -124,7 +118,6 @@ fn image_rejects_bad_resolutions_and_scenes_naming_the_value() {
         &rkwave(&["image", "--scene", "nosuchscene", "--out", o]),
         &["nosuchscene"],
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -183,7 +176,6 @@ fn image_with_a_film_filter_writes_the_image_and_a_json_report() {
         out.to_str().unwrap(),
     ]);
     fails_with(&again, &["--force"]);
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -234,34 +226,29 @@ fn reconstruct_dim_2_rejects_wrong_columns_and_samples_outside() {
         ]),
         &["--resolution"],
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 /// `image --adaptive` runs end to end on a small scene: the image and its two figures are
 /// written, the JSON names the samples used, and the budget is kept.
 #[test]
 fn image_adaptive_writes_the_image_and_its_figures() {
-    let dir = std::env::temp_dir().join(format!("rkwave_adaptive_cli_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("adaptive");
     let out = dir.join("g.png");
-    let run = Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args([
-            "image",
-            "--scene",
-            "shapes",
-            "--resolution",
-            "32x32",
-            "--spp",
-            "4",
-            "--adaptive",
-            "--truth-cache",
-            dir.join("truth").to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--json",
-        ])
-        .output()
-        .unwrap();
+    let run = rkwave(&[
+        "image",
+        "--scene",
+        "shapes",
+        "--resolution",
+        "32x32",
+        "--spp",
+        "4",
+        "--adaptive",
+        "--truth-cache",
+        dir.join("truth").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
     let text = String::from_utf8_lossy(&run.stdout);
     assert!(
         run.status.success(),
@@ -279,5 +266,4 @@ fn image_adaptive_writes_the_image_and_its_figures() {
         samples.is_some_and(|s| s > 0 && s <= 4 * 32 * 32),
         "samples within the budget: {json}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -289,7 +289,6 @@ fn cli_domain_messages_say_what_is_wrong() {
     assert!(!e.contains("automatic") && !e.contains("rho"), "{e}");
     assert!(e.contains("smallest basis for p = 3"), "{e}");
     assert!(!std::path::Path::new(out).exists());
-    std::fs::remove_dir_all(&d).ok();
 }
 
 /// On the command line a hint names flags, never the library's Rust names: an undersampled
@@ -322,5 +321,4 @@ fn cli_hints_name_flags_not_library_names() {
         assert!(!e.contains("::"), "{extra:?}: a Rust path in {e}");
         assert!(e.contains(flag), "{extra:?}: {flag} not named in {e}");
     }
-    std::fs::remove_dir_all(&d).ok();
 }

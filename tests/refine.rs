@@ -3,7 +3,9 @@
 //! against column counts of an independently built `K`), the budget, determinism, the
 //! incremental fit against a rebuild, bad input, and the `rkwave adapt` command.
 
-use std::process::Command;
+mod common;
+
+use common::rkwave;
 
 use rkwave::basis::minimum_level;
 use rkwave::kernel::kernel_matrix;
@@ -341,13 +343,6 @@ fn bad_input_is_a_clear_error() {
     ));
     assert!(ExpressionOracle::parse("sin(x").is_err());
     assert_eq!(minimum_level(3), 4);
-}
-
-fn rkwave(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("binary runs")
 }
 
 #[test]

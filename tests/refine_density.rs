@@ -4,7 +4,7 @@
 //! the gaps, with the gaps reported; uniform samples keep the uniform levels and the
 //! single-scale path.
 
-use std::process::Command;
+mod common;
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -222,8 +222,7 @@ fn empty_regions_are_reported_in_text_and_json() {
     let worst = v.iter().fold(0.0f64, |m, y| m.max(y.abs()));
     assert!(worst < 1.5, "{worst}");
 
-    let dir = std::env::temp_dir().join(format!("rkwave-density-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("density", "gaps");
     let input = dir.join("in.csv");
     let mut body = String::from("x,y\n");
     for (x, y) in xs.iter().zip(&ys) {
@@ -244,16 +243,7 @@ fn empty_regions_are_reported_in_text_and_json() {
         if json {
             args.push("--json".into());
         }
-        let r = Command::new(env!("CARGO_BIN_EXE_rkwave"))
-            .args(&args)
-            .output()
-            .unwrap();
-        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-        format!(
-            "{}{}",
-            String::from_utf8_lossy(&r.stdout),
-            String::from_utf8_lossy(&r.stderr)
-        )
+        common::succeeds(&args)
     };
     let text = run(false, "a.csv");
     assert!(text.contains("no samples in [0.2997"), "{text}");
@@ -263,5 +253,4 @@ fn empty_regions_are_reported_in_text_and_json() {
     assert_eq!(fallback["kind"], "density_tree", "{json}");
     let region = &fallback["empty"][0];
     assert!(region[0].as_f64().unwrap() < 0.31 && region[1].as_f64().unwrap() > 0.69);
-    let _ = std::fs::remove_dir_all(&dir);
 }

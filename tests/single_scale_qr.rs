@@ -2,10 +2,12 @@
 //! polynomials the basis contains, and agreement with a dense SVD least-squares solution on
 //! ill-conditioned sample sets, where the normal equations lose digits.
 
-use faer::Mat;
+mod common;
+
+use common::oracle::DenseLs;
 use rand::{Rng, SeedableRng};
-use rkwave::basis::{minimum_level, BasisValue, CdvBasis, FilterFamily};
-use rkwave::kernel::{ActiveSet, LevelChoice};
+use rkwave::basis::{minimum_level, CdvBasis, FilterFamily};
+use rkwave::kernel::{kernel_matrix, ActiveSet, LevelChoice};
 use rkwave::reconstruct::{
     fit_active, single_scale_ls, single_scale_qr, Method, SingleScaleSolver,
 };
@@ -86,45 +88,14 @@ fn polynomials_below_order_p_are_reproduced_to_round_off() {
     }
 }
 
-/// Dense `K_J` of the multilevel basis `Psi(n, N)` (the rows the evaluator gives).
-fn dense_kernel(b: &CdvBasis, xs: &[f64]) -> Mat<f64> {
-    let mut ev = b.evaluator();
-    let mut out: Vec<BasisValue> = Vec::new();
-    let mut k = Mat::<f64>::zeros(xs.len(), b.dimension());
-    for (i, &x) in xs.iter().enumerate() {
-        ev.eval_into(x, &mut out).unwrap();
-        for v in &out {
-            k[(i, v.index)] = v.value;
-        }
-    }
-    k
-}
-
-/// The least-squares solution `V diag(1/s) U^T f` (faer's thin SVD, full rank) and
-/// `cond(K) = s_max / s_min`.
-fn svd_lstsq(k: &Mat<f64>, f: &[f64]) -> (Vec<f64>, f64) {
-    let svd = k.thin_svd().unwrap();
-    let (u, s, v) = (svd.U(), svd.S(), svd.V());
-    let r = s.dim();
-    let smax = (0..r).map(|i| s[i]).fold(0.0, f64::max);
-    let smin = (0..r).map(|i| s[i]).fold(f64::INFINITY, f64::min);
-    let mut coef = vec![0.0; k.ncols()];
-    for i in 0..r {
-        let ut_f: f64 = (0..k.nrows()).map(|row| u[(row, i)] * f[row]).sum();
-        for (j, c) in coef.iter_mut().enumerate() {
-            *c += v[(j, i)] * ut_f / s[i];
-        }
-    }
-    (coef, smax / smin)
-}
-
 fn rel(a: &[f64], b: &[f64]) -> f64 {
     let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
     let den: f64 = b.iter().map(|y| y * y).sum();
     (num / den).sqrt()
 }
 
-/// Ill-conditioned sample sets against the dense SVD solution: a dense cluster beside a
+/// Ill-conditioned sample sets against the dense SVD solution (the oracle of
+/// `tests/common/oracle.rs`, here with this test's own, tighter constants): a dense cluster beside a
 /// sparse stretch, groups of samples at ulp distance, samples exactly on the dyadic knots of
 /// `V_{N+1}`. Data: a smooth non-polynomial signal (nonzero residual). Tolerance for the QR
 /// path: `||c - c_svd|| <= 20 eps cond(K) ||c_svd||` plus the residual term
@@ -162,20 +133,18 @@ fn ill_conditioned_sample_sets_match_the_dense_svd() {
     let eps = f64::EPSILON;
     for (name, xs) in &sets {
         let f: Vec<f64> = xs.iter().map(|&x| (7.0 * x).sin() + x.exp()).collect();
-        let k = dense_kernel(&b, xs);
-        let (reference, cond) = svd_lstsq(&k, &f);
-        let resid: f64 = (0..xs.len())
-            .map(|i| {
-                let kc: f64 = (0..k.ncols()).map(|j| k[(i, j)] * reference[j]).sum();
-                (kc - f[i]).powi(2)
-            })
+        let k = kernel_matrix(&ActiveSet::uniform(b.clone()), xs).unwrap();
+        let oracle = DenseLs::new(&k);
+        let (reference, cond) = (oracle.solve(&f), oracle.condition());
+        let resid: f64 = oracle
+            .apply(&reference)
+            .iter()
+            .zip(&f)
+            .map(|(kc, fi)| (kc - fi).powi(2))
             .sum::<f64>()
             .sqrt();
         let cnorm: f64 = reference.iter().map(|c| c * c).sum::<f64>().sqrt();
-        let knorm = (0..k.ncols())
-            .map(|j| (0..k.nrows()).map(|i| k[(i, j)].powi(2)).sum::<f64>())
-            .sum::<f64>()
-            .sqrt();
+        let knorm = oracle.norm();
         let (qr, qrep) = single_scale_qr(&b, xs, &[&f], 0.0).unwrap();
         let (ne, nrep) = single_scale_ls(&b, xs, &[&f], 0.0).unwrap();
         assert_eq!(qrep.deficient, 0, "{name}: {qrep:?}");

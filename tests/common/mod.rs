@@ -1,47 +1,20 @@
-//! Scaffolding shared by the integration tests that run the `rkwave` binary: run it, read
-//! its output, expect a user error, scratch folders and files.
-#![allow(dead_code)]
+//! Scaffolding shared by the integration tests, written once:
+//!
+//! - [`runner`]: run the `rkwave` binary and read what it printed and its exit code; scratch
+//!   folders that remove themselves;
+//! - [`scenes`]: the image-plane scenes several tests fit (a straight edge, a polynomial the
+//!   basis reproduces);
+//! - [`trees`]: random quadtrees and samples in every slot, for the tree fits;
+//! - [`oracle`]: the dense least-squares oracle `c = K^+ f` by an SVD (nalgebra), with the
+//!   one tolerance rule every solver is held to.
+//!
+//! Each test file that needs them declares `mod common;`; what a file does not use is dead
+//! code there, hence the `allow`.
+#![allow(dead_code, unused_imports)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+pub mod oracle;
+pub mod runner;
+pub mod scenes;
+pub mod trees;
 
-/// Runs the binary with `args`.
-pub fn rkwave(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-/// Standard output and standard error together.
-pub fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
-
-/// A user error: exit code 2 and no panic; returns everything printed.
-#[track_caller]
-pub fn user_error(args: &[&str]) -> String {
-    let out = rkwave(args);
-    let all = text(&out);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {all}");
-    assert!(!all.contains("panicked"), "{args:?}: {all}");
-    all
-}
-
-/// A fresh, empty folder `rkwave-<prefix>-<pid>-<name>` in the temporary directory.
-pub fn scratch(prefix: &str, name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rkwave-{prefix}-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Writes `text` to `path` and returns the path as a string argument.
-pub fn write(path: &Path, text: &str) -> String {
-    std::fs::write(path, text).unwrap();
-    path.to_str().unwrap().to_string()
-}
+pub use runner::{rkwave, rkwave_bounded, scratch, succeeds, text, user_error, write, Scratch};

@@ -1,0 +1,48 @@
+//! Scenes on the image plane that several tests fit, written once.
+
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+
+/// The line `x + 0.3 y = 20` (pixels) that [`straight_edge`] jumps across.
+pub const EDGE_OFFSET: f64 = 20.0;
+
+/// A single straight edge: `0.1` left of the line `x + 0.3 y = 20`, `0.8` on and right of it
+/// (contrast 0.7, crossing a 48 x 48 image from `(20, 0)` to `(5.6, 48)`).
+pub fn straight_edge(x: f64, y: f64) -> f64 {
+    if x + 0.3 * y < EDGE_OFFSET {
+        0.1
+    } else {
+        0.8
+    }
+}
+
+/// Distance of `(x, y)` from the line `x + 0.3 y = 20` of [`straight_edge`].
+pub fn edge_distance(x: f64, y: f64) -> f64 {
+    (x + 0.3 * y - EDGE_OFFSET).abs() / (1.0f64 + 0.09).sqrt()
+}
+
+/// A tensor polynomial of degree `< 2` per variable: in the coarse space of every basis with
+/// `p >= 2`, so every wavelet coefficient is zero and a fit reproduces it to rounding.
+pub fn polynomial(x: f64, y: f64) -> f64 {
+    0.5 + 0.01 * x - 0.02 * y + 0.0003 * x * y
+}
+
+/// `spp` jittered (stratified) sample positions per pixel of a `w x h` image, row by row,
+/// uniform in each pixel, from the seed.
+pub fn jittered(w: usize, h: usize, spp: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    jittered_with(w, h, spp, &mut Pcg64::seed_from_u64(seed))
+}
+
+/// [`jittered`] drawing from `rng`.
+pub fn jittered_with(w: usize, h: usize, spp: usize, rng: &mut impl Rng) -> (Vec<f64>, Vec<f64>) {
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for py in 0..h {
+        for px in 0..w {
+            for _ in 0..spp {
+                xs.push(px as f64 + rng.random::<f64>());
+                ys.push(py as f64 + rng.random::<f64>());
+            }
+        }
+    }
+    (xs, ys)
+}
