@@ -8,9 +8,9 @@
 //!   one factor) and exact box pixels through the 2D synthesis;
 //! * [`gram`]: `K_T^T K_T`, assembled in parallel, deterministically, and updated between
 //!   rounds;
-//! * [`indicator`]: predicted coefficients of the missing children, per slot;
+//! * `indicator`: predicted coefficients of the missing children, per slot;
 //! * [`significance`]: which of them stand out of the samples' noise (probe fits);
-//! * [`refiner`]: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop):
+//! * `refiner`: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop):
 //!   fit, indicate, mark (Dörfler, within the budget), deepen, add samples in the new slots
 //!   so that every slot keeps `ceil(rho)` samples; stop at a tolerance, the depth limit or
 //!   the sample budget;

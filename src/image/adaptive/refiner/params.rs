@@ -25,7 +25,7 @@ pub struct AdaptiveParams {
     pub rho: f64,
     /// Dörfler fraction of the estimated squared error marked per round, in `(0, 1]`.
     pub theta: f64,
-    /// Cap `r_max` of the indicator's decay ratio ([`super::super::indicator`]): `1/2` is a straight
+    /// Cap `r_max` of the indicator's decay ratio (module `indicator`): `1/2` is a straight
     /// edge's ratio; larger values give unresolved oscillations (textures) more priority and
     /// let a few cells go deep before the whole edge is resolved.
     pub max_ratio: f64,
@@ -94,8 +94,8 @@ pub struct AdaptiveParams {
     pub residual_z: f64,
     /// Measure each round's fit against the same fit rebuilt from scratch (fresh solver
     /// state, zero start: no continued normal matrix or diagonal, no warm start), reported
-    /// in [`ImageRound::rebuild`]. Doubles the fits' cost; the rebuilds' seconds are kept
-    /// apart ([`AdaptiveTimes::rebuild_s`]) and change nothing else.
+    /// in [`super::ImageRound::rebuild`]. Doubles the fits' cost; the rebuilds' seconds are kept
+    /// apart ([`super::AdaptiveTimes::rebuild_s`]) and change nothing else.
     #[serde(default)]
     pub measure_rebuild: bool,
 }

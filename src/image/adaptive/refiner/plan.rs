@@ -59,7 +59,7 @@ pub struct PlanProgress {
 /// One round ([`ImagePlan::step`]) takes every sample so far (which must include the base
 /// positions of [`ImagePlan::base_positions`] and the positions of every earlier decision),
 /// fits on the tree, and either stops or deepens the tree and returns the positions to sample
-/// next. [`refine_image`] is a loop over it with a scene as the oracle; a renderer outside the
+/// next. [`super::refine_image`] is a loop over it with a scene as the oracle; a renderer outside the
 /// process drives the same rounds through files (module `protocol`).
 #[derive(Clone, Debug)]
 pub struct ImagePlan {
@@ -283,7 +283,7 @@ impl ImagePlan {
 
     /// The report of a finished run: `base_samples` of `samples` in total, the final `fit`,
     /// the reason to stop and the log of every round ([`AdaptiveReport::pixels`] empty: the
-    /// caller that computes the output pixels fills it in, as [`refine_image`] does).
+    /// caller that computes the output pixels fills it in, as [`super::refine_image`] does).
     pub fn report(
         &self,
         base_samples: usize,

@@ -41,9 +41,9 @@ pub struct ImageRound {
     /// The solve.
     pub fit: TreeFitReport,
     /// The last round's fit continued to the solver's tolerance from the round's
-    /// coefficients ([`AdaptiveParams::round_tolerance`] only; `None` otherwise).
+    /// coefficients ([`super::AdaptiveParams::round_tolerance`] only; `None` otherwise).
     pub final_fit: Option<TreeFitReport>,
-    /// The round's fit against a rebuild from scratch ([`AdaptiveParams::measure_rebuild`]
+    /// The round's fit against a rebuild from scratch ([`super::AdaptiveParams::measure_rebuild`]
     /// only; `None` otherwise).
     pub rebuild: Option<RebuildCost>,
 }
@@ -73,7 +73,7 @@ pub struct AdaptiveTimes {
     /// Indicators, marking, deepening.
     pub refine_s: f64,
     /// Fits rebuilt from scratch to measure the rounds against
-    /// ([`AdaptiveParams::measure_rebuild`]; 0 otherwise), in none of the stages above.
+    /// ([`super::AdaptiveParams::measure_rebuild`]; 0 otherwise), in none of the stages above.
     pub rebuild_s: f64,
 }
 
@@ -123,7 +123,7 @@ pub struct AdaptiveImage {
     pub round_of: Vec<u32>,
     /// The fit on the final tree.
     pub fit: TreeFit,
-    /// The output pixels ([`AdaptiveParams::pixels`]; by default the fit's box pixels plus
+    /// The output pixels ([`super::AdaptiveParams::pixels`]; by default the fit's box pixels plus
     /// the significant mean residual, [`super::super::correction`]).
     pub image: PixelImage,
     /// What happened.

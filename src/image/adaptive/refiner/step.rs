@@ -18,7 +18,7 @@ impl ImagePlan {
     /// fit on the tree, indicate, then stop or mark, deepen and return the positions that
     /// top the marked slots' children up to `ceil(rho)` samples.
     ///
-    /// With [`AdaptiveParams::round_tolerance`] and an iterative solver the round's fit stops
+    /// With [`super::AdaptiveParams::round_tolerance`] and an iterative solver the round's fit stops
     /// at the round tolerance; when the round stops the refinement, its fit is continued from
     /// those coefficients to the solver's own tolerance (reported in
     /// [`ImageRound::final_fit`]), so the output is the accurate fit.
