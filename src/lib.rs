@@ -43,6 +43,8 @@
 //!   pseudo-inverse;
 //! - [`reconstruct`]: samples to coefficients to values ([`reconstruct::fit`]), by default
 //!   through the single-scale normal equations of `V_{N+1}`; dual and reproducing kernels;
+//! - [`adaptive`]: the adaptive core both dimensions share: the dyadic trees (1D, and 2D
+//!   with four children per cell), Dörfler marking, the budget, the stop reasons;
 //! - [`refine`]: the adaptive refiner: a wavelet tree and its samples grown together where
 //!   the signal needs them ([`refine::refine`]);
 //! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
@@ -91,6 +93,7 @@
 
 #![deny(missing_docs)]
 
+pub mod adaptive;
 pub mod basis;
 pub mod domain;
 pub mod image;

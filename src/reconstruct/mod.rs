@@ -7,6 +7,7 @@
 //! functions per position.
 
 mod banded_qr;
+pub(crate) mod density;
 mod evaluate;
 mod kernel_functions;
 mod outcome;
@@ -290,8 +291,8 @@ pub fn fit(
         (params.levels, params.method)
     {
         // Strongly non-uniform samples: a tree whose local depth follows the sample count.
-        if crate::refine::density::strongly_non_uniform(positions, domain, &levels, params.p) {
-            return crate::refine::density::fit_density_tree(positions, values, domain, params, lp);
+        if density::strongly_non_uniform(positions, domain, &levels, params.p) {
+            return density::fit_density_tree(positions, values, domain, params, lp);
         }
     }
     let mut dropped = 0u32;

@@ -72,7 +72,7 @@ pub enum Fallback {
     },
     /// Automatic levels on strongly non-uniform samples: an adaptive tree whose local depth
     /// follows the local sample count replaced the uniform levels
-    /// (`crate::refine::density`), solved by global least squares.
+    /// (`crate::adaptive::density`), solved by global least squares.
     DensityTree {
         /// Coarse scaling level of the tree.
         coarse: u32,

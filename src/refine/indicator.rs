@@ -13,7 +13,8 @@
 //! estimate of `int_C (f - f~)^2`; marking `C` adds the wavelets one level deeper whose support
 //! covers it.
 
-use super::tree::{support_cells, Leaf, WaveletTree};
+use crate::adaptive::marking::dorfler;
+use crate::adaptive::tree::interval::{support_cells, Leaf, WaveletTree};
 use crate::reconstruct::Fit;
 
 /// Cap of the decay ratio: beyond it the estimate `1 / sqrt(1 - r^2)` would explode.
@@ -69,24 +70,11 @@ impl Indication {
         self
     }
 
-    /// Dörfler marking: the fewest leading units holding `theta` of the markable squared
-    /// indicator (units with `eta = 0` are never marked).
+    /// Dörfler marking ([`dorfler`]): the fewest leading units holding `theta` of the
+    /// markable squared indicator (units with `eta = 0` are never marked).
     pub fn dorfler(&self, theta: f64) -> usize {
-        let total: f64 = self.units.iter().map(|u| u.eta * u.eta).sum();
-        if total <= 0.0 {
-            return 0;
-        }
-        let mut acc = 0.0;
-        for (i, u) in self.units.iter().enumerate() {
-            if u.eta <= 0.0 {
-                return i;
-            }
-            acc += u.eta * u.eta;
-            if acc >= theta * total {
-                return i + 1;
-            }
-        }
-        self.units.len()
+        let eta: Vec<f64> = self.units.iter().map(|u| u.eta).collect();
+        dorfler(&eta, theta)
     }
 }
 

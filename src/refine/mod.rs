@@ -65,16 +65,18 @@ mod params;
 mod refinement;
 mod refiner;
 mod samples;
-mod tree;
 
 #[cfg(test)]
 mod tests;
 
+pub use crate::adaptive::tree::interval::{
+    cell_of, support_cells, Leaf, WaveletTree, ACTIVE_SET_MAX_LEVEL,
+};
+pub use crate::adaptive::StopReason;
 pub use error::RefineError;
 pub use measure::{grid_error, quadrature_error, ErrorFigures, Reconstruction};
 pub use oracle::{ExpressionError, ExpressionOracle, SampleOracle, SignalOracle};
 pub use params::{Indicator, RefineParams, MAX_DEPTH_LIMIT};
 pub use refinement::{Refinement, RoundLog, RoundTimes};
-pub use refiner::{refine, Refiner, Step, StopReason};
+pub use refiner::{refine, Refiner, Step};
 pub use samples::{Sample, SampleOrigin};
-pub use tree::{cell_of, support_cells, Leaf, WaveletTree, ACTIVE_SET_MAX_LEVEL};

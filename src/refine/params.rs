@@ -7,11 +7,7 @@ use crate::basis::{minimum_level, FilterFamily, MAX_VANISHING_MOMENTS};
 use crate::sampling::{Domain, Layout};
 use crate::solve::GlobalLsParams;
 
-/// Deepest wavelet level the refiner accepts: a level-52 leaf of the unit interval is
-/// `2^-52`, two ulps near 1, so the resolution of `f64` ends the refinement before (stop
-/// reason `Resolution`: near `t = 0.6` at depth ~48, nearer to 0 deeper). Every sample caches
-/// the values of its `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
-pub const MAX_DEPTH_LIMIT: u32 = 52;
+pub use crate::adaptive::tree::interval::MAX_DEPTH_LIMIT;
 
 /// How the refiner decides where the signal is not yet resolved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]

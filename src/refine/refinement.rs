@@ -8,9 +8,9 @@ use serde::Serialize;
 use sprs::CsMat;
 
 use super::measure::{ErrorFigures, Reconstruction};
-use super::refiner::StopReason;
-use super::tree::WaveletTree;
 use super::{RefineError, RefineParams, Sample};
+use crate::adaptive::tree::interval::WaveletTree;
+use crate::adaptive::StopReason;
 use crate::kernel::{kernel_matrix, ActiveSet, LevelChoice};
 use crate::reconstruct::{Fit, SolveReport, Timings};
 use crate::solve::{global_ls, GlobalReport};

@@ -5,7 +5,6 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use serde::Serialize;
 use sprs::CsMat;
 
 use super::indicator::{coefficient_indication, residual_indication, Indication};
@@ -13,30 +12,14 @@ use super::measure::ErrorFigures;
 use super::normal::{NormalEquations, TrackedPoints};
 use super::refinement::{tree_fit, Refinement, RoundLog, RoundTimes};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
-use super::tree::{Leaf, WaveletTree};
 use super::{Indicator, RefineError, RefineParams, Sample, SampleOracle};
+use crate::adaptive::tree::interval::{Leaf, WaveletTree};
+use crate::adaptive::StopReason;
 
 use crate::basis::{CdvBasis, FilterBank};
 use crate::kernel::ActiveSet;
 use crate::reconstruct::Fit;
 use crate::solve::{global_ls, GlobalMethod, SolveError};
-
-/// Why the refiner stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// The estimated RMS error is below the tolerance.
-    Tolerance,
-    /// What is left of the estimated error sits at the depth limit.
-    DepthLimit,
-    /// The next marked refinement would exceed the sample budget.
-    Budget,
-    /// What is left of the estimated error sits where a deeper leaf could not hold `ceil(rho)`
-    /// distinct `f64` positions (the resolution of `f64` near that position).
-    Resolution,
-    /// The safety limit on rounds.
-    MaxRounds,
-}
 
 /// Ulps a sampling stratum of a new leaf must span (jittered points in the middle 80 % of
 /// the stratum stay distinct and inside their leaf after the domain map).

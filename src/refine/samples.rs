@@ -6,8 +6,8 @@ use rand::Rng;
 use rand_pcg::Pcg64;
 use serde::Serialize;
 
-use super::tree::Leaf;
 use super::{RefineError, SampleOracle};
+use crate::adaptive::tree::interval::{range_in, Leaf};
 use crate::basis::CdvBasis;
 use crate::kernel::EvaluationRows;
 use crate::sampling::Domain;
@@ -118,19 +118,6 @@ impl SampleStore {
     pub fn range_in(&self, leaf: &Leaf) -> &[f64] {
         range_in(&self.sorted, leaf)
     }
-}
-
-/// The part of the ascending unit positions `sorted` inside `leaf`.
-pub(crate) fn range_in<'a>(sorted: &'a [f64], leaf: &Leaf) -> &'a [f64] {
-    let (lo, hi) = leaf.unit_bounds();
-    let last = leaf.cell + 1 == 1u64 << leaf.level;
-    let a = sorted.partition_point(|&t| t < lo);
-    let b = if last {
-        sorted.len()
-    } else {
-        sorted.partition_point(|&t| t < hi)
-    };
-    &sorted[a..b.max(a)]
 }
 
 /// New unit positions that bring every leaf to `need` samples: each short leaf is cut into

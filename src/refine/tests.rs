@@ -2,8 +2,8 @@
 //! expression oracle.
 
 use super::indicator::{Indication, Unit};
-use super::tree::{cell_of, support_cells, WaveletTree};
 use super::{ExpressionOracle, SampleOracle};
+use crate::adaptive::tree::interval::{cell_of, support_cells, WaveletTree};
 use crate::basis::{minimum_level, CdvBasis, FilterBank, FilterFamily};
 use crate::sampling::Domain;
 

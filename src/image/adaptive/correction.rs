@@ -38,7 +38,7 @@
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop ([`super::refine_image`]) and the file protocol
-//! ([`super::protocol::PlanState::reconstruct`]) compute it here from the final fit and its
+//! (`protocol::PlanState::reconstruct`) compute it here from the final fit and its
 //! noise estimate, so the two give the same pixels bit for bit.
 //!
 //! [`AdaptiveParams::residual_z`]: super::AdaptiveParams::residual_z
@@ -47,8 +47,8 @@ use serde::{Deserialize, Serialize};
 
 use super::fit::TreeFit;
 use super::significance::residuals;
-use super::tree::QuadTree;
 use super::AdaptiveError;
+use crate::adaptive::QuadTree;
 use crate::image::{ImagePlane, PixelImage};
 
 /// Standard errors of the residual mean beyond which a pixel is corrected (the default of

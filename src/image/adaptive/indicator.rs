@@ -28,7 +28,7 @@
 //! Tried besides: nothing yet in 2D (the 1D refiner's residual indicator at probe points is the
 //! next candidate; see the issue notes).
 
-use super::tree::{Cell, QuadTree};
+use crate::adaptive::{Cell, QuadTree};
 
 /// The indicator of one fit.
 #[derive(Clone, Debug, Default)]

@@ -1,17 +1,19 @@
 //! Adaptive sampling on the image plane (DESIGN §6–7; issue 13): a quadtree of the
 //! non-standard tensor basis that spends samples where the scene needs them.
 //!
-//! * [`tree`]: the 2D wavelet tree, active functions closed under "parent present", local
-//!   depth per region, slots (leaves) and their samples;
+//! * [`QuadTree`] (in the adaptive core, [`crate::adaptive`], with Dörfler marking
+//!   ([`marking`]) and the stop reasons shared with 1D): the 2D wavelet tree, active functions
+//!   closed under "parent present", local depth per region, slots (leaves) and their samples;
 //! * [`fit`]: least squares on the tree (sparse Cholesky of `K_T^T K_T`, all channels from
 //!   one factor) and exact box pixels through the 2D synthesis;
 //! * [`gram`]: `K_T^T K_T`, assembled in parallel, deterministically, and updated between
 //!   rounds;
-//! * [`indicator`]: predicted coefficients of the missing children, per slot;
+//! * `indicator`: predicted coefficients of the missing children, per slot;
 //! * [`significance`]: which of them stand out of the samples' noise (probe fits);
-//! * [`refiner`]: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop): fit, indicate, mark (Dörfler, within the budget), deepen, add
-//!   samples in the new slots so that every slot keeps `ceil(rho)` samples; stop at a
-//!   tolerance, the depth limit or the sample budget;
+//! * `refiner`: the rounds ([`ImagePlan::step`], one round; [`refine_image`], the loop):
+//!   fit, indicate, mark (Dörfler, within the budget), deepen, add samples in the new slots
+//!   so that every slot keeps `ceil(rho)` samples; stop at a tolerance, the depth limit or
+//!   the sample budget;
 //! * [`protocol`]: the rounds driven by a renderer through files (state, fingerprints);
 //! * [`correction`]: the output pixels, the fit as a control variate (box pixels plus the
 //!   significant mean residual of each pixel's samples; the default output);
@@ -24,25 +26,26 @@ pub mod experiment;
 pub mod figure;
 pub mod fit;
 pub mod gram;
-pub mod indicator;
-pub mod marking;
+mod indicator;
 pub mod pcg;
 pub mod protocol;
-pub mod refiner;
+mod refiner;
 pub mod schwarz;
 pub mod significance;
-pub mod tree;
 
+pub use crate::adaptive::marking;
+/// The quadtree under its old path, for the solver modules' `super::tree` imports.
+use crate::adaptive::tree::quad as tree;
+pub use crate::adaptive::{Cell, QuadTree};
 pub use correction::{PixelEstimate, ResidualCorrection};
 pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, FitState, TreeFit, TreeFitReport};
 pub use gram::TreeGram;
 pub use pcg::TreeSolver;
 pub use refiner::{
-    refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, Decision, ImagePlan, ImageRound,
-    PlanProgress, Round, SamplePositions,
+    refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, AdaptiveTimes, Decision,
+    ImagePlan, ImageRound, PlanProgress, RebuildCost, Round, SamplePositions,
 };
 pub use significance::{NoiseLevel, Significance};
-pub use tree::{Cell, QuadTree};
 
 use thiserror::Error;
 

@@ -38,11 +38,11 @@ use super::fit::TreeFit;
 use super::refiner::{
     AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
 };
-use super::tree::QuadTree;
 use super::AdaptiveError;
+use crate::adaptive::QuadTree;
+use crate::adaptive::StopReason;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 use crate::io::output::{write_new, OutputError};
-use crate::refine::StopReason;
 
 /// The `format` field of a plan state.
 pub const STATE_FORMAT: &str = "rkwave-image-plan";

@@ -50,8 +50,7 @@ use serde::Serialize;
 
 use super::pcg::{multilevel_values, SingleScaleRows};
 use super::position_normal;
-use super::refiner::ImageRound;
-use super::tree::{Cell, QuadTree};
+use crate::adaptive::{Cell, QuadTree};
 
 /// The noise seen by one fit.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -244,34 +243,4 @@ pub fn chi_square_quantile(k: usize, p: f64) -> f64 {
     let a = 2.0 / (9.0 * k);
     let z = normal_upper_quantile(p);
     k * (1.0 - a + z * a.sqrt()).max(0.0).powi(3)
-}
-
-/// The noise test's cut-offs in words: slots left coarse, densifying rounds.
-pub(crate) fn noise_notes(rounds: &[ImageRound], false_alarm: f64) -> Vec<String> {
-    let mut notes = Vec::new();
-    let Some(last) = rounds.last() else {
-        return notes;
-    };
-    if let Some(level) = &last.noise {
-        if last.insignificant > 0 {
-            notes.push(format!(
-                "{} slots not deepened because their detail is not significant (within the \
-                 noise at false-alarm rate {false_alarm}; estimated noise sigma {:.3e} from the \
-                 residuals)",
-                last.insignificant, level.sigma
-            ));
-        }
-    }
-    let densified: Vec<String> = rounds
-        .iter()
-        .filter_map(|r| r.densified_to.map(|t| format!("round {} to {t}", r.round)))
-        .collect();
-    if !densified.is_empty() {
-        notes.push(format!(
-            "nothing significant left to deepen: the budget raised the samples per slot ({}), \
-             so the fit averages the noise",
-            densified.join(", ")
-        ));
-    }
-    notes
 }

@@ -18,6 +18,12 @@ use crate::basis::{BasisError, CdvBasis, FilterBank, FunctionId, FunctionKind};
 use crate::kernel::ActiveSet;
 use crate::sampling::Domain;
 
+/// Deepest wavelet level the refiner accepts: a level-52 leaf of the unit interval is
+/// `2^-52`, two ulps near 1, so the resolution of `f64` ends the refinement before (stop
+/// reason `Resolution`: near `t = 0.6` at depth ~48, nearer to 0 deeper). Every sample caches
+/// the values of its `(D - n + 2)(2p - 1)` structurally nonzero functions (16 bytes each).
+pub const MAX_DEPTH_LIMIT: u32 = 52;
+
 /// Deepest tree [`WaveletTree::active_set`] converts: the evaluator's limit (an [`ActiveSet`]
 /// of a sparse or deep tree looks columns up by binary search instead of a dense map).
 pub const ACTIVE_SET_MAX_LEVEL: u32 = crate::basis::MAX_LEVEL;
@@ -343,4 +349,17 @@ impl WaveletTree {
         }
         Ok(ActiveSet::from_indices(self.basis()?, self.indices()))
     }
+}
+
+/// The part of the ascending unit positions `sorted` inside `leaf`.
+pub(crate) fn range_in<'a>(sorted: &'a [f64], leaf: &Leaf) -> &'a [f64] {
+    let (lo, hi) = leaf.unit_bounds();
+    let last = leaf.cell + 1 == 1u64 << leaf.level;
+    let a = sorted.partition_point(|&t| t < lo);
+    let b = if last {
+        sorted.len()
+    } else {
+        sorted.partition_point(|&t| t < hi)
+    };
+    &sorted[a..b.max(a)]
 }

@@ -1,12 +1,14 @@
-//! Dörfler marking on any list of indicators (the rule of the 1D refiner's
-//! `Indication::dorfler`, here generic so the 2D refiner shares it rather than copies it).
+//! Marking on any list of indicators, shared by the 1D and the 2D refiner: Dörfler's bulk
+//! criterion (the fewest leading `eta_i`, sorted descending, with
+//! `sum_{i<n} eta_i^2 >= theta sum_i eta_i^2`), the prefix a budget pays for, and the
+//! spreading of a round's spare samples (2D).
 
 /// Dörfler (bulk) marking: given indicators `eta` sorted in descending order, the fewest
 /// leading ones whose squares hold at least `theta` of `sum eta^2`. Indicators `<= 0` are never
 /// marked; an all-zero list marks nothing.
 ///
 /// ```
-/// use rkwave::image::adaptive::marking::dorfler;
+/// use rkwave::adaptive::marking::dorfler;
 /// assert_eq!(dorfler(&[3.0, 2.0, 1.0], 0.5), 1); // 9 >= 0.5 * 14
 /// assert_eq!(dorfler(&[3.0, 2.0, 1.0], 0.9), 2); // 13 >= 12.6
 /// assert_eq!(dorfler(&[0.0, 0.0], 0.5), 0);
@@ -68,7 +70,7 @@ pub enum SpreadRule {
 /// per slot, summing to `extra` (none if there is no slot).
 ///
 /// ```
-/// use rkwave::image::adaptive::marking::spread;
+/// use rkwave::adaptive::marking::spread;
 /// assert_eq!(spread(&[1.0, 1.0, 1.0], &[2, 4, 2], 4), vec![2, 0, 2]); // water-filling
 /// assert_eq!(spread(&[3.0, 1.0], &[0, 0], 8), vec![6, 2]); // n ~ w
 /// assert_eq!(spread(&[0.0, 0.0], &[1, 1], 3).iter().sum::<usize>(), 3);

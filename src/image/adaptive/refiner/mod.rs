@@ -1,0 +1,58 @@
+//! The adaptive rounds on the image plane (the 2D analogue of [`crate::refine`]).
+//!
+//! 1. Base: the tree full up to the base step `s0` (slots of `V_{cx+s0} (x) V_{cy+s0}`),
+//!    `ceil(rho)` jittered-stratified samples in every slot.
+//! 2. Round: fit on the tree ([`super::fit_tree`]); indicate ([`super::indicator`]); stop if the
+//!    estimated RMS error `sqrt(sum eta^2 / (W H))` is at most the tolerance, if nothing below
+//!    the depth limit can be marked, or at the round limit; otherwise mark by Dörfler
+//!    ([`super::marking::dorfler`], at least one slot; extended in indicator order until the
+//!    round adds `min_growth` times the current samples), keep the longest prefix the remaining
+//!    budget pays for ([`super::marking::within_budget`]), activate the marked slots and top
+//!    up each of their four children to `ceil(rho)` samples (`ceil(rho_limit)` at the depth
+//!    limit). *Least growth*: every sampling round adds at least `min_growth` times the
+//!    samples of its fit, or the rest of the budget if less; when the marked slots cost less,
+//!    the spare samples are spread over the slots that stay slots
+//!    ([`super::marking::spread`], by [`AdaptiveParams::spread`]), so a budget-driven run
+//!    ends at the budget after about `log(budget / base) / log(1 + min_growth)` rounds
+//!    (measured: at 128², 4 spp, camera stopped at the round limit, 40, with 42,428 of
+//!    65,536 samples spent, rounds after the third adding 24 to 3,000 samples each).
+//!    Noise ([`super::significance`]): slots whose parent's detail is within the noise are
+//!    not markable; when nothing significant is left, a *densifying* round (no cell marked)
+//!    raises the samples of every slot instead (up to double, at least the least growth),
+//!    and later children are topped up to the raised count.
+//!
+//! One round is [`ImagePlan::step`]: given the tree and every sample so far, it fits and either
+//! stops or deepens the tree and returns the next positions. [`refine_image`] is a loop over
+//! it with a scene as the oracle; the file protocol (module `protocol`) runs the same step
+//! once per call, so a renderer outside the process gets the same rounds.
+//!
+//! Invariant after every round: every slot holds at least `ceil(rho)` samples, and the samples
+//! never exceed the budget. Deterministic for a seed: the marked slots are processed in
+//! indicator order (ties by cell) with one PCG-64 stream per round.
+//!
+//! Every round refits: by default the direct solve (kernel rows, `G` continued from the last
+//! round's, Cholesky), bit-identical to a rebuild, so the file protocol's rounds are the
+//! in-process ones bit for bit. [`AdaptiveParams::solver`] may choose matrix-free PCG
+//! ([`super::pcg`]), which in the in-process loop starts from the last round's coefficients;
+//! the file protocol starts each PCG round from 0, so under PCG its fits agree with the
+//! loop's to the PCG tolerance, not bit for bit.
+
+//!
+//! The files, by job: [`params`] (the parameters and their ranges), [`report`] (what a round
+//! and a run report), [`positions`] (drawing new sample positions), [`plan`] (the plan between
+//! rounds: construction, resumption, the fit), [`step`] (one round as named steps: fit,
+//! indicate, stop), [`deepen`] (densify, or mark, deepen and sample), [`run`] (the in-process loop).
+
+mod deepen;
+mod params;
+mod plan;
+mod positions;
+mod report;
+mod run;
+mod step;
+
+pub use params::AdaptiveParams;
+pub use plan::{Decision, ImagePlan, PlanProgress, Round};
+pub use positions::SamplePositions;
+pub use report::{AdaptiveImage, AdaptiveReport, AdaptiveTimes, ImageRound, RebuildCost};
+pub use run::refine_image;

@@ -1,0 +1,334 @@
+//! The plan between rounds ([`ImagePlan`]): the parameters, the tree and how it grew; its
+//! construction from a budget, its resumption from a progress record and the round's fit.
+
+use serde::{Deserialize, Serialize};
+
+use super::super::correction::ResidualCorrection;
+use super::super::fit::{fit_tree_updating, FitState, TreeFit};
+use super::super::pcg::{SingleScaleRows, TreeSolver};
+use super::super::significance::{probe_values, Significance};
+use super::super::AdaptiveError;
+use super::positions::round_rng;
+use super::report::{fit_notes, noise_notes};
+use super::{AdaptiveParams, AdaptiveReport, AdaptiveTimes, ImageRound, SamplePositions};
+use crate::adaptive::StopReason;
+use crate::adaptive::{Cell, QuadTree};
+use crate::basis::tensor::TensorBasis;
+use crate::basis::FilterFamily;
+use crate::image::ImagePlane;
+
+/// What the refiner decided after a round's fit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Decision {
+    /// Sample these positions, then run the next round on every sample so far.
+    Sample(SamplePositions),
+    /// Stop: the round's fit is the result.
+    Stop(StopReason),
+}
+
+/// One round of the refiner ([`ImagePlan::step`]): its fit, its log and its decision.
+#[derive(Clone, Debug)]
+pub struct Round {
+    /// What the round saw and did.
+    pub log: ImageRound,
+    /// The fit on the tree as it was at the start of the round.
+    pub fit: TreeFit,
+    /// Positions to sample next, or the stop.
+    pub decision: Decision,
+    /// Seconds: the fit.
+    pub fit_s: f64,
+    /// Seconds: indicator, marking, deepening.
+    pub refine_s: f64,
+    /// Seconds: drawing the new positions.
+    pub position_s: f64,
+}
+
+/// How far a plan has come: enough, with its parameters and plane, to rebuild it
+/// ([`ImagePlan::resume`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PlanProgress {
+    /// The cells marked in rounds `1, 2, ...` (round `r` deepened `marked[r - 1]`), in the
+    /// order they were activated: the tree is the base tree plus these cells.
+    pub marked: Vec<Vec<Cell>>,
+    /// Samples in the last round's fit (0 before the first fit).
+    pub samples_fitted: usize,
+}
+
+/// The refiner between rounds: parameters, the tree and how it grew.
+///
+/// One round ([`ImagePlan::step`]) takes every sample so far (which must include the base
+/// positions of [`ImagePlan::base_positions`] and the positions of every earlier decision),
+/// fits on the tree, and either stops or deepens the tree and returns the positions to sample
+/// next. [`super::refine_image`] is a loop over it with a scene as the oracle; a renderer outside the
+/// process drives the same rounds through files (module `protocol`).
+#[derive(Clone, Debug)]
+pub struct ImagePlan {
+    pub(super) params: AdaptiveParams,
+    pub(super) plane: ImagePlane,
+    pub(super) tree: QuadTree,
+    pub(super) base_steps: u32,
+    pub(super) per_slot: usize,
+    pub(super) progress: PlanProgress,
+    /// The last fit's solver state, continued by the next round's fit ([`FitState`]: the
+    /// direct solve's normal matrix, the same bits without it, see [`super::super::gram`]; PCG's
+    /// diagonal; a resumed plan starts without).
+    pub(super) state: FitState,
+    /// The last fit's coefficients per image channel, then per probe channel of the noise
+    /// test (a sample keeps its probe values), PCG's start in the next round (solver
+    /// state only, kept for [`TreeSolver::Pcg`]: the tree only grows, so they are a point of
+    /// the next tree's space with its new functions at 0; a resumed plan starts from 0).
+    pub(super) start: Option<Vec<Vec<f64>>>,
+}
+
+impl ImagePlan {
+    /// The plan before any sample: validated parameters, the basis at the depth limit and the
+    /// base tree (full up to the base step, chosen from the budget unless given).
+    pub fn new(plane: ImagePlane, params: &AdaptiveParams) -> Result<Self, AdaptiveError> {
+        params.validate()?;
+        // A lower bound of what the budget's samples hold at the last fit: the position (16
+        // bytes), one value (8) and the finest level's (2p - 1)^2 kernel entries (16 each).
+        let per_sample = 24.0 + 16.0 * ((2 * params.p - 1) as f64).powi(2);
+        crate::resources::check(
+            || format!("a budget of {} samples", params.budget),
+            params.budget as f64 * per_sample,
+            || {
+                format!(
+                    "lower the budget to at most {} samples",
+                    (crate::resources::memory_limit() as f64 / per_sample) as u64
+                )
+            },
+        )?;
+        let (w, h) = (plane.width(), plane.height());
+        let levels = (
+            finest_level(w, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
+            finest_level(h, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
+        );
+        let basis = TensorBasis::new(params.p, FilterFamily::cdv_default(params.p), w, h, levels)?;
+        let steps = basis.steps();
+        let (cx, cy) = basis.coarse_levels();
+        let per_slot = params.rho.ceil() as usize;
+        let base_cost = |s: u32| (1usize << (cx + s)) * (1usize << (cy + s)) * per_slot;
+        let s0 = match params.base_level {
+            Some(level) => {
+                if level <= cx || level > cx + steps {
+                    return Err(AdaptiveError::Parameter {
+                        parameter: "base_level",
+                        value: level.to_string(),
+                        expected: "a level above the coarse level and at most the depth limit",
+                    });
+                }
+                level - cx
+            }
+            None => (1..steps)
+                .rev()
+                .find(|&s| base_cost(s) as f64 <= params.base_fraction * params.budget as f64)
+                .unwrap_or(1),
+        };
+        if base_cost(s0) > params.budget {
+            return Err(AdaptiveError::BudgetTooSmall {
+                budget: params.budget,
+                base: base_cost(s0),
+                slots: base_cost(s0) / per_slot,
+                per_slot,
+            });
+        }
+        Ok(Self {
+            params: *params,
+            plane,
+            tree: QuadTree::uniform(basis, s0),
+            base_steps: s0,
+            per_slot,
+            progress: PlanProgress::default(),
+            state: FitState::default(),
+            start: None,
+        })
+    }
+
+    /// The plan after the rounds recorded in `progress`: the base tree with the marked cells
+    /// activated in order. Fails with [`AdaptiveError::History`] if a recorded cell is not a
+    /// slot below the depth limit of the tree so far (a progress record of another run).
+    pub fn resume(
+        plane: ImagePlane,
+        params: &AdaptiveParams,
+        progress: PlanProgress,
+    ) -> Result<Self, AdaptiveError> {
+        let mut plan = Self::new(plane, params)?;
+        for (r, cells) in progress.marked.iter().enumerate() {
+            for &cell in cells {
+                let (w, h) = plan.tree.cell_dims(cell.step.min(plan.tree.steps()));
+                let fault = if cell.step >= plan.tree.steps() || cell.kx >= w || cell.ky >= h {
+                    Some("outside the tree's cells below the depth limit")
+                } else if plan.tree.is_active(cell) {
+                    Some("already active")
+                } else if cell.parent().is_some_and(|q| !plan.tree.is_active(q)) {
+                    Some("its parent is inactive")
+                } else {
+                    None
+                };
+                if let Some(reason) = fault {
+                    return Err(AdaptiveError::History {
+                        round: r + 1,
+                        cell: format!("(step {}, kx {}, ky {})", cell.step, cell.kx, cell.ky),
+                        reason,
+                    });
+                }
+                plan.tree.activate(cell);
+            }
+        }
+        plan.progress = progress;
+        Ok(plan)
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &AdaptiveParams {
+        &self.params
+    }
+    /// The image plane.
+    pub fn plane(&self) -> ImagePlane {
+        self.plane
+    }
+    /// The tree as it stands (deepened by every decision so far).
+    pub fn tree(&self) -> &QuadTree {
+        &self.tree
+    }
+    /// The base step `s0`: base slots at levels `(cx + s0, cy + s0)`.
+    pub fn base_steps(&self) -> u32 {
+        self.base_steps
+    }
+    /// Samples per slot, `ceil(rho)`.
+    pub fn per_slot(&self) -> usize {
+        self.per_slot
+    }
+    /// How far the plan has come.
+    pub fn progress(&self) -> &PlanProgress {
+        &self.progress
+    }
+    /// The next round's number (0: the base fit).
+    pub fn round(&self) -> usize {
+        self.progress.marked.len()
+    }
+
+    /// The base positions: `ceil(rho)` jittered-stratified positions in every base slot, from
+    /// the seed's round-0 stream (the same for every call).
+    pub fn base_positions(&self) -> SamplePositions {
+        let base = QuadTree::uniform(self.tree.basis().clone(), self.base_steps);
+        let mut rng = round_rng(self.params.seed, 0);
+        let mut out = SamplePositions::default();
+        for slot in base.slots() {
+            out.stratified(base.rect(slot), self.per_slot, &mut rng);
+        }
+        out
+    }
+
+    /// The round's fit on the tree as it stands, and with the noise test on, the test (the
+    /// probe channels fitted beside the image's with the same factorization, seeded by the
+    /// seed, the round and the positions). The file protocol reconstructs with this too, so
+    /// its pixels are the in-process loop's bit for bit.
+    pub fn fit(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+    ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
+        self.fit_updating(
+            xs,
+            ys,
+            values,
+            self.params.solver,
+            None,
+            &mut FitState::default(),
+        )
+    }
+
+    /// [`ImagePlan::fit`] continuing the solver state `state` ([`FitState`]),
+    /// PCG starting from `start` (per image channel, then per probe channel; channels
+    /// without one start from 0).
+    pub(super) fn fit_updating(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+        solver: TreeSolver,
+        start: Option<&[Vec<f64>]>,
+        state: &mut FitState,
+    ) -> Result<(TreeFit, Option<Significance>), AdaptiveError> {
+        let params = &self.params;
+        let tree = &self.tree;
+        let ch = values.len();
+        if params.false_alarm <= 0.0 {
+            return Ok((
+                fit_tree_updating(tree, xs, ys, values, solver, start, state)?,
+                None,
+            ));
+        }
+        let probes = probe_values(params.seed, xs, ys, params.probes);
+        let mut all: Vec<&[f64]> = values.to_vec();
+        all.extend(probes.iter().map(|p| p.as_slice()));
+        let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, state)?;
+        // the rows of the fit (PCG's, continued) or continued here (the direct solve's)
+        let rows = SingleScaleRows::continued(state.rows.take(), tree.basis(), xs, ys);
+        let significance = Significance::new(
+            tree,
+            &fit.coefficients,
+            &rows,
+            &all,
+            ch,
+            params.false_alarm,
+            tree.slots().len(),
+        );
+        state.rows = Some(rows);
+        fit.coefficients.truncate(ch);
+        Ok((fit, Some(significance)))
+    }
+
+    /// The report of a finished run: `base_samples` of `samples` in total, the final `fit`,
+    /// the reason to stop and the log of every round ([`AdaptiveReport::pixels`] empty: the
+    /// caller that computes the output pixels fills it in, as [`super::refine_image`] does).
+    pub fn report(
+        &self,
+        base_samples: usize,
+        samples: usize,
+        fit: &TreeFit,
+        stop: StopReason,
+        rounds: Vec<ImageRound>,
+        times: AdaptiveTimes,
+    ) -> AdaptiveReport {
+        let (cx, cy) = self.tree.basis().coarse_levels();
+        let mut notes = fit_notes(&fit.report);
+        notes.extend(noise_notes(&rounds, self.params.false_alarm));
+        let spread: Vec<String> = rounds
+            .iter()
+            .filter(|r| r.spread > 0)
+            .map(|r| format!("round {}: {}", r.round, r.spread))
+            .collect();
+        if !spread.is_empty() {
+            notes.push(format!(
+                "the marked slots cost less than the least growth ({} x the samples, or the rest \
+                 of the budget): spare samples spread over the other slots by {:?} ({})",
+                self.params.min_growth,
+                self.params.spread,
+                spread.join(", ")
+            ));
+        }
+        AdaptiveReport {
+            levels: self.tree.basis().levels(),
+            coarse_levels: (cx, cy),
+            base_levels: (cx + self.base_steps, cy + self.base_steps),
+            base_samples,
+            samples,
+            budget: self.params.budget,
+            functions: fit.report.functions,
+            cells_per_step: self.tree.cells_per_step(),
+            stop,
+            rounds,
+            times,
+            pixels: ResidualCorrection::default(),
+            notes,
+        }
+    }
+}
+
+/// The finest level along an axis of `size` pixels, `below` levels under the pixel.
+fn finest_level(size: usize, below: u32) -> u32 {
+    (size.max(1) as f64).log2().ceil() as u32 + below
+}
