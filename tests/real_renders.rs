@@ -322,8 +322,9 @@ fn read_image_npy(path: &Path) -> ((usize, usize, usize), Vec<Vec<f64>>) {
 /// per scene, in dB. Measured with main's rkwave at de5b629 (`reconstruct --dim 2`, p = 3)
 /// on these fixtures: direct 28.05 vs 31.79 (-3.74), cornell 24.53 vs 27.55 (-3.02), thinlens
 /// 28.43 vs 29.23 (-0.80); the bound is the measured gap plus 1 dB. The uniform fit LOSES to
-/// the box film on every fixture (as in the 128 x 128 table of `docs/measurements.md`); this
-/// guards against a further regression, it asserts no win.
+/// the box film on every fixture (at 128 x 128, `docs/measurements.md`, it loses on direct and
+/// cornell at 4, 8 and 16 spp and wins only on thinlens); this guards against a further
+/// regression, it asserts no win.
 const UNIFORM_GAP_DB: [(&str, f64); 3] = [("direct", 4.74), ("cornell", 4.02), ("thinlens", 1.80)];
 
 #[test]
