@@ -16,6 +16,8 @@ to their neighbours. The image is the box film (the mean of each pixel's samples
 
 import numpy as np
 
+from metrics import box_film
+
 ROUNDS = 4
 
 
@@ -41,8 +43,6 @@ def cycles_adaptive(renderer, width, height, spp, seed):
         counts += extra
         budget_left -= k * n0
     samples = np.vstack(batches)
-    from metrics import box_film
-
     return box_film(samples[:, 0], samples[:, 1], samples[:, 2:], width, height), samples, counts
 
 
@@ -59,7 +59,6 @@ def _error(samples, width, height):
     in_a = np.zeros(len(sp), dtype=bool)
     in_a[order] = rank % 2 == 0
     n = np.bincount(pix, minlength=width * height).astype(np.float64)
-    err = np.zeros(width * height)
     diff = np.zeros(width * height)
     total = np.zeros(width * height)
     for c in range(3):

@@ -4,7 +4,6 @@ Each call's wall time (process start, reading and writing files included) is sum
 `seconds`; the renderer's time is kept apart by the caller.
 """
 
-import json
 import os
 import subprocess
 import time
