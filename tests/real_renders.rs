@@ -88,8 +88,8 @@ fn naive_box(f: &Fixture) -> (Vec<Vec<f64>>, Vec<usize>) {
     for i in 0..f.xs.len() {
         let p = pixel(f.xs[i], f.ys[i]);
         counts[p] += 1;
-        for c in 0..3 {
-            sums[c][p] += f.rgb[c][i];
+        for (sum, values) in sums.iter_mut().zip(&f.rgb) {
+            sum[p] += values[i];
         }
     }
     for s in &mut sums {
@@ -170,9 +170,9 @@ fn rkwave_box_splat_is_the_naive_box_film() {
         // differ by at most (SPP + 1) eps max|v| per pixel; 2 (SPP + 1) eps covers both sides.
         let vmax = f.rgb.iter().flatten().fold(0.0f64, |m, &v| m.max(v.abs()));
         let tol = 2.0 * (SPP as f64 + 1.0) * f64::EPSILON * vmax;
-        for c in 0..3 {
-            for p in 0..SIZE * SIZE {
-                let d = (image.channels[c][p] - naive[c][p]).abs();
+        for (c, (got, want)) in image.channels.iter().zip(&naive).enumerate() {
+            for (p, (&g, &n)) in got.iter().zip(want).enumerate() {
+                let d = (g - n).abs();
                 assert!(d <= tol, "{scene}: channel {c} pixel {p}: |{d}| > {tol}");
             }
         }
@@ -209,11 +209,12 @@ fn box_film_is_unbiased_against_the_reference() {
     for scene in SCENES {
         let f = load(scene);
         let (box_film, counts) = naive_box(&f);
-        for c in 0..3 {
+        let channels = f.rgb.iter().zip(&box_film).zip(&f.reference);
+        for (c, ((values, boxed), reference)) in channels.enumerate() {
             let mut ss = vec![0.0; SIZE * SIZE];
-            for i in 0..f.xs.len() {
-                let p = pixel(f.xs[i], f.ys[i]);
-                ss[p] += (f.rgb[c][i] - box_film[c][p]).powi(2);
+            for ((&x, &y), &v) in f.xs.iter().zip(&f.ys).zip(values) {
+                let p = pixel(x, y);
+                ss[p] += (v - boxed[p]).powi(2);
             }
             let var: f64 = (0..SIZE * SIZE)
                 .map(|p| {
@@ -221,9 +222,7 @@ fn box_film_is_unbiased_against_the_reference() {
                     ss[p] / (n - 1.0) * (1.0 / n + 1.0 / REF_SPP)
                 })
                 .sum();
-            let bias: f64 = (0..SIZE * SIZE)
-                .map(|p| box_film[c][p] - f.reference[c][p])
-                .sum();
+            let bias: f64 = (0..SIZE * SIZE).map(|p| boxed[p] - reference[p]).sum();
             let sigma = var.sqrt();
             assert!(
                 bias.abs() <= 5.0 * sigma,
@@ -246,12 +245,11 @@ fn box_film_aligns_with_the_reference_only_at_zero_shift() {
         let clip = |v: f64| v.clamp(0.0, 1.0);
         let mse_at = |dx: isize, dy: isize| -> f64 {
             let mut sum = 0.0;
-            for c in 0..3 {
+            for (boxed, reference) in box_film.iter().zip(&f.reference) {
                 for y in 1..SIZE - 1 {
                     for x in 1..SIZE - 1 {
                         let (rx, ry) = ((x as isize + dx) as usize, (y as isize + dy) as usize);
-                        let d =
-                            clip(box_film[c][y * SIZE + x]) - clip(f.reference[c][ry * SIZE + rx]);
+                        let d = clip(boxed[y * SIZE + x]) - clip(reference[ry * SIZE + rx]);
                         sum += d * d;
                     }
                 }
