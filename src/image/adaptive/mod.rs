@@ -19,6 +19,7 @@
 //! * `figure`: the image, the local depth and the samples side by side.
 
 pub mod correction;
+mod diagonal;
 pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;
@@ -26,11 +27,14 @@ pub mod fit;
 pub mod gram;
 pub mod indicator;
 pub mod marking;
+mod operator;
 pub mod pcg;
 pub mod protocol;
 pub mod refiner;
 pub mod schwarz;
 pub mod significance;
+mod single_scale;
+mod solver;
 pub mod tree;
 
 pub use correction::{PixelEstimate, ResidualCorrection};
