@@ -76,7 +76,13 @@ fn check(name: &str, a: &CsMat<f64>, ad: &DMatrix<f64>, pre: &dyn Preconditioner
         .collect();
     let refs: Vec<&[f64]> = bs.iter().map(|b| b.as_slice()).collect();
     let tol = 1e-10;
-    let (xs, report) = cg::pcg(&SparseOperator::new(a), pre, &refs, None, &params(tol, 10 * n));
+    let (xs, report) = cg::pcg(
+        &SparseOperator::new(a),
+        pre,
+        &refs,
+        None,
+        &params(tol, 10 * n),
+    );
     assert!(report.all_converged(), "{name}, k {k}: {report:?}");
     let kap = kappa(ad);
     let chol = ad.clone().cholesky().expect("A is positive definite");
@@ -87,7 +93,10 @@ fn check(name: &str, a: &CsMat<f64>, ad: &DMatrix<f64>, pre: &dyn Preconditioner
         let res = report.relative_residual[c];
         assert!(res <= tol, "{name}, k {k}, channel {c}: residual {res:e}");
         let bound = 2.0 * kap * (res + n as f64 * f64::EPSILON);
-        assert!(rel <= bound, "{name}, k {k}, channel {c}: {rel:e} > {bound:e}");
+        assert!(
+            rel <= bound,
+            "{name}, k {k}, channel {c}: {rel:e} > {bound:e}"
+        );
         let cond = report.condition.as_ref().expect("asked")[c];
         assert!(cond >= 1.0, "{name}: condition estimate {cond}");
     }
@@ -167,7 +176,13 @@ fn the_iteration_limit_is_reported_not_an_error() {
     let n = 30;
     let (a, _) = normal(&kernel(&mut rng, 90, n));
     let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).sin()).collect();
-    let (x, report) = cg::pcg(&SparseOperator::new(&a), &Identity, &[&b], None, &params(1e-14, 2));
+    let (x, report) = cg::pcg(
+        &SparseOperator::new(&a),
+        &Identity,
+        &[&b],
+        None,
+        &params(1e-14, 2),
+    );
     assert_eq!(report.iterations, vec![2]);
     assert_eq!(report.converged, vec![false]);
     assert!(!report.all_converged() && report.first_unconverged() == Some(0));
@@ -205,7 +220,10 @@ fn cgls_matches_the_dense_least_squares_solution() {
                 let got = DVector::from_iterator(n, (0..n).map(|a| y[a * ch + c]));
                 let rel = (&got - &want).norm() / want.norm();
                 let bound = 2.0 * kap * (report.relative_residual[c] + n as f64 * f64::EPSILON);
-                assert!(rel <= bound, "seed {seed}, ch {ch}, channel {c}: {rel:e} > {bound:e}");
+                assert!(
+                    rel <= bound,
+                    "seed {seed}, ch {ch}, channel {c}: {rel:e} > {bound:e}"
+                );
             }
             let (_, stalled) = cg::cgls(&k, &kt, &d, &f, ch, &params(1e-15, 1));
             assert!(stalled.converged.iter().all(|&c| !c), "{stalled:?}");

@@ -231,7 +231,10 @@ impl SparseCholesky {
 
     /// `B <- A^{-1} B` for every column of `rhs` (`n x k`), from the factor, on `par` threads.
     pub fn solve_in_place(&self, rhs: MatMut<'_, f64>, par: Par) {
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(rhs.ncols(), par));
+        let mut mem = MemBuffer::new(
+            self.symbolic
+                .solve_in_place_scratch::<f64>(rhs.ncols(), par),
+        );
         LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
             rhs,

@@ -35,4 +35,3 @@ pub struct GlobalLs {
     /// Report.
     pub report: GlobalReport,
 }
-

@@ -34,12 +34,12 @@ use super::pcg::{
     pcg_many, DiagonalSums, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX,
 };
 use super::schwarz::{schwarz_pcg, Schwarz, SchwarzReport};
-use crate::solve::cg::CgReport;
 use super::tree::QuadTree;
 use super::AdaptiveError;
 use crate::basis::tensor::TensorValue;
 use crate::image::fit::ImageFitError;
 use crate::image::pixels::{filter_image, PixelIntegrals};
+use crate::solve::cg::CgReport;
 use crate::solve::{normal_ls, GlobalLsParams, RankPolicy};
 
 /// What the tree solve did.

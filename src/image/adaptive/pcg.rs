@@ -43,8 +43,8 @@
 //! the diagonal ([`DiagonalSums`]).
 
 pub use super::diagonal::DiagonalSums;
-pub(crate) use super::single_scale::multilevel_values;
 pub use super::operator::TreeNormalOperator;
+pub(crate) use super::single_scale::multilevel_values;
 pub use super::single_scale::{SingleScaleColumns, SingleScaleRows};
 pub use super::solver::{TreeSolver, DIRECT_FALLBACK_MAX};
 
@@ -97,5 +97,11 @@ pub fn pcg_many(
         condition: ConditionEstimate::Lanczos,
     };
     let b: Vec<&[f64]> = b.iter().map(|b| b.as_slice()).collect();
-    cg::pcg(op, &Jacobi::new(op.inverse_diagonal()), &b, Some(xs), &params)
+    cg::pcg(
+        op,
+        &Jacobi::new(op.inverse_diagonal()),
+        &b,
+        Some(xs),
+        &params,
+    )
 }

@@ -30,8 +30,8 @@ use sprs::CsMat;
 
 use super::tree::{Cell, QuadTree};
 use crate::solve::cg::{
-    self, AdditiveSchwarz, CgParams, CgReport, ConditionEstimate, Preconditioner,
-    ResidualReport, SparseOperator,
+    self, AdditiveSchwarz, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
+    SparseOperator,
 };
 
 /// What the preconditioner holds.

@@ -22,8 +22,7 @@ use sprs::CsMat;
 
 use super::normal::{symmetric_matvec, StencilPattern};
 use crate::solve::cg::{
-    self, CgParams, ConditionEstimate, Identity, LocalInverse, ResidualReport,
-    SymmetricOperator,
+    self, CgParams, ConditionEstimate, Identity, LocalInverse, ResidualReport, SymmetricOperator,
 };
 use crate::solve::cholesky::{CholeskyError, Pivots, SparseCholesky};
 

@@ -169,12 +169,10 @@ pub fn pcg(
             .for_each(|s| s.stepped = s.advance());
         let stepped: Vec<usize> = live.into_iter().filter(|&c| ch[c].stepped).collect();
         apply_preconditioner(pre, &mut ch, &stepped);
-        ch.par_iter_mut()
-            .filter(|s| s.stepped)
-            .for_each(|s| {
-                s.conjugate(tolerance, keep);
-                s.stepped = false;
-            });
+        ch.par_iter_mut().filter(|s| s.stepped).for_each(|s| {
+            s.conjugate(tolerance, keep);
+            s.stepped = false;
+        });
     }
     let residuals: Vec<f64> = match params.residual {
         ResidualReport::Recurred => ch.iter().map(|s| s.residual).collect(),
