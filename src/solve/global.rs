@@ -20,12 +20,16 @@ use faer::linalg::svd::{pseudoinverse_from_svd_scratch, pseudoinverse_from_svd_w
 use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
 use faer::{Mat, Par};
 use rayon::prelude::*;
-use serde::Serialize;
 use sprs::CsMat;
 
+use super::cg::{self, CgParams, ConditionEstimate, ResidualReport};
 use super::normal::factor_solve;
+use super::outcome::{GlobalLs, GlobalReport};
 use super::params::{GlobalLsParams, GlobalMethod, RankPolicy};
-use super::sparse::{check_finite_output, check_values, ldexp, normal_matrix, prepare, raw, spmm};
+use super::sparse::{
+    check_finite_output, check_values, column_scaling, ldexp, normal_matrix, prepare, raw, spmm,
+};
+use super::vectors::interleave;
 use super::SolveError;
 
 /// Largest number of rows or columns [`dense_pinv`] accepts (an `8192 x 8192` SVD with
@@ -170,36 +174,6 @@ pub fn dense_pinv(k: &CsMat<f64>, cutoff: f64) -> Result<DensePinv, SolveError> 
     })
 }
 
-/// What the global solve did.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct GlobalReport {
-    /// Method used.
-    pub method: GlobalMethod,
-    /// CGLS iterations per channel (0 for Cholesky).
-    pub iterations: Vec<usize>,
-    /// Relative normal-equation residual `||K^T (f - K c)|| / ||K^T f||` per channel
-    /// (computed on the equilibrated system).
-    pub residuals: Vec<f64>,
-    /// Ridge added to the unit diagonal of the equilibrated normal matrix (0 = none).
-    pub ridge: f64,
-    /// Smallest pivot `L_ii^2` of the equilibrated Cholesky factor (Cholesky only; a lower
-    /// bound proxy for `1 / cond(K)^2`), 0 for CGLS.
-    pub min_pivot: f64,
-    /// Stored entries of `K^T K` (both triangles), 0 for CGLS.
-    pub normal_nnz: usize,
-    /// Stored entries of the Cholesky factor `L`, 0 for CGLS.
-    pub factor_nnz: usize,
-}
-
-/// Coefficients of the global least-squares fit.
-#[derive(Debug, Clone)]
-pub struct GlobalLs {
-    /// `c[ch] = argmin ||K c - f[ch]||`, `P` values per channel.
-    pub coefficients: Vec<Vec<f64>>,
-    /// Report.
-    pub report: GlobalReport,
-}
-
 /// Global sparse least squares for every channel (`values[ch].len() == rows of K`).
 pub fn global_ls(
     k: &CsMat<f64>,
@@ -233,20 +207,6 @@ pub fn global_ls(
         GlobalMethod::Cholesky => cholesky_ls(k, values, params),
         GlobalMethod::Cgls => cgls(k, values, params),
     }
-}
-
-/// Row-major `m x ch` block of the channels.
-fn interleave(values: &[&[f64]], m: usize) -> Vec<f64> {
-    let ch = values.len();
-    let mut f = vec![0.0; m * ch];
-    f.par_chunks_mut(ch.max(1))
-        .enumerate()
-        .for_each(|(i, row)| {
-            for (c, v) in row.iter_mut().enumerate() {
-                *v = values[c][i];
-            }
-        });
-    f
 }
 
 /// Splits a row-major `p x ch` block into channels, scaled by `d[a] * 2^-e`.
@@ -294,26 +254,6 @@ fn normal_residuals(
         .collect()
 }
 
-/// Column scaling `d_a = 1 / ||K_s[:, a]||` (1 for an empty column in Cholesky, where the
-/// zero pivot is then detected; 0 in CGLS, which keeps that coefficient at 0).
-pub(super) fn column_scaling(
-    normal_diag: impl Fn(usize) -> f64 + Sync,
-    p: usize,
-    empty: f64,
-) -> Vec<f64> {
-    (0..p)
-        .into_par_iter()
-        .map(|a| {
-            let g = normal_diag(a);
-            if g > 0.0 {
-                1.0 / g.sqrt()
-            } else {
-                empty
-            }
-        })
-        .collect()
-}
-
 fn cholesky_ls(
     k: &CsMat<f64>,
     values: &[&[f64]],
@@ -330,7 +270,7 @@ fn cholesky_ls(
     let prep = prepare(k)?;
     let g = normal_matrix(&prep.k, &prep.kt);
     // Right-hand sides K_s^T f, row-major P x ch.
-    let f = interleave(values, m);
+    let f = interleave(values);
     let mut ktf = vec![0.0; p * ch];
     spmm(&prep.kt, &f, &mut ktf, ch);
     let tp = raw(&prep.kt).0;
@@ -379,96 +319,27 @@ fn cgls(
     values: &[&[f64]],
     params: &GlobalLsParams,
 ) -> Result<GlobalLs, SolveError> {
-    let (m, p) = k.shape();
+    let p = k.cols();
     let ch = values.len();
     let prep = prepare(k)?;
     let (tp, _, td) = raw(&prep.kt);
     let d = column_scaling(|a| td[tp[a]..tp[a + 1]].iter().map(|v| v * v).sum(), p, 0.0);
-    let f = interleave(values, m);
-    let dot_cols = |x: &[f64], y: &[f64]| -> Vec<f64> {
-        x.par_chunks(ch * 1024)
-            .zip(y.par_chunks(ch * 1024))
-            .map(|(xb, yb)| {
-                let mut acc = vec![0.0; ch];
-                for (t, (a, b)) in xb.iter().zip(yb).enumerate() {
-                    acc[t % ch] += a * b;
-                }
-                acc
-            })
-            .reduce(
-                || vec![0.0; ch],
-                |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
-            )
+    let f = interleave(values);
+    let cg = CgParams {
+        tolerance: params.tol,
+        max_iterations: params.max_iter,
+        residual: ResidualReport::Recurred,
+        condition: ConditionEstimate::Skip,
     };
-    // s = D K_s^T r
-    let at = |r: &[f64], s: &mut [f64]| {
-        spmm(&prep.kt, r, s, ch);
-        s.par_chunks_mut(ch)
-            .zip(d.par_iter())
-            .for_each(|(row, &da)| row.iter_mut().for_each(|v| *v *= da));
-    };
-    let mut y = vec![0.0; p * ch];
-    let mut r = f.clone();
-    let mut s = vec![0.0; p * ch];
-    at(&r, &mut s);
-    let mut pdir = s.clone();
-    let mut gamma = dot_cols(&s, &s);
-    let norm0: Vec<f64> = gamma.iter().map(|g| g.sqrt()).collect();
-    let mut active: Vec<bool> = norm0.iter().map(|&n| n > 0.0).collect();
-    let mut iterations = vec![0usize; ch];
-    let mut q = vec![0.0; m * ch];
-    let mut dp = vec![0.0; p * ch];
-    let mut it = 0;
-    while active.iter().any(|&a| a) {
-        if it >= params.max_iter {
-            let c = active.iter().position(|&a| a).unwrap_or(0);
-            return Err(SolveError::NotConverged {
-                channel: c,
-                iterations: it,
-                residual: gamma[c].sqrt() / norm0[c],
-                tol: params.tol,
-            });
-        }
-        it += 1;
-        dp.par_chunks_mut(ch)
-            .zip(pdir.par_chunks(ch))
-            .zip(d.par_iter())
-            .for_each(|((o, i), &da)| o.iter_mut().zip(i).for_each(|(o, i)| *o = da * i));
-        spmm(&prep.k, &dp, &mut q, ch);
-        let qq = dot_cols(&q, &q);
-        let alpha: Vec<f64> = (0..ch)
-            .map(|c| {
-                if active[c] && qq[c] > 0.0 {
-                    gamma[c] / qq[c]
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        y.par_chunks_mut(ch)
-            .zip(pdir.par_chunks(ch))
-            .for_each(|(yr, pr)| (0..ch).for_each(|c| yr[c] += alpha[c] * pr[c]));
-        r.par_chunks_mut(ch)
-            .zip(q.par_chunks(ch))
-            .for_each(|(rr, qr)| (0..ch).for_each(|c| rr[c] -= alpha[c] * qr[c]));
-        at(&r, &mut s);
-        let gnew = dot_cols(&s, &s);
-        let mut beta = vec![0.0; ch];
-        for c in 0..ch {
-            if !active[c] {
-                continue;
-            }
-            iterations[c] = it;
-            if gnew[c].sqrt() <= params.tol * norm0[c] || qq[c] == 0.0 {
-                active[c] = false;
-            } else {
-                beta[c] = gnew[c] / gamma[c];
-                gamma[c] = gnew[c];
-            }
-        }
-        pdir.par_chunks_mut(ch)
-            .zip(s.par_chunks(ch))
-            .for_each(|(pr, sr)| (0..ch).for_each(|c| pr[c] = sr[c] + beta[c] * pr[c]));
+    let (y, report) = cg::cgls(&prep.k, &prep.kt, &d, &f, ch, &cg);
+    // The one CG reports the iteration limit; the global solve's contract makes it an error.
+    if let Some(c) = report.first_unconverged() {
+        return Err(SolveError::NotConverged {
+            channel: c,
+            iterations: report.iterations[c],
+            residual: report.relative_residual[c],
+            tol: params.tol,
+        });
     }
     let residuals = normal_residuals(&prep.k, &prep.kt, &d, &f, &y, ch);
     let coefficients = deinterleave(&y, &d, ch, prep.exponent);
@@ -479,7 +350,7 @@ fn cgls(
         coefficients,
         report: GlobalReport {
             method: GlobalMethod::Cgls,
-            iterations,
+            iterations: report.iterations,
             residuals,
             ridge: 0.0,
             min_pivot: 0.0,

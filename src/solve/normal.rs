@@ -2,23 +2,17 @@
 //! caller that keeps `G` up to date itself, as the refiner does between rounds), solved as
 //! `D G D y = D K^T f`, `c = D y`, `D = diag(G)^{-1/2}`, by a sparse Cholesky
 //! `P (D G D) P^T = L L^T` (faer: symbolic step with AMD or a given ordering `P`, numeric
-//! step, triangular solves). The same factorization serves [`crate::solve::global_ls`].
+//! step, triangular solves: [`crate::solve::cholesky`]). The same factorization serves
+//! [`crate::solve::global_ls`].
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::perm::PermRef;
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, simplicial::SimplicialLltRef, supernodal::SupernodalLltRef,
-    SymbolicCholeskyRaw, SymmetricOrdering,
-};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, Par, Side};
+use faer::{Mat, Par};
 use rayon::prelude::*;
 use sprs::CsMat;
 
-use super::global::{column_scaling, GlobalLs, GlobalReport};
+use super::cholesky::{NonPositivePivot, Pivots, SparseCholesky};
+use super::outcome::{GlobalLs, GlobalReport};
 use super::params::{GlobalLsParams, GlobalMethod, RankPolicy};
-use super::sparse::{check_finite_output, check_values, raw};
+use super::sparse::{check_finite_output, check_values, column_scaling, raw};
 use super::SolveError;
 
 /// Stored entries of the equilibrated `K^T K` below which the Cholesky runs on one thread
@@ -110,26 +104,11 @@ pub(crate) fn factor_solve(
         col_ptr.push(row_idx.len());
     }
     let normal_nnz = row_idx.len();
-    let sym = SymbolicSparseColMatRef::new_checked(p, p, &col_ptr, None, &row_idx);
-    let inverse: Vec<usize> = ordering.map_or_else(Vec::new, |fwd| {
-        let mut inv = vec![0usize; p];
-        for (q, &a) in fwd.iter().enumerate() {
-            inv[a] = q;
-        }
-        inv
-    });
-    let order = match ordering {
-        Some(fwd) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, &inverse, p)),
-        None => SymmetricOrdering::Amd,
-    };
-    let symbolic = factorize_symbolic_cholesky(sym, Side::Lower, order, Default::default())
+    let mut cholesky = SparseCholesky::analyze("normal matrix K^T K", &col_ptr, &row_idx, ordering)
         .map_err(|e| SolveError::Factorization {
-            what: format!("symbolic sparse Cholesky of K^T K ({p} x {p}): {e:?}"),
+            what: e.to_string(),
         })?;
-    let perm_fwd: Vec<usize> = match symbolic.perm() {
-        Some(perm) => perm.arrays().0.to_vec(),
-        None => (0..p).collect(),
-    };
+    let perm_fwd = cholesky.permutation();
     // Small factors are faster on one thread: rayon's hand-offs cost more than they share.
     let par = if normal_nnz <= PARALLEL_MIN_NNZ {
         Par::Seq
@@ -143,45 +122,29 @@ pub(crate) fn factor_solve(
             format!(
                 "the sparse Cholesky factor of the {p} x {p} normal matrix ({} stored entries, \
                  beside the matrix's {} entries)",
-                symbolic.len_val(),
+                cholesky.factor_nnz(),
                 g.nnz()
             )
         },
-        8.0 * symbolic.len_val() as f64 + 16.0 * (g.nnz() + normal_nnz) as f64,
+        8.0 * cholesky.factor_nnz() as f64 + 16.0 * (g.nnz() + normal_nnz) as f64,
         || {
             "fewer basis functions (a smaller budget, depth limit or fine level) or an \
              iterative solve"
                 .into()
         },
     )?;
-    let mut lvals = vec![0.0f64; symbolic.len_val()];
-    let mut mem = MemBuffer::new(
-        symbolic
-            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(ch.max(1), par)),
-    );
     let mut ridge = 0.0;
     let mut min_pivot;
     loop {
-        let a = SparseColMatRef::new(sym, &vals);
-        let res = symbolic.factorize_numeric_llt(
-            &mut lvals,
-            a,
-            Side::Lower,
-            LltRegularization::default(),
-            par,
-            MemStack::new(&mut mem),
-            Default::default(),
-        );
-        let failed_at = match res {
-            Ok(_) => {
-                let (q, piv) = min_diag(&symbolic, &lvals, p);
+        let failed_at = match cholesky.factor(&col_ptr, &row_idx, &vals, Pivots::Strict, par) {
+            Ok(()) => {
+                let (q, piv) = min_pivot_of(&cholesky.diagonal());
                 min_pivot = piv;
                 (piv < params.pivot_tol).then_some(q)
             }
-            Err(faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index }) => {
+            Err(NonPositivePivot { step }) => {
                 min_pivot = 0.0;
-                Some(index)
+                Some(step)
             }
         };
         let Some(q) = failed_at else { break };
@@ -211,13 +174,12 @@ pub(crate) fn factor_solve(
         }
     }
     let mut rhs = Mat::<f64>::from_fn(p, ch, |a, c| d[a] * ktf[a * ch + c]);
-    let llt = faer::sparse::linalg::cholesky::LltRef::new(&symbolic, &lvals);
-    llt.solve_in_place_with_conj(Conj::No, rhs.as_mut(), par, MemStack::new(&mut mem));
+    cholesky.solve_in_place(rhs.as_mut(), par);
     let mut y: Vec<f64> = (0..p * ch).map(|t| rhs[(t / ch, t % ch)]).collect();
     if let (Some(correct), true) = (correction, ridge == 0.0) {
         let r = correct(&y, &d);
         let mut delta = Mat::<f64>::from_fn(p, ch, |a, c| r[a * ch + c]);
-        llt.solve_in_place_with_conj(Conj::No, delta.as_mut(), par, MemStack::new(&mut mem));
+        cholesky.solve_in_place(delta.as_mut(), par);
         for (t, yt) in y.iter_mut().enumerate() {
             *yt += delta[(t / ch, t % ch)];
         }
@@ -228,7 +190,7 @@ pub(crate) fn factor_solve(
         ridge,
         min_pivot,
         normal_nnz,
-        factor_nnz: lvals.len(),
+        factor_nnz: cholesky.factor_nnz(),
     })
 }
 
@@ -433,35 +395,10 @@ fn normal_ls_with(
     })
 }
 
-/// Smallest `L_qq^2` (permuted index `q`) of a numeric sparse Cholesky factor.
-fn min_diag(
-    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
-    lvals: &[f64],
-    p: usize,
-) -> (usize, f64) {
-    let mut diag = vec![0.0f64; p];
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Simplicial(s) => {
-            let l = SimplicialLltRef::new(s, lvals);
-            let (cp, ri) = (s.col_ptr(), s.row_idx());
-            for (j, dj) in diag.iter_mut().enumerate() {
-                if let Some(t) = (cp[j]..cp[j + 1]).find(|&t| ri[t] == j) {
-                    *dj = l.values()[t];
-                }
-            }
-        }
-        SymbolicCholeskyRaw::Supernodal(s) => {
-            let l = SupernodalLltRef::new(s, lvals);
-            for sn in 0..s.n_supernodes() {
-                let node = l.supernode(sn);
-                let v = node.val();
-                for c in 0..v.ncols() {
-                    diag[node.start() + c] = v[(c, c)];
-                }
-            }
-        }
-    }
-    diag.iter()
+/// Smallest `L_qq^2` (elimination step `q`) of a factor's diagonal `L_qq`.
+fn min_pivot_of(diagonal: &[f64]) -> (usize, f64) {
+    diagonal
+        .iter()
         .enumerate()
         .map(|(q, &l)| (q, l * l))
         .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })

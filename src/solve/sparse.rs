@@ -190,3 +190,23 @@ pub(crate) fn spmm(a: &CsMat<f64>, x: &[f64], y: &mut [f64], ch: usize) {
             }
         });
 }
+
+/// Column scaling `d_a = 1 / ||K_s[:, a]||` (1 for an empty column in Cholesky, where the
+/// zero pivot is then detected; 0 in CGLS, which keeps that coefficient at 0).
+pub(crate) fn column_scaling(
+    normal_diag: impl Fn(usize) -> f64 + Sync,
+    p: usize,
+    empty: f64,
+) -> Vec<f64> {
+    (0..p)
+        .into_par_iter()
+        .map(|a| {
+            let g = normal_diag(a);
+            if g > 0.0 {
+                1.0 / g.sqrt()
+            } else {
+                empty
+            }
+        })
+        .collect()
+}

@@ -4,11 +4,12 @@
 //!
 //! Two solvers ([`TreeSolver`]):
 //!
-//! - **PCG** (opt-in: measured slower, see [`super::pcg`]): matrix-free preconditioned conjugate gradients on the normal
-//!   equations ([`super::pcg`]), `K_T = E S P_T` applied through the single-scale rows and the
-//!   2D FWT, every channel's conjugate gradients in lockstep so that one pass over the rows
-//!   serves all of them ([`super::pcg::pcg_many`]), optionally warm-started; its iterations, relative residual
-//!   and condition estimate are reported. If it does not reach its tolerance the direct solve
+//! - **PCG** (opt-in: measured slower, see [`super::pcg`]): matrix-free preconditioned
+//!   conjugate gradients on the normal equations ([`super::pcg`]), `K_T = E S P_T` applied
+//!   through the single-scale rows and the 2D FWT, every channel's conjugate gradients in
+//!   lockstep so that one pass over the rows serves all of them (the crate's one CG,
+//!   [`crate::solve::cg::pcg`], through [`super::pcg::pcg_many`]), optionally warm-started;
+//!   its iterations, relative residual and condition estimate are reported. If it does not reach its tolerance the direct solve
 //!   takes over on trees of at most [`super::pcg::DIRECT_FALLBACK_MAX`] functions; either way
 //!   the report says so.
 //! - **Direct** (the reference and the default): `K_T` row by row from the multilevel evaluator (in parallel),
@@ -32,12 +33,13 @@ use super::gram::{assemble, TreeGram};
 use super::pcg::{
     pcg_many, DiagonalSums, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX,
 };
-use super::schwarz::{schwarz_pcg, Schwarz, SchwarzPcgReport, SchwarzReport};
+use super::schwarz::{schwarz_pcg, Schwarz, SchwarzReport};
 use super::tree::QuadTree;
 use super::AdaptiveError;
 use crate::basis::tensor::TensorValue;
 use crate::image::fit::ImageFitError;
 use crate::image::pixels::{filter_image, PixelIntegrals};
+use crate::solve::cg::CgReport;
 use crate::solve::{normal_ls, GlobalLsParams, RankPolicy};
 
 /// What the tree solve did.
@@ -283,24 +285,22 @@ pub fn fit_tree_updating(
             let unsampled = op.unsampled();
             drop(op);
             state.rows = Some(rows);
-            let converged = solved.iter().all(|(_, r)| r.converged);
+            let (coefficients, report) = solved;
+            let converged = report.all_converged();
             if !converged && tree.len() <= DIRECT_FALLBACK_MAX {
                 let mut fit = fit_direct(tree, xs, ys, values, &mut None, TreeSolver::Direct)?;
-                let worst = solved
-                    .iter()
-                    .map(|(_, r)| r)
-                    .max_by(|a, b| a.relative_residual.total_cmp(&b.relative_residual))
+                let worst = (0..report.iterations.len())
+                    .max_by(|&a, &b| {
+                        report.relative_residual[a].total_cmp(&report.relative_residual[b])
+                    })
                     .expect("at least one channel");
                 fit.report.solver = "pcg->direct".into();
-                fit.report.iterations = worst.iterations;
-                fit.report.relative_residual = worst.relative_residual;
-                fit.report.condition = worst.condition;
+                fit.report.iterations = report.iterations[worst];
+                fit.report.relative_residual = report.relative_residual[worst];
+                fit.report.condition = condition(&report)[worst];
                 fit.report.converged = false;
                 return Ok(fit);
             }
-            let fold = |g: fn(&super::pcg::PcgReport) -> f64| {
-                solved.iter().map(|(_, r)| g(r)).fold(0.0, f64::max)
-            };
             Ok(TreeFit {
                 report: TreeFitReport {
                     functions: tree.len(),
@@ -309,13 +309,13 @@ pub fn fit_tree_updating(
                     kernel_s,
                     solve_s,
                     solver: "pcg".into(),
-                    iterations: solved.iter().map(|(_, r)| r.iterations).max().unwrap_or(0),
-                    relative_residual: fold(|r| r.relative_residual),
-                    condition: fold(|r| r.condition),
+                    iterations: report.iterations.iter().copied().max().unwrap_or(0),
+                    relative_residual: largest(&report.relative_residual),
+                    condition: largest(condition(&report)),
                     converged,
                     ..TreeFitReport::default()
                 },
-                coefficients: solved.into_iter().map(|(c, _)| c).collect(),
+                coefficients,
             })
         }
     }
@@ -363,10 +363,8 @@ fn fit_direct(
     {
         let pre = Schwarz::new(tree, &functions, &g, tile, halo);
         let setup_s = t.elapsed().as_secs_f64();
-        let solved = schwarz_pcg(&g, &rhs, &pre, tolerance, max_iterations);
+        let (solved, cg) = schwarz_pcg(&g, &rhs, &pre, tolerance, max_iterations);
         let n = tree.basis().len();
-        let fold =
-            |f: fn(&SchwarzPcgReport) -> f64| solved.iter().map(|(_, r)| f(r)).fold(0.0, f64::max);
         return Ok(TreeFit {
             report: TreeFitReport {
                 functions: functions.len(),
@@ -379,16 +377,16 @@ fn fit_direct(
                 normal_kept_samples: update.kept_samples,
                 solve_s: t.elapsed().as_secs_f64(),
                 solver: "schwarz".into(),
-                iterations: solved.iter().map(|(_, r)| r.iterations).max().unwrap_or(0),
-                relative_residual: fold(|r| r.relative_residual),
-                converged: solved.iter().all(|(_, r)| r.converged),
+                iterations: cg.iterations.iter().copied().max().unwrap_or(0),
+                relative_residual: largest(&cg.relative_residual),
+                converged: cg.all_converged(),
                 schwarz: Some(pre.report()),
                 schwarz_setup_s: setup_s,
                 ..TreeFitReport::default()
             },
             coefficients: solved
                 .into_iter()
-                .map(|(c, _)| {
+                .map(|c| {
                     let mut full = vec![0.0; n];
                     for (&f, &v) in functions.iter().zip(&c) {
                         full[f] = v;
@@ -437,6 +435,16 @@ fn fit_direct(
             ..TreeFitReport::default()
         },
     })
+}
+
+/// The largest of `values`, 0 if none (the report's fold over channels).
+fn largest(values: &[f64]) -> f64 {
+    values.iter().copied().fold(0.0, f64::max)
+}
+
+/// The per-channel condition estimates of a report that asked for them.
+fn condition(report: &CgReport) -> &[f64] {
+    report.condition.as_deref().unwrap_or_default()
 }
 
 impl TreeFit {

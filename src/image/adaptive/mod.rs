@@ -21,17 +21,21 @@
 //! * `figure`: the image, the local depth and the samples side by side.
 
 pub mod correction;
+mod diagonal;
 pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;
 pub mod fit;
 pub mod gram;
 mod indicator;
+mod operator;
 pub mod pcg;
 pub mod protocol;
 mod refiner;
 pub mod schwarz;
 pub mod significance;
+mod single_scale;
+mod solver;
 
 pub use crate::adaptive::marking;
 /// The quadtree under its old path, for the solver modules' `super::tree` imports.

@@ -18,23 +18,21 @@
 //! Blocks of one level alone (or the coarse levels split off into a block of their own) leave
 //! it above 1,000.
 //!
-//! Here the blocks are read from an assembled `G` (the direct path's, [`super::gram`]) and
-//! factored densely (faer's Cholesky, blocked triangular solves for all channels at once; a function without samples has a zero row and is pinned by a
-//! unit diagonal; a block that is still singular gets a relative ridge, counted). That is the
-//! reference for a matrix-free assembly of the same blocks, which the 512² target needs: `G`
-//! itself, built from the kernel rows, does not fit at 512² (see the README).
+//! Here the tiles' blocks are chosen; they are read from an assembled `G` (the direct path's,
+//! [`super::gram`]), factored and applied by the crate's one additive Schwarz preconditioner
+//! ([`AdditiveSchwarz`]: dense Cholesky per block, blocked triangular solves for all channels
+//! at once), and the conjugate gradient is the crate's one ([`crate::solve::cg::pcg`]). That
+//! is the reference for a matrix-free assembly of the same blocks, which the 512² target
+//! needs: `G` itself, built from the kernel rows, does not fit at 512² (see the README).
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::solve::solve_in_place_with_conj;
-use faer::linalg::solvers::Llt;
-use faer::{Conj, Mat, Par, Side};
-use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::pcg::{deinterleave, dot};
 use super::tree::{Cell, QuadTree};
-use crate::solve::csr_raw as raw;
+use crate::solve::cg::{
+    self, AdditiveSchwarz, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
+    SparseOperator,
+};
 
 /// What the preconditioner holds.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
@@ -49,17 +47,9 @@ pub struct SchwarzReport {
     pub ridged: usize,
 }
 
-/// One tile's block: its functions (columns of `G`, ascending) and the Cholesky factor of
-/// `G_tt`.
-struct Block {
-    columns: Vec<usize>,
-    factor: Llt<f64>,
-}
-
 /// `M^{-1} = sum_t R_t^T G_tt^{-1} R_t` over overlapping tiles.
 pub struct Schwarz {
-    blocks: Vec<Block>,
-    size: usize,
+    blocks: AdditiveSchwarz,
     report: SchwarzReport,
 }
 
@@ -98,211 +88,46 @@ impl Schwarz {
                 }
             }
         }
-        members.retain(|m| !m.is_empty());
-        let (gp, gi, gd) = raw(g);
-        let built: Vec<(Block, bool)> = members
-            .into_par_iter()
-            .map(|columns| {
-                let n = columns.len();
-                let mut m = Mat::<f64>::zeros(n, n);
-                for (i, &a) in columns.iter().enumerate() {
-                    for t in gp[a]..gp[a + 1] {
-                        if let Ok(j) = columns.binary_search(&gi[t]) {
-                            m[(i, j)] = gd[t];
-                        }
-                    }
-                }
-                let scale = (0..n).map(|i| m[(i, i)]).fold(0.0, f64::max).max(1.0);
-                for i in 0..n {
-                    if m[(i, i)] <= 0.0 {
-                        m[(i, i)] = scale;
-                    }
-                }
-                let mut ridged = false;
-                let factor = match Llt::new(m.as_ref(), Side::Lower) {
-                    Ok(f) => f,
-                    Err(_) => {
-                        ridged = true;
-                        let mut ridge = 1e-12 * scale;
-                        loop {
-                            let mut r = m.clone();
-                            for i in 0..n {
-                                r[(i, i)] += ridge;
-                            }
-                            if let Ok(f) = Llt::new(r.as_ref(), Side::Lower) {
-                                break f;
-                            }
-                            ridge *= 100.0;
-                        }
-                    }
-                };
-                (Block { columns, factor }, ridged)
-            })
-            .collect();
-        let total: usize = built.iter().map(|(b, _)| b.columns.len()).sum();
+        let blocks = AdditiveSchwarz::new(g, members);
+        let stats = blocks.stats();
         let report = SchwarzReport {
-            blocks: built.len(),
-            largest: built
-                .iter()
-                .map(|(b, _)| b.columns.len())
-                .max()
-                .unwrap_or(0),
-            overlap: total as f64 / functions.len().max(1) as f64,
-            ridged: built.iter().filter(|(_, r)| *r).count(),
+            blocks: stats.blocks,
+            largest: stats.largest,
+            overlap: stats.members as f64 / functions.len().max(1) as f64,
+            ridged: stats.ridged,
         };
-        Self {
-            blocks: built.into_iter().map(|(b, _)| b).collect(),
-            size: functions.len(),
-            report,
-        }
+        Self { blocks, report }
     }
 
     /// What it holds.
     pub fn report(&self) -> SchwarzReport {
         self.report
     }
+}
 
-    /// `z_c = M^{-1} r_c` for every vector `r_c` over the columns of `G`: each block solved
-    /// once for all of them (a matrix of right-hand sides), blocks in parallel, added in block
-    /// order (the bits do not depend on the thread count).
-    pub fn apply_many(&self, rs: &[&[f64]]) -> Vec<Vec<f64>> {
-        let k = rs.len();
-        let parts: Vec<Mat<f64>> = self
-            .blocks
-            .par_iter()
-            .map(|b| {
-                let mut local = Mat::from_fn(b.columns.len(), k, |i, c| rs[c][b.columns[i]]);
-                let mut mem = MemBuffer::new(faer::dyn_stack::StackReq::EMPTY);
-                solve_in_place_with_conj(
-                    b.factor.L(),
-                    Conj::No,
-                    local.as_mut(),
-                    Par::Seq,
-                    MemStack::new(&mut mem),
-                );
-                local
-            })
-            .collect();
-        let mut z = vec![vec![0.0; self.size]; k];
-        for (b, x) in self.blocks.iter().zip(&parts) {
-            for (c, zc) in z.iter_mut().enumerate() {
-                for (i, &a) in b.columns.iter().enumerate() {
-                    zc[a] += x[(i, c)];
-                }
-            }
-        }
-        z
+impl Preconditioner for Schwarz {
+    fn apply(&self, r: &[&[f64]], z: &mut [Vec<f64>]) {
+        self.blocks.apply(r, z);
     }
 }
 
-/// What one assembled-`G` PCG solve did.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct SchwarzPcgReport {
-    /// Iterations.
-    pub iterations: usize,
-    /// Final relative residual `||b - G x|| / ||b||` (recomputed).
-    pub relative_residual: f64,
-    /// Whether the tolerance was reached.
-    pub converged: bool,
-}
-
-/// `y_c = G x_c` for CSR `G`, one pass over `G` for every vector.
-fn times_many(g: &CsMat<f64>, xs: &[&[f64]]) -> Vec<Vec<f64>> {
-    let (gp, gi, gd) = raw(g);
-    let k = xs.len();
-    let mut rows = vec![0.0; g.rows() * k];
-    rows.par_chunks_mut(k).enumerate().for_each(|(a, acc)| {
-        for t in gp[a]..gp[a + 1] {
-            let (j, v) = (gi[t], gd[t]);
-            for (s, x) in acc.iter_mut().zip(xs) {
-                *s += v * x[j];
-            }
-        }
-    });
-    deinterleave(&rows, k)
-}
-
 /// Solves `G x_c = b_c` for every right-hand side by conjugate gradients preconditioned by
-/// `pre`, from 0, each to a relative residual `tolerance` or `max_iterations`: the runs go in
-/// lockstep so that each iteration's products with `G` and `M^{-1}` serve all of them.
+/// `pre`, from 0, each to a relative residual `tolerance` (recomputed at the end) or
+/// `max_iterations`: the runs go in lockstep so that each iteration's products with `G` and
+/// `M^{-1}` serve all of them ([`crate::solve::cg::pcg`]).
 pub fn schwarz_pcg(
     g: &CsMat<f64>,
     bs: &[Vec<f64>],
     pre: &Schwarz,
     tolerance: f64,
     max_iterations: usize,
-) -> Vec<(Vec<f64>, SchwarzPcgReport)> {
-    let k = bs.len();
-    let n = g.rows();
-    let bnorm: Vec<f64> = bs.iter().map(|b| dot(b, b).sqrt()).collect();
-    let mut x = vec![vec![0.0; n]; k];
-    let mut r: Vec<Vec<f64>> = bs.to_vec();
-    let refs: Vec<&[f64]> = r.iter().map(|v| v.as_slice()).collect();
-    let mut p = pre.apply_many(&refs);
-    let mut rz: Vec<f64> = r.iter().zip(&p).map(|(r, z)| dot(r, z)).collect();
-    let mut iterations = vec![0usize; k];
-    let live = |c: usize, r: &[Vec<f64>], rz: &[f64]| {
-        bnorm[c] > 0.0 && rz[c] > 0.0 && dot(&r[c], &r[c]).sqrt() > tolerance * bnorm[c]
+) -> (Vec<Vec<f64>>, CgReport) {
+    let params = CgParams {
+        tolerance,
+        max_iterations,
+        residual: ResidualReport::Recomputed,
+        condition: ConditionEstimate::Skip,
     };
-    let mut active: Vec<bool> = (0..k).map(|c| live(c, &r, &rz)).collect();
-    for _ in 0..max_iterations {
-        let on: Vec<usize> = (0..k).filter(|&c| active[c]).collect();
-        if on.is_empty() {
-            break;
-        }
-        let ps: Vec<&[f64]> = on.iter().map(|&c| p[c].as_slice()).collect();
-        let qs = times_many(g, &ps);
-        for (&c, q) in on.iter().zip(&qs) {
-            let pq = dot(&p[c], q);
-            if pq <= 0.0 {
-                active[c] = false;
-                continue;
-            }
-            let alpha = rz[c] / pq;
-            for ((x, r), (p, q)) in x[c].iter_mut().zip(r[c].iter_mut()).zip(p[c].iter().zip(q)) {
-                *x += alpha * p;
-                *r -= alpha * q;
-            }
-        }
-        let on: Vec<usize> = on.into_iter().filter(|&c| active[c]).collect();
-        let rs: Vec<&[f64]> = on.iter().map(|&c| r[c].as_slice()).collect();
-        let zs = pre.apply_many(&rs);
-        for (&c, z) in on.iter().zip(&zs) {
-            let rz_new = dot(&r[c], z);
-            let beta = rz_new / rz[c];
-            for (p, z) in p[c].iter_mut().zip(z) {
-                *p = z + beta * *p;
-            }
-            rz[c] = rz_new;
-            iterations[c] += 1;
-            active[c] = live(c, &r, &rz);
-        }
-    }
-    let xr: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
-    let gx = times_many(g, &xr);
-    x.into_iter()
-        .enumerate()
-        .map(|(c, xc)| {
-            if bnorm[c] == 0.0 {
-                let report = SchwarzPcgReport {
-                    converged: true,
-                    ..SchwarzPcgReport::default()
-                };
-                return (vec![0.0; n], report);
-            }
-            let res = bs[c]
-                .iter()
-                .zip(&gx[c])
-                .map(|(b, g)| (b - g) * (b - g))
-                .sum::<f64>()
-                .sqrt();
-            let relative_residual = res / bnorm[c];
-            let report = SchwarzPcgReport {
-                iterations: iterations[c],
-                relative_residual,
-                converged: relative_residual <= tolerance,
-            };
-            (xc, report)
-        })
-        .collect()
+    let b: Vec<&[f64]> = bs.iter().map(|b| b.as_slice()).collect();
+    cg::pcg(&SparseOperator::new(g), pre, &b, None, &params)
 }

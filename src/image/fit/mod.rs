@@ -378,7 +378,7 @@ pub fn fit_image(
             let t = Instant::now();
             let f = system
                 .factor(params.ordering)
-                .map_err(ImageFitError::Solve)?;
+                .map_err(|e| ImageFitError::Solve(e.to_string()))?;
             timings.factor_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let z = system.solve_factored(&rhs);

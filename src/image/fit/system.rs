@@ -15,19 +15,16 @@
 //!   inversion (`M = K~ K~^T` with `K~ ≈ K^+` from [`crate::solve::local_inversion`] on the 2D
 //!   kernel matrix: `K^+ K^{+T} = (K^T K)^{-1}`), stopped at a relative residual.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, supernodal, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
-    SymmetricOrdering,
-};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, Par, Side};
+use faer::{Mat, Par};
 use rayon::prelude::*;
 use serde::Serialize;
 use sprs::CsMat;
 
 use super::normal::{symmetric_matvec, StencilPattern};
+use crate::solve::cg::{
+    self, CgParams, ConditionEstimate, Identity, LocalInverse, ResidualReport, SymmetricOperator,
+};
+use crate::solve::cholesky::{CholeskyError, Pivots, SparseCholesky};
 
 /// Preconditioner of conjugate gradients.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -98,7 +95,7 @@ pub struct NormalSystem {
     d: Vec<f64>,
     /// Relative ridge actually used.
     ridge: f64,
-    factor: Option<(SymbolicCholesky<usize>, Vec<f64>)>,
+    factor: Option<SparseCholesky>,
     /// Stored entries of the Cholesky factor.
     factor_nnz: usize,
 }
@@ -166,71 +163,44 @@ impl NormalSystem {
         }
     }
 
-    /// Factors `A = D G D + lambda I`: symbolic (AMD ordering, supernodal when worth it),
-    /// then numeric with pivots below [`PIVOT_TOLERANCE`] replaced by 1.
-    pub fn factor(&mut self, ordering: FillOrdering) -> Result<FactorReport, String> {
+    /// Factors `A = D G D + lambda I`: symbolic (the given fill-reducing ordering), then
+    /// numeric with pivots below [`PIVOT_TOLERANCE`] replaced by 1; a negative pivot is
+    /// retried with the ridge times 100 up to [`MAX_RIDGE`].
+    pub fn factor(&mut self, ordering: FillOrdering) -> Result<FactorReport, CholeskyError> {
+        const WHAT: &str = "2D normal matrix";
         let n = self.pattern.len();
         let fwd = match ordering {
-            FillOrdering::NestedDissection => self.pattern.nested_dissection(),
-            FillOrdering::Amd => Vec::new(),
+            FillOrdering::NestedDissection => Some(self.pattern.nested_dissection()),
+            FillOrdering::Amd => None,
         };
-        let mut inv = vec![0usize; fwd.len()];
-        for (new, &old) in fwd.iter().enumerate() {
-            inv[old] = new;
-        }
-        let ord = match ordering {
-            FillOrdering::NestedDissection => {
-                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(&fwd, &inv, n))
-            }
-            FillOrdering::Amd => SymmetricOrdering::Amd,
-        };
-        let symbolic = SymbolicSparseColMatRef::new_checked(
-            n,
-            n,
-            &self.pattern.col_ptr,
-            None,
-            &self.pattern.row_idx,
-        );
-        let sym = factorize_symbolic_cholesky(symbolic, Side::Lower, ord, Default::default())
-            .map_err(|e| format!("symbolic Cholesky of the 2D normal matrix: {e:?}"))?;
+        let (col_ptr, row_idx) = (&self.pattern.col_ptr, &self.pattern.row_idx);
+        let mut cholesky = SparseCholesky::analyze(WHAT, col_ptr, row_idx, fwd.as_deref())?;
         let par = Par::rayon(0);
-        let mut values = vec![0.0; sym.len_val()];
-        let mut mem =
-            MemBuffer::new(sym.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        let pivots = Pivots::ReplaceBelow {
+            epsilon: PIVOT_TOLERANCE,
+        };
         let mut ridge_retries = 0;
         loop {
             let a = self.equilibrated(self.ridge);
-            let mat = SparseColMatRef::new(symbolic, &a);
-            let result = sym.factorize_numeric_llt(
-                &mut values,
-                mat,
-                Side::Lower,
-                LltRegularization {
-                    dynamic_regularization_delta: 1.0,
-                    dynamic_regularization_epsilon: PIVOT_TOLERANCE,
-                },
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            );
-            match result {
-                Ok(_) => break,
+            match cholesky.factor(col_ptr, row_idx, &a, pivots, par) {
+                Ok(()) => break,
                 // a negative pivot (rounding on a direction the samples do not determine):
                 // a larger ridge, reported
-                Err(e) if self.ridge < MAX_RIDGE => {
+                Err(_) if self.ridge < MAX_RIDGE => {
                     self.ridge = (self.ridge * 100.0).max(1e-12);
                     ridge_retries += 1;
-                    let _ = e;
                 }
                 Err(e) => {
-                    return Err(format!(
-                        "numeric Cholesky of the 2D normal matrix failed with ridge {:e}: {e:?}",
-                        self.ridge
-                    ))
+                    return Err(CholeskyError::NotPositive {
+                        what: WHAT,
+                        size: n,
+                        step: e.step,
+                        ridge: self.ridge,
+                    })
                 }
             }
         }
-        let pivots = diagonal(&sym, &values);
+        let pivots = cholesky.diagonal();
         // replaced pivots are exactly 1 (delta); so are unsampled functions' (pinned) ones
         let pinned = self.d.iter().filter(|&&d| d == 0.0).count();
         let ones = pivots.iter().filter(|&&l| l == 1.0).count();
@@ -239,8 +209,8 @@ impl NormalSystem {
             .filter(|&&l| l != 1.0)
             .map(|l| l * l)
             .fold(f64::INFINITY, f64::min);
-        self.factor_nnz = values.len();
-        self.factor = Some((sym, values));
+        self.factor_nnz = cholesky.factor_nnz();
+        self.factor = Some(cholesky);
         Ok(FactorReport {
             ordering,
             factor_nnz: self.factor_nnz,
@@ -297,7 +267,7 @@ impl NormalSystem {
     /// # Panics
     /// If the system is not factored (an internal contract).
     pub fn solve_factored(&self, rhs: &[&[f64]]) -> Vec<Vec<f64>> {
-        let (sym, values) = self.factor.as_ref().expect("solve_factored needs a factor");
+        let cholesky = self.factor.as_ref().expect("solve_factored needs a factor");
         let n = self.pattern.len();
         let mut b = Mat::<f64>::from_fn(n, rhs.len(), |i, c| self.d[i] * rhs[c][i]);
         let par = if rhs.len() > 1 {
@@ -305,13 +275,7 @@ impl NormalSystem {
         } else {
             Par::Seq
         };
-        let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(rhs.len(), par));
-        LltRef::new(sym, values).solve_in_place_with_conj(
-            Conj::No,
-            b.as_mut(),
-            par,
-            MemStack::new(&mut mem),
-        );
+        cholesky.solve_in_place(b.as_mut(), par);
         (0..rhs.len())
             .map(|c| (0..n).map(|i| self.d[i] * b[(i, c)]).collect())
             .collect()
@@ -334,11 +298,11 @@ impl NormalSystem {
     }
 
     /// PCG for `(G + lambda D^{-2}) z_c = b_c`, all right-hand sides together (one pass over
-    /// `G` per iteration serves every channel still iterating); `local` is `K~` (CSC,
-    /// `P x m`) and its CSR form for [`Preconditioner::Local`]. Returns per channel the
-    /// solution, the iterations and the final relative residual `||b - A z|| / ||b||`.
-    /// Vector operations are sequential (`O(N)` each, cheap beside the product): fewer
-    /// synchronisations, which matter on a shared machine.
+    /// `G` per iteration serves every channel still iterating: [`crate::solve::cg::pcg`]);
+    /// `local` is `K~` (CSC, `P x m`) and its CSR form for [`Preconditioner::Local`].
+    /// Returns per channel the solution, the iterations and the final recurred relative
+    /// residual `||b - A z|| / ||b||`. Components of `b` where a function is unsampled are
+    /// outside the range of `G` and dropped.
     pub fn solve_cg(
         &self,
         rhs: &[&[f64]],
@@ -347,20 +311,7 @@ impl NormalSystem {
         tolerance: f64,
         max_iterations: usize,
     ) -> Vec<(Vec<f64>, usize, f64)> {
-        let n = self.pattern.len();
-        let k = rhs.len();
-        let precondition = |r: &[f64], z: &mut [f64]| match (preconditioner, local) {
-            (Preconditioner::Jacobi, _) => {
-                for ((zi, ri), di) in z.iter_mut().zip(r).zip(&self.d) {
-                    *zi = di * di * ri / (1.0 + self.ridge);
-                }
-            }
-            (Preconditioner::Local, Some((csc, csr))) => local_apply(csc, csr, r, z),
-            _ => z.copy_from_slice(r),
-        };
-        let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| x * y).sum() };
-        // unsampled components of b are outside the range of G: dropped
-        let r0: Vec<Vec<f64>> = rhs
+        let b: Vec<Vec<f64>> = rhs
             .iter()
             .map(|b| {
                 b.iter()
@@ -369,108 +320,54 @@ impl NormalSystem {
                     .collect()
             })
             .collect();
-        let norm_b: Vec<f64> = r0.iter().map(|b| dot(b, b).sqrt()).collect();
-        let mut x = vec![vec![0.0; n]; k];
-        let mut r = r0;
-        let mut z = vec![vec![0.0; n]; k];
-        for c in 0..k {
-            precondition(&r[c], &mut z[c]);
-        }
-        let mut p = z.clone();
-        let mut rz: Vec<f64> = (0..k).map(|c| dot(&r[c], &z[c])).collect();
-        let mut q = vec![vec![0.0; n]; k];
-        let mut res: Vec<f64> = norm_b
-            .iter()
-            .map(|&b| if b > 0.0 { 1.0 } else { 0.0 })
-            .collect();
-        let mut iterations = vec![0usize; k];
-        let mut active: Vec<usize> = (0..k).filter(|&c| norm_b[c] > 0.0).collect();
-        for it in 0..max_iterations {
-            if active.is_empty() {
-                break;
-            }
-            {
-                let ps: Vec<&[f64]> = active.iter().map(|&c| p[c].as_slice()).collect();
-                let mut qs: Vec<Vec<f64>> =
-                    active.iter().map(|&c| std::mem::take(&mut q[c])).collect();
-                self.apply(&ps, &mut qs);
-                for (&c, qc) in active.iter().zip(qs) {
-                    q[c] = qc;
-                }
-            }
-            let mut still = Vec::with_capacity(active.len());
-            for &c in &active {
-                iterations[c] = it + 1;
-                let pq = dot(&p[c], &q[c]);
-                if pq <= 0.0 || !pq.is_finite() {
-                    continue; // breakdown: keep the iterate, report its residual
-                }
-                let alpha = rz[c] / pq;
-                for i in 0..n {
-                    x[c][i] += alpha * p[c][i];
-                    r[c][i] -= alpha * q[c][i];
-                }
-                res[c] = dot(&r[c], &r[c]).sqrt() / norm_b[c];
-                if res[c] <= tolerance {
-                    continue;
-                }
-                precondition(&r[c], &mut z[c]);
-                let rz_new = dot(&r[c], &z[c]);
-                let beta = rz_new / rz[c];
-                rz[c] = rz_new;
-                for i in 0..n {
-                    p[c][i] = z[c][i] + beta * p[c][i];
-                }
-                still.push(c);
-            }
-            active = still;
-        }
+        let b: Vec<&[f64]> = b.iter().map(|b| b.as_slice()).collect();
+        let params = CgParams {
+            tolerance,
+            max_iterations,
+            residual: ResidualReport::Recurred,
+            condition: ConditionEstimate::Skip,
+        };
+        let jacobi = EquilibratedJacobi {
+            d: &self.d,
+            ridge: self.ridge,
+        };
+        let local = local.map(|(csc, csr)| LocalInverse::new(csc, csr));
+        let pre: &dyn cg::Preconditioner = match (preconditioner, &local) {
+            (Preconditioner::Jacobi, _) => &jacobi,
+            (Preconditioner::Local, Some(local)) => local,
+            _ => &Identity,
+        };
+        let (x, report) = cg::pcg(self, pre, &b, None, &params);
         x.into_iter()
-            .zip(iterations)
-            .zip(res)
+            .zip(report.iterations)
+            .zip(report.relative_residual)
             .map(|((x, it), r)| (x, it, r))
             .collect()
     }
 }
 
-/// The diagonal `L_jj` of the factor (in the permuted order).
-fn diagonal(sym: &SymbolicCholesky<usize>, values: &[f64]) -> Vec<f64> {
-    match sym.raw() {
-        SymbolicCholeskyRaw::Supernodal(s) => {
-            let l = supernodal::SupernodalLltRef::new(s, values);
-            (0..s.n_supernodes())
-                .flat_map(|k| {
-                    let v = l.supernode(k).val();
-                    (0..v.ncols()).map(move |j| v[(j, j)]).collect::<Vec<_>>()
-                })
-                .collect()
-        }
-        SymbolicCholeskyRaw::Simplicial(s) => {
-            let (cp, ri) = (s.col_ptr(), s.row_idx());
-            (0..s.ncols())
-                .map(|j| {
-                    (cp[j]..cp[j + 1])
-                        .find(|&t| ri[t] == j)
-                        .map_or(0.0, |t| values[t])
-                })
-                .collect()
-        }
+impl SymmetricOperator for NormalSystem {
+    fn dim(&self) -> usize {
+        self.pattern.len()
+    }
+    fn apply(&self, p: &[&[f64]], q: &mut [Vec<f64>]) {
+        NormalSystem::apply(self, p, q);
     }
 }
 
-/// `z = K~ (K~^T r)`: `u = K~^T r` (one dot product per sample, from the CSC columns), then
-/// `z = K~ u` (gathered from the CSR rows).
-fn local_apply(csc: &CsMat<f64>, csr: &CsMat<f64>, r: &[f64], z: &mut [f64]) {
-    let m = csc.cols();
-    let (ip, ix, dv) = (csc.indptr(), csc.indices(), csc.data());
-    let ip = ip.raw_storage();
-    let u: Vec<f64> = (0..m)
-        .into_par_iter()
-        .map(|i| (ip[i]..ip[i + 1]).map(|t| dv[t] * r[ix[t]]).sum())
-        .collect();
-    let (rp, rx, rv) = (csr.indptr(), csr.indices(), csr.data());
-    let rp = rp.raw_storage();
-    z.par_iter_mut().enumerate().for_each(|(a, za)| {
-        *za = (rp[a]..rp[a + 1]).map(|t| rv[t] * u[rx[t]]).sum();
-    });
+/// Jacobi on `A = G + lambda D^{-2}`: `diag(A) = (1 + lambda) D^{-2}`, so `z_i = d_i^2 r_i /
+/// (1 + lambda)` (0 where unsampled).
+struct EquilibratedJacobi<'a> {
+    d: &'a [f64],
+    ridge: f64,
+}
+
+impl cg::Preconditioner for EquilibratedJacobi<'_> {
+    fn apply(&self, r: &[&[f64]], z: &mut [Vec<f64>]) {
+        for (z, r) in z.iter_mut().zip(r) {
+            for ((zi, ri), di) in z.iter_mut().zip(*r).zip(self.d) {
+                *zi = di * di * ri / (1.0 + self.ridge);
+            }
+        }
+    }
 }

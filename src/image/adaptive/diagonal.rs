@@ -1,0 +1,153 @@
+//! The exact diagonal `G_aa = sum_i Psi_a(x_i, y_i)^2` of the tree's normal matrix, from
+//! one pass of the multilevel evaluator over the samples, continued from round to round:
+//! PCG's Jacobi preconditioner.
+
+use rayon::prelude::*;
+
+use super::tree::QuadTree;
+use crate::basis::tensor::TensorBasis;
+
+/// The exact diagonal `G_aa = sum_i Psi_a(x_i, y_i)^2` of a tree's normal matrix over the
+/// first `samples` samples, kept so that the next round continues it: a round's samples are
+/// the previous ones plus new ones and its tree holds the previous tree, so
+///
+/// ```text
+/// G'_aa = G_aa + sum_{new i} Psi_a(x_i)^2                         (a in the previous tree),
+/// G'_aa = sum_{old i in supp a} Psi_a(x_i)^2 + sum_{new i} ...     (a new function),
+/// ```
+///
+/// the old samples evaluated only where a new function's support covers them (new functions
+/// sit in the marked cells). The sums are added in another order than a rebuild's, so the
+/// bits differ by rounding; the diagonal only preconditions CG.
+#[derive(Clone, Debug)]
+pub struct DiagonalSums {
+    /// Samples summed over.
+    pub(super) samples: usize,
+    /// The tree's functions (Mallat layout).
+    pub(super) mask: Vec<bool>,
+    sums: Vec<f64>,
+}
+
+impl DiagonalSums {
+    /// The diagonal of `tree` over the samples `(xs, ys)`, continuing `previous` when it is
+    /// a prefix of them on a subtree (otherwise summed afresh).
+    pub fn new(tree: &QuadTree, xs: &[f64], ys: &[f64], previous: Option<&Self>) -> Self {
+        let basis = tree.basis();
+        let mut mask = vec![false; basis.len()];
+        for f in tree.functions() {
+            mask[f] = true;
+        }
+        let usable = previous.filter(|d| {
+            d.samples <= xs.len()
+                && d.mask.len() == mask.len()
+                && d.mask.iter().zip(&mask).all(|(&was, &is)| !was || is)
+        });
+        let Some(previous) = usable else {
+            let sums = exact_diagonal(basis, &mask, xs, ys);
+            return Self {
+                samples: xs.len(),
+                mask,
+                sums,
+            };
+        };
+        let old = previous.samples;
+        let mut sums = previous.sums.clone();
+        let add = |sums: &mut Vec<f64>, part: Vec<f64>| {
+            for (s, v) in sums.iter_mut().zip(part) {
+                *s += v;
+            }
+        };
+        add(
+            &mut sums,
+            exact_diagonal(basis, &mask, &xs[old..], &ys[old..]),
+        );
+        let fresh: Vec<bool> = mask
+            .iter()
+            .zip(&previous.mask)
+            .map(|(&is, &was)| is && !was)
+            .collect();
+        if fresh.iter().any(|&f| f) {
+            let covered = support_cover(tree, &fresh);
+            let (w, _) = tree.cell_dims(tree.steps());
+            let (cx, cy): (Vec<f64>, Vec<f64>) = xs[..old]
+                .iter()
+                .zip(&ys[..old])
+                .filter(|(&x, &y)| {
+                    let c = tree.cell_at(tree.steps(), x, y);
+                    covered[c.ky * w + c.kx]
+                })
+                .map(|(&x, &y)| (x, y))
+                .unzip();
+            add(&mut sums, exact_diagonal(basis, &fresh, &cx, &cy));
+        }
+        Self {
+            samples: xs.len(),
+            mask,
+            sums,
+        }
+    }
+
+    /// `G_aa` per function (full Mallat layout, 0 off the tree).
+    pub fn sums(&self) -> &[f64] {
+        &self.sums
+    }
+}
+
+/// The cells of the deepest step (row-major) inside the support of a function of `functions`
+/// (a mask over the Mallat layout; no coarse scaling function among them): per axis, the
+/// structural support of the function's level ([`crate::basis::support_cells`]).
+fn support_cover(tree: &QuadTree, functions: &[bool]) -> Vec<bool> {
+    let steps = tree.steps();
+    let (w, h) = tree.cell_dims(steps);
+    let (cx, cy) = tree.basis().coarse_levels();
+    let p = tree.basis().p();
+    let mut covered = vec![false; w * h];
+    for (f, _) in functions.iter().enumerate().filter(|(_, &m)| m) {
+        let cell = tree
+            .cell_of_function(f)
+            .expect("coarse scaling functions are in every tree");
+        let scale = 1usize << (steps - cell.step);
+        let (x0, x1) = crate::basis::support_cells(p, cx + cell.step, cell.kx);
+        let (y0, y1) = crate::basis::support_cells(p, cy + cell.step, cell.ky);
+        for ky in y0 as usize * scale..(y1 as usize + 1) * scale {
+            covered[ky * w + x0 as usize * scale..(x1 as usize + 1) * scale + ky * w]
+                .iter_mut()
+                .for_each(|c| *c = true);
+        }
+    }
+    covered
+}
+
+/// Parts of the exact diagonal's sum (fixed, so the sum's order does not depend on threads).
+const DIAGONAL_PARTS: usize = 8;
+
+/// `G_aa = sum_i Psi_a(x_i, y_i)^2` on the tree (`mask`), from the multilevel evaluator.
+fn exact_diagonal(basis: &TensorBasis, mask: &[bool], xs: &[f64], ys: &[f64]) -> Vec<f64> {
+    let part = xs.len().div_ceil(DIAGONAL_PARTS).max(1);
+    let parts: Vec<Vec<f64>> = xs
+        .par_chunks(part)
+        .zip(ys.par_chunks(part))
+        .map(|(cx, cy)| {
+            let mut ev = basis.multilevel_evaluator();
+            let mut row = Vec::new();
+            let mut acc = vec![0.0; mask.len()];
+            for (&x, &y) in cx.iter().zip(cy) {
+                ev.eval_unordered_into(x, y, &mut row)
+                    .expect("positions are checked before the solve");
+                for v in &row {
+                    if mask[v.index] {
+                        acc[v.index] += v.value * v.value;
+                    }
+                }
+            }
+            acc
+        })
+        .collect();
+    let mut total = vec![0.0; mask.len()];
+    for p in parts {
+        for (t, v) in total.iter_mut().zip(p) {
+            *t += v;
+        }
+    }
+    total
+}

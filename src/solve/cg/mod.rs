@@ -1,0 +1,128 @@
+//! Conjugate gradients for `A x_c = b_c`, `A` symmetric positive (semi)definite, for `k`
+//! right-hand sides in lockstep: one conjugate-gradient run per channel, whose products
+//! `A p_c` (and `M^{-1} r_c`) of one iteration go through one call of the operator (and the
+//! preconditioner), so one pass over the operator's data serves every channel.
+//!
+//! Per channel, from `x_0` (0 unless a start is given), `r_0 = b - A x_0`,
+//! `z_0 = M^{-1} r_0`, `p_0 = z_0` (Hestenes & Stiefel 1952; Golub & Van Loan 11.5):
+//!
+//! ```text
+//! alpha_j = (r_j . z_j) / (p_j . A p_j)
+//! x_{j+1} = x_j + alpha_j p_j,            r_{j+1} = r_j - alpha_j A p_j
+//! z_{j+1} = M^{-1} r_{j+1}
+//! beta_j  = (r_{j+1} . z_{j+1}) / (r_j . z_j),   p_{j+1} = z_{j+1} + beta_j p_j
+//! ```
+//!
+//! **Stopping rule**, per channel: the channel stops when `||r_j|| <= tol ||b||` (the
+//! recurred residual), when `r_j . z_j <= 0` (nothing left the preconditioner sees), or on a
+//! breakdown `p_j . A p_j` not positive and finite (the iterate is kept). The others go on.
+//! A channel with `b = 0` has the solution 0 and no iteration.
+//!
+//! **Iteration limit**: [`pcg`] never fails. Past [`CgParams::max_iterations`] it returns
+//! its iterate with [`CgReport::converged`] false for that channel; a caller that must fail
+//! turns that into its own typed error (the 1D global solve's
+//! [`crate::solve::SolveError::NotConverged`]).
+//!
+//! The report gives per channel the iterations, the relative residual (the recurred
+//! `||r|| / ||b||`, or `||b - A x|| / ||b||` recomputed by one more product,
+//! [`ResidualReport`]), whether it is at most the tolerance, and on request the Lanczos
+//! estimate of `cond(M^{-1} A)` from the iteration's `alpha_j, beta_j`
+//! ([`lanczos_condition`]). With `e = x - x*`, `||e|| / ||x*|| <= cond(A) ||b - A x|| / ||b||`.
+//!
+//! [`cgls`] is the same iteration in the least-squares form (CGLS) for `A = K D`, whose
+//! normal matrix `A^T A` is never formed: the residual is kept as `f - A y` in the sample
+//! space and its normal residual `s = A^T (f - A y)` is what the iteration orthogonalises.
+//!
+//! Every channel's sums run in index order, so the bits do not depend on the thread count
+//! nor on the other channels.
+
+mod cgls;
+mod lanczos;
+mod operator;
+mod pcg;
+mod precondition;
+mod schwarz;
+
+pub use cgls::cgls;
+pub use lanczos::lanczos_condition;
+pub use operator::SparseOperator;
+pub use pcg::pcg;
+pub use precondition::{Identity, Jacobi, LocalInverse};
+pub use schwarz::{AdditiveSchwarz, SchwarzStats};
+
+use serde::Serialize;
+
+/// A symmetric positive (semi)definite operator `A`, applied to several vectors at once.
+pub trait SymmetricOperator: Sync {
+    /// Unknowns `n` (the length of every vector).
+    fn dim(&self) -> usize;
+    /// `q_c = A p_c` for every `c` (`q[c]` is overwritten or replaced by a vector of length
+    /// [`Self::dim`]).
+    fn apply(&self, p: &[&[f64]], q: &mut [Vec<f64>]);
+}
+
+/// A preconditioner `M^{-1} ≈ A^{-1}` (symmetric positive definite on the range of `A`),
+/// applied to several vectors at once.
+pub trait Preconditioner: Sync {
+    /// `z_c = M^{-1} r_c` for every `c` (`z[c]`, of the length of `r[c]`, overwritten).
+    fn apply(&self, r: &[&[f64]], z: &mut [Vec<f64>]);
+}
+
+/// Which relative residual the report gives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum ResidualReport {
+    /// The recurred `||r_j|| / ||b||` (free; drifts from the true one by rounding).
+    Recurred,
+    /// `||b - A x|| / ||b||` from one more product with `A` (the true residual).
+    Recomputed,
+}
+
+/// Whether the Lanczos condition estimate is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum ConditionEstimate {
+    /// Not estimated (the `alpha_j, beta_j` are not kept).
+    Skip,
+    /// `cond(M^{-1} A)` from the Lanczos tridiagonal of the run (a dense eigenvalue
+    /// problem of the iterations' size, at most 300).
+    Lanczos,
+}
+
+/// What a conjugate-gradient solve is asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CgParams {
+    /// Stop a channel at `||r|| <= tolerance ||b||`.
+    pub tolerance: f64,
+    /// Most iterations; past them the iterate is returned, `converged` false.
+    pub max_iterations: usize,
+    /// The residual reported (recurred: free; recomputed: one more product, exact).
+    pub residual: ResidualReport,
+    /// The condition estimate (costs keeping two numbers an iteration and one small
+    /// eigenvalue problem).
+    pub condition: ConditionEstimate,
+}
+
+/// What one conjugate-gradient solve did, per channel.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct CgReport {
+    /// Iterations taken per channel.
+    pub iterations: Vec<usize>,
+    /// Final relative residual per channel (see [`CgParams::residual`]; for [`cgls`] the
+    /// recurred normal residual `||A^T r|| / ||A^T f||`).
+    pub relative_residual: Vec<f64>,
+    /// Per channel, whether the tolerance was reached.
+    pub converged: Vec<bool>,
+    /// Lanczos estimate of `cond(M^{-1} A)` per channel (1 with fewer than two iterations),
+    /// when asked.
+    pub condition: Option<Vec<f64>>,
+}
+
+impl CgReport {
+    /// Whether every channel reached the tolerance.
+    pub fn all_converged(&self) -> bool {
+        self.converged.iter().all(|&c| c)
+    }
+    /// The first channel that did not reach the tolerance.
+    pub fn first_unconverged(&self) -> Option<usize> {
+        self.converged.iter().position(|&c| !c)
+    }
+}

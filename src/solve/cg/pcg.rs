@@ -1,0 +1,223 @@
+//! The lockstep preconditioned conjugate gradient of [`super`]: one run per channel, the
+//! products of the channels still iterating batched into one call of the operator and one
+//! of the preconditioner per iteration.
+
+use rayon::prelude::*;
+
+use super::{
+    lanczos_condition, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
+    SymmetricOperator,
+};
+use crate::solve::vectors::dot;
+
+/// One channel's conjugate-gradient state.
+struct Channel {
+    x: Vec<f64>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    /// `A p` of the current iteration.
+    q: Vec<f64>,
+    /// `r . z`.
+    rz: f64,
+    /// `||b||`.
+    bnorm: f64,
+    /// The recurred `||r|| / ||b||`.
+    residual: f64,
+    /// The step length of the current iteration.
+    alpha: f64,
+    /// Whether the current iteration stepped (no breakdown).
+    stepped: bool,
+    iterations: usize,
+    alphas: Vec<f64>,
+    betas: Vec<f64>,
+    active: bool,
+}
+
+impl Channel {
+    /// The first half of an iteration, given `q = A p`: `alpha = r.z / p.q`, `x += alpha p`,
+    /// `r -= alpha q`; a breakdown (`p.q` not positive and finite) stops the channel with
+    /// its iterate. Whether it stepped.
+    fn advance(&mut self) -> bool {
+        let pq = dot(&self.p, &self.q);
+        if !(pq > 0.0 && pq.is_finite()) {
+            self.active = false;
+            return false;
+        }
+        let alpha = self.rz / pq;
+        for ((x, r), (p, q)) in self
+            .x
+            .iter_mut()
+            .zip(self.r.iter_mut())
+            .zip(self.p.iter().zip(&self.q))
+        {
+            *x += alpha * p;
+            *r -= alpha * q;
+        }
+        self.alpha = alpha;
+        true
+    }
+
+    /// The second half, given `z = M^{-1} r`: `beta = r.z / (r.z)_old`, `p = z + beta p`,
+    /// and the stopping rule.
+    fn conjugate(&mut self, tolerance: f64, keep: bool) {
+        let rz_new = dot(&self.r, &self.z);
+        let beta = rz_new / self.rz;
+        for (p, z) in self.p.iter_mut().zip(&self.z) {
+            *p = z + beta * *p;
+        }
+        self.rz = rz_new;
+        if keep {
+            self.alphas.push(self.alpha);
+            self.betas.push(beta);
+        }
+        self.iterations += 1;
+        let rnorm = dot(&self.r, &self.r).sqrt();
+        self.residual = rnorm / self.bnorm;
+        self.active = rz_new > 0.0 && rnorm > tolerance * self.bnorm;
+    }
+}
+
+/// `q_c = A p_c` for the channels `on`, in one call.
+fn apply_operator(op: &dyn SymmetricOperator, ch: &mut [Channel], on: &[usize]) {
+    let mut qs: Vec<Vec<f64>> = on.iter().map(|&c| std::mem::take(&mut ch[c].q)).collect();
+    let ps: Vec<&[f64]> = on.iter().map(|&c| ch[c].p.as_slice()).collect();
+    op.apply(&ps, &mut qs);
+    for (&c, q) in on.iter().zip(qs) {
+        ch[c].q = q;
+    }
+}
+
+/// `z_c = M^{-1} r_c` for the channels `on`, in one call.
+fn apply_preconditioner(pre: &dyn Preconditioner, ch: &mut [Channel], on: &[usize]) {
+    let mut zs: Vec<Vec<f64>> = on.iter().map(|&c| std::mem::take(&mut ch[c].z)).collect();
+    let rs: Vec<&[f64]> = on.iter().map(|&c| ch[c].r.as_slice()).collect();
+    pre.apply(&rs, &mut zs);
+    for (&c, z) in on.iter().zip(zs) {
+        ch[c].z = z;
+    }
+}
+
+/// Solves `A x_c = b_c` for every channel `c` by preconditioned conjugate gradients in
+/// lockstep, from `start` (per channel; `None`: 0), as stated in [`super`]. Returns the
+/// iterates and the report; never fails (see [`CgReport::converged`]).
+pub fn pcg(
+    op: &dyn SymmetricOperator,
+    pre: &dyn Preconditioner,
+    b: &[&[f64]],
+    start: Option<Vec<Vec<f64>>>,
+    params: &CgParams,
+) -> (Vec<Vec<f64>>, CgReport) {
+    let k = b.len();
+    let n = op.dim();
+    let tolerance = params.tolerance;
+    let keep = params.condition == ConditionEstimate::Lanczos;
+    let xs = start.unwrap_or_else(|| vec![vec![0.0; n]; k]);
+    debug_assert_eq!(xs.len(), k);
+    // r_0 = b - A x_0 (A x_0 only computed when some start is not 0)
+    let warm = xs.iter().any(|x| x.iter().any(|&v| v != 0.0));
+    let rs: Vec<Vec<f64>> = if warm {
+        let refs: Vec<&[f64]> = xs.iter().map(|x| x.as_slice()).collect();
+        let mut ax = vec![vec![0.0; n]; k];
+        op.apply(&refs, &mut ax);
+        b.iter()
+            .zip(&ax)
+            .map(|(b, ax)| b.iter().zip(ax).map(|(b, a)| b - a).collect())
+            .collect()
+    } else {
+        b.iter().map(|b| b.to_vec()).collect()
+    };
+    let mut zs = vec![vec![0.0; n]; k];
+    {
+        let refs: Vec<&[f64]> = rs.iter().map(|r| r.as_slice()).collect();
+        pre.apply(&refs, &mut zs);
+    }
+    let mut ch: Vec<Channel> = xs
+        .into_iter()
+        .zip(rs.into_iter().zip(zs))
+        .zip(b)
+        .map(|((x, (r, z)), b)| {
+            let rz = dot(&r, &z);
+            let bnorm = dot(b, b).sqrt();
+            let rnorm = dot(&r, &r).sqrt();
+            Channel {
+                p: z.clone(),
+                q: vec![0.0; n],
+                active: bnorm > 0.0 && rz > 0.0 && rnorm > tolerance * bnorm,
+                residual: if bnorm > 0.0 { rnorm / bnorm } else { 0.0 },
+                x,
+                r,
+                z,
+                rz,
+                bnorm,
+                alpha: 0.0,
+                stepped: false,
+                iterations: 0,
+                alphas: Vec::new(),
+                betas: Vec::new(),
+            }
+        })
+        .collect();
+    for _ in 0..params.max_iterations {
+        let live: Vec<usize> = (0..k).filter(|&c| ch[c].active).collect();
+        if live.is_empty() {
+            break;
+        }
+        apply_operator(op, &mut ch, &live);
+        ch.par_iter_mut()
+            .filter(|s| s.active)
+            .for_each(|s| s.stepped = s.advance());
+        let stepped: Vec<usize> = live.into_iter().filter(|&c| ch[c].stepped).collect();
+        apply_preconditioner(pre, &mut ch, &stepped);
+        ch.par_iter_mut().filter(|s| s.stepped).for_each(|s| {
+            s.conjugate(tolerance, keep);
+            s.stepped = false;
+        });
+    }
+    let residuals: Vec<f64> = match params.residual {
+        ResidualReport::Recurred => ch.iter().map(|s| s.residual).collect(),
+        ResidualReport::Recomputed => {
+            let refs: Vec<&[f64]> = ch.iter().map(|s| s.x.as_slice()).collect();
+            let mut ax = vec![vec![0.0; n]; k];
+            op.apply(&refs, &mut ax);
+            ch.iter()
+                .zip(ax.iter().zip(b))
+                .map(|(s, (ax, b))| {
+                    let res: f64 = b
+                        .iter()
+                        .zip(ax)
+                        .map(|(b, g)| (b - g) * (b - g))
+                        .sum::<f64>()
+                        .sqrt();
+                    res / s.bnorm
+                })
+                .collect()
+        }
+    };
+    let mut report = CgReport {
+        condition: keep.then(Vec::new),
+        ..CgReport::default()
+    };
+    let mut solutions = Vec::with_capacity(k);
+    for (s, residual) in ch.into_iter().zip(residuals) {
+        if s.bnorm == 0.0 {
+            // b = 0: the solution is 0, whatever the start
+            report.iterations.push(0);
+            report.relative_residual.push(0.0);
+            report.converged.push(true);
+            if let Some(cond) = report.condition.as_mut() {
+                cond.push(1.0);
+            }
+            solutions.push(vec![0.0; n]);
+            continue;
+        }
+        report.iterations.push(s.iterations);
+        report.relative_residual.push(residual);
+        report.converged.push(residual <= tolerance);
+        if let Some(cond) = report.condition.as_mut() {
+            cond.push(lanczos_condition(&s.alphas, &s.betas));
+        }
+        solutions.push(s.x);
+    }
+    (solutions, report)
+}
