@@ -96,6 +96,8 @@ pub mod domain;
 pub mod image;
 pub mod io;
 pub mod kernel;
+#[cfg(feature = "plot")]
+pub mod lab;
 pub mod norms;
 #[cfg(feature = "plot")]
 pub mod plot;

@@ -12,14 +12,15 @@ use rkwave::image::adaptive::experiment::{
 };
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
-use rkwave::image::experiment::{
-    compare_methods, comparison_csv, comparison_markdown, comparison_times_markdown, Comparison,
-    Method, SamplingParams, TruthParams, WaveletParams, CSV_HEADER,
-};
-use rkwave::image::figure::{save_error_vs_time, save_side_by_side};
 use rkwave::image::scene::Scene;
+use rkwave::image::{Method, WaveletParams};
+use rkwave::lab::experiment::{compare_methods, Comparison, SamplingParams, TruthParams};
+use rkwave::lab::figure::{save_error_vs_time, save_side_by_side};
+use rkwave::lab::table::{
+    comparison_csv, comparison_markdown, comparison_times_markdown, CSV_HEADER,
+};
 
-use super::image_cmd::{
+use super::image_args::{
     check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path,
 };
 use super::{check_writable, CliError};

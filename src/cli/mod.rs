@@ -10,10 +10,12 @@ pub mod eval_cmd;
 pub mod figures;
 pub mod hints;
 pub mod image_adaptive_cmd;
+pub mod image_args;
 pub mod image_cmd;
 pub mod limits;
 pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
+pub mod reconstruct_args;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
@@ -52,7 +54,7 @@ pub enum Command {
     /// The built-in demo (what `cargo run --release` runs).
     Demo(DemoArgs),
     /// Reconstruct a user's samples (CSV or .npy) onto a grid.
-    Reconstruct(reconstruct_cmd::ReconstructArgs),
+    Reconstruct(reconstruct_args::ReconstructArgs),
     /// Local inversion against the global pseudo-inverse (DESIGN §5).
     Report(report_cmd::ReportArgs),
     /// The report over a grid of knobs: CSV and a figure of error against time.
@@ -62,7 +64,7 @@ pub enum Command {
     /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
     Adapt(adapt_cmd::AdaptArgs),
     /// Render a scene's pixels from image-plane samples by one method, measured against the truth.
-    Image(image_cmd::ImageArgs),
+    Image(image_args::ImageArgs),
     /// Every image-plane method on the same samples: figures and a table.
     Compare(compare_cmd::CompareArgs),
     /// Adaptive image sampling driven by a renderer: the next round's positions from every
@@ -248,6 +250,9 @@ pub enum CliError {
     /// An output that cannot or must not be written (checked before computing).
     #[error(transparent)]
     Output(#[from] rkwave::io::output::OutputError),
+    /// The image plane's reconstruction.
+    #[error("the wavelet reconstruction failed: {0}")]
+    Wavelet(#[from] rkwave::image::WaveletError),
     /// Other invalid input.
     #[error("{0}")]
     Invalid(String),

@@ -8,13 +8,12 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, SamplePositions};
-use rkwave::image::experiment::image_samples_from_table;
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::ImagePlane;
 use rkwave::io::output::{same_file, write_new, OutputError};
-use rkwave::io::{npy_bytes, read_samples, SampleSet};
+use rkwave::io::{npy_bytes, read_image_samples, SampleSet};
 
-use super::image_cmd::{check_p, parse_resolution};
+use super::image_args::{check_p, parse_resolution};
 use super::{check_writable, CliError};
 
 /// `rkwave plan`.
@@ -164,9 +163,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             };
             let params = params(args, plane, &state.params)?;
             state.check_params(plane, &params).map_err(protocol)?;
-            let table = read_samples(path)?;
-            let samples = image_samples_from_table(table, state.plane)
-                .map_err(|e| CliError::Invalid(format!("{}: {e}", path.display())))?;
+            let samples = read_image_samples(path, state.plane)?;
             let step = state.advance(&samples).map_err(protocol)?;
             let next = step.next.clone();
             (state, next, Some(step))
@@ -240,7 +237,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
 /// residual, clamped to the local sample range; with `--no-residual` the box pixels alone)
 /// written to `--output`.
 pub fn reconstruct(
-    args: &super::reconstruct_cmd::ReconstructArgs,
+    args: &super::reconstruct_args::ReconstructArgs,
     dir: &std::path::Path,
     started: std::time::Instant,
 ) -> Result<(), CliError> {
@@ -256,9 +253,7 @@ pub fn reconstruct(
             )));
         }
     }
-    let table = read_samples(&args.input)?;
-    let samples = image_samples_from_table(table, state.plane)
-        .map_err(|e| CliError::Invalid(format!("{}: {e}", args.input.display())))?;
+    let samples = read_image_samples(&args.input, state.plane)?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly
     } else {

@@ -19,6 +19,7 @@
 //! * `figure`: the image, the local depth and the samples side by side.
 
 pub mod correction;
+#[cfg(feature = "plot")]
 pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;
