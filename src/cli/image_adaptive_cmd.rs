@@ -48,10 +48,7 @@ fn figure_path(out: &Path, what: &str) -> PathBuf {
 }
 
 fn write(path: &Path, image: &PixelImage, force: bool) -> Result<(), CliError> {
-    write_image(path, image, force).map_err(|e| CliError::Write {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e.to_string()),
-    })
+    Ok(write_image(path, image, force)?)
 }
 
 /// Runs `rkwave image --adaptive`.
@@ -93,8 +90,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             (spp + 1).saturating_mul(plane.pixels())
         )));
     }
-    let scene =
-        Scene::from_file(scene_path(&args.scene)?).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let scene = Scene::from_file(scene_path(&args.scene)?)?;
     let params = AdaptiveParams {
         p: check_p(args.p)?,
         rho: args.rho.map_or(Ok(2.0), check_rho)?,
@@ -119,8 +115,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         cache: args.truth_cache.clone(),
     };
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
-    let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)?;
     bar.finish_and_clear();
     write(&args.out, &out.image, args.force)?;
     write(&depth_path, &depth_image(&out.run), args.force)?;

@@ -45,13 +45,9 @@ pub struct ImageArgs {
     /// the tree (default 2).
     #[arg(long)]
     pub rho: Option<f64>,
-    /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
-    #[arg(long, default_value_t = 1e-9)]
-    pub ridge: f64,
-    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
-    /// (0: the least-squares fit).
-    #[arg(long, default_value_t = 0.0)]
-    pub smoothing: f64,
+    /// The wavelet fit's ridge and smoothing.
+    #[command(flatten)]
+    pub fit: WaveletFitArgs,
     /// Seed of positions and noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -149,6 +145,18 @@ impl SolverChoice {
     }
 }
 
+/// The wavelet fit's regularization flags, shared by `image` and `compare`.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct WaveletFitArgs {
+    /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
+    #[arg(long, default_value_t = 1e-9)]
+    pub ridge: f64,
+    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
+    /// (0: the least-squares fit).
+    #[arg(long, default_value_t = 0.0)]
+    pub smoothing: f64,
+}
+
 /// A scene argument: an existing file, or a built-in scene's name.
 pub fn scene_path(arg: &str) -> Result<PathBuf, CliError> {
     let direct = PathBuf::from(arg);
@@ -175,13 +183,13 @@ pub fn scene_path(arg: &str) -> Result<PathBuf, CliError> {
 /// Parses `--resolution`.
 pub fn parse_resolution(s: &str) -> Result<ImagePlane, CliError> {
     s.parse::<ImagePlane>()
-        .map_err(|e| CliError::Invalid(format!("--resolution: {e}")))
+        .map_err(|e| CliError::flag("--resolution", e))
 }
 
 /// Parses `--sampler`.
 pub fn parse_sampler(s: &str) -> Result<Sampler, CliError> {
     s.parse::<Sampler>()
-        .map_err(|e| CliError::Invalid(format!("--sampler: {e}")))
+        .map_err(|e| CliError::parse("--sampler", e))
 }
 
 /// Parses `--p` for the wavelet methods.

@@ -40,7 +40,7 @@ fn filter_csv_path(out: &Path, x: usize, y: usize) -> PathBuf {
 /// Runs `rkwave image`.
 pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     // Before any work, in both modes: a format we cannot write is refused up front.
-    ImageFormat::from_path(&args.out).map_err(|e| CliError::Invalid(format!("--out: {e}")))?;
+    ImageFormat::from_path(&args.out).map_err(|e| CliError::flag("--out", e))?;
     if args.adaptive.adaptive {
         return super::image_adaptive_cmd::run(args);
     }
@@ -50,7 +50,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let method: Method = args
         .method
         .parse()
-        .map_err(|e| CliError::Invalid(format!("--method: {e}")))?;
+        .map_err(|e| CliError::parse("--method", e))?;
     let pixel_filter = match &args.pixel_filter {
         None => None,
         Some(name) => {
@@ -62,7 +62,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             }
             let kind: FilmFilterKind = name
                 .parse()
-                .map_err(|e| CliError::Invalid(format!("--pixel-filter: {e}")))?;
+                .map_err(|e| CliError::parse("--pixel-filter", e))?;
             (kind != FilmFilterKind::Box).then_some(kind)
         }
     };
@@ -70,8 +70,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     if let Some((x, y)) = show {
         check_writable(&filter_csv_path(&args.out, x, y), args.force)?;
     }
-    let scene =
-        Scene::from_file(scene_path(&args.scene)?).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let scene = Scene::from_file(scene_path(&args.scene)?)?;
     let sampling = SamplingParams {
         plane,
         spp: args.spp,
@@ -83,26 +82,21 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         p: check_p(args.p)?,
         pixel_filter,
         rho: check_rho(args.rho.unwrap_or(4.0))?,
-        ridge: check_ridge(args.ridge)?,
-        smoothing: args.smoothing,
+        ridge: check_ridge(args.fit.ridge)?,
+        smoothing: args.fit.smoothing,
     };
     let truth = TruthParams {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
     let bar = spinner(&format!("{} on {} at {plane}", method, scene.name()));
-    let cmp = compare_methods(&scene, &sampling, &[method], &wavelet, &truth)
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let cmp = compare_methods(&scene, &sampling, &[method], &wavelet, &truth)?;
     bar.finish_and_clear();
     let report = ImageReport::from_comparison(&cmp, 0);
-    write_image(&args.out, &cmp.results[0].image, args.force).map_err(|e| CliError::Write {
-        path: args.out.clone(),
-        source: std::io::Error::other(e.to_string()),
-    })?;
+    write_image(&args.out, &cmp.results[0].image, args.force)?;
     let mut filter_file = None;
     if let Some((x, y)) = show {
-        let samples =
-            sample_scene(&scene, &sampling).map_err(|e| CliError::Invalid(e.to_string()))?;
+        let samples = sample_scene(&scene, &sampling)?;
         let weights = sample_weights(method, &samples, &wavelet, x, y)?;
         let path = filter_csv_path(&args.out, x, y);
         let mut text = String::from("index,x,y,weight\n");

@@ -89,7 +89,7 @@ fn params(
 fn protocol(e: ProtocolError) -> CliError {
     match e {
         ProtocolError::Write(e) => CliError::Output(e),
-        e => CliError::Invalid(e.to_string()),
+        e => CliError::Protocol(e),
     }
 }
 
@@ -260,12 +260,7 @@ pub fn reconstruct(
         state.params.pixels
     };
     let done = state.reconstruct_as(&samples, estimate).map_err(protocol)?;
-    rkwave::io::image_file::write_image(&args.output, &done.image, args.force).map_err(|e| {
-        CliError::Write {
-            path: args.output.clone(),
-            source: std::io::Error::other(e.to_string()),
-        }
-    })?;
+    rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
     let mut overridden = Vec::new();
     // The plan fixes the basis and the solve: say so when the user asked for others.
     if args.filter.p != state.params.p {

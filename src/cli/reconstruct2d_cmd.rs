@@ -17,8 +17,7 @@ use super::{check_writable, CliError};
 /// Runs the 2D path of `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
-    ImageFormat::from_path(&args.output)
-        .map_err(|e| CliError::Invalid(format!("--output: {e}")))?;
+    ImageFormat::from_path(&args.output).map_err(|e| CliError::flag("--output", e))?;
     check_writable(&args.output, args.force)?;
     if let Some(dir) = &args.state {
         return super::plan_cmd::reconstruct(args, dir, started);
@@ -48,10 +47,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let done = reconstruct(method, &samples, &wavelet)?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    write_image(&args.output, &done.image, args.force).map_err(|e| CliError::Write {
-        path: args.output.clone(),
-        source: std::io::Error::other(e.to_string()),
-    })?;
+    write_image(&args.output, &done.image, args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let report = FileReconstructionReport::new(

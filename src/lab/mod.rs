@@ -6,11 +6,13 @@
 //!   the same samples through the library's [`reconstruct`], each measured against the
 //!   box-filtered ground truth (PSNR, RMSE, relative MSE, SSIM), as typed `Serialize` reports;
 //! * [`table`]: those comparisons as CSV and Markdown tables;
-//! * [`figure`]: their figures (images side by side with zoomed crops, PSNR against time).
+//! * [`figure`]: their figures (images side by side with zoomed crops, PSNR against time);
+//! * [`refine_figures`]: the layout of the 1D adaptive refiner's figures.
 //!
 //! [`Method`]: crate::image::Method
 //! [`reconstruct`]: crate::image::reconstruct
 
 pub mod experiment;
 pub mod figure;
+pub mod refine_figures;
 pub mod table;

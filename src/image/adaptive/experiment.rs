@@ -36,6 +36,7 @@ use crate::lab::experiment::{
 
 /// Why an adaptive comparison failed.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum AdaptiveRunError {
     /// The adaptive engine.
     #[error(transparent)]
