@@ -1,7 +1,7 @@
 //! The domain `[a, b]` of a reconstruction: a validated finite interval with an exact affine
-//! map to and from the unit interval `[0, 1]` on which the CDV basis is built. Shared by
-//! [`crate::basis`] (which maps positions to `[0, 1]`) and [`crate::sampling`] (which places
-//! positions in it); re-exported from both.
+//! map to and from the unit interval `[0, 1]` on which the CDV basis is built. Shared by the
+//! basis (which maps positions to `[0, 1]`) and the sample layouts (which place positions in
+//! it); re-exported from both. It depends on neither.
 
 use std::fmt;
 use std::str::FromStr;

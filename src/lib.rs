@@ -48,10 +48,13 @@
 //! - [`refine`]: the adaptive refiner: a wavelet tree and its samples grown together where
 //!   the signal needs them ([`refine::refine`]);
 //! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
-//!   filters and image-plane reconstruction;
+//!   filters and image-plane reconstruction ([`image::reconstruct`]: samples to pixels);
 //! - [`report`]: the local-vs-global comparison of DESIGN §5 as typed data;
-//! - [`io`] (at the edge): reading and writing samples (CSV, NumPy `.npy`);
-//! - `plot` (at the edge, feature `plot`): the figures.
+//! - [`io`] (at the edge): reading and writing samples (CSV, NumPy `.npy`) and images;
+//! - [`error`]: the kinds every error is classified by;
+//! - `plot` (at the edge, feature `plot`): the figures;
+//! - `lab` (feature `plot`): the experiments that measure the library, their tables and
+//!   figures; the production path never calls it.
 //!
 //! Without default features (`cargo build --lib --no-default-features`) the engine builds with
 //! no command-line, plotting or image crates in its tree.
@@ -61,23 +64,45 @@
 //! - **Errors.** Everything a caller can get wrong is a typed error (`thiserror`), never a
 //!   panic, a NaN or a silent cut: parameters out of range, positions outside the domain or
 //!   not finite, non-finite values, too few samples, unreadable files, a solve that does not
-//!   converge. Each module has one error enum ([`basis::BasisError`],
-//!   [`kernel::KernelError`], [`solve::SolveError`], [`reconstruct::ReconstructError`],
-//!   [`refine::RefineError`], [`io::IoError`], [`sampling::DomainError`]); each variant names
-//!   the value at fault in its fields and its message says what to pass instead.
+//!   converge. Each variant names the value at fault in its fields and its message says what
+//!   to pass instead.
+//! - **Every public error enum** is `#[non_exhaustive]`, derives `Debug` and `Error` (and
+//!   `Clone` and `PartialEq` unless it carries an operating-system, image or nested error
+//!   that does not), and has a `kind()` returning one shared [`error::ErrorKind`]
+//!   (`InvalidInput`, `Undetermined`, `ResourceLimit`, `NotConverged`, `Numerical`,
+//!   `Unreadable`, `OutputRefused`, `WriteFailed`, `Internal`; [`error`] gives each its
+//!   meaning). Callers decide by kind, never by message text. The complete list:
+//!   - the engine: [`basis::BasisError`], [`basis::tensor::TensorError`],
+//!     [`domain::DomainError`], [`kernel::KernelError`], [`solve::SolveError`],
+//!     [`reconstruct::ReconstructError`], [`refine::RefineError`],
+//!     [`resources::ResourceError`];
+//!   - the image plane: [`image::ImageError`], [`image::ImageFitError`],
+//!     [`image::pixels::PixelError`], [`image::WaveletError`],
+//!     [`image::scene::SceneError`], [`image::adaptive::AdaptiveError`],
+//!     [`image::adaptive::protocol::ProtocolError`];
+//!   - input and output: [`io::IoError`], [`io::output::OutputError`],
+//!     [`io::image_file::ImageFileError`];
+//!   - reports and the lab: [`report::scaling::ScalingError`]; with feature `plot`,
+//!     `plot::PlotError`, `lab::experiment::ImageRunError` and
+//!     `image::adaptive::experiment::AdaptiveRunError`.
+//!
+//!   A parse error of a name (`ParseMethodError`, `ParseSamplerError`, ...) is a struct
+//!   holding the name given; its kind is always `InvalidInput`.
+//! - **Parameters out of range** are `InvalidParameter { name, value, fix }` with the value
+//!   as given (`String`); too few samples is `Undersampled { samples, functions, .. }` (the
+//!   reconstruction adds the fix that can work).
 //! - **Messages speak of parameters**, in the library's terms (`p`, the domain, the max depth,
 //!   `cutoff`), never of command-line flags: the command line maps them to its flags.
-//! - **Consistent shapes.** Every error enum derives `Debug` and `Error`, and also `Clone` and
-//!   `PartialEq` unless it carries an operating-system or image error; every one is
-//!   `#[non_exhaustive]`. A parameter out of range is `InvalidParameter { name, value, fix }`
-//!   with the value as given (`String`); too few samples is
-//!   `Undersampled { samples, functions, .. }` (the reconstruction adds the fix that can work).
+//! - **The command line** maps kinds to exit codes: 2 when the caller can fix the request
+//!   (every kind but `WriteFailed` and `Internal`), 1 when the machine failed.
 //! - **Panics** are only for broken internal contracts (an index the library computed itself
 //!   out of range, a factorization of a matrix the library built to be definite): a panic is
 //!   a bug to report, never a way to signal bad input.
 //! - **Fallbacks are reported.** A departure from what was asked (a lowered level, another
 //!   solver, a cut-off) is recorded in the result ([`reconstruct::Fallback`],
-//!   [`solve::LocalStats`]) and printed by the command line in text and JSON.
+//!   [`solve::LocalStats`]) and printed by the command line in text and JSON. A warning that
+//!   lists places (gaps, pinned regions) gives their count and the few largest, never a line
+//!   of hundreds of characters.
 //!
 //! ## Evaluating the basis itself
 //!
@@ -96,9 +121,12 @@
 pub mod adaptive;
 pub mod basis;
 pub mod domain;
+pub mod error;
 pub mod image;
 pub mod io;
 pub mod kernel;
+#[cfg(feature = "plot")]
+pub mod lab;
 pub mod norms;
 #[cfg(feature = "plot")]
 pub mod plot;

@@ -1,20 +1,18 @@
 //! `rkwave adapt`: the adaptive refiner (DESIGN §6) on a built-in signal or an expression in
 //! `x`, its error against the truth and against uniform sampling with as many samples, and
 //! the supplement's figure 4 (reconstruction, samples, local depth, `K^T` aligned below).
-//! The experiment and the figure's data are library code (`rkwave::refine::experiment`):
-//! this parses, calls and prints.
+//! The experiment and the figure's data are library code (`rkwave::refine::experiment`), the
+//! figures' layout the lab's (`rkwave::lab::refine_figures`): this parses, calls and prints.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use rkwave::plot::{Figure, Panel, PanelContent, Scale, Series, SeriesStyle, SparsityPanel};
+use rkwave::lab::refine_figures::{error_against_samples, figure4_layout};
 use rkwave::refine::experiment::{
-    adaptive_vs_uniform, compare_uniform, comparison_budgets, figure4, AdaptReport, ComparisonRow,
-    Truth,
+    adaptive_vs_uniform, compare_uniform, comparison_budgets, AdaptReport, Truth,
 };
 use rkwave::refine::{
-    ExpressionOracle, Indicator, RefineError, RefineParams, Refinement, SampleOracle, SignalOracle,
-    StopReason,
+    ExpressionOracle, Indicator, RefineError, RefineParams, SampleOracle, SignalOracle, StopReason,
 };
 use rkwave::sampling::{Domain, Layout, Signal};
 
@@ -161,7 +159,7 @@ impl AdaptArgs {
         let base_layout: Layout = self
             .layout
             .parse()
-            .map_err(|e: rkwave::sampling::ParseLayoutError| CliError::Invalid(e.to_string()))?;
+            .map_err(|e: rkwave::sampling::ParseLayoutError| CliError::parse("--layout", e))?;
         if self.grid < 2 {
             return Err(CliError::Invalid(format!(
                 "--grid {} is too small: give at least 2 points",
@@ -200,12 +198,12 @@ impl AdaptArgs {
     }
 }
 
-/// Refiner errors: bad input (exit 2), except failures of the machine.
+/// Refiner errors, by their kind (a wrapped basis or reconstruction error as itself).
 fn refine_error(e: RefineError) -> CliError {
     match e {
         RefineError::Basis(b) => CliError::Basis(b),
         RefineError::Reconstruct(r) => r.into(),
-        other => CliError::Invalid(other.to_string()),
+        other => CliError::Refine(other),
     }
 }
 
@@ -229,7 +227,7 @@ pub fn run(args: &AdaptArgs) -> Result<(), CliError> {
     }
     let (report, r) = adaptive_vs_uniform(truth, &params, args.grid).map_err(refine_error)?;
     if let Some(plot) = &args.plot {
-        figure4_plot(&r, truth, plot)?;
+        figures::save(&figure4_layout(&r, truth).map_err(refine_error)?, plot)?;
     }
     if args.json {
         println!(
@@ -304,7 +302,7 @@ fn compare(args: &AdaptArgs, params: &RefineParams, truth: Truth<'_>) -> Result<
     }
     let out = compare_uniform(truth, params, &budgets, args.grid).map_err(refine_error)?;
     if let Some(plot) = &args.plot {
-        comparison_figure(&out.comparison, &out.signal, plot)?;
+        figures::save(&error_against_samples(&out.comparison, &out.signal), plot)?;
     }
     if args.json {
         println!(
@@ -347,133 +345,4 @@ fn compare(args: &AdaptArgs, params: &RefineParams, truth: Truth<'_>) -> Result<
         }
     }
     Ok(())
-}
-
-/// Log-log error against samples, adaptive and uniform.
-fn comparison_figure(rows: &[ComparisonRow], name: &str, path: &Path) -> Result<(), CliError> {
-    let curve = |value: fn(&ComparisonRow) -> f64| -> Vec<(f64, f64)> {
-        rows.iter().map(|r| (r.samples as f64, value(r))).collect()
-    };
-    let panel = Panel {
-        title: format!("{name}: error against samples"),
-        x_label: "samples".into(),
-        y_label: "error".into(),
-        x_scale: Scale::Log10,
-        y_scale: Scale::Log10,
-        series: vec![
-            Series::new(
-                "adaptive, RMS on grid",
-                curve(|r| r.adaptive_l2),
-                SeriesStyle::LineMarkers,
-            )
-            .with_color(3),
-            Series::new(
-                "uniform, RMS on grid",
-                curve(|r| r.uniform_l2),
-                SeriesStyle::LineMarkers,
-            )
-            .with_color(0),
-            Series::new(
-                "adaptive, L2 (quadrature)",
-                curve(|r| r.adaptive_l2_quadrature),
-                SeriesStyle::Dashed,
-            )
-            .with_color(3),
-            Series::new(
-                "uniform, L2 (quadrature)",
-                curve(|r| r.uniform_l2_quadrature),
-                SeriesStyle::Dashed,
-            )
-            .with_color(0),
-        ],
-        ..Panel::default()
-    };
-    figures::save(&Figure::new(900, 650, vec![panel.into()]), path)
-}
-
-/// Figure 4 of the supplement for this run: reconstruction over the truth, base (grey) and
-/// refinement (red) samples as crosses on the axis, the local depth (magenta, scaled into the
-/// chart), and below it the pattern of `K^T` with each sample's column at its abscissa. The
-/// data come from the library ([`figure4`]); this lays them out.
-fn figure4_plot(r: &Refinement, truth: Truth<'_>, path: &Path) -> Result<(), CliError> {
-    let domain = r.tree.domain();
-    let data = figure4(r, truth).map_err(refine_error)?;
-    let (lo, hi) = data
-        .truth
-        .iter()
-        .chain(&data.reconstruction)
-        .map(|p| p.1)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| {
-            (a.min(y), b.max(y))
-        });
-    let span = if hi > lo { hi - lo } else { 1.0 };
-    let (y0, y1) = (lo - 0.18 * span, hi + 0.08 * span);
-    let cross_y = lo - 0.11 * span;
-    let crosses = |xs: &[f64]| -> Vec<(f64, f64)> { xs.iter().map(|&x| (x, cross_y)).collect() };
-    let shallowest = data.depth.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
-    let d_lo = if shallowest.is_finite() {
-        shallowest - 1.0
-    } else {
-        0.0
-    };
-    let d_hi = (r.tree.depth() as f64).max(d_lo + 1.0);
-    let depth: Vec<(f64, f64)> = data
-        .depth
-        .iter()
-        .map(|&(x, d)| (x, lo + (d - d_lo) / (d_hi - d_lo) * (hi - lo)))
-        .collect();
-    let chart = Panel {
-        title: format!(
-            "adaptive reconstruction of {}: {} samples ({} base), P = {}, depth {}..{}",
-            truth.name,
-            r.samples.len(),
-            r.base_samples(),
-            r.columns().len(),
-            r.base_depth,
-            r.tree.depth()
-        ),
-        x_label: "x".into(),
-        y_label: "f(x)".into(),
-        series: vec![
-            Series::new("signal", data.truth, SeriesStyle::Line).with_color(7),
-            Series::new("reconstruction", data.reconstruction, SeriesStyle::Dashed).with_color(0),
-            Series::new(
-                format!("local depth ({d_lo} at the bottom, {d_hi} at the top)"),
-                depth,
-                SeriesStyle::Line,
-            )
-            .with_color(6),
-            Series::new(
-                "base samples",
-                crosses(&data.base_samples),
-                SeriesStyle::Crosses,
-            )
-            .with_color(7),
-            Series::new(
-                "refinement samples",
-                crosses(&data.refinement_samples),
-                SeriesStyle::Crosses,
-            )
-            .with_color(3),
-        ],
-        x_range: Some((domain.a(), domain.b())),
-        y_range: Some((y0, y1)),
-        ..Panel::default()
-    };
-    let pattern = SparsityPanel {
-        title: "K^T: basis functions (coarse on top) x samples (at their abscissa)".into(),
-        x_label: "x".into(),
-        y_label: "basis function".into(),
-        shape: (data.functions, r.samples.len()),
-        entries: data.kernel_entries,
-        x_positions: Some(r.samples.iter().map(|s| s.x).collect()),
-        x_range: Some((domain.a(), domain.b())),
-        ..SparsityPanel::default()
-    };
-    let fig = Figure::new(
-        1100,
-        1050,
-        vec![PanelContent::Chart(chart), PanelContent::Sparsity(pattern)],
-    );
-    figures::save(&fig, path)
 }

@@ -12,15 +12,16 @@ use rkwave::image::adaptive::experiment::{
 };
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
-use rkwave::image::experiment::{
-    compare_methods, comparison_csv, comparison_markdown, comparison_times_markdown, Comparison,
-    Method, SamplingParams, TruthParams, WaveletParams, CSV_HEADER,
-};
-use rkwave::image::figure::{save_error_vs_time, save_side_by_side};
 use rkwave::image::scene::Scene;
+use rkwave::image::{Method, WaveletParams};
+use rkwave::lab::experiment::{compare_methods, Comparison, SamplingParams, TruthParams};
+use rkwave::lab::figure::{save_error_vs_time, save_side_by_side};
+use rkwave::lab::table::{
+    comparison_csv, comparison_markdown, comparison_times_markdown, CSV_HEADER,
+};
 
-use super::image_cmd::{
-    check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path,
+use super::image_args::{
+    check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path, WaveletFitArgs,
 };
 use super::{check_writable, CliError};
 
@@ -55,13 +56,9 @@ pub struct CompareArgs {
     /// 4 spp is one function per pixel).
     #[arg(long, default_value_t = 4.0)]
     pub rho: f64,
-    /// Relative ridge on the wavelet normal equations (G + ridge diag(G)).
-    #[arg(long, default_value_t = 1e-9)]
-    pub ridge: f64,
-    /// Relative weight of a first-difference penalty on neighbouring wavelet coefficients
-    /// (0: the least-squares fit).
-    #[arg(long, default_value_t = 0.0)]
-    pub smoothing: f64,
+    /// The wavelet fit's ridge and smoothing.
+    #[command(flatten)]
+    pub fit: WaveletFitArgs,
     /// Seed of positions and noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -94,17 +91,12 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     } else {
         args.methods
             .iter()
-            .map(|m| {
-                m.parse()
-                    .map_err(|e| CliError::Invalid(format!("--methods: {e}")))
-            })
+            .map(|m| m.parse().map_err(|e| CliError::parse("--methods", e)))
             .collect::<Result<_, _>>()?
     };
     let files = match (&args.scene, args.scenes.as_deref()) {
         (Some(s), _) => vec![scene_path(s)?],
-        (None, Some("all")) => {
-            Scene::builtin_files().map_err(|e| CliError::Invalid(e.to_string()))?
-        }
+        (None, Some("all")) => Scene::builtin_files()?,
         (None, other) => {
             return Err(CliError::Invalid(format!(
                 "--scenes {}: only `all` is accepted (or give one --scene FILE)",
@@ -115,8 +107,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let scenes = files
         .iter()
         .map(Scene::from_file)
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+        .collect::<Result<Vec<_>, _>>()?;
     let csv_path = args.out.join("compare.csv");
     let md_path = args.out.join("compare.md");
     let time_path = args.out.join("error_vs_time.png");
@@ -139,8 +130,8 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         p,
         pixel_filter: None,
         rho: check_rho(args.rho)?,
-        ridge: check_ridge(args.ridge)?,
-        smoothing: args.smoothing,
+        ridge: check_ridge(args.fit.ridge)?,
+        smoothing: args.fit.smoothing,
     };
     let truth = TruthParams {
         rate: args.truth_rate,
@@ -166,8 +157,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
                 noise,
                 seed: args.seed,
             };
-            let cmp = compare_methods(scene, &sampling, &methods, &wavelet, &truth)
-                .map_err(|e| CliError::Invalid(e.to_string()))?;
+            let cmp = compare_methods(scene, &sampling, &methods, &wavelet, &truth)?;
             let fig = args
                 .out
                 .join(format!("{}_noise{}.png", scene.name(), noise));
@@ -295,8 +285,7 @@ fn adaptive_rows(
     for scene in scenes {
         for &noise in &args.noise {
             let fig = adaptive_figure(args, scene, noise);
-            let out = compare_adaptive(scene, plane, args.spp, noise, &params, truth)
-                .map_err(|e| CliError::Invalid(e.to_string()))?;
+            let out = compare_adaptive(scene, plane, args.spp, noise, &params, truth)?;
             let c = &out.comparison;
             let title = format!(
                 "{} at {plane}, noise {noise}, {} samples ({} spp on average), PSNR {:.2} dB \

@@ -143,7 +143,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             });
         }
         let cli = <super::Cli as clap::Parser>::try_parse_from(&argv)
-            .map_err(|e| CliError::Invalid(e.to_string()))?;
+            .map_err(|e| CliError::Internal(format!("the demo's own arguments: {e}")))?;
         super::run(cli)?;
     }
     super::demo_image::run(out, &mut summary)?;

@@ -9,13 +9,12 @@ use std::path::Path;
 use rkwave::image::adaptive::experiment::{adaptive_markdown, compare_adaptive};
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
-use rkwave::image::experiment::{
-    compare_methods, comparison_markdown, Method, SamplingParams, TruthParams, WaveletParams,
-};
-use rkwave::image::figure::save_side_by_side;
 use rkwave::image::sampler::Sampler;
 use rkwave::image::scene::Scene;
-use rkwave::image::ImagePlane;
+use rkwave::image::{ImagePlane, Method, WaveletParams};
+use rkwave::lab::experiment::{compare_methods, SamplingParams, TruthParams};
+use rkwave::lab::figure::save_side_by_side;
+use rkwave::lab::table::comparison_markdown;
 
 use super::CliError;
 
@@ -27,8 +26,7 @@ const ADAPTIVE_SIDE: usize = 64;
 
 /// Renders the demo scene, writes `out/image_compare.png` and appends the table to `summary`.
 pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
-    let scene = Scene::from_file(Scene::builtin_dir().join(format!("{DEMO_SCENE}.json")))
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let scene = Scene::from_file(Scene::builtin_dir().join(format!("{DEMO_SCENE}.json")))?;
     let sampling = SamplingParams {
         plane: ImagePlane::new(DEMO_SIDE, DEMO_SIDE).expect("valid demo resolution"),
         spp: 4,
@@ -46,8 +44,7 @@ pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
         &Method::all(),
         &WaveletParams::default(),
         &truth,
-    )
-    .map_err(|e| CliError::Invalid(e.to_string()))?;
+    )?;
     let fig = out.join("image_compare.png");
     save_side_by_side(&cmp, &fig, true)?;
     let _ = writeln!(
@@ -64,8 +61,7 @@ pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
         budget: 4 * plane.pixels(),
         ..AdaptiveParams::default()
     };
-    let adaptive = compare_adaptive(&scene, plane, 4, 0.0, &params, &truth)
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let adaptive = compare_adaptive(&scene, plane, 4, 0.0, &params, &truth)?;
     let c = &adaptive.comparison;
     let fig = out.join("image_adaptive.png");
     let title = format!(

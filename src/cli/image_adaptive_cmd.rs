@@ -5,86 +5,18 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::{Args, ValueEnum};
 use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, TreeSolver};
-use rkwave::image::experiment::TruthParams;
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate};
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
 use rkwave::io::image_file::write_image;
+use rkwave::lab::experiment::TruthParams;
 
-use super::image_cmd::{check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs};
+use super::image_args::{
+    check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs, SolverChoice,
+};
 use super::{check_writable, CliError};
-
-/// Flags of the adaptive mode of `rkwave image`.
-#[derive(Args, Debug)]
-pub struct AdaptiveArgs {
-    /// Adaptive sampling: a quadtree of the wavelet basis refined where the scene needs it,
-    /// with `--spp` as the average samples per pixel (or `--budget`).
-    #[arg(long)]
-    pub adaptive: bool,
-    /// Total sample budget of the adaptive mode (default: spp x pixels).
-    #[arg(long)]
-    pub budget: Option<usize>,
-    /// Adaptive mode: depth limit in levels below the pixel.
-    #[arg(long, default_value_t = 1)]
-    pub below_pixel: u32,
-    /// Adaptive mode: the solver of each round's fit. `direct`: the sparse Cholesky of the
-    /// assembled normal matrix (the reference); `pcg`: matrix-free Jacobi-preconditioned CG
-    /// (about 7x less memory; to 1e-6, at most 400 iterations); `schwarz`: CG on the
-    /// assembled matrix preconditioned by additive Schwarz on 8-pixel tiles (to 1e-10, at most
-    /// 400). For both, the rounds' fits, which only steer the refinement, stop at relative
-    /// residual 1e-2 (tens of iterations) and the final fit is continued to the solver's
-    /// tolerance.
-    /// Iterations per round are printed for the last two; `--adaptive-params` sets the
-    /// tolerances (`{"round_tolerance": null}`: every round to the solver's tolerance).
-    #[arg(long, value_enum, default_value_t = SolverChoice::Direct)]
-    pub solver: SolverChoice,
-    /// Adaptive mode: false-alarm rate of the noise test, the chance per round that noise
-    /// alone deepens a slot (the noise level is estimated from the fits' residuals; 0: no
-    /// noise test, every detail is deepened).
-    #[arg(long, default_value_t = 0.01)]
-    pub false_alarm: f64,
-    /// Adaptive mode: a JSON object overriding fields of the refiner's parameters
-    /// (`AdaptiveParams`, e.g. `{"theta": 0.3, "spread": "uniform", "rho_limit": 4}`), applied
-    /// after the other flags; for experiments on the refiner's policy.
-    #[arg(long, value_name = "JSON")]
-    pub adaptive_params: Option<String>,
-    /// Adaptive mode: write the fit's box pixels alone. The default output adds the
-    /// significant mean residual of each pixel's samples and clamps the result to the range
-    /// of the samples in the pixel's 3x3 neighbourhood; the rows show both either way
-    /// (`--adaptive-params '{"pixels": "residual_corrected"}'`: the residual without the
-    /// clamp).
-    #[arg(long)]
-    pub no_residual: bool,
-}
-
-/// The tree fit's solver on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum SolverChoice {
-    /// Sparse Cholesky of the assembled normal matrix.
-    Direct,
-    /// Matrix-free Jacobi-preconditioned CG.
-    Pcg,
-    /// CG preconditioned by additive Schwarz on overlapping tiles.
-    Schwarz,
-}
-
-impl SolverChoice {
-    fn solver(self) -> TreeSolver {
-        match self {
-            Self::Direct => TreeSolver::Direct,
-            Self::Pcg => TreeSolver::default(),
-            Self::Schwarz => TreeSolver::Schwarz {
-                tolerance: 1e-10,
-                max_iterations: 400,
-                tile: 8.0,
-                halo: 1.0,
-            },
-        }
-    }
-}
 
 /// `params` with the fields of the JSON object `json` replaced (validated by the library).
 fn override_params(params: AdaptiveParams, json: &str) -> Result<AdaptiveParams, CliError> {
@@ -116,10 +48,7 @@ fn figure_path(out: &Path, what: &str) -> PathBuf {
 }
 
 fn write(path: &Path, image: &PixelImage, force: bool) -> Result<(), CliError> {
-    write_image(path, image, force).map_err(|e| CliError::Write {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e.to_string()),
-    })
+    Ok(write_image(path, image, force)?)
 }
 
 /// Runs `rkwave image --adaptive`.
@@ -161,8 +90,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             (spp + 1).saturating_mul(plane.pixels())
         )));
     }
-    let scene =
-        Scene::from_file(scene_path(&args.scene)?).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let scene = Scene::from_file(scene_path(&args.scene)?)?;
     let params = AdaptiveParams {
         p: check_p(args.p)?,
         rho: args.rho.map_or(Ok(2.0), check_rho)?,
@@ -187,8 +115,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         cache: args.truth_cache.clone(),
     };
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
-    let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+    let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)?;
     bar.finish_and_clear();
     write(&args.out, &out.image, args.force)?;
     write(&depth_path, &depth_image(&out.run), args.force)?;

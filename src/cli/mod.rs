@@ -10,10 +10,12 @@ pub mod eval_cmd;
 pub mod figures;
 pub mod hints;
 pub mod image_adaptive_cmd;
+pub mod image_args;
 pub mod image_cmd;
 pub mod limits;
 pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
+pub mod reconstruct_args;
 pub mod reconstruct_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
@@ -24,7 +26,9 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use rkwave::basis::{BasisError, FilterFamily};
+use rkwave::error::ErrorKind;
 use rkwave::plot::PlotError;
+use rkwave::refine::RefineError;
 use rkwave::sampling::{Domain, DomainError};
 use thiserror::Error;
 
@@ -52,7 +56,7 @@ pub enum Command {
     /// The built-in demo (what `cargo run --release` runs).
     Demo(DemoArgs),
     /// Reconstruct a user's samples (CSV or .npy) onto a grid.
-    Reconstruct(reconstruct_cmd::ReconstructArgs),
+    Reconstruct(reconstruct_args::ReconstructArgs),
     /// Local inversion against the global pseudo-inverse (DESIGN §5).
     Report(report_cmd::ReportArgs),
     /// The report over a grid of knobs: CSV and a figure of error against time.
@@ -62,7 +66,7 @@ pub enum Command {
     /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
     Adapt(adapt_cmd::AdaptArgs),
     /// Render a scene's pixels from image-plane samples by one method, measured against the truth.
-    Image(image_cmd::ImageArgs),
+    Image(image_args::ImageArgs),
     /// Every image-plane method on the same samples: figures and a table.
     Compare(compare_cmd::CompareArgs),
     /// Adaptive image sampling driven by a renderer: the next round's positions from every
@@ -210,7 +214,9 @@ pub struct DemoArgs {
     pub out: PathBuf,
 }
 
-/// Everything that can go wrong on the command line. User errors exit with code 2.
+/// Everything that can go wrong on the command line: the library's typed errors, wrapped as
+/// they are, and the command line's own checks of its flags. [`CliError::kind`] classifies
+/// each ([`rkwave::error`]); [`CliError::exit_code`] maps the kind to the exit code.
 #[derive(Debug, Error)]
 pub enum CliError {
     /// Invalid basis parameters or positions.
@@ -225,12 +231,36 @@ pub enum CliError {
     /// Reconstruction.
     #[error(transparent)]
     Reconstruct(#[from] rkwave::reconstruct::ReconstructError),
+    /// The adaptive refiner (`adapt`).
+    #[error(transparent)]
+    Refine(#[from] RefineError),
     /// A scaling measurement.
     #[error(transparent)]
     Scaling(#[from] rkwave::report::scaling::ScalingError),
     /// A figure could not be drawn or written.
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// The image plane's wavelet reconstruction.
+    #[error("the wavelet reconstruction failed: {0}")]
+    Wavelet(#[from] rkwave::image::WaveletError),
+    /// The image plane or its samples.
+    #[error(transparent)]
+    Image(#[from] rkwave::image::ImageError),
+    /// A scene file.
+    #[error(transparent)]
+    Scene(#[from] rkwave::image::scene::SceneError),
+    /// An image-plane experiment.
+    #[error(transparent)]
+    ImageRun(#[from] rkwave::lab::experiment::ImageRunError),
+    /// An adaptive image-plane experiment.
+    #[error(transparent)]
+    AdaptiveRun(#[from] rkwave::image::adaptive::experiment::AdaptiveRunError),
+    /// The plan protocol (`plan`, `reconstruct --dim 2 --state`).
+    #[error(transparent)]
+    Protocol(#[from] rkwave::image::adaptive::protocol::ProtocolError),
+    /// An image file.
+    #[error(transparent)]
+    ImageFile(#[from] rkwave::io::image_file::ImageFileError),
     /// A file operation failed.
     #[error("cannot write {path}: {source}")]
     Write {
@@ -248,18 +278,87 @@ pub enum CliError {
     /// An output that cannot or must not be written (checked before computing).
     #[error(transparent)]
     Output(#[from] rkwave::io::output::OutputError),
-    /// Other invalid input.
+    /// A flag's value the library refused: the flag, then the library's error.
+    #[error("{flag}: {source}")]
+    Flag {
+        /// The flag, e.g. `--resolution`.
+        flag: &'static str,
+        /// The library's error.
+        source: Box<CliError>,
+    },
+    /// A flag's value that does not parse (a name or a number): the flag, then why.
+    #[error("{flag}: {message}")]
+    Parse {
+        /// The flag, e.g. `--method`.
+        flag: &'static str,
+        /// The parser's message.
+        message: String,
+    },
+    /// A flag's value the command line itself refuses (its message names the flag).
     #[error("{0}")]
     Invalid(String),
+    /// A broken contract of the command line itself (a bug to report).
+    #[error("internal error, please report: {0}")]
+    Internal(String),
 }
 
 impl CliError {
-    /// Exit code: 2 for bad input, 1 for failures of the machine (files, drawing).
-    pub fn exit_code(&self) -> i32 {
+    /// `source`, refused as the value of `flag`.
+    pub fn flag(flag: &'static str, source: impl Into<CliError>) -> Self {
+        CliError::Flag {
+            flag,
+            source: Box::new(source.into()),
+        }
+    }
+
+    /// A value of `flag` that does not parse, for the parser's `error`.
+    pub fn parse(flag: &'static str, error: impl std::fmt::Display) -> Self {
+        CliError::Parse {
+            flag,
+            message: error.to_string(),
+        }
+    }
+
+    /// The kind of failure: the wrapped library error's, or the command line's own.
+    pub fn kind(&self) -> ErrorKind {
         match self {
-            CliError::Write { .. } | CliError::Plot(_) => 1,
-            CliError::Basis(BasisError::Construction { .. }) => 1,
-            _ => 2,
+            CliError::Basis(e) => e.kind(),
+            CliError::Domain(e) => e.kind(),
+            CliError::Io(e) => e.kind(),
+            CliError::Reconstruct(e) => e.kind(),
+            CliError::Refine(e) => e.kind(),
+            CliError::Scaling(e) => e.kind(),
+            CliError::Plot(e) => e.kind(),
+            CliError::Wavelet(e) => e.kind(),
+            CliError::Image(e) => e.kind(),
+            CliError::Scene(e) => e.kind(),
+            CliError::ImageRun(e) => e.kind(),
+            CliError::AdaptiveRun(e) => e.kind(),
+            CliError::Protocol(e) => e.kind(),
+            CliError::ImageFile(e) => e.kind(),
+            CliError::Write { .. } => ErrorKind::WriteFailed,
+            CliError::WouldOverwrite { .. } => ErrorKind::OutputRefused,
+            CliError::Output(e) => e.kind(),
+            CliError::Flag { source, .. } => source.kind(),
+            CliError::Parse { .. } | CliError::Invalid(_) => ErrorKind::InvalidInput,
+            CliError::Internal(_) => ErrorKind::Internal,
+        }
+    }
+
+    /// Exit code: 2 when the request can be fixed by the caller (bad input, a refusal, an
+    /// undetermined or unconverged fit, an unreadable input), 1 when the machine failed
+    /// (writing or drawing an output, a broken internal contract).
+    pub fn exit_code(&self) -> i32 {
+        match self.kind() {
+            ErrorKind::InvalidInput
+            | ErrorKind::Undetermined
+            | ErrorKind::ResourceLimit
+            | ErrorKind::NotConverged
+            | ErrorKind::Numerical
+            | ErrorKind::Unreadable
+            | ErrorKind::OutputRefused => 2,
+            ErrorKind::WriteFailed | ErrorKind::Internal => 1,
+            _ => 1,
         }
     }
 }

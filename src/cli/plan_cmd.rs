@@ -8,13 +8,12 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, SamplePositions};
-use rkwave::image::experiment::image_samples_from_table;
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::ImagePlane;
 use rkwave::io::output::{same_file, write_new, OutputError};
-use rkwave::io::{npy_bytes, read_samples, SampleSet};
+use rkwave::io::{npy_bytes, read_image_samples, SampleSet};
 
-use super::image_cmd::{check_p, parse_resolution};
+use super::image_args::{check_p, parse_resolution};
 use super::{check_writable, CliError};
 
 /// `rkwave plan`.
@@ -90,7 +89,7 @@ fn params(
 fn protocol(e: ProtocolError) -> CliError {
     match e {
         ProtocolError::Write(e) => CliError::Output(e),
-        e => CliError::Invalid(e.to_string()),
+        e => CliError::Protocol(e),
     }
 }
 
@@ -164,9 +163,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             };
             let params = params(args, plane, &state.params)?;
             state.check_params(plane, &params).map_err(protocol)?;
-            let table = read_samples(path)?;
-            let samples = image_samples_from_table(table, state.plane)
-                .map_err(|e| CliError::Invalid(format!("{}: {e}", path.display())))?;
+            let samples = read_image_samples(path, state.plane)?;
             let step = state.advance(&samples).map_err(protocol)?;
             let next = step.next.clone();
             (state, next, Some(step))
@@ -240,7 +237,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
 /// residual, clamped to the local sample range; with `--no-residual` the box pixels alone)
 /// written to `--output`.
 pub fn reconstruct(
-    args: &super::reconstruct_cmd::ReconstructArgs,
+    args: &super::reconstruct_args::ReconstructArgs,
     dir: &std::path::Path,
     started: std::time::Instant,
 ) -> Result<(), CliError> {
@@ -256,21 +253,14 @@ pub fn reconstruct(
             )));
         }
     }
-    let table = read_samples(&args.input)?;
-    let samples = image_samples_from_table(table, state.plane)
-        .map_err(|e| CliError::Invalid(format!("{}: {e}", args.input.display())))?;
+    let samples = read_image_samples(&args.input, state.plane)?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly
     } else {
         state.params.pixels
     };
     let done = state.reconstruct_as(&samples, estimate).map_err(protocol)?;
-    rkwave::io::image_file::write_image(&args.output, &done.image, args.force).map_err(|e| {
-        CliError::Write {
-            path: args.output.clone(),
-            source: std::io::Error::other(e.to_string()),
-        }
-    })?;
+    rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
     let mut overridden = Vec::new();
     // The plan fixes the basis and the solve: say so when the user asked for others.
     if args.filter.p != state.params.p {

@@ -4,21 +4,20 @@
 
 use std::time::Instant;
 
-use rkwave::image::experiment::{image_samples_from_table, reconstruct, Method, WaveletParams};
 use rkwave::image::report::FileReconstructionReport;
+use rkwave::image::{reconstruct, Method, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
-use rkwave::io::read_samples;
+use rkwave::io::read_image_samples;
 
-use super::image_cmd::{check_p, parse_resolution, spinner};
-use super::reconstruct_cmd::ReconstructArgs;
+use super::image_args::{check_p, parse_resolution, spinner};
+use super::reconstruct_args::ReconstructArgs;
 use super::solve_args::MethodArg;
 use super::{check_writable, CliError};
 
 /// Runs the 2D path of `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
-    ImageFormat::from_path(&args.output)
-        .map_err(|e| CliError::Invalid(format!("--output: {e}")))?;
+    ImageFormat::from_path(&args.output).map_err(|e| CliError::flag("--output", e))?;
     check_writable(&args.output, args.force)?;
     if let Some(dir) = &args.state {
         return super::plan_cmd::reconstruct(args, dir, started);
@@ -42,19 +41,13 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         ..WaveletParams::default()
     };
     let bar = spinner("reading samples");
-    let table = read_samples(&args.input)?;
-    let samples = image_samples_from_table(table, plane)
-        .map_err(|e| CliError::Invalid(format!("{}: {e}", args.input.display())))?;
+    let samples = read_image_samples(&args.input, plane)?;
     let read_s = started.elapsed().as_secs_f64();
     bar.set_message("reconstructing");
-    let (image, times, extras) =
-        reconstruct(method, &samples, &wavelet).map_err(|e| CliError::Invalid(e.to_string()))?;
+    let done = reconstruct(method, &samples, &wavelet)?;
     bar.set_message("writing");
     let t_write = Instant::now();
-    write_image(&args.output, &image, args.force).map_err(|e| CliError::Write {
-        path: args.output.clone(),
-        source: std::io::Error::other(e.to_string()),
-    })?;
+    write_image(&args.output, &done.image, args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let report = FileReconstructionReport::new(
@@ -64,8 +57,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         &samples,
         method,
         wavelet.p,
-        extras,
-        &times,
+        &done,
         read_s,
         write_s,
         started.elapsed().as_secs_f64(),

@@ -1,9 +1,7 @@
 //! `rkwave reconstruct`: a user's samples onto a grid ([`rkwave::report::reconstruction`]).
 
-use std::path::PathBuf;
 use std::time::Instant;
 
-use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::io::output::check_output;
 use rkwave::io::{read_samples, validate_positions, GridWriter};
@@ -11,56 +9,8 @@ use rkwave::reconstruct::{fit, FitParams};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
 use rkwave::sampling::Domain;
 
-use super::solve_args::{MethodArg, SolveArgs};
-use super::{CliError, FilterSpec};
-
-/// `rkwave reconstruct`.
-#[derive(Args, Debug)]
-pub struct ReconstructArgs {
-    /// Samples: CSV with header `x,value[,value...]` or NumPy `.npy` (m x (1 + channels)).
-    #[arg(long)]
-    pub input: PathBuf,
-    /// Domain `a,b` (default: the smallest and largest sample position).
-    #[arg(long, allow_hyphen_values = true)]
-    pub domain: Option<Domain>,
-    /// Filter bank.
-    #[command(flatten)]
-    pub filter: FilterSpec,
-    /// Solve method.
-    #[arg(long, value_enum, default_value_t = MethodArg::Single)]
-    pub method: MethodArg,
-    /// Solve knobs.
-    #[command(flatten)]
-    pub solve: SolveArgs,
-    /// Grid points of the output (uniform, both ends included).
-    #[arg(long, default_value_t = 1000, value_parser = super::limits::grid)]
-    pub grid: usize,
-    /// Output: `.npy` (NumPy float64, `G x (1 + channels)`) or CSV (`x,<channels>`) otherwise.
-    #[arg(long)]
-    pub output: PathBuf,
-    /// Overwrite an existing output.
-    #[arg(long)]
-    pub force: bool,
-    /// Print a JSON report.
-    #[arg(long)]
-    pub json: bool,
-    /// Dimension of the sample positions: 1 (`x,value...`) or 2 (image plane, `x,y,c1...`,
-    /// see `reconstruct2d_cmd`).
-    #[arg(long, default_value_t = 1)]
-    pub dim: usize,
-    /// Image resolution `WxH` (with `--dim 2`).
-    #[arg(long)]
-    pub resolution: Option<String>,
-    /// With `--dim 2`: the folder of an `rkwave plan` run; the samples are fitted on the tree
-    /// that plan built (its p, levels and depth map; `--method` and `--p` are not used).
-    #[arg(long)]
-    pub state: Option<PathBuf>,
-    /// With `--dim 2 --state`: write the fit's box pixels alone. The default output adds the
-    /// significant mean residual of each pixel's samples and clamps the result to the range
-    /// of the samples in the pixel's 3x3 neighbourhood (the plan's `pixels` parameter).
-    #[arg(long)]
-    pub no_residual: bool,
-}
+use super::reconstruct_args::ReconstructArgs;
+use super::CliError;
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {

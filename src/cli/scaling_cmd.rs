@@ -120,8 +120,9 @@ pub fn run(args: &ScalingArgs) -> Result<(), CliError> {
                         String::from_utf8_lossy(&out.stderr)
                     )));
                 }
-                let row: ScalingRow = serde_json::from_slice(&out.stdout)
-                    .map_err(|e| CliError::Invalid(format!("bad scaling row: {e}")))?;
+                let row: ScalingRow = serde_json::from_slice(&out.stdout).map_err(|e| {
+                    CliError::Internal(format!("a scaling row from the child process: {e}"))
+                })?;
                 if !args.json {
                     println!("{}", table_row(&row));
                 }

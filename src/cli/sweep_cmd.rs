@@ -69,11 +69,11 @@ pub fn run(args: &SweepArgs) -> Result<(), CliError> {
     for row in report.csv_rows() {
         table
             .serialize(row)
-            .map_err(|e| CliError::Invalid(e.to_string()))?;
+            .map_err(|e| CliError::Internal(format!("the sweep table: {e}")))?;
     }
     let text = table
         .into_inner()
-        .map_err(|e| CliError::Invalid(e.to_string()))?;
+        .map_err(|e| CliError::Internal(format!("the sweep table: {e}")))?;
     rkwave::io::output::write_new(&csv_path, &text, args.force)?;
     figures::save_new(&sweep_figure(&report), &png, args.force)?;
     print!("{}", String::from_utf8_lossy(&text));

@@ -31,6 +31,19 @@ pub trait NormalEquations {
     fn apply_rows(&self, z: &[f64]) -> Vec<f64>;
 }
 
+/// The weight one sample receives in one pixel's value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SampleWeight {
+    /// Sample index.
+    pub index: usize,
+    /// Its x position.
+    pub x: f64,
+    /// Its y position.
+    pub y: f64,
+    /// Its weight `w_i` (`I(X, Y) = sum_i w_i f_i`).
+    pub weight: f64,
+}
+
 /// The weights of every sample in one pixel's value.
 #[derive(Clone, Debug, Serialize)]
 pub struct EquivalentFilter {

@@ -17,8 +17,9 @@
 //! `((12 - 9B - 6C) s^3 + (-18 + 12B + 6C) s^2 + (6 - 2B)) / 6` for `s < 1`,
 //! `((-B - 6C) s^3 + (6B + 30C) s^2 + (-12B - 48C) s + (8B + 24C)) / 6` for `1 <= s < 2`.
 //!
-//! The filters are not normalised (as in pbrt-v4): the weighted average of
-//! [`crate::image::splat`] divides by the sum of weights, so a constant factor cancels.
+//! The filters are not normalised (as in pbrt-v4): the weighted average of the splat (the
+//! `splat` module beside this one) divides by the sum of weights, so a constant factor
+//! cancels.
 //! [`FilmFilter::integral`] gives `int f` for users who need the normalised `f / int f`.
 
 use std::f64::consts::PI;
@@ -38,7 +39,7 @@ pub trait FilmFilter: Sync + Send {
 
     /// Interior breakpoints in `(-r, r)` between which `f` is a polynomial of degree `<= 3`,
     /// or `None` if `f` is not piecewise cubic. Pixel integrals of a reconstruction against
-    /// the filter ([`crate::image::pixels::PixelIntegrals::filtered`]) are exact on such
+    /// the filter (`PixelIntegrals::filtered` of the `pixels` module) are exact on such
     /// pieces; other filters are replaced by cubic interpolants on sub-cells, with the error
     /// measured and reported.
     fn cubic_pieces(&self) -> Option<Vec<f64>> {

@@ -10,34 +10,38 @@
 //! * [`pixels`]: pixel values of a reconstruction as exact integrals against a pixel filter;
 //!   [`equivalent_filter`]: the weight of each sample in one pixel's value.
 //! * [`PixelImage`] is a grid of pixel values, per channel, row-major (`Y * W + X`).
+//! * [`reconstruct`] is the entry point: samples to pixels by one [`Method`] (the wavelet fit,
+//!   its local inversion, or a film filter), with a report of what it did ([`method`]).
 //! * [`filters`]: the film filters renderers ship; [`splat`]: their weighted-average
 //!   reconstruction; [`wavelet`]: the wavelet method's pixels.
 //! * [`scene`]: scenes from JSON; [`sampler`]: where samples go; [`truth`]: box-filtered
 //!   ground truth; [`metrics`]: PSNR, RMSE, relative MSE, SSIM.
-//! * [`experiment`]: every method on the same samples, measured; `figure` draws it.
+//! * [`report`]: typed reports of the commands that take a renderer's samples.
+//!
+//! The experiments that measure these methods against each other live in the lab module
+//! (feature `plot`), which uses this one and is never used by it.
 
 pub mod adaptive;
 pub mod equivalent_filter;
 pub mod fit;
+pub mod method;
 pub mod pixels;
 
 pub use fit::{
     fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
 };
+pub use method::{reconstruct, sample_weights, ImageReconstruction, Method, StageTimes};
+pub use wavelet::{CoefficientSolve, WaveletError, WaveletParams};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-pub mod experiment;
-#[cfg(feature = "plot")]
-pub mod figure;
 pub mod filters;
 pub mod metrics;
 pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod splat;
-pub mod table;
 pub mod truth;
 pub mod wavelet;
 

@@ -34,6 +34,7 @@ use crate::basis::{BasisError, CdvBasis};
 
 /// Why pixel integrals could not be formed.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum PixelError {
     /// The basis lives on another interval than `[0, W]`.
     #[error(

@@ -8,10 +8,19 @@ use serde::Serialize;
 
 use super::adaptive::protocol::{PlanReconstruction, PlanState, PlanStep};
 use super::adaptive::{ResidualCorrection, SamplePositions, TreeFitReport};
-use super::experiment::{peak_memory_mb, Method, MethodExtras, StageTimes};
+use super::method::{ImageReconstruction, Method};
 use super::wavelet::WaveletReport;
 use super::{ImagePlane, ImageSamples};
 use crate::refine::StopReason;
+
+/// Peak resident memory of this process so far (`VmHWM` of `/proc/self/status`), in MB;
+/// `None` where that file does not exist.
+pub fn peak_memory_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
 
 /// Seconds per stage of a reconstruction from a sample file.
 #[derive(Clone, Debug, Serialize)]
@@ -59,8 +68,8 @@ pub struct FileReconstructionReport {
 
 impl FileReconstructionReport {
     /// The report of `samples` from `input` reconstructed by `method` (basis `p`) into
-    /// `output`, with the method's `extras` and stage `times`; `read` and `write` seconds
-    /// measured by the caller, `total` since it started.
+    /// `output` as `done` (its image aside); `read` and `write` seconds measured by the
+    /// caller, `total` since it started.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         input: &Path,
@@ -69,8 +78,7 @@ impl FileReconstructionReport {
         samples: &ImageSamples,
         method: Method,
         p: usize,
-        extras: MethodExtras,
-        times: &StageTimes,
+        done: &ImageReconstruction,
         read: f64,
         write: f64,
         total: f64,
@@ -83,17 +91,17 @@ impl FileReconstructionReport {
             channels: samples.channels(),
             method,
             p,
-            functions: extras.functions,
-            solve: extras.solve,
+            functions: done.functions,
+            solve: done.solve.clone(),
             time_s: FileStageSeconds {
                 read,
-                fit: times.fit,
-                pixels: times.pixels,
+                fit: done.time_s.fit,
+                pixels: done.time_s.pixels,
                 write,
                 total,
             },
             peak_mb: peak_memory_mb(),
-            notes: extras.notes,
+            notes: done.notes.clone(),
         }
     }
 }

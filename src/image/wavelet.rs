@@ -22,18 +22,93 @@
 use std::time::Instant;
 
 use serde::Serialize;
+use thiserror::Error;
 
-use super::equivalent_filter::{equivalent_filter, pixel_functional, FitNormalEquations};
-use super::experiment::{ImageRunError, SampleWeight, WaveletParams};
+use super::equivalent_filter::{
+    equivalent_filter, pixel_functional, FitNormalEquations, SampleWeight,
+};
 use super::filters::FilmFilterKind;
 use super::fit::{
-    fit_samples, kernel_matrix_2d, ImageFit, ImageFitParams, ImageLevels, ImageSolveReport,
-    NormalSolver,
+    fit_samples, kernel_matrix_2d, ImageFit, ImageFitError, ImageFitParams, ImageLevels,
+    ImageSolveReport, NormalSolver,
 };
-use super::pixels::{filter_image, FilterQuadrature, PixelIntegrals};
+use super::pixels::{filter_image, FilterQuadrature, PixelError, PixelIntegrals};
 use super::{ImageSamples, PixelImage};
 use crate::basis::tensor::TensorLevelParams;
-use crate::solve::{local_inversion, LocalInversionParams};
+use crate::solve::{local_inversion, LocalInversionParams, SolveError};
+
+/// Parameters of the wavelet methods.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WaveletParams {
+    /// Vanishing moments `p` (2 or 3 are practical in 2D).
+    pub p: usize,
+    /// The pixel filter applied to the reconstruction: `None` is the box over the pixel (the
+    /// anti-aliased image), or a film filter integrated against the fit.
+    pub pixel_filter: Option<FilmFilterKind>,
+    /// Target samples per single-scale function `rho = m / (nx ny)`, which sets the level per
+    /// axis ([`crate::basis::tensor::auto_level`]): 4 at 4 samples per pixel is one function
+    /// per pixel, 16 one per 2 x 2 pixels, 1 four per pixel.
+    pub rho: f64,
+    /// Relative ridge `lambda` on the equilibrated normal matrix (`G + lambda diag(G)`):
+    /// `1e-9` guards undetermined directions and leaves the least-squares fit unchanged to
+    /// about that relative size; larger values shrink weakly determined coefficients.
+    pub ridge: f64,
+    /// Relative weight of the first-difference penalty on neighbouring coefficients
+    /// ([`crate::image::fit::ImageFitParams::smoothing`]); 0, the least-squares fit, by
+    /// default.
+    pub smoothing: f64,
+}
+
+impl Default for WaveletParams {
+    fn default() -> Self {
+        Self {
+            p: 2,
+            pixel_filter: None,
+            rho: TensorLevelParams::default().rho,
+            ridge: 1e-9,
+            smoothing: 0.0,
+        }
+    }
+}
+
+/// How the coefficients of the wavelet method are found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum CoefficientSolve {
+    /// The global solve of the normal equations (sparse Cholesky).
+    Global,
+    /// Local inversion of the kernel matrix (the paper's dual kernels).
+    Local,
+}
+
+/// Why the wavelet method could not produce pixels.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum WaveletError {
+    /// The fit (basis, samples, solve).
+    #[error(transparent)]
+    Fit(#[from] ImageFitError),
+    /// The pixel integrals or the pixel values.
+    #[error(transparent)]
+    Pixels(#[from] PixelError),
+    /// The local inversion of the equivalent filter.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+    /// The pixel of an equivalent filter lies outside the image.
+    #[error(
+        "pixel ({x}, {y}) is outside the {width} x {height} image: give a pixel X,Y with \
+         0 <= X < W and 0 <= Y < H"
+    )]
+    PixelOutside {
+        /// Column asked for.
+        x: usize,
+        /// Row asked for.
+        y: usize,
+        /// Image width.
+        width: usize,
+        /// Image height.
+        height: usize,
+    },
+}
 
 /// Weights of magnitude at most this are left out of an equivalent filter's list (the weights
 /// of the global fit decay exponentially away from the pixel but never vanish); the sum of all
@@ -98,8 +173,9 @@ pub struct WaveletOutput {
 }
 
 /// The fit parameters of the wavelet methods: `p`, CDV's family for it, automatic levels at
-/// `rho` samples per function, the relative ridge, the global Cholesky solve or (when `local`) local inversion with default parameters.
-pub fn fit_params(params: &WaveletParams, local: bool) -> ImageFitParams {
+/// `rho` samples per function, the relative ridge, the global Cholesky solve or local
+/// inversion with default parameters.
+pub fn fit_params(params: &WaveletParams, solve: CoefficientSolve) -> ImageFitParams {
     let mut fit = ImageFitParams {
         p: params.p,
         levels: ImageLevels::Auto(TensorLevelParams {
@@ -110,7 +186,7 @@ pub fn fit_params(params: &WaveletParams, local: bool) -> ImageFitParams {
         smoothing: params.smoothing,
         ..ImageFitParams::default()
     };
-    if local {
+    if solve == CoefficientSolve::Local {
         fit.solver = NormalSolver::Local(LocalInversionParams::default());
     }
     fit
@@ -180,21 +256,17 @@ fn solve_notes(r: &ImageSolveReport) -> Vec<String> {
     notes
 }
 
-fn wavelet_err(e: impl std::fmt::Display) -> ImageRunError {
-    ImageRunError::Wavelet(e.to_string())
-}
-
 /// The pixel matrices `(B_x, B_y)` of a fit for `filter` (`None` or the box: exact box
 /// integrals) and how they were made.
 pub fn pixel_matrices(
     fit: &ImageFit,
     filter: Option<FilmFilterKind>,
-) -> Result<(PixelIntegrals, PixelIntegrals, PixelValuesReport), ImageRunError> {
+) -> Result<(PixelIntegrals, PixelIntegrals, PixelValuesReport), PixelError> {
     let (w, h) = (fit.basis().width(), fit.basis().height());
     match filter {
         None | Some(FilmFilterKind::Box) => {
-            let bx = PixelIntegrals::new(fit.scale_x(), w).map_err(wavelet_err)?;
-            let by = PixelIntegrals::new(fit.scale_y(), h).map_err(wavelet_err)?;
+            let bx = PixelIntegrals::new(fit.scale_x(), w)?;
+            let by = PixelIntegrals::new(fit.scale_y(), h)?;
             let report = PixelValuesReport {
                 filter: "box".into(),
                 exact: true,
@@ -206,10 +278,8 @@ pub fn pixel_matrices(
         Some(kind) => {
             let f = kind.build();
             let q = FilterQuadrature::default();
-            let bx =
-                PixelIntegrals::filtered(fit.scale_x(), w, f.as_ref(), q).map_err(wavelet_err)?;
-            let by =
-                PixelIntegrals::filtered(fit.scale_y(), h, f.as_ref(), q).map_err(wavelet_err)?;
+            let bx = PixelIntegrals::filtered(fit.scale_x(), w, f.as_ref(), q)?;
+            let by = PixelIntegrals::filtered(fit.scale_y(), h, f.as_ref(), q)?;
             let exact = f.cubic_pieces().is_some();
             let weight_error = bx.weight_error().max(by.weight_error());
             let description = if exact {
@@ -238,14 +308,14 @@ pub fn pixel_matrices(
     }
 }
 
-/// Fits `samples` (global solve, or local inversion when `local`) and filters every pixel.
+/// Fits `samples` (the global solve or local inversion) and filters every pixel.
 pub fn wavelet_image(
     samples: &ImageSamples,
     params: &WaveletParams,
-    local: bool,
-) -> Result<WaveletOutput, ImageRunError> {
+    solve: CoefficientSolve,
+) -> Result<WaveletOutput, WaveletError> {
     let t0 = Instant::now();
-    let fit = fit_samples(samples, &fit_params(params, local)).map_err(wavelet_err)?;
+    let fit = fit_samples(samples, &fit_params(params, solve))?;
     let fit_s = t0.elapsed().as_secs_f64();
     let notes = solve_notes(&fit.report);
     let mut solve = fit.report.clone();
@@ -259,7 +329,7 @@ pub fn wavelet_image(
     let (bx, by, pixel_values) = pixel_matrices(&fit, params.pixel_filter)?;
     let mut image = PixelImage::zeros(samples.plane(), fit.channels());
     for (out, c) in image.channels.iter_mut().zip(&fit.coefficients) {
-        *out = filter_image(&by, &bx, c).map_err(wavelet_err)?;
+        *out = filter_image(&by, &bx, c)?;
     }
     let pixels_s = t1.elapsed().as_secs_f64();
     Ok(WaveletOutput {
@@ -277,26 +347,29 @@ pub fn wavelet_image(
     })
 }
 
-/// The weight of every sample in pixel `(px, py)` of the wavelet reconstruction (global fit,
-/// or local inversion when `local`) with the pixel filter of `params` (module docs); weights
-/// of magnitude at most [`WEIGHT_FLOOR`] are left out.
+/// The weight of every sample in pixel `(px, py)` of the wavelet reconstruction (the global
+/// fit or local inversion) with the pixel filter of `params` (module docs); weights of
+/// magnitude at most [`WEIGHT_FLOOR`] are left out.
 pub fn wavelet_equivalent_filter(
     samples: &ImageSamples,
     params: &WaveletParams,
-    local: bool,
+    solve: CoefficientSolve,
     px: usize,
     py: usize,
-) -> Result<Vec<SampleWeight>, ImageRunError> {
+) -> Result<Vec<SampleWeight>, WaveletError> {
     // The global fit's factor is needed for G z = b; local inversion needs only the basis.
-    let fit = fit_samples(samples, &fit_params(params, false)).map_err(wavelet_err)?;
+    let fit = fit_samples(samples, &fit_params(params, CoefficientSolve::Global))?;
     let (bx, by, _) = pixel_matrices(&fit, params.pixel_filter)?;
-    let weights = if local {
-        let k = kernel_matrix_2d(fit.basis(), samples.xs(), samples.ys()).map_err(wavelet_err)?;
-        let li = local_inversion(&k, &LocalInversionParams::default()).map_err(wavelet_err)?;
+    let weights = if solve == CoefficientSolve::Local {
+        let k = kernel_matrix_2d(fit.basis(), samples.xs(), samples.ys())?;
+        let li = local_inversion(&k, &LocalInversionParams::default())?;
         if px >= bx.pixels() || py >= by.pixels() {
-            return Err(wavelet_err(format!(
-                "pixel ({px}, {py}) is outside the image"
-            )));
+            return Err(WaveletError::PixelOutside {
+                x: px,
+                y: py,
+                width: bx.pixels(),
+                height: by.pixels(),
+            });
         }
         let b = pixel_functional(&by, &bx, px, py);
         // K~ is P x m in CSC: column i holds the dual kernel of sample i, w_i = K~[:, i] . b.
@@ -305,11 +378,8 @@ pub fn wavelet_equivalent_filter(
             .map(|col| col.iter().map(|(k, v)| v * b[k]).sum())
             .collect()
     } else {
-        let normal =
-            FitNormalEquations::new(&fit, samples.xs(), samples.ys()).map_err(wavelet_err)?;
-        equivalent_filter(&normal, &by, &bx, px, py)
-            .map_err(wavelet_err)?
-            .weights
+        let normal = FitNormalEquations::new(&fit, samples.xs(), samples.ys())?;
+        equivalent_filter(&normal, &by, &bx, px, py)?.weights
     };
     Ok(weights
         .into_iter()
@@ -343,18 +413,20 @@ mod tests {
     fn equivalent_filter_reproduces_the_pixel_and_sums_to_one() {
         let plane = ImagePlane::new(16, 12).unwrap();
         let (samples, f) = samples(plane, |x, y| (0.3 * x).sin() + 0.05 * y * y);
-        for (local, filter) in [
-            (false, None),
-            (true, None),
-            (false, Some(FilmFilterKind::Gaussian)),
-            (false, Some(FilmFilterKind::Mitchell)),
+        use CoefficientSolve::{Global, Local};
+        for (solve, filter) in [
+            (Global, None),
+            (Local, None),
+            (Global, Some(FilmFilterKind::Gaussian)),
+            (Global, Some(FilmFilterKind::Mitchell)),
         ] {
+            let local = solve == Local;
             let params = WaveletParams {
                 pixel_filter: filter,
                 ..WaveletParams::default()
             };
-            let out = wavelet_image(&samples, &params, local).unwrap();
-            let weights = wavelet_equivalent_filter(&samples, &params, local, 7, 5).unwrap();
+            let out = wavelet_image(&samples, &params, solve).unwrap();
+            let weights = wavelet_equivalent_filter(&samples, &params, solve, 7, 5).unwrap();
             // I = b^T c and sum_i w_i f_i are the same linear algebra in another order (two
             // solves with one factor, or one sparse K~); agreement to 1e-9 of values of size 1
             // (the dropped weights, below 1e-14 each, add at most m 1e-14 = 8e-12).
@@ -380,8 +452,8 @@ mod tests {
             pixel_filter: Some(FilmFilterKind::Box),
             ..WaveletParams::default()
         };
-        let a = wavelet_image(&samples, &WaveletParams::default(), false).unwrap();
-        let b = wavelet_image(&samples, &boxed, false).unwrap();
+        let a = wavelet_image(&samples, &WaveletParams::default(), Global).unwrap();
+        let b = wavelet_image(&samples, &boxed, Global).unwrap();
         assert_eq!(a.image.channels, b.image.channels);
     }
 
@@ -415,7 +487,7 @@ mod tests {
                 p,
                 ..WaveletParams::default()
             };
-            let out = wavelet_image(&s, &params, false).unwrap();
+            let out = wavelet_image(&s, &params, CoefficientSolve::Global).unwrap();
             assert!(out.report.pixel_values.exact);
             let mut worst: f64 = 0.0;
             for py in 0..h {

@@ -26,6 +26,7 @@ pub enum ImageFormat {
 
 /// Why an image could not be written.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ImageFileError {
     /// The extension is not `.png`, `.exr` or `.npy`.
     #[error(
@@ -45,6 +46,9 @@ pub enum ImageFileError {
         /// The cause.
         message: String,
     },
+    /// The output must not be written (it exists, or its folder refuses new files).
+    #[error(transparent)]
+    Output(#[from] crate::io::output::OutputError),
 }
 
 impl ImageFormat {
@@ -121,7 +125,7 @@ pub fn write_image(path: &Path, image: &PixelImage, overwrite: bool) -> Result<(
         ImageFormat::Png => png_bytes(image).map_err(err)?,
         ImageFormat::Exr => exr_bytes(image).map_err(err)?,
     };
-    crate::io::output::write_new(path, &bytes, overwrite).map_err(|e| err(e.to_string()))
+    Ok(crate::io::output::write_new(path, &bytes, overwrite)?)
 }
 
 #[cfg(feature = "images")]

@@ -1,4 +1,5 @@
-//! Input and output of scattered samples: CSV and NumPy `.npy` files.
+//! Input and output of scattered samples: CSV and NumPy `.npy` files (image-plane samples
+//! too: [`read_image_samples`]), and image files ([`image_file`]).
 //!
 //! A file holds one sample per row: the position `x` in the first column and
 //! one value per channel in the others. Both readers return a [`SampleSet`]
@@ -26,11 +27,13 @@ use crate::sampling::Domain;
 mod csv;
 mod grid_output;
 pub mod image_file;
+mod image_samples;
 mod npy;
 pub mod output;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
 pub use self::grid_output::{GridFormat, GridWriter};
+pub use self::image_samples::{image_samples, read_image_samples};
 pub use self::npy::{npy_bytes, parse_npy, read_npy, write_npy};
 
 #[cfg(test)]
@@ -386,6 +389,26 @@ pub enum IoError {
     InvalidSampleSet {
         /// What is wrong.
         problem: String,
+    },
+    /// An image-plane sample file has the wrong number of columns.
+    #[error(
+        "{}: image samples need 3 to 6 columns `x, y, c1[, c2, c3, c4]` (positions in pixel \
+         units, 1 to 4 channels), found {columns}",
+        .file.display()
+    )]
+    ImageColumns {
+        /// The file.
+        file: PathBuf,
+        /// Columns found.
+        columns: usize,
+    },
+    /// An image-plane sample file's samples do not fit the image plane.
+    #[error("{}: {source}", .file.display())]
+    ImageSamples {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong with the samples.
+        source: crate::image::ImageError,
     },
 }
 

@@ -73,13 +73,15 @@
 //! - `axes.rs`: axes in plot space, tick positions and tick labels;
 //! - `clip.rs`: lines broken at gaps and clipped to the axes box (Liang–Barsky);
 //! - `figures.rs`: the reports' figures, built from their typed data;
-//! - `draw.rs`: rendering a [`Figure`] with plotters and writing PNG or SVG.
+//! - `draw.rs`: rendering a [`Figure`] with plotters and writing PNG or SVG;
+//! - `raster.rs`: the font and PNG encoding of figures drawn pixel by pixel.
 
 mod axes;
 mod clip;
 mod draw;
 pub mod figures;
 mod layout;
+pub mod raster;
 mod spec;
 
 pub use spec::{Figure, Panel, PanelContent, Scale, Series, SeriesStyle, SparsityPanel, PALETTE};

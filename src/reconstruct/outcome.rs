@@ -131,11 +131,7 @@ impl fmt::Display for Fallback {
                     write!(f, ", ridge {ridge:e} on singular directions")?;
                 }
                 if !empty.is_empty() {
-                    let list: Vec<String> = empty
-                        .iter()
-                        .map(|r| format!("[{}, {}]", significant(r[0]), significant(r[1])))
-                        .collect();
-                    write!(f, "; no samples in {}", list.join(", "))?;
+                    write!(f, "; no samples in {}", widest_gaps(empty))?;
                 }
                 Ok(())
             }
@@ -143,9 +139,60 @@ impl fmt::Display for Fallback {
     }
 }
 
+/// How many sample-free intervals a warning lists by name.
+pub const LISTED_GAPS: usize = 5;
+
+/// The sample-free intervals `gaps` in words: all of them when there are at most
+/// [`LISTED_GAPS`], else their count and the [`LISTED_GAPS`] widest, in position order.
+fn widest_gaps(gaps: &[[f64; 2]]) -> String {
+    let show = |g: &[[f64; 2]]| -> String {
+        g.iter()
+            .map(|r| format!("[{}, {}]", significant(r[0]), significant(r[1])))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if gaps.len() <= LISTED_GAPS {
+        return show(gaps);
+    }
+    let mut widest = gaps.to_vec();
+    widest.sort_by(|a, b| (b[1] - b[0]).total_cmp(&(a[1] - a[0])));
+    widest.truncate(LISTED_GAPS);
+    widest.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    format!(
+        "{} intervals, the {LISTED_GAPS} widest {}",
+        gaps.len(),
+        show(&widest)
+    )
+}
+
 /// `x` rounded to 6 significant digits, printed shortest.
 fn significant(x: f64) -> String {
     format!("{x:.5e}")
         .parse::<f64>()
         .map_or_else(|_| x.to_string(), |v| v.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Many gaps give a count and the widest few, in position order; few are listed whole.
+    #[test]
+    fn many_gaps_are_counted_not_listed() {
+        let gaps: Vec<[f64; 2]> = (0..300)
+            .map(|i| {
+                let a = i as f64 / 300.0;
+                [a, a + if i % 50 == 7 { 2e-3 } else { 1e-3 }]
+            })
+            .collect();
+        let text = widest_gaps(&gaps);
+        // Six gaps are twice as wide; which five of those ties win depends on rounding.
+        assert!(text.starts_with("300 intervals, the 5 widest ["), "{text}");
+        assert_eq!(text.matches('[').count(), 5, "{text}");
+        assert!(text.len() < 200, "{text}");
+        assert_eq!(
+            widest_gaps(&gaps[..2]),
+            "[0, 0.001], [0.00333333, 0.00433333]"
+        );
+    }
 }

@@ -23,18 +23,20 @@ use serde::Serialize;
 
 use super::refiner::{refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport};
 use super::{AdaptiveError, ImageOracle, NoisyOracle, SceneOracle};
-use crate::image::experiment::{
-    run_method, sample_scene, ImageRunError, Method, SamplingParams, TruthParams, WaveletParams,
-};
 use crate::image::filters::FilmFilterKind;
 use crate::image::metrics::{compare, ImageMetrics};
 use crate::image::sampler::Sampler;
 use crate::image::scene::Scene;
 use crate::image::truth::truth_cached;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
+use crate::image::{Method, WaveletParams};
+use crate::lab::experiment::{
+    run_method, sample_scene, ImageRunError, SamplingParams, TruthParams,
+};
 
 /// Why an adaptive comparison failed.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum AdaptiveRunError {
     /// The adaptive engine.
     #[error(transparent)]

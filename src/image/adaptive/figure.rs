@@ -138,7 +138,7 @@ pub fn adaptive_figure_png(
     image: &PixelImage,
     title: &str,
 ) -> Result<Vec<u8>, PlotError> {
-    crate::image::figure::fonts();
+    crate::plot::raster::fonts();
     let plane = plane_of(run);
     let (pw, ph) = panel_size(plane);
     let scale = pw.div_ceil(plane.width()).max(1);
@@ -201,7 +201,7 @@ pub fn adaptive_figure_png(
             .map_err(|e| err(e.to_string()))?;
         root.present().map_err(|e| err(e.to_string()))?;
     }
-    crate::image::figure::encode_png(canvas, cw, ch, "adaptive figure")
+    crate::plot::raster::encode_png(canvas, cw, ch, "adaptive figure")
 }
 
 /// Writes [`adaptive_figure_png`] to `path`; an existing file is replaced only with

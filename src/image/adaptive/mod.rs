@@ -22,6 +22,7 @@
 
 pub mod correction;
 mod diagonal;
+#[cfg(feature = "plot")]
 pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;

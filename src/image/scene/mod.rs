@@ -44,6 +44,7 @@ pub type Rgb = [f64; 3];
 
 /// Why a scene could not be read.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum SceneError {
     /// The file could not be read.
     #[error("cannot read scene file {path}: {source}")]

@@ -8,27 +8,19 @@
 //! enlarged by pixel replication (nearest neighbour, so the pixels stay visible).
 
 use std::path::Path;
-use std::sync::Once;
 
 use plotters::prelude::*;
-use plotters::style::register_font;
 
 use super::experiment::Comparison;
-use super::PixelImage;
+use crate::image::PixelImage;
 use crate::io::image_file::srgb8;
+use crate::plot::raster::{encode_png, fonts};
 use crate::plot::{Figure, Panel, PlotError, Scale, Series, SeriesStyle};
 
 /// Side of one tile in the figure, in figure pixels.
 const TILE: usize = 256;
 /// Height of the label strip above each column.
 const LABEL: usize = 28;
-
-pub(crate) fn fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ = register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
-    });
-}
 
 /// A crop window `(x0, y0, side)` in pixels.
 pub type Crop = (usize, usize, usize);
@@ -173,29 +165,6 @@ pub fn save_side_by_side(cmp: &Comparison, path: &Path, overwrite: bool) -> Resu
     let png = encode_png(canvas, cw, ch, &path.display().to_string())?;
     crate::io::output::write_new(path, &png, overwrite)?;
     Ok(())
-}
-
-/// The PNG encoding of an 8-bit RGB canvas of `width x height` pixels (row-major, 3 bytes a
-/// pixel); `label` names the figure in errors.
-pub(crate) fn encode_png(
-    canvas: Vec<u8>,
-    width: usize,
-    height: usize,
-    label: &str,
-) -> Result<Vec<u8>, PlotError> {
-    let buf = image::RgbImage::from_raw(width as u32, height as u32, canvas).ok_or_else(|| {
-        PlotError::Draw {
-            path: label.to_string(),
-            message: format!("canvas size does not match {width} x {height}"),
-        }
-    })?;
-    let mut png = std::io::Cursor::new(Vec::new());
-    buf.write_to(&mut png, image::ImageFormat::Png)
-        .map_err(|source| PlotError::Write {
-            path: label.to_string(),
-            source,
-        })?;
-    Ok(png.into_inner())
 }
 
 /// Writes the PSNR-against-time figure (one series per method, one point per comparison) to

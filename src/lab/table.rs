@@ -2,8 +2,9 @@
 //! table and a Markdown time table (with the ratio of each method's time to the Gaussian
 //! film filter's on the same samples).
 
-use super::experiment::{Comparison, Method};
-use super::filters::FilmFilterKind;
+use super::experiment::Comparison;
+use crate::image::filters::FilmFilterKind;
+use crate::image::Method;
 
 /// Header of [`comparison_csv`].
 pub const CSV_HEADER: &str = "scene,resolution,spp,sampler,noise,method,psnr,rmse,rel_mse,ssim,\

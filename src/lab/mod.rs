@@ -1,0 +1,18 @@
+//! The lab: experiments that measure the library, their tables and their figures (feature
+//! `plot`). Nothing in the library's production path calls into it; the command line's
+//! measuring commands (`image`, `compare`, the demo) do.
+//!
+//! * [`experiment`]: a scene sampled (with seeded noise), every image-plane [`Method`] run on
+//!   the same samples through the library's [`reconstruct`], each measured against the
+//!   box-filtered ground truth (PSNR, RMSE, relative MSE, SSIM), as typed `Serialize` reports;
+//! * [`table`]: those comparisons as CSV and Markdown tables;
+//! * [`figure`]: their figures (images side by side with zoomed crops, PSNR against time);
+//! * [`refine_figures`]: the layout of the 1D adaptive refiner's figures.
+//!
+//! [`Method`]: crate::image::Method
+//! [`reconstruct`]: crate::image::reconstruct
+
+pub mod experiment;
+pub mod figure;
+pub mod refine_figures;
+pub mod table;
