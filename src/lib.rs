@@ -49,7 +49,7 @@
 //!   the signal needs them ([`refine::refine`]);
 //! - [`image`]: the image plane `[0, W] x [0, H]`, scattered samples on it, scenes, film
 //!   filters and image-plane reconstruction ([`image::reconstruct`]: samples to pixels);
-//! - [`report`]: the local-vs-global comparison of DESIGN §5 as typed data;
+//! - [`report`]: the local-vs-global comparison of docs/design.md §5 as typed data;
 //! - [`io`] (at the edge): reading and writing samples (CSV, NumPy `.npy`) and images;
 //! - [`error`]: the kinds every error is classified by;
 //! - `plot` (at the edge, feature `plot`): the figures;

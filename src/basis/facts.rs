@@ -1,4 +1,4 @@
-//! Measured facts of a basis `Psi(n, N)`: the identities of DESIGN §2, computed exactly
+//! Measured facts of a basis `Psi(n, N)`: the identities of docs/design.md §2, computed exactly
 //! (refinement algebra and the interval FWT), never by quadrature.
 //!
 //! - Orthonormality: `G = S^T G_V S`, `S` the synthesis matrix into `V_{N+1}` (sparse product of

@@ -84,7 +84,7 @@ pub enum TensorError {
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct TensorLevelParams {
     /// Target samples per single-scale function, `rho = m / (nx ny)`: larger is more stable
-    /// (fewer locally undersampled functions), smaller resolves finer detail. DESIGN §7: about
+    /// (fewer locally undersampled functions), smaller resolves finer detail. docs/design.md §7: about
     /// one function per pixel at 4 samples per pixel worked; two per pixel lost 10 dB.
     pub rho: f64,
     /// Highest single-scale resolution allowed, in functions per pixel along an axis

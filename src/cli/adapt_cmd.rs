@@ -1,4 +1,4 @@
-//! `rkwave adapt`: the adaptive refiner (DESIGN §6) on a built-in signal or an expression in
+//! `rkwave adapt`: the adaptive refiner (docs/design.md §6) on a built-in signal or an expression in
 //! `x`, its error against the truth and against uniform sampling with as many samples, and
 //! the supplement's figure 4 (reconstruction, samples, local depth, `K^T` aligned below).
 //! The experiment and the figure's data are library code (`rkwave::refine::experiment`), the

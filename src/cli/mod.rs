@@ -57,13 +57,13 @@ pub enum Command {
     Demo(DemoArgs),
     /// Reconstruct a user's samples (CSV or .npy) onto a grid.
     Reconstruct(reconstruct_args::ReconstructArgs),
-    /// Local inversion against the global pseudo-inverse (DESIGN §5).
+    /// Local inversion against the global pseudo-inverse (docs/design.md §5).
     Report(report_cmd::ReportArgs),
     /// The report over a grid of knobs: CSV and a figure of error against time.
     Sweep(sweep_cmd::SweepArgs),
     /// End-to-end time and memory against the number of samples.
     Scaling(scaling_cmd::ScalingArgs),
-    /// Adaptive sampling and reconstruction (DESIGN §6): refine where the signal needs it.
+    /// Adaptive sampling and reconstruction (docs/design.md §6): refine where the signal needs it.
     Adapt(adapt_cmd::AdaptArgs),
     /// Render a scene's pixels from image-plane samples by one method, measured against the truth.
     Image(image_args::ImageArgs),

@@ -1,4 +1,4 @@
-//! `rkwave report`: the local-vs-global report of DESIGN §5.
+//! `rkwave report`: the local-vs-global report of docs/design.md §5.
 
 use clap::Args;
 use rkwave::report::{local_vs_global, LocalGlobalReport, ReportSetting};

@@ -1,4 +1,4 @@
-//! Sparse kernel matrices `K[i, a] = Psi_a(lambda_i)` (DESIGN §3), the active basis sets that
+//! Sparse kernel matrices `K[i, a] = Psi_a(lambda_i)` (docs/design.md §3), the active basis sets that
 //! index their columns, and the automatic choice of levels.
 //!
 //! Each row holds the values of the functions of the active set that are nonzero at one

@@ -1,5 +1,5 @@
 //! Reproducing kernels `k_i(x) = sum_a Psi_a(lambda_i) Psi_a(x)` and dual kernels
-//! `k~_i(x) = sum_a (K^+)_{a,i} Psi_a(x)` (DESIGN §3), evaluated at positions.
+//! `k~_i(x) = sum_a (K^+)_{a,i} Psi_a(x)` (docs/design.md §3), evaluated at positions.
 
 use sprs::CsMat;
 

@@ -1,6 +1,6 @@
 //! From samples to a reconstruction: levels, kernel matrix, solve, coefficients, evaluation.
 //!
-//! `c = K^+ f` (DESIGN §3): the coefficients of `f(x) = sum_a c_a Psi_a(x)` over the active set,
+//! `c = K^+ f` (docs/design.md §3): the coefficients of `f(x) = sum_a c_a Psi_a(x)` over the active set,
 //! by local inversion (the default), a global sparse least-squares solve, or a dense
 //! pseudo-inverse. Evaluation of a uniform `Psi(n, N)` goes through the interval FWT to the
 //! single-scale `V_{N+1}` coefficients and then evaluates only `2p - 1` (plus edge) scaling
@@ -62,7 +62,7 @@ pub enum Method {
         /// (`cond(K)^2`, cheaper per sample).
         solver: SingleScaleSolver,
     },
-    /// Local inversion (DESIGN §4): fast, local, approximate.
+    /// Local inversion (docs/design.md §4): fast, local, approximate.
     Local(LocalInversionParams),
     /// Global sparse least squares: exact up to the solver tolerance, one large factorization.
     Global(GlobalLsParams),

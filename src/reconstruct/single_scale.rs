@@ -1,4 +1,4 @@
-//! The global least-squares solution through the single-scale basis (DESIGN §4, last point).
+//! The global least-squares solution through the single-scale basis (docs/design.md §4, last point).
 //!
 //! `Psi(n, N)` spans `V_{N+1}`, so `argmin_c ||K c - f||` equals the FWT analysis of
 //! `argmin_v ||K_J v - f||`, `K_J[i, k] = phi_{J,k}(lambda_i)`, `J = N + 1`. Each row of `K_J`

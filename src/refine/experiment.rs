@@ -1,4 +1,4 @@
-//! The adaptive-against-uniform experiment of `rkwave adapt` (DESIGN §6, supplement figure 4)
+//! The adaptive-against-uniform experiment of `rkwave adapt` (docs/design.md §6, supplement figure 4)
 //! as library code: a refinement, its errors against the truth (RMS on a grid and the `L2`
 //! norm by quadrature on the leaves), the default uniform fit on as many uniform samples and
 //! the same errors, times, and the data of figure 4. The command line only prints these

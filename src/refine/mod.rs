@@ -1,4 +1,4 @@
-//! The adaptive refiner (DESIGN §6; paper supplement §4, figure 4): an adaptive wavelet tree
+//! The adaptive refiner (docs/design.md §6; paper supplement §4, figure 4): an adaptive wavelet tree
 //! and the samples that keep it locally oversampled, grown together until a tolerance, a
 //! depth limit or a sample budget is reached.
 //!

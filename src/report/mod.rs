@@ -1,4 +1,4 @@
-//! Reports: the local-vs-global comparison of DESIGN §5, as plain data that the command line
+//! Reports: the local-vs-global comparison of docs/design.md §5, as plain data that the command line
 //! prints and plots.
 //!
 //! For a basis, a sample layout and a test signal: the approximate pseudo-inverse `K~` of local

@@ -1,5 +1,5 @@
 //! The local-vs-global report over a grid of knobs, one knob at a time around a base setting
-//! (DESIGN §5): rings `r`, the local solver, vanishing moments `p`, the coarse level `n` (as a
+//! (docs/design.md §5): rings `r`, the local solver, vanishing moments `p`, the coarse level `n` (as a
 //! depth `N - n` below the finest level) and the number of samples `m` (the oversampling
 //! `m / P`).
 //!

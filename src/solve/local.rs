@@ -1,5 +1,5 @@
 //! Local inversion: `K~[:, i] = (K[jdx, idx])^+ e_i` placed at rows `idx`, an approximate
-//! `K^+` built one small pseudo-inverse per neighbourhood (DESIGN §4).
+//! `K^+` built one small pseudo-inverse per neighbourhood (docs/design.md §4).
 //!
 //! For pivot row `i`: `idx` = the column pattern of row `i`; `jdx` = the rows where any
 //! column of `idx` is nonzero; each ring sets `idx` = all columns nonzero on `jdx`, then

@@ -4,7 +4,7 @@
 //! Generic over any `sprs` CSR matrix (nothing here knows about wavelets):
 //!
 //! * [`local_inversion`] / [`apply_local`]: the approximate `K~ ≈ K^+` assembled from
-//!   pseudo-inverses of small neighbourhood blocks `K[jdx, idx]` (DESIGN §4), one
+//!   pseudo-inverses of small neighbourhood blocks `K[jdx, idx]` (docs/design.md §4), one
 //!   factorization per distinct neighbourhood, in parallel ([`LocalInversionParams`],
 //!   [`Solver`]).
 //! * [`dense_pinv`]: dense `K^+` by faer's SVD, the truth for small problems.

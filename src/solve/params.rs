@@ -28,7 +28,7 @@ pub enum Solver {
 }
 
 /// Most neighbourhood rings the command line accepts: rings 1 already reaches 1e-9..1e-16
-/// (DESIGN §4) and each ring widens every block (up to 8x the factorization); the library
+/// (docs/design.md §4) and each ring widens every block (up to 8x the factorization); the library
 /// takes any number and stops growing a neighbourhood once it no longer changes.
 pub const MAX_RINGS: usize = 10;
 
@@ -38,7 +38,7 @@ pub struct LocalInversionParams {
     /// Neighbourhood growth steps (`idx <- columns touching jdx`, `jdx <- rows touching
     /// idx`): each ring multiplies block rows and columns (about 2x in 1D) and the
     /// factorization cost (~ r n^2) by up to ~8x, and buys orders of magnitude of accuracy
-    /// (DESIGN §4: rings 0 → 1e-4..1e2 error, rings 1 → 1e-9..1e-16).
+    /// (docs/design.md §4: rings 0 → 1e-4..1e2 error, rings 1 → 1e-9..1e-16).
     pub rings: usize,
     /// Dense solver per block, see [`Solver`]: SVD is exact and slowest, Cholesky the
     /// cheapest and least accurate on ill-conditioned blocks.

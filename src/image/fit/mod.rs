@@ -1,4 +1,4 @@
-//! The 2D least-squares reconstruction on the image plane (DESIGN §7; the 1D single-scale
+//! The 2D least-squares reconstruction on the image plane (docs/design.md §7; the 1D single-scale
 //! solve of [`crate::reconstruct::single_scale_ls`] with a second axis).
 //!
 //! `min_z ||K z - f_c||^2` over the single-scale space `V_Jx (x) V_Jy` of a
