@@ -13,13 +13,17 @@ use rkwave::refine::StopReason;
 
 // `polynomial`: every wavelet coefficient is zero, the detail of a fit is noise alone.
 use common::scenes::{edge_distance, polynomial, straight_edge};
+use rkwave::image::adaptive::{ImageSampling, NoiseParams, StopParams, TreeParams};
 
 /// Noise deviation of the tests: 5% of a unit range, 1/14 of the edge's contrast 0.7.
 const SIGMA: f64 = 0.05;
 
 fn params(budget: usize) -> AdaptiveParams {
     AdaptiveParams {
-        budget,
+        stop: StopParams {
+            budget,
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     }
 }
@@ -137,7 +141,10 @@ fn noisy_polynomial_scene_is_not_deepened() {
         &oracle,
         plane,
         &AdaptiveParams {
-            false_alarm: 0.0,
+            noise: NoiseParams {
+                false_alarm: 0.0,
+                ..(params(budget)).noise
+            },
             ..params(budget)
         },
     )
@@ -193,9 +200,18 @@ fn noisy_invariant_budget_and_determinism() {
     for (budget, rho) in [(4 * w * h, 2.0), (3 * w * h, 2.5)] {
         for rounds in [0, 1, 3, 6, 40] {
             let p = AdaptiveParams {
-                max_rounds: rounds,
-                rho,
-                seed: 7,
+                stop: StopParams {
+                    max_rounds: rounds,
+                    ..(params(budget)).stop
+                },
+                tree: TreeParams {
+                    rho,
+                    ..(params(budget)).tree
+                },
+                sampling: ImageSampling {
+                    seed: 7,
+                    ..(params(budget)).sampling
+                },
                 ..params(budget)
             };
             let run = refine_image(&oracle, plane, &p).unwrap();

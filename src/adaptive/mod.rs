@@ -35,9 +35,11 @@
 
 pub mod density;
 pub mod marking;
+pub mod params;
 mod stop;
 pub mod tree;
 
+pub use params::{MarkingParams, StopParams, TreeParams};
 pub use stop::StopReason;
 pub use tree::interval::{Leaf, WaveletTree};
 pub use tree::quad::{Cell, QuadTree};

@@ -17,7 +17,7 @@ impl ImagePlan {
     /// indicator of every slot (the weights of the spare samples).
     pub(super) fn tally(&self, xs: &[f64], ys: &[f64], ind: &Indication) -> Tally {
         let params = &self.params;
-        let left = params.budget.saturating_sub(xs.len());
+        let left = params.stop.budget.saturating_sub(xs.len());
         // the oversampling so far: ceil(rho), or more after densifying rounds
         let counts = self.tree.slot_counts(xs, ys);
         let slots = self.tree.slots();
@@ -28,7 +28,7 @@ impl ImagePlan {
             .unwrap_or(0)
             .max(self.per_slot);
         // the round's least growth: min_growth x the samples, or the rest of the budget
-        let goal = ((params.min_growth * xs.len() as f64).ceil() as usize).min(left);
+        let goal = ((params.growth.min_growth * xs.len() as f64).ceil() as usize).min(left);
         let eta: HashMap<Cell, f64> = ind
             .units
             .iter()
@@ -66,7 +66,7 @@ impl ImagePlan {
             return None;
         }
         let t = Instant::now();
-        let mut rng = round_rng(self.params.seed, round + 1);
+        let mut rng = round_rng(self.params.sampling.seed, round + 1);
         let mut next = SamplePositions::default();
         let (_, to) = spread_samples(
             &self.tree,
@@ -99,7 +99,7 @@ impl ImagePlan {
         let tree = &self.tree;
         let (left, goal, target) = (tally.left, tally.goal, tally.target);
         let etas: Vec<f64> = ind.units.iter().map(|u| u.1).collect();
-        let n = dorfler(&etas, params.theta).max(1);
+        let n = dorfler(&etas, params.marking.theta).max(1);
         // every unit is a candidate: the Dörfler set, extended to the least growth
         let marked: Vec<Cell> = ind.units.iter().map(|u| u.0).collect();
         // samples already in each child of each marked slot
@@ -115,7 +115,7 @@ impl ImagePlan {
         // children at the depth limit get at least ceil(rho_limit) samples
         let per_child = PerChild {
             target,
-            limit_slot: target.max(params.rho_limit.ceil() as usize),
+            limit_slot: target.max(params.sampling.rho_limit.ceil() as usize),
             steps: tree.steps(),
         };
         let costs: Vec<usize> = marked
@@ -124,7 +124,7 @@ impl ImagePlan {
             .map(|(m, cc)| cc.iter().map(|&c| per_child.of(m).saturating_sub(c)).sum())
             .collect();
         // a share of the least growth kept for spreading
-        let reserved = (params.spread_share * goal as f64).ceil() as usize;
+        let reserved = (params.growth.spread_share * goal as f64).ceil() as usize;
         let mark_goal = goal - reserved.min(goal);
         let mut k = n;
         let mut spent: usize = costs[..n].iter().sum();
@@ -160,7 +160,7 @@ impl ImagePlan {
         log: &mut ImageRound,
     ) -> SamplePositions {
         let k = marking.k;
-        let mut rng = round_rng(self.params.seed, round + 1);
+        let mut rng = round_rng(self.params.sampling.seed, round + 1);
         let mut next = SamplePositions::default();
         for (cell, counts) in marking.marked[..k].iter().zip(&marking.child_counts) {
             let per_slot = marking.per_child.of(cell);
@@ -184,7 +184,7 @@ impl ImagePlan {
                 &stay,
                 &tally.counts,
                 &tally.eta,
-                self.params.spread,
+                self.params.growth.spread,
                 marking.extra,
                 &mut next,
                 &mut rng,
