@@ -154,7 +154,7 @@ fn slots_partition_the_image() {
     let b = basis(2, 48, 32, (7, 7));
     let tree = random_tree(b, 1, 40, 9);
     let area: f64 = tree
-        .slots()
+        .leaves()
         .iter()
         .map(|&c| {
             let r = tree.rect(c);
@@ -169,7 +169,7 @@ fn slots_partition_the_image() {
     let mut rng = Pcg64::seed_from_u64(4);
     for _ in 0..200 {
         let (x, y) = (rng.random::<f64>() * 48.0, rng.random::<f64>() * 32.0);
-        let s = tree.slot_at(x, y);
+        let s = tree.leaf_at(x, y);
         let r = tree.rect(s);
         assert!(r[0] <= x && x <= r[1] && r[2] <= y && y <= r[3]);
         assert_eq!(tree.depth_at(x, y), s.step);
@@ -203,7 +203,7 @@ fn polynomial_scene_is_not_deepened() {
     assert_eq!(run.report.rounds.len(), 1);
     assert_eq!(run.xs.len(), run.report.base_samples);
     let base_step = run.report.base_levels.0 - run.report.coarse_levels.0;
-    assert!(run.tree.slots().iter().all(|c| c.step == base_step));
+    assert!(run.tree.leaves().iter().all(|c| c.step == base_step));
 }
 
 /// A single straight edge: the refiner deepens along it and nowhere far from it.
@@ -265,8 +265,8 @@ fn invariant_and_budget_after_every_round() {
             };
             let run = refine_image(&straight_edge, plane, &p).unwrap();
             assert!(run.xs.len() <= budget, "{} > {budget}", run.xs.len());
-            let counts = run.tree.slot_counts(&run.xs, &run.ys);
-            for slot in run.tree.slots() {
+            let counts = run.tree.leaf_counts(&run.xs, &run.ys);
+            for slot in run.tree.leaves() {
                 let c = counts.get(&slot).copied().unwrap_or(0);
                 assert!(c >= rho.ceil() as usize, "slot {slot:?} has {c} samples");
             }

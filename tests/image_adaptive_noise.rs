@@ -97,7 +97,7 @@ fn noisy_polynomial_scene_is_not_deepened() {
     let base_step = run.report.base_levels.0 - run.report.coarse_levels.0;
     let deeper = run
         .tree
-        .slots()
+        .leaves()
         .iter()
         .filter(|c| c.step != base_step)
         .count();
@@ -116,7 +116,7 @@ fn noisy_polynomial_scene_is_not_deepened() {
     );
     assert!(run.xs.len() <= budget);
     assert!(
-        run.xs.len() + run.tree.slots().len() > budget,
+        run.xs.len() + run.tree.leaves().len() > budget,
         "budget left: {} of {budget} spent",
         run.xs.len()
     );
@@ -149,7 +149,7 @@ fn noisy_polynomial_scene_is_not_deepened() {
         },
     )
     .unwrap();
-    let deepest = chased.tree.slots().iter().map(|c| c.step).max().unwrap();
+    let deepest = chased.tree.leaves().iter().map(|c| c.step).max().unwrap();
     assert!(deepest > base_step + 1, "deepest step {deepest}");
 }
 
@@ -216,8 +216,8 @@ fn noisy_invariant_budget_and_determinism() {
             };
             let run = refine_image(&oracle, plane, &p).unwrap();
             assert!(run.xs.len() <= budget, "{} > {budget}", run.xs.len());
-            let counts = run.tree.slot_counts(&run.xs, &run.ys);
-            for slot in run.tree.slots() {
+            let counts = run.tree.leaf_counts(&run.xs, &run.ys);
+            for slot in run.tree.leaves() {
                 let c = counts.get(&slot).copied().unwrap_or(0);
                 assert!(c >= rho.ceil() as usize, "slot {slot:?} has {c} samples");
             }

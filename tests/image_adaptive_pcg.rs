@@ -396,11 +396,11 @@ fn the_continued_diagonal_equals_the_rebuilt_one() {
         let mut rng = Pcg64::seed_from_u64(seed + 100);
         for _ in 0..6 {
             let slots: Vec<_> = grown
-                .slots()
+                .leaves()
                 .into_iter()
                 .filter(|c| c.step < grown.steps())
                 .collect();
-            grown.activate(slots[rng.random_range(0..slots.len())]);
+            grown.deepen(slots[rng.random_range(0..slots.len())]);
         }
         assert!(grown.len() > tree.len());
         let old = xs.len() * 2 / 3;

@@ -245,8 +245,8 @@ fn earlier_rounds_are_recognised() {
     assert_eq!(done.round, 0);
     assert!(!done.complete);
     assert_eq!(done.fit.report.functions, step.log.functions);
-    let base_depth = done.tree.slots()[0].step;
-    assert!(done.tree.slots().iter().all(|c| c.step == base_depth));
+    let base_depth = done.tree.leaves()[0].step;
+    assert!(done.tree.leaves().iter().all(|c| c.step == base_depth));
 }
 
 /// A state written before the output pixels were a parameter (no `pixels`, no `residual_z`)

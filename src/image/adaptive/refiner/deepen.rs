@@ -19,8 +19,8 @@ impl ImagePlan {
         let params = &self.params;
         let left = params.stop.budget.saturating_sub(xs.len());
         // the oversampling so far: ceil(rho), or more after densifying rounds
-        let counts = self.tree.slot_counts(xs, ys);
-        let slots = self.tree.slots();
+        let counts = self.tree.leaf_counts(xs, ys);
+        let slots = self.tree.leaves();
         let target = slots
             .iter()
             .map(|s| counts.get(s).copied().unwrap_or(0))
@@ -106,7 +106,7 @@ impl ImagePlan {
         let index: HashMap<Cell, usize> = marked.iter().enumerate().map(|(i, &c)| (c, i)).collect();
         let mut child_counts = vec![[0usize; 4]; marked.len()];
         for (&x, &y) in xs.iter().zip(ys) {
-            let slot = tree.slot_at(x, y);
+            let slot = tree.leaf_at(x, y);
             if let Some(&i) = index.get(&slot) {
                 let c = tree.cell_at(slot.step + 1, x, y);
                 child_counts[i][(c.ky & 1) * 2 + (c.kx & 1)] += 1;
@@ -164,7 +164,7 @@ impl ImagePlan {
         let mut next = SamplePositions::default();
         for (cell, counts) in marking.marked[..k].iter().zip(&marking.child_counts) {
             let per_slot = marking.per_child.of(cell);
-            self.tree.activate(*cell);
+            self.tree.deepen(*cell);
             for (q, child) in cell.children().into_iter().enumerate() {
                 let need = per_slot.saturating_sub(counts[q]);
                 next.stratified(self.tree.rect(child), need, &mut rng);

@@ -182,7 +182,7 @@ impl ImagePlan {
                         reason,
                     });
                 }
-                plan.tree.activate(cell);
+                plan.tree.deepen(cell);
             }
         }
         plan.progress = progress;
@@ -224,7 +224,7 @@ impl ImagePlan {
         let base = QuadTree::uniform(self.tree.basis().clone(), self.base_steps);
         let mut rng = round_rng(self.params.sampling.seed, 0);
         let mut out = SamplePositions::default();
-        for slot in base.slots() {
+        for slot in base.leaves() {
             out.stratified(base.rect(slot), self.per_slot, &mut rng);
         }
         out
@@ -284,7 +284,7 @@ impl ImagePlan {
             &all,
             ch,
             params.noise.false_alarm,
-            tree.slots().len(),
+            tree.leaves().len(),
         );
         state.rows = Some(rows);
         fit.coefficients.truncate(ch);

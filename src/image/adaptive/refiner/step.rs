@@ -185,7 +185,7 @@ impl ImagePlan {
             samples,
             new_samples: samples.saturating_sub(self.progress.samples_fitted),
             functions: fit.report.functions,
-            max_depth: self.tree.slots().iter().map(|c| c.step).max().unwrap_or(0),
+            max_depth: self.tree.leaves().iter().map(|c| c.step).max().unwrap_or(0),
             estimate_rms: (ind.total_sq / self.plane.pixels() as f64).sqrt(),
             marked: 0,
             noise: significance.as_ref().map(|s| s.level.clone()),
