@@ -61,5 +61,5 @@ pub struct ReconstructArgs {
     /// noise level of the samples' own spread (printed; for Monte Carlo noise). `box` and
     /// `shrunk` do not fit, so `--method` and `--p` are not used.
     #[arg(long, value_name = "fit|fit-clamped|box|shrunk")]
-    pub pixels: Option<rkwave::image::PixelEstimate>,
+    pub pixels: Option<rkwave::image::UniformEstimate>,
 }

@@ -30,7 +30,7 @@ pub mod fit;
 pub mod method;
 pub mod pixels;
 
-pub use estimate::{reconstruct_estimated, EstimateReport, PixelEstimate};
+pub use estimate::{reconstruct_estimated, EstimateReport, UniformEstimate};
 pub use fit::{
     fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
 };

@@ -1,14 +1,14 @@
 //! Noise-aware pixel estimates (issue 28, items 2 and 3 on the uniform path): what a pixel's
 //! value is, given the samples in it and the noise they carry.
 //!
-//! * [`PixelEstimate::Fit`]: the least-squares fit's box pixels ([`crate::image::reconstruct`]),
+//! * [`UniformEstimate::Fit`]: the least-squares fit's box pixels ([`crate::image::reconstruct`]),
 //!   unchanged — the default.
-//! * [`PixelEstimate::FitClamped`]: the fit, each pixel clamped to the range of its own samples
+//! * [`UniformEstimate::FitClamped`]: the fit, each pixel clamped to the range of its own samples
 //!   `[min_i v_i, max_i v_i]` ([`clamp`]): the projection that removes the fit's ringing beside a
 //!   bright edge (an emitter in view) and moves no pixel already in its range.
-//! * [`PixelEstimate::Box`]: the mean of each pixel's samples `m_P = (1/n_P) sum_i v_i` (the box
+//! * [`UniformEstimate::Box`]: the mean of each pixel's samples `m_P = (1/n_P) sum_i v_i` (the box
 //!   film; [`statistics`]).
-//! * [`PixelEstimate::Shrunk`]: the box pixels, soft-shrunk in the orthonormal Haar basis at the
+//! * [`UniformEstimate::Shrunk`]: the box pixels, soft-shrunk in the orthonormal Haar basis at the
 //!   universal threshold `t_c = sigma_c sqrt(2 ln N)` and averaged over 16 shifts of the dyadic
 //!   grid ([`shrink`], [`haar`]). The noise level comes from the samples themselves:
 //!   `sigma_c = sqrt(median_P s²_{P,c} / n_P)`, the median over pixels of the variance of a
@@ -40,10 +40,11 @@ use super::method::{reconstruct, ImageReconstruction, Method, StageTimes};
 use super::wavelet::{WaveletError, WaveletParams};
 use super::{ImageSamples, PixelImage};
 
-/// How a pixel's value is estimated from the samples.
+/// How a pixel's value is estimated from the samples on the uniform path (the adaptive
+/// engine's output has its own choice, [`crate::image::adaptive::PixelEstimate`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(into = "String")]
-pub enum PixelEstimate {
+pub enum UniformEstimate {
     /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).
     #[default]
     Fit,
@@ -56,59 +57,59 @@ pub enum PixelEstimate {
     Shrunk,
 }
 
-impl PixelEstimate {
+impl UniformEstimate {
     /// Every estimate, the default first.
-    pub const ALL: [PixelEstimate; 4] = [
-        PixelEstimate::Fit,
-        PixelEstimate::FitClamped,
-        PixelEstimate::Box,
-        PixelEstimate::Shrunk,
+    pub const ALL: [UniformEstimate; 4] = [
+        UniformEstimate::Fit,
+        UniformEstimate::FitClamped,
+        UniformEstimate::Box,
+        UniformEstimate::Shrunk,
     ];
 
     /// The name on the command line (`fit`, `fit-clamped`, `box`, `shrunk`).
     pub fn name(self) -> &'static str {
         match self {
-            PixelEstimate::Fit => "fit",
-            PixelEstimate::FitClamped => "fit-clamped",
-            PixelEstimate::Box => "box",
-            PixelEstimate::Shrunk => "shrunk",
+            UniformEstimate::Fit => "fit",
+            UniformEstimate::FitClamped => "fit-clamped",
+            UniformEstimate::Box => "box",
+            UniformEstimate::Shrunk => "shrunk",
         }
     }
 
     /// Whether the estimate uses the least-squares fit (otherwise only the pixels' samples).
     pub fn uses_fit(self) -> bool {
-        matches!(self, PixelEstimate::Fit | PixelEstimate::FitClamped)
+        matches!(self, UniformEstimate::Fit | UniformEstimate::FitClamped)
     }
 }
 
-impl From<PixelEstimate> for String {
-    fn from(e: PixelEstimate) -> String {
+impl From<UniformEstimate> for String {
+    fn from(e: UniformEstimate) -> String {
         e.name().to_string()
     }
 }
 
-impl fmt::Display for PixelEstimate {
+impl fmt::Display for UniformEstimate {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
 }
 
-/// A pixel-estimate name that is not one of [`PixelEstimate::ALL`].
+/// A pixel-estimate name that is not one of [`UniformEstimate::ALL`].
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
 #[error("unknown pixel estimate `{name}`: expected fit, fit-clamped, box or shrunk")]
-pub struct ParsePixelEstimateError {
+pub struct ParseUniformEstimateError {
     /// The name as given.
     pub name: String,
 }
 
-impl FromStr for PixelEstimate {
-    type Err = ParsePixelEstimateError;
+impl FromStr for UniformEstimate {
+    type Err = ParseUniformEstimateError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let t = s.trim().to_ascii_lowercase();
-        PixelEstimate::ALL
+        UniformEstimate::ALL
             .into_iter()
             .find(|e| e.name() == t)
-            .ok_or_else(|| ParsePixelEstimateError {
+            .ok_or_else(|| ParseUniformEstimateError {
                 name: s.to_string(),
             })
     }
@@ -128,7 +129,7 @@ pub enum EstimateError {
     )]
     EmptyPixels {
         /// The estimate asked for.
-        estimate: PixelEstimate,
+        estimate: UniformEstimate,
         /// Pixels without samples.
         count: usize,
         /// Column of the first.
@@ -149,7 +150,7 @@ pub enum EstimateError {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EstimateReport {
     /// The estimate.
-    pub estimate: PixelEstimate,
+    pub estimate: UniformEstimate,
     /// Pooled noise level `sigma_c` per channel (`None` for `fit`, which does not need it).
     pub noise_level: Option<Vec<f64>>,
     /// Pixels with at least two samples, over which the noise level's median is taken.
@@ -173,7 +174,7 @@ pub struct EstimateReport {
 /// reconstruction's notes end with the estimate's description (except for `fit`, whose output
 /// is [`reconstruct`]'s unchanged).
 pub fn reconstruct_estimated(
-    estimate: PixelEstimate,
+    estimate: UniformEstimate,
     method: Method,
     samples: &ImageSamples,
     wavelet: &WaveletParams,
@@ -191,12 +192,12 @@ pub fn reconstruct_estimated(
         seconds: 0.0,
         description: String::new(),
     };
-    if estimate == PixelEstimate::Fit {
+    if estimate == UniformEstimate::Fit {
         report.description = "pixels: the least-squares fit's box pixels, unchanged".into();
         return Ok((reconstruct(method, samples, wavelet)?, report));
     }
     let fitted = match estimate {
-        PixelEstimate::FitClamped => Some(reconstruct(method, samples, wavelet)?),
+        UniformEstimate::FitClamped => Some(reconstruct(method, samples, wavelet)?),
         _ => None,
     };
     let t_estimate = Instant::now();
@@ -205,7 +206,7 @@ pub fn reconstruct_estimated(
     report.noise_level = sigma.clone();
     report.pixels_with_spread = Some(stats.pixels_with_spread());
     let mut done = match (estimate, fitted) {
-        (PixelEstimate::FitClamped, Some(mut fit)) => {
+        (UniformEstimate::FitClamped, Some(mut fit)) => {
             let moved = clamp_to_sample_range(&mut fit.image, &stats);
             report.clamped_values = Some(moved);
             report.unclamped_empty_pixels = Some(stats.empty_pixels());
@@ -225,10 +226,10 @@ pub fn reconstruct_estimated(
             notes: vec![],
         },
     };
-    if estimate == PixelEstimate::Box {
+    if estimate == UniformEstimate::Box {
         report.description = "pixels: the mean of each pixel's samples (the box film)".into();
     }
-    if estimate == PixelEstimate::Shrunk {
+    if estimate == UniformEstimate::Shrunk {
         let sigma = sigma.ok_or(EstimateError::NoSpread)?;
         let plane = stats.plane;
         let thresholds: Vec<f64> = sigma
@@ -272,7 +273,7 @@ pub fn reconstruct_estimated(
 /// The box pixels of `stats`, or the first empty pixel as an error.
 fn box_image(
     stats: &PixelStatistics,
-    estimate: PixelEstimate,
+    estimate: UniformEstimate,
 ) -> Result<PixelImage, EstimateError> {
     if let Some(p) = stats.count.iter().position(|&n| n == 0) {
         let w = stats.plane.width();
@@ -304,9 +305,9 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for e in PixelEstimate::ALL {
-            assert_eq!(e.name().parse::<PixelEstimate>(), Ok(e));
+        for e in UniformEstimate::ALL {
+            assert_eq!(e.name().parse::<UniformEstimate>(), Ok(e));
         }
-        assert!("median".parse::<PixelEstimate>().is_err());
+        assert!("median".parse::<UniformEstimate>().is_err());
     }
 }
