@@ -13,9 +13,11 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rkwave::image::estimate::{
     clamp_to_sample_range, reconstruct_estimated, shrink_channel, universal_threshold,
-    EstimateError, Haar2d, PixelStatistics, ShrinkParams, UniformEstimate,
+    EstimateError, EstimateReport, Haar2d, PixelStatistics, ShrinkParams, UniformEstimate,
 };
-use rkwave::image::{reconstruct, ImagePlane, ImageSamples, Method, PixelImage, WaveletParams};
+use rkwave::image::{
+    reconstruct, ImagePlane, ImageReconstruction, ImageSamples, Method, PixelImage, WaveletParams,
+};
 
 /// Image sizes with odd sides, one-pixel lines and a power of two: the borders' truncated
 /// blocks are exercised at every offset.
@@ -174,20 +176,25 @@ fn the_pooled_noise_level_is_the_standard_error_of_a_pixel_mean() {
     assert!((0.12..0.145).contains(&sigma), "sigma_c = {sigma}");
 }
 
+/// `reconstruct_estimated` with the wavelet method and default parameters.
+fn estimate(
+    samples: &ImageSamples,
+    e: UniformEstimate,
+) -> Result<(ImageReconstruction, EstimateReport), EstimateError> {
+    reconstruct_estimated(
+        e,
+        Method::Wavelet,
+        samples,
+        &WaveletParams::default(),
+        &ShrinkParams::default(),
+    )
+}
+
 #[test]
 fn shrunk_pixels_beat_the_box_on_a_noisy_smooth_scene_and_report_their_threshold() {
     let signal = |x: f64, y: f64| 0.5 + 0.3 * (x / 10.0).sin() * (y / 13.0).cos();
     let samples = noisy_samples(64, 64, 4, 0.3, signal);
-    let go = |e| {
-        reconstruct_estimated(
-            e,
-            Method::Wavelet,
-            &samples,
-            &WaveletParams::default(),
-            &ShrinkParams::default(),
-        )
-        .unwrap()
-    };
+    let go = |e| estimate(&samples, e).unwrap();
     let (boxed, _) = go(UniformEstimate::Box);
     let (shrunk, report) = go(UniformEstimate::Shrunk);
     // Error against the pixel centre's value (the signal varies by < 0.02 across a pixel,
@@ -213,17 +220,7 @@ fn shrunk_pixels_beat_the_box_on_a_noisy_smooth_scene_and_report_their_threshold
 fn box_is_the_pixel_mean_and_fit_is_reconstruct_unchanged() {
     let samples = noisy_samples(12, 9, 3, 0.1, |x, y| x * y / 50.0);
     let stats = PixelStatistics::new(&samples);
-    let go = |e| {
-        reconstruct_estimated(
-            e,
-            Method::Wavelet,
-            &samples,
-            &WaveletParams::default(),
-            &ShrinkParams::default(),
-        )
-        .unwrap()
-        .0
-    };
+    let go = |e| estimate(&samples, e).unwrap().0;
     assert_eq!(go(UniformEstimate::Box).image.channels, stats.mean);
     let plain = reconstruct(Method::Wavelet, &samples, &WaveletParams::default()).unwrap();
     assert_eq!(go(UniformEstimate::Fit).image, plain.image, "bit for bit");
@@ -263,15 +260,7 @@ fn empty_pixels_and_single_samples_are_refused_with_the_way_out() {
         vec![vec![1.0, 2.0, 3.0, 4.0]],
     )
     .unwrap();
-    let go = |s: &ImageSamples, e| {
-        reconstruct_estimated(
-            e,
-            Method::Wavelet,
-            s,
-            &WaveletParams::default(),
-            &ShrinkParams::default(),
-        )
-    };
+    let go = estimate;
     let err = go(&one_each, UniformEstimate::Shrunk).unwrap_err();
     assert!(matches!(err, EstimateError::NoSpread), "{err}");
     assert!(err.to_string().contains("at least 2 samples per pixel"));

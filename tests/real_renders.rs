@@ -333,23 +333,7 @@ fn uniform_reconstruction_of_real_samples_is_finite_and_within_the_measured_gap(
     std::fs::create_dir_all(&dir).expect("scratch folder");
     for (scene, gap) in UNIFORM_GAP_DB {
         let f = load(scene);
-        let out = dir.join(format!("{scene}.npy"));
-        let status = Command::new(env!("CARGO_BIN_EXE_rkwave"))
-            .args(["reconstruct", "--dim", "2", "--resolution"])
-            .arg(format!("{SIZE}x{SIZE}"))
-            .arg("--input")
-            .arg(samples_path(scene))
-            .arg("--output")
-            .arg(&out)
-            .arg("--force")
-            .output()
-            .expect("rkwave runs");
-        assert!(
-            status.status.success(),
-            "{scene}: {}",
-            String::from_utf8_lossy(&status.stderr)
-        );
-        let (shape, image) = read_image_npy(&out);
+        let (shape, image) = reconstruct_with(scene, &[], &dir);
         assert_eq!(shape, (SIZE, SIZE, 3), "{scene}: (H, W, C)");
         assert!(
             image.iter().flatten().all(|v| v.is_finite()),
@@ -383,8 +367,14 @@ const ESTIMATE_GAINS_DB: [(&str, f64, f64); 3] = [
     ("thinlens", -0.1, 1.0),
 ];
 
-fn reconstruct_with(scene: &str, pixels: &str, dir: &Path) -> Vec<Vec<f64>> {
-    let out = dir.join(format!("{scene}-{pixels}.npy"));
+/// `rkwave reconstruct --dim 2` of a fixture's samples with `extra` flags: the image's shape
+/// `(H, W, C)` and its values per channel.
+fn reconstruct_with(
+    scene: &str,
+    extra: &[&str],
+    dir: &Path,
+) -> ((usize, usize, usize), Vec<Vec<f64>>) {
+    let out = dir.join(format!("{scene}{}.npy", extra.join("")));
     let run = Command::new(env!("CARGO_BIN_EXE_rkwave"))
         .args(["reconstruct", "--dim", "2", "--resolution"])
         .arg(format!("{SIZE}x{SIZE}"))
@@ -392,15 +382,16 @@ fn reconstruct_with(scene: &str, pixels: &str, dir: &Path) -> Vec<Vec<f64>> {
         .arg(samples_path(scene))
         .arg("--output")
         .arg(&out)
-        .args(["--force", "--pixels", pixels])
+        .arg("--force")
+        .args(extra)
         .output()
         .expect("rkwave runs");
     assert!(
         run.status.success(),
-        "{scene} --pixels {pixels}: {}",
+        "{scene} {extra:?}: {}",
         String::from_utf8_lossy(&run.stderr)
     );
-    read_image_npy(&out).1
+    read_image_npy(&out)
 }
 
 #[test]
@@ -411,13 +402,19 @@ fn shrunk_pixels_gain_on_monte_carlo_noise_and_the_clamp_stays_in_the_samples_ra
         let f = load(scene);
         let (box_film, _) = naive_box(&f);
         let box_db = psnr(&box_film, &f.reference);
-        let shrunk_db = psnr(&reconstruct_with(scene, "shrunk", &dir), &f.reference);
+        let shrunk_db = psnr(
+            &reconstruct_with(scene, &["--pixels", "shrunk"], &dir).1,
+            &f.reference,
+        );
         assert!(
             shrunk_db >= box_db + shrink_gain,
             "{scene}: shrunk {shrunk_db:.2} dB, box {box_db:.2} dB: less than {shrink_gain:+} dB"
         );
-        let fit_db = psnr(&reconstruct_with(scene, "fit", &dir), &f.reference);
-        let clamped = reconstruct_with(scene, "fit-clamped", &dir);
+        let fit_db = psnr(
+            &reconstruct_with(scene, &["--pixels", "fit"], &dir).1,
+            &f.reference,
+        );
+        let clamped = reconstruct_with(scene, &["--pixels", "fit-clamped"], &dir).1;
         let clamped_db = psnr(&clamped, &f.reference);
         assert!(
             clamped_db >= fit_db + clamp_gain,
