@@ -32,9 +32,8 @@ fn main() {
 /// blocks up to 32 MB come from the heap instead of a fresh `mmap` each, and the heap's top is
 /// never trimmed. The PCG iterations allocate and free vectors of 8-112 MB (a channel's
 /// coefficients, the samples' values); from fresh mappings each one paid its page faults
-/// again. Measured (`rkwave image --scene shapes --resolution 512x512 --spp 8 --adaptive
-/// --solver pcg`, tolerance `1e-4`): the adaptive run 55 s → 42 s, its solves 34 s → 21 s; peak
-/// resident 3.0 → 3.4 GB (freed memory is held until the process ends).
+/// again. The price is a higher peak resident size (freed memory is held until the process
+/// ends); both figures: docs/measurements.md, "Adaptive image sampling: speed and memory".
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 fn retain_freed_memory() {
     // SAFETY: `mallopt` only sets the allocator's parameters; it runs before any other thread

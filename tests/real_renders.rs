@@ -12,8 +12,10 @@
 //! an unbiased estimate of the pixel integral the reference approximates. The tests check that
 //! definition against rkwave's splat, the PSNR against the value numpy computed when the fixture
 //! was written, the absence of bias against the reference (in units of the standard error the
-//! samples themselves give), and that rkwave's uniform reconstruction of real samples is finite
-//! and no further below the box film than the measured table in `docs/measurements.md` shows.
+//! samples themselves give), that rkwave's uniform reconstruction of real samples is finite
+//! and no further below the box film than the measured table in `docs/measurements.md` shows,
+//! and that the noise-aware pixel estimates (`--pixels shrunk`, `--pixels fit-clamped`) keep
+//! the gains measured on these fixtures.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -331,23 +333,7 @@ fn uniform_reconstruction_of_real_samples_is_finite_and_within_the_measured_gap(
     std::fs::create_dir_all(&dir).expect("scratch folder");
     for (scene, gap) in UNIFORM_GAP_DB {
         let f = load(scene);
-        let out = dir.join(format!("{scene}.npy"));
-        let status = Command::new(env!("CARGO_BIN_EXE_rkwave"))
-            .args(["reconstruct", "--dim", "2", "--resolution"])
-            .arg(format!("{SIZE}x{SIZE}"))
-            .arg("--input")
-            .arg(samples_path(scene))
-            .arg("--output")
-            .arg(&out)
-            .arg("--force")
-            .output()
-            .expect("rkwave runs");
-        assert!(
-            status.status.success(),
-            "{scene}: {}",
-            String::from_utf8_lossy(&status.stderr)
-        );
-        let (shape, image) = read_image_npy(&out);
+        let (shape, image) = reconstruct_with(scene, &[], &dir);
         assert_eq!(shape, (SIZE, SIZE, 3), "{scene}: (H, W, C)");
         assert!(
             image.iter().flatten().all(|v| v.is_finite()),
@@ -362,6 +348,96 @@ fn uniform_reconstruction_of_real_samples_is_finite_and_within_the_measured_gap(
             uniform_db >= box_db - gap,
             "{scene}: uniform {uniform_db:.2} dB, box {box_db:.2} dB: more than {gap} dB below"
         );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// What `reconstruct --dim 2 --pixels E` gains on the fixtures, in dB against the box film of
+/// the same samples (shrunk) or against the plain fit (fit-clamped). Measured on these fixtures
+/// (`docs/measurements.md`, "Noise-aware pixel estimates in the engine"): shrunk − box = +0.01
+/// (direct), +4.65 (cornell), +0.02 (thinlens); fit-clamped − fit = +3.19, +4.24, +1.18. The
+/// outputs are deterministic, so the bounds guard against regressions, with room for a change
+/// of the transform's rounding or of the fit: on cornell (Monte Carlo noise) shrinkage must
+/// keep at least 3 dB, i.e. at least halve the box's squared error; on the noise-free scenes it
+/// must cost at most 0.1 dB (the pooled noise level there is ~1e-4 of the signal); the clamp
+/// must gain at least 1 dB on each scene (it removes the fit's ringing at edges and the emitter).
+const ESTIMATE_GAINS_DB: [(&str, f64, f64); 3] = [
+    ("direct", -0.1, 1.0),
+    ("cornell", 3.0, 1.0),
+    ("thinlens", -0.1, 1.0),
+];
+
+/// `rkwave reconstruct --dim 2` of a fixture's samples with `extra` flags: the image's shape
+/// `(H, W, C)` and its values per channel.
+fn reconstruct_with(
+    scene: &str,
+    extra: &[&str],
+    dir: &Path,
+) -> ((usize, usize, usize), Vec<Vec<f64>>) {
+    let out = dir.join(format!("{scene}{}.npy", extra.join("")));
+    let run = Command::new(env!("CARGO_BIN_EXE_rkwave"))
+        .args(["reconstruct", "--dim", "2", "--resolution"])
+        .arg(format!("{SIZE}x{SIZE}"))
+        .arg("--input")
+        .arg(samples_path(scene))
+        .arg("--output")
+        .arg(&out)
+        .arg("--force")
+        .args(extra)
+        .output()
+        .expect("rkwave runs");
+    assert!(
+        run.status.success(),
+        "{scene} {extra:?}: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    read_image_npy(&out)
+}
+
+#[test]
+fn shrunk_pixels_gain_on_monte_carlo_noise_and_the_clamp_stays_in_the_samples_range() {
+    let dir = std::env::temp_dir().join(format!("rkwave-real-estimates-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    for (scene, shrink_gain, clamp_gain) in ESTIMATE_GAINS_DB {
+        let f = load(scene);
+        let (box_film, _) = naive_box(&f);
+        let box_db = psnr(&box_film, &f.reference);
+        let shrunk_db = psnr(
+            &reconstruct_with(scene, &["--pixels", "shrunk"], &dir).1,
+            &f.reference,
+        );
+        assert!(
+            shrunk_db >= box_db + shrink_gain,
+            "{scene}: shrunk {shrunk_db:.2} dB, box {box_db:.2} dB: less than {shrink_gain:+} dB"
+        );
+        let fit_db = psnr(
+            &reconstruct_with(scene, &["--pixels", "fit"], &dir).1,
+            &f.reference,
+        );
+        let clamped = reconstruct_with(scene, &["--pixels", "fit-clamped"], &dir).1;
+        let clamped_db = psnr(&clamped, &f.reference);
+        assert!(
+            clamped_db >= fit_db + clamp_gain,
+            "{scene}: fit-clamped {clamped_db:.2} dB, fit {fit_db:.2} dB: less than +{clamp_gain}"
+        );
+        // Every clamped pixel lies within the range of its own samples.
+        for (c, values) in f.rgb.iter().enumerate() {
+            let mut lo = vec![f64::INFINITY; SIZE * SIZE];
+            let mut hi = vec![f64::NEG_INFINITY; SIZE * SIZE];
+            for ((&x, &y), &v) in f.xs.iter().zip(&f.ys).zip(values) {
+                let p = pixel(x, y);
+                lo[p] = lo[p].min(v);
+                hi[p] = hi[p].max(v);
+            }
+            for (p, &v) in clamped[c].iter().enumerate() {
+                assert!(
+                    lo[p] <= v && v <= hi[p],
+                    "{scene}: channel {c} pixel {p}: {v} outside [{}, {}]",
+                    lo[p],
+                    hi[p]
+                );
+            }
+        }
     }
     std::fs::remove_dir_all(&dir).ok();
 }

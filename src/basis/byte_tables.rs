@@ -3,15 +3,13 @@
 //!
 //! `(T_d)_{i,l} = sqrt2 h_{2i+d-l}` with `sqrt2` in double-double, so each entry of `P_b`
 //! is within half an ulp of the product of the exact digit matrices of the `f64` filter `h`.
-//! Products formed in `f64` (seven roundings of a `(2p-1)`-wide matrix product, plus the
-//! rounding of `sqrt2 h`) were measured at up to 1.3e-15 from the double-double products
-//! (`p = 6`), and the scaling-function values built from them at 7.8e-16 RMS (units of
-//! `phi`), 8x the 9.8e-17 of tables rounded once: the evaluation error that limited the
-//! single-scale least squares at round-off (issue 11).
+//! Products formed in `f64` instead take seven roundings of a `(2p-1)`-wide matrix product
+//! plus the rounding of `sqrt2 h`: their scaling-function values are several times further
+//! from the exact ones than tables rounded once, which limited the single-scale least squares
+//! at round-off (docs/measurements.md, "Least squares at round-off").
 //!
 //! Cost: 30 double-double products for the 16 four-digit tables and 256 for the bytes,
-//! `(2p - 1)^3` multiply-adds each (about 1 ms at `p = 4`, 20 ms at `p = 10`), once per
-//! filter bank.
+//! `(2p - 1)^3` multiply-adds each, once per filter bank.
 
 /// A double-double number `hi + lo`, `|lo| <= ulp(hi) / 2`.
 #[derive(Clone, Copy, Default, Debug)]

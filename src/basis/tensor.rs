@@ -84,8 +84,8 @@ pub enum TensorError {
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct TensorLevelParams {
     /// Target samples per single-scale function, `rho = m / (nx ny)`: larger is more stable
-    /// (fewer locally undersampled functions), smaller resolves finer detail. docs/design.md §7: about
-    /// one function per pixel at 4 samples per pixel worked; two per pixel lost 10 dB.
+    /// (fewer locally undersampled functions), smaller resolves finer detail (docs/design.md
+    /// §7 on the resolution of the image-plane basis).
     pub rho: f64,
     /// Highest single-scale resolution allowed, in functions per pixel along an axis
     /// (`2^J <= max_per_pixel * W`): bounds the cost when samples are very dense.

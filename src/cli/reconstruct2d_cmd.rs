@@ -4,8 +4,9 @@
 
 use std::time::Instant;
 
+use rkwave::image::estimate::{EstimateError, ShrinkParams};
 use rkwave::image::report::FileReconstructionReport;
-use rkwave::image::{reconstruct, Method, WaveletParams};
+use rkwave::image::{reconstruct_estimated, Method, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::io::read_image_samples;
 
@@ -19,6 +20,12 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
     ImageFormat::from_path(&args.output).map_err(|e| CliError::flag("--output", e))?;
     check_writable(&args.output, args.force)?;
+    if let (Some(_), Some(pixels)) = (&args.state, args.pixels) {
+        return Err(CliError::Invalid(format!(
+            "--pixels {pixels} is for the uniform path: with --state the plan's own output is \
+             written (see --no-residual); drop --pixels or --state"
+        )));
+    }
     if let Some(dir) = &args.state {
         return super::plan_cmd::reconstruct(args, dir, started);
     }
@@ -44,13 +51,29 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let samples = read_image_samples(&args.input, plane)?;
     let read_s = started.elapsed().as_secs_f64();
     bar.set_message("reconstructing");
-    let done = reconstruct(method, &samples, &wavelet)?;
+    let estimate = args.pixels.unwrap_or_default();
+    let (done, estimated) = reconstruct_estimated(
+        estimate,
+        method,
+        &samples,
+        &wavelet,
+        &ShrinkParams::default(),
+    )
+    .map_err(|e| match e {
+        EstimateError::Wavelet(e) => CliError::Wavelet(e),
+        other => CliError::Invalid(other.to_string()),
+    })?;
+    let method = if estimate.uses_fit() {
+        method
+    } else {
+        Method::Film(rkwave::image::filters::FilmFilterKind::Box)
+    };
     bar.set_message("writing");
     let t_write = Instant::now();
     write_image(&args.output, &done.image, args.force)?;
     let write_s = t_write.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let report = FileReconstructionReport::new(
+    let mut report = FileReconstructionReport::new(
         &args.input,
         &args.output,
         plane,
@@ -62,6 +85,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         write_s,
         started.elapsed().as_secs_f64(),
     );
+    report.pixels = Some(estimated);
     if args.json {
         println!(
             "{}",
@@ -69,10 +93,12 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         );
     } else {
         println!(
-            "{} samples x {} channels -> {plane} pixels by {method} ({} functions), {:.3} s; wrote {}",
+            "{} samples x {} channels -> {plane} pixels by {method}{}, {:.3} s; wrote {}",
             report.samples,
             report.channels,
-            report.functions.map_or("?".into(), |f| f.to_string()),
+            report
+                .functions
+                .map_or(String::new(), |f| format!(" ({f} functions)")),
             report.time_s.total,
             args.output.display()
         );

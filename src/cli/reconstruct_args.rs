@@ -55,4 +55,11 @@ pub struct ReconstructArgs {
     /// of the samples in the pixel's 3x3 neighbourhood (the plan's `pixels` parameter).
     #[arg(long)]
     pub no_residual: bool,
+    /// With `--dim 2` (no `--state`): the pixel estimate. `fit` (default) the least-squares
+    /// fit's box pixels; `fit-clamped` the fit clamped to the range of each pixel's samples;
+    /// `box` the mean of each pixel's samples; `shrunk` the box pixels, wavelet-shrunk at the
+    /// noise level of the samples' own spread (printed; for Monte Carlo noise). `box` and
+    /// `shrunk` do not fit, so `--method` and `--p` are not used.
+    #[arg(long, value_name = "fit|fit-clamped|box|shrunk")]
+    pub pixels: Option<rkwave::image::UniformEstimate>,
 }

@@ -14,6 +14,8 @@
 //!   its local inversion, or a film filter), with a report of what it did ([`method`]).
 //! * [`filters`]: the film filters renderers ship; [`splat`]: their weighted-average
 //!   reconstruction; [`wavelet`]: the wavelet method's pixels.
+//! * [`estimate`]: noise-aware pixel estimates (the fit clamped to its samples' range, the box
+//!   pixels shrunk at the samples' own noise level), [`reconstruct_estimated`].
 //! * [`scene`]: scenes from JSON; [`sampler`]: where samples go; [`truth`]: box-filtered
 //!   ground truth; [`metrics`]: PSNR, RMSE, relative MSE, SSIM.
 //! * [`report`]: typed reports of the commands that take a renderer's samples.
@@ -23,10 +25,12 @@
 
 pub mod adaptive;
 pub mod equivalent_filter;
+pub mod estimate;
 pub mod fit;
 pub mod method;
 pub mod pixels;
 
+pub use estimate::{reconstruct_estimated, EstimateReport, UniformEstimate};
 pub use fit::{
     fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
 };

@@ -64,6 +64,9 @@ pub struct FileReconstructionReport {
     pub peak_mb: Option<f64>,
     /// Every fallback or cut-off, in words.
     pub notes: Vec<String>,
+    /// The pixel estimate, its noise level and thresholds (set by the caller; `None` when
+    /// none was chosen).
+    pub pixels: Option<super::estimate::EstimateReport>,
 }
 
 impl FileReconstructionReport {
@@ -102,6 +105,7 @@ impl FileReconstructionReport {
             },
             peak_mb: peak_memory_mb(),
             notes: done.notes.clone(),
+            pixels: None,
         }
     }
 }

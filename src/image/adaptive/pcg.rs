@@ -18,18 +18,17 @@
 //! The normal equations `G c = K_T^T f` are solved by conjugate gradients preconditioned by
 //! `diag G`, `G_aa = sum_i Psi_a(x_i, y_i)^2`, from one pass of the multilevel evaluator over
 //! the samples (it removes the `4^depth` spread of the sample density between deep and
-//! shallow regions; measured at 128², `shapes`, 8 spp, it lowers the condition estimate from
-//! 5e3-2e4 to 2e3-5e3 against the count estimate `G_aa ~ n_a / |supp_a|`, `n_a` the samples
-//! in the `(2p - 1)^2` cells around the function's own, which is kept for reporting unsampled
-//! functions). A function with no sample in its support has a zero column in `K_T`: its
+//! shallow regions, and conditions better than the count estimate `G_aa ~ n_a / |supp_a|`,
+//! `n_a` the samples in the `(2p - 1)^2` cells around the function's own, which is kept for
+//! reporting unsampled functions). A function with no sample in its support has a zero column in `K_T`: its
 //! residual is always 0, so it keeps its start value (0 for a new function), as the direct
 //! solve's ridge pins it near 0.
 //!
-//! *Measured limit.* At `rho = 2` samples per slot the least-squares problem itself is not well
-//! conditioned (jittered pairs of samples leave local near-null directions): the condition
-//! estimate of the Jacobi-preconditioned `G` is `~3e3`, and PCG needs 300-400 iterations to a
-//! relative residual of `1e-10`, more work than the direct solve at 128². So PCG is opt-in; a
-//! stronger (local / Schwarz, or previous-factor) preconditioner is what it lacks.
+//! *Limit.* At `rho = 2` samples per slot the least-squares problem itself is not well
+//! conditioned (jittered pairs of samples leave local near-null directions), so Jacobi-PCG
+//! takes hundreds of iterations to a tight residual, more work than the direct solve at small
+//! sizes (docs/measurements.md, "The iterative solvers"). So PCG is opt-in; a stronger (local /
+//! Schwarz, or previous-factor) preconditioner is what it lacks.
 //!
 //! Stopping: the relative residual of the normal equations `||K_T^T (f - K_T c)|| / ||K_T^T
 //! f|| <= tol`. Then the coefficient error is at most `kappa(G) tol` relative, `kappa`

@@ -1,9 +1,8 @@
 //! An additive Schwarz preconditioner for the tree's normal equations: overlapping spatial
 //! tiles, every level of the tree in each.
 //!
-//! Jacobi-preconditioned CG on `G = K_T^T K_T` needs 200-400 iterations a round (condition
-//! estimates `3e3` at `rho = 2`): the slow directions are local but span levels (measured on
-//! the refiner's second round at 32² and 64², `shapes`, 8 spp: the smallest eigenvectors of
+//! Jacobi-preconditioned CG on `G = K_T^T K_T` needs hundreds of iterations a round at
+//! `rho = 2`: the slow directions are local but span levels (the smallest eigenvectors of
 //! `D^{-1/2} G D^{-1/2}` sit at the image border and mix the coarse and the next two levels).
 //! Blocks that hold *every* level of a small region remove them:
 //!
@@ -12,18 +11,18 @@
 //! ```
 //!
 //! `R_t` the restriction to the functions whose cell, grown by the halo `h` on each side,
-//! meets tile `t` (`T x T` pixels). With exact principal submatrices `G_tt`, measured with
-//! dense eigenvalues: `kappa(M^{-1} G)` 3,031 (Jacobi) → 12.5 (`T = 4`, `h = 1`) and 6.0
-//! (`T = 8`, `h = 2`) at 32²; 2,995 → 13.0 (`T = 8`, `h = 2`) and 5.4 (`T = 16`) at 64².
-//! Blocks of one level alone (or the coarse levels split off into a block of their own) leave
-//! it above 1,000.
+//! meets tile `t` (`T x T` pixels). With exact principal submatrices `G_tt`, `kappa(M^{-1} G)`
+//! falls by two orders of magnitude from Jacobi's, while blocks of one level alone (or the
+//! coarse levels split off into a block of their own) barely help (dense eigenvalues:
+//! docs/measurements.md, "The iterative solvers").
 //!
 //! Here the tiles' blocks are chosen; they are read from an assembled `G` (the direct path's,
 //! [`super::gram`]), factored and applied by the crate's one additive Schwarz preconditioner
 //! ([`AdditiveSchwarz`]: dense Cholesky per block, blocked triangular solves for all channels
 //! at once), and the conjugate gradient is the crate's one ([`crate::solve::cg::pcg`]). That
 //! is the reference for a matrix-free assembly of the same blocks, which the 512² target
-//! needs: `G` itself, built from the kernel rows, does not fit at 512² (see the README).
+//! needs: `G` itself, built from the kernel rows, does not fit at 512² (docs/measurements.md,
+//! "512² at 8 spp").
 
 use serde::Serialize;
 use sprs::CsMat;

@@ -25,8 +25,8 @@
 //! returning the samples in any order gets the same test (the file protocol and the
 //! in-process loop agree). They do not depend on the round: a sample keeps its probe values,
 //! so a round's probe fit continues the previous round's like the image channels' fit does
-//! (at 256², 8 spp, the probes took 17–35 PCG iterations a round from zero and were the
-//! rounds' whole solve cost, the warm-started image channels 0–9). Within a round the
+//! (started from zero every round, the probes were the rounds' whole solve cost:
+//! docs/measurements.md, "512² at 8 spp"). Within a round the
 //! values are independent standard normal deviates all the same, which is all the test
 //! needs; across rounds an unchanged cell sees nearly the same test instead of a fresh draw,
 //! so a false alarm is not re-drawn every round.
@@ -38,12 +38,12 @@
 //! with probability at most about `alpha` (the false-alarm rate), whatever the image size and
 //! the channels. `q` by Wilson–Hilferty, `q = ch (1 - 2/(9 ch) + z sqrt(2/(9 ch)))^3`, `z`
 //! the normal quantile (Abramowitz–Stegun 26.2.23, error below `4.5e-4`); for `ch = 1` in
-//! the far tail it is above the exact quantile (24.4 against 21.6 at `3e-6`): conservative.
+//! the far tail it is above the exact quantile: conservative.
 //!
 //! Tried: `|c_a| > kappa sigma sqrt(ch v_P)` with a fixed `kappa = 3`, and `v` from the cell
 //! alone. With one channel that is `P(chi^2_1 > 9) = 2.7e-3` per function, a few false
-//! alarms per round, and a noisy polynomial scene at 48² went one to two steps deeper over
-//! 97 cells.
+//! alarms per round, enough to deepen a noisy smooth scene (docs/measurements.md, "The noise
+//! test").
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -94,8 +94,8 @@ pub fn probe_values(seed: u64, xs: &[f64], ys: &[f64], k: usize) -> Vec<Vec<f64>
 /// the tree). `K c = E S c` ([`super::pcg`]): the 2D synthesis `S` of each channel to the
 /// single-scale coefficients of `V_Jx (x) V_Jy`, then the single-scale rows `E`, `(2p - 1)^2`
 /// terms a sample instead of the multilevel evaluator's terms of every level (the same values
-/// up to rounding; measured at 512², 8 spp, 2 million samples and 7 channels: most of the
-/// minute the noise test took a run).
+/// up to rounding, and most of the noise test's cost at 512² went to the multilevel
+/// evaluator before this: docs/measurements.md, "512² at 8 spp").
 pub(crate) fn residuals(
     tree: &QuadTree,
     coefficients: &[&[f64]],
@@ -178,9 +178,8 @@ impl Significance {
     /// active cells within one cell of `cell` (`|dk| <= 1` per axis, the cell itself
     /// included), the variance per unit noise variance of a coefficient of the cell. Pooling
     /// the neighbours gives up to `27 k` degrees of freedom (the variance changes slowly
-    /// with the local sample density): at 64², `k = 4` and the cell alone (12 degrees of
-    /// freedom), underestimates by half had a chance of about 9% and let noise deepen
-    /// scattered cells of a flat background.
+    /// with the local sample density): the cell alone (`3k` degrees of freedom) underestimates
+    /// the variance often enough to let noise deepen scattered cells of a flat background.
     pub fn variance(&self, tree: &QuadTree, cell: Cell) -> f64 {
         if self.probe_coefficients.is_empty() {
             return 0.0;
