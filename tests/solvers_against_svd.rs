@@ -367,6 +367,30 @@ fn fit_active_matches_the_dense_svd_on_uniform_and_adaptive_sets() {
     }
 }
 
+/// The banded QR and the banded normal equations of the default fit against the dense SVD on
+/// one 1D problem (`p`, levels above the minimum, oversampling, seed).
+fn single_scale_paths_match_the_dense_svd(p: usize, extra: u32, oversampling: usize, seed: u64) {
+    let problem = Problem1d::new(p, extra, oversampling, seed);
+    let values = problem.values();
+    let k = kernel_matrix(&ActiveSet::uniform(problem.basis.clone()), &problem.xs).unwrap();
+    let oracle = DenseLs::new(&k);
+    let (c, rep) = single_scale_qr(&problem.basis, &problem.xs, &values, 0.0).unwrap();
+    assert_eq!(rep.deficient, 0);
+    check_with(&oracle, "banded QR", &values, &c, Accuracy::BackwardStable);
+    let (c, rep) = single_scale_ls(&problem.basis, &problem.xs, &values, 0.0).unwrap();
+    assert_eq!(rep.deficient, 0);
+    let name = "banded normal equations";
+    check_with(&oracle, name, &values, &c, Accuracy::NormalEquations);
+}
+
+/// A case random search found where two refinement steps of the oracle's SVD solution did not
+/// reach rounding (the oracle's own check failed; the solvers were right): kept so the
+/// refinement to convergence stays.
+#[test]
+fn single_scale_paths_match_the_dense_svd_where_the_oracle_needed_refinement() {
+    single_scale_paths_match_the_dense_svd(2, 1, 5, 5086268346536640687);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
@@ -379,17 +403,7 @@ proptest! {
         oversampling in 2usize..=6,
         seed in any::<u64>(),
     ) {
-        let problem = Problem1d::new(p, extra, oversampling, seed);
-        let values = problem.values();
-        let k = kernel_matrix(&ActiveSet::uniform(problem.basis.clone()), &problem.xs).unwrap();
-        let oracle = DenseLs::new(&k);
-        let (c, rep) = single_scale_qr(&problem.basis, &problem.xs, &values, 0.0).unwrap();
-        prop_assert_eq!(rep.deficient, 0);
-        check_with(&oracle, "proptest: banded QR", &values, &c, Accuracy::BackwardStable);
-        let (c, rep) = single_scale_ls(&problem.basis, &problem.xs, &values, 0.0).unwrap();
-        prop_assert_eq!(rep.deficient, 0);
-        let name = "proptest: banded normal equations";
-        check_with(&oracle, name, &values, &c, Accuracy::NormalEquations);
+        single_scale_paths_match_the_dense_svd(p, extra, oversampling, seed);
     }
 }
 
