@@ -369,7 +369,7 @@ impl ProtocolError {
 #[cfg(feature = "plot")]
 mod lab_kinds {
     use super::ErrorKind;
-    use crate::image::adaptive::experiment::AdaptiveRunError;
+    use crate::lab::adaptive::AdaptiveRunError;
     use crate::lab::experiment::ImageRunError;
     use crate::plot::PlotError;
 

@@ -84,7 +84,7 @@
 //!     [`io::image_file::ImageFileError`];
 //!   - reports and the lab: [`report::scaling::ScalingError`]; with feature `plot`,
 //!     `plot::PlotError`, `lab::experiment::ImageRunError` and
-//!     `image::adaptive::experiment::AdaptiveRunError`.
+//!     `lab::adaptive::AdaptiveRunError`.
 //!
 //!   A parse error of a name (`ParseMethodError`, `ParseSamplerError`, ...) is a struct
 //!   holding the name given; its kind is always `InvalidInput`.

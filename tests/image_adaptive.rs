@@ -248,21 +248,10 @@ fn invariant_and_budget_after_every_round() {
     let plane = ImagePlane::new(w, h).unwrap();
     for (budget, rho) in [(4 * w * h, 4.0), (3 * w * h, 2.5)] {
         for rounds in 0..5 {
-            let p = AdaptiveParams {
-                stop: StopParams {
-                    max_rounds: rounds,
-                    ..(params(budget)).stop
-                },
-                tree: TreeParams {
-                    rho,
-                    ..(params(budget)).tree
-                },
-                sampling: ImageSampling {
-                    seed: 7,
-                    ..(params(budget)).sampling
-                },
-                ..params(budget)
-            };
+            let mut p = params(budget);
+            p.stop.max_rounds = rounds;
+            p.tree.rho = rho;
+            p.sampling.seed = 7;
             let run = refine_image(&straight_edge, plane, &p).unwrap();
             assert!(run.xs.len() <= budget, "{} > {budget}", run.xs.len());
             let counts = run.tree.leaf_counts(&run.xs, &run.ys);

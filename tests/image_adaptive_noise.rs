@@ -13,7 +13,7 @@ use rkwave::refine::StopReason;
 
 // `polynomial`: every wavelet coefficient is zero, the detail of a fit is noise alone.
 use common::scenes::{edge_distance, polynomial, straight_edge};
-use rkwave::image::adaptive::{ImageSampling, NoiseParams, StopParams, TreeParams};
+use rkwave::image::adaptive::{NoiseParams, StopParams};
 
 /// Noise deviation of the tests: 5% of a unit range, 1/14 of the edge's contrast 0.7.
 const SIGMA: f64 = 0.05;
@@ -199,21 +199,10 @@ fn noisy_invariant_budget_and_determinism() {
     let oracle = noisy(&straight_edge, 5);
     for (budget, rho) in [(4 * w * h, 2.0), (3 * w * h, 2.5)] {
         for rounds in [0, 1, 3, 6, 40] {
-            let p = AdaptiveParams {
-                stop: StopParams {
-                    max_rounds: rounds,
-                    ..(params(budget)).stop
-                },
-                tree: TreeParams {
-                    rho,
-                    ..(params(budget)).tree
-                },
-                sampling: ImageSampling {
-                    seed: 7,
-                    ..(params(budget)).sampling
-                },
-                ..params(budget)
-            };
+            let mut p = params(budget);
+            p.stop.max_rounds = rounds;
+            p.tree.rho = rho;
+            p.sampling.seed = 7;
             let run = refine_image(&oracle, plane, &p).unwrap();
             assert!(run.xs.len() <= budget, "{} > {budget}", run.xs.len());
             let counts = run.tree.leaf_counts(&run.xs, &run.ys);

@@ -20,6 +20,14 @@ use rkwave::io::{read_npy, write_npy, SampleSet};
 use common::scenes::straight_edge;
 use rkwave::image::adaptive::{ImageSampling, StopParams};
 
+/// The default parameters with `budget` samples and positions seeded by `seed`.
+fn budget_and_seed(budget: usize, seed: u64) -> AdaptiveParams {
+    let mut params = AdaptiveParams::default();
+    params.stop.budget = budget;
+    params.sampling.seed = seed;
+    params
+}
+
 /// The samples so far, grown round by round as a renderer would.
 struct Rendered {
     xs: Vec<f64>,
@@ -100,17 +108,7 @@ fn protocol_gives_the_in_process_image() {
         scene: &scene,
         plane,
     };
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: 4 * plane.pixels(),
-            ..AdaptiveParams::default().stop
-        },
-        sampling: ImageSampling {
-            seed: 11,
-            ..AdaptiveParams::default().sampling
-        },
-        ..AdaptiveParams::default()
-    };
+    let params = budget_and_seed(4 * plane.pixels(), 11);
     let run = refine_image(&oracle, plane, &params).unwrap();
     assert!(run.report.rounds.len() > 2, "the test needs several rounds");
     let (state, rendered) = drive(&oracle, plane, &params);
@@ -136,17 +134,7 @@ fn protocol_with_noise_gives_the_in_process_image() {
         sigma: 0.05,
         seed: 3,
     };
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: 4 * plane.pixels(),
-            ..AdaptiveParams::default().stop
-        },
-        sampling: ImageSampling {
-            seed: 11,
-            ..AdaptiveParams::default().sampling
-        },
-        ..AdaptiveParams::default()
-    };
+    let params = budget_and_seed(4 * plane.pixels(), 11);
     let run = refine_image(&oracle, plane, &params).unwrap();
     assert!(
         run.report
@@ -173,13 +161,7 @@ fn protocol_with_noise_gives_the_in_process_image() {
 #[test]
 fn samples_in_any_order() {
     let plane = ImagePlane::new(32, 32).unwrap();
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: 3 * plane.pixels(),
-            ..AdaptiveParams::default().stop
-        },
-        ..AdaptiveParams::default()
-    };
+    let params = budget_and_seed(3 * plane.pixels(), AdaptiveParams::default().sampling.seed);
     let run = refine_image(&straight_edge, plane, &params).unwrap();
     let (state, rendered) = drive(&straight_edge, plane, &params);
     let mut order: Vec<usize> = (0..rendered.xs.len()).collect();
@@ -214,13 +196,7 @@ fn samples_in_any_order() {
 #[test]
 fn earlier_rounds_are_recognised() {
     let plane = ImagePlane::new(32, 32).unwrap();
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: 4 * plane.pixels(),
-            ..AdaptiveParams::default().stop
-        },
-        ..AdaptiveParams::default()
-    };
+    let params = budget_and_seed(4 * plane.pixels(), AdaptiveParams::default().sampling.seed);
     let (state, base) = PlanState::start(plane, &params).unwrap();
     let mut rendered = Rendered::new(1);
     rendered.render(&straight_edge, &base);
@@ -255,13 +231,7 @@ fn earlier_rounds_are_recognised() {
 #[test]
 fn a_state_without_the_output_parameters_parses_with_the_defaults() {
     let plane = ImagePlane::new(32, 32).unwrap();
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: 4 * plane.pixels(),
-            ..AdaptiveParams::default().stop
-        },
-        ..AdaptiveParams::default()
-    };
+    let params = budget_and_seed(4 * plane.pixels(), AdaptiveParams::default().sampling.seed);
     let (state, rendered) = drive(&straight_edge, plane, &params);
     let mut value: serde_json::Value = serde_json::from_str(&state.to_json()).unwrap();
     let fields = value["params"].as_object_mut().unwrap();
@@ -278,17 +248,7 @@ fn a_state_without_the_output_parameters_parses_with_the_defaults() {
 #[test]
 fn bad_input_is_refused() {
     let plane = ImagePlane::new(32, 32).unwrap();
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: 4 * plane.pixels(),
-            ..AdaptiveParams::default().stop
-        },
-        sampling: ImageSampling {
-            seed: 5,
-            ..AdaptiveParams::default().sampling
-        },
-        ..AdaptiveParams::default()
-    };
+    let params = budget_and_seed(4 * plane.pixels(), 5);
     let (state, base) = PlanState::start(plane, &params).unwrap();
     // samples of another seed
     let (_, other) = PlanState::start(

@@ -529,25 +529,24 @@ fn refinement_reaches_the_resolution_of_f64_next_to_a_non_dyadic_jump() {
     );
     for (jump, deepest) in [(a, 47), (b, 52)] {
         let oracle = ExpressionOracle::parse(&format!("x^2 - 2*x - (x > {jump:?})")).unwrap();
-        let params = RefineParams {
-            interval: IntervalTreeParams {
-                max_depth: MAX_DEPTH_LIMIT,
-                ..RefineParams::default().interval
-            },
-            stop: StopParams {
-                tolerance: 1e-14,
-                budget: 3000,
-                ..RefineParams::default().stop
-            },
-            sampling: BaseSampling {
-                seed: SEED_A,
-                ..RefineParams::default().sampling
-            },
-            ..RefineParams::default()
-        };
+        let params = to_the_resolution(Domain::UNIT, SEED_A);
         let r = refine(&oracle, &params).unwrap();
         deep_refinement_checks(&r, &oracle, jump, deepest);
     }
+}
+
+/// Parameters that let the tree go as deep as it can: the depth limit at its largest and a
+/// tolerance no estimate reaches, 3000 samples.
+fn to_the_resolution(domain: Domain, seed: u64) -> RefineParams {
+    let mut params = RefineParams {
+        domain,
+        ..RefineParams::default()
+    };
+    params.interval.max_depth = MAX_DEPTH_LIMIT;
+    params.stop.tolerance = 1e-14;
+    params.stop.budget = 3000;
+    params.sampling.seed = seed;
+    params
 }
 
 fn deep_refinement_checks(r: &Refinement, oracle: &ExpressionOracle, jump: f64, deepest: i32) {
@@ -638,23 +637,7 @@ fn deep_refinement_checks(r: &Refinement, oracle: &ExpressionOracle, jump: f64, 
 fn refinement_stops_at_the_resolution_of_the_domain() {
     let domain = Domain::new(1000.0, 1001.0).unwrap();
     let oracle = ExpressionOracle::parse("x - (x > 1000.3183098861837)").unwrap();
-    let params = RefineParams {
-        domain,
-        interval: IntervalTreeParams {
-            max_depth: MAX_DEPTH_LIMIT,
-            ..RefineParams::default().interval
-        },
-        stop: StopParams {
-            tolerance: 1e-14,
-            budget: 3000,
-            ..RefineParams::default().stop
-        },
-        sampling: BaseSampling {
-            seed: SEED_B,
-            ..RefineParams::default().sampling
-        },
-        ..RefineParams::default()
-    };
+    let params = to_the_resolution(domain, SEED_B);
     let r = refine(&oracle, &params).unwrap();
     assert_eq!(r.stop, StopReason::Resolution, "depth {}", r.tree.depth());
     let depth = r.tree.depth();

@@ -1,16 +1,16 @@
 //! `rkwave adapt`: the adaptive refiner (docs/design.md §6) on a built-in signal or an expression in
 //! `x`, its error against the truth and against uniform sampling with as many samples, and
 //! the supplement's figure 4 (reconstruction, samples, local depth, `K^T` aligned below).
-//! The experiment and the figure's data are library code (`rkwave::refine::experiment`), the
+//! The experiment and the figure's data are library code (`rkwave::lab::refine`), the
 //! figures' layout the lab's (`rkwave::lab::refine_figures`): this parses, calls and prints.
 
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use rkwave::lab::refine_figures::{error_against_samples, figure4_layout};
-use rkwave::refine::experiment::{
+use rkwave::lab::refine::{
     adaptive_vs_uniform, compare_uniform, comparison_budgets, AdaptReport, Truth,
 };
+use rkwave::lab::refine_figures::{error_against_samples, figure4_layout};
 use rkwave::refine::{
     ExpressionOracle, Indicator, RefineError, RefineParams, SampleOracle, SignalOracle, StopReason,
 };

@@ -7,13 +7,13 @@ use std::path::PathBuf;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rkwave::image::adaptive::experiment::{
-    adaptive_markdown, adaptive_rows_markdown, compare_adaptive, AdaptiveComparison,
-};
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::scene::Scene;
 use rkwave::image::{Method, WaveletParams};
+use rkwave::lab::adaptive::{
+    adaptive_markdown, adaptive_rows_markdown, compare_adaptive, AdaptiveComparison,
+};
 use rkwave::lab::experiment::{compare_methods, Comparison, SamplingParams, TruthParams};
 use rkwave::lab::figure::{save_error_vs_time, save_side_by_side};
 use rkwave::lab::table::{

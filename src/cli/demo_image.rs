@@ -6,12 +6,12 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use rkwave::image::adaptive::experiment::{adaptive_markdown, compare_adaptive};
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::sampler::Sampler;
 use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, Method, WaveletParams};
+use rkwave::lab::adaptive::{adaptive_markdown, compare_adaptive};
 use rkwave::lab::experiment::{compare_methods, SamplingParams, TruthParams};
 use rkwave::lab::figure::save_side_by_side;
 use rkwave::lab::table::comparison_markdown;

@@ -5,12 +5,12 @@
 
 use std::path::{Path, PathBuf};
 
-use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
 use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate};
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
 use rkwave::io::image_file::write_image;
+use rkwave::lab::adaptive::compare_adaptive;
 use rkwave::lab::experiment::TruthParams;
 
 use super::image_args::{

@@ -254,7 +254,7 @@ pub enum CliError {
     ImageRun(#[from] rkwave::lab::experiment::ImageRunError),
     /// An adaptive image-plane experiment.
     #[error(transparent)]
-    AdaptiveRun(#[from] rkwave::image::adaptive::experiment::AdaptiveRunError),
+    AdaptiveRun(#[from] rkwave::lab::adaptive::AdaptiveRunError),
     /// The plan protocol (`plan`, `reconstruct --dim 2 --state`).
     #[error(transparent)]
     Protocol(#[from] rkwave::image::adaptive::protocol::ProtocolError),

@@ -7,12 +7,16 @@
 //!   box-filtered ground truth (PSNR, RMSE, relative MSE, SSIM), as typed `Serialize` reports;
 //! * [`table`]: those comparisons as CSV and Markdown tables;
 //! * [`figure`]: their figures (images side by side with zoomed crops, PSNR against time);
+//! * [`adaptive`]: the adaptive wavelet image against film filters at equal total samples;
+//! * [`refine`]: the 1D refiner against uniform sampling at equal sample counts (figure 4);
 //! * [`refine_figures`]: the layout of the 1D adaptive refiner's figures.
 //!
 //! [`Method`]: crate::image::Method
 //! [`reconstruct`]: crate::image::reconstruct
 
+pub mod adaptive;
 pub mod experiment;
 pub mod figure;
+pub mod refine;
 pub mod refine_figures;
 pub mod table;

@@ -1,9 +1,9 @@
 //! The figures of the 1D adaptive refiner's experiments, laid out from the library's typed
-//! data ([`crate::refine::experiment`]): error against samples, adaptive and uniform, on
+//! data ([`super::refine`]): error against samples, adaptive and uniform, on
 //! log-log axes; and the supplement's figure 4 for one run.
 
+use super::refine::{figure4, ComparisonRow, Truth};
 use crate::plot::{Figure, Panel, PanelContent, Scale, Series, SeriesStyle, SparsityPanel};
-use crate::refine::experiment::{figure4, ComparisonRow, Truth};
 use crate::refine::{RefineError, Refinement};
 
 /// Log-log error against samples, adaptive and uniform.

@@ -58,7 +58,6 @@
 
 pub mod density;
 mod error;
-pub mod experiment;
 mod indicator;
 mod measure;
 mod normal;

@@ -17,13 +17,10 @@
 //! * [`protocol`]: the rounds driven by a renderer through files (state, fingerprints);
 //! * [`correction`]: the output pixels, the fit as a control variate (box pixels plus the
 //!   significant mean residual of each pixel's samples; the default output);
-//! * [`experiment`]: adaptive wavelet against film filters at equal total samples;
 //! * `figure`: the image, the local depth and the samples side by side.
 
 pub mod correction;
 mod diagonal;
-#[cfg(feature = "plot")]
-pub mod experiment;
 #[cfg(feature = "plot")]
 pub mod figure;
 pub mod fit;

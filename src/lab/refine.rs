@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::measure::{grid_error, quadrature_error, ErrorFigures, Reconstruction};
-use super::{
-    refine, RefineError, RefineParams, Refinement, RoundLog, SampleOracle, StopParams, StopReason,
-};
 use crate::reconstruct::{fit, FitParams};
+use crate::refine::{
+    grid_error, quadrature_error, refine, ErrorFigures, Reconstruction, RefineError, RefineParams,
+    Refinement, RoundLog, SampleOracle, StopParams, StopReason,
+};
 use crate::sampling::Layout;
 
 /// The signal of an experiment: an oracle, its name, and its singular points in unit

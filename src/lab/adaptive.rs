@@ -1,9 +1,9 @@
-//! Adaptive wavelet against film filters at equal total samples (issue 13's targets).
+//! Adaptive wavelet against film filters at equal total samples.
 //!
 //! For one scene and an average of `s` samples per pixel (budget `B = s W H`):
 //!
-//! * the adaptive wavelet image ([`super::refine_image`], budget `B`): its output pixels, by
-//!   default the fit as a control variate ([`super::correction`]: exact box pixels of the fit
+//! * the adaptive wavelet image ([`crate::image::adaptive::refine_image`], budget `B`): its output pixels, by
+//!   default the fit as a control variate ([`crate::image::adaptive::correction`]: exact box pixels of the fit
 //!   plus the significant mean residual per pixel, clamped to the local sample range);
 //! * the fit's exact box pixels alone (row `adaptive wavelet, fit only`), and the fit plus the
 //!   mean residual without the range clamp (row `adaptive wavelet, unclamped`);
@@ -13,16 +13,19 @@
 //!   sample placement buys from what the reconstruction buys.
 //!
 //! With noise `sigma > 0` every sample value carries Gaussian noise of that deviation, the
-//! adaptive ones through [`super::NoisyOracle`] (seeded by the seed and the position), the
+//! adaptive ones through [`crate::image::adaptive::NoisyOracle`] (seeded by the seed and the position), the
 //! stratified ones as in the uniform experiment; the refiner is not told `sigma` (it
-//! estimates the noise from its fits' residuals, [`super::significance`]).
+//! estimates the noise from its fits' residuals, [`crate::image::adaptive::significance`]).
 //!
 //! All against the box-filtered ground truth ([`crate::image::truth`]).
 
 use serde::Serialize;
 
-use super::refiner::{refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport};
-use super::{AdaptiveError, ImageOracle, NoisyOracle, SceneOracle};
+use super::experiment::{run_method, sample_scene, ImageRunError, SamplingParams, TruthParams};
+use crate::image::adaptive::{
+    refine_image, AdaptiveError, AdaptiveImage, AdaptiveParams, AdaptiveReport, ImageOracle,
+    NoisyOracle, SceneOracle, StopParams,
+};
 use crate::image::filters::FilmFilterKind;
 use crate::image::metrics::{compare, ImageMetrics};
 use crate::image::sampler::Sampler;
@@ -30,9 +33,6 @@ use crate::image::scene::Scene;
 use crate::image::truth::truth_cached;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 use crate::image::{Method, WaveletParams};
-use crate::lab::experiment::{
-    run_method, sample_scene, ImageRunError, SamplingParams, TruthParams,
-};
 
 /// Why an adaptive comparison failed.
 #[derive(Debug, thiserror::Error)]
@@ -49,8 +49,7 @@ pub enum AdaptiveRunError {
     Image(#[from] crate::image::ImageError),
 }
 
-pub use super::correction::RESIDUAL_Z;
-use crate::image::adaptive::StopParams;
+pub use crate::image::adaptive::correction::RESIDUAL_Z;
 
 /// The method name of the adaptive fit's box pixels alone.
 pub const FIT_ONLY: &str = "adaptive wavelet, fit only";
@@ -95,7 +94,7 @@ pub struct AdaptiveComparison {
     /// Adaptive wavelet PSNR minus the best uniform film filter's.
     pub gain_db: f64,
     /// Seconds: the adaptive run, end to end (without the rebuilds of
-    /// [`super::AdaptiveParams::measure_rebuild`]).
+    /// [`crate::image::adaptive::FitParams::measure_rebuild`]).
     pub adaptive_s: f64,
 }
 
@@ -167,13 +166,13 @@ pub fn compare_adaptive(
         },
     ];
     let sigma = run.report.pixels.sigma;
-    let (_, unclamped, correction) = super::correction::output_pixels(
+    let (_, unclamped, correction) = crate::image::adaptive::correction::output_pixels(
         &run.tree,
         &run.fit,
         &run.xs,
         &run.ys,
         &run.values,
-        super::PixelEstimate::ResidualCorrected,
+        crate::image::adaptive::PixelEstimate::ResidualCorrected,
         sigma,
         params.output.residual_z,
     )?;
