@@ -36,6 +36,7 @@ from rkwave._rkwave import (
     fit,
     local_vs_global,
     reconstruct_image,
+    set_memory_limit,
 )
 
 __all__ = [
@@ -49,4 +50,5 @@ __all__ = [
     "fit",
     "local_vs_global",
     "reconstruct_image",
+    "set_memory_limit",
 ]

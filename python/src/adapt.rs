@@ -16,7 +16,7 @@ use rkwave::sampling::Signal;
 use serde::Serialize;
 
 use crate::errors::{invalid, to_py, warn_all};
-use crate::fit::{FitReport, FitSeconds, PyFit};
+use crate::fit::{unix_now, FitReport, FitSeconds, PyFit};
 use crate::params::{domain as domain_of, refine_params, AdaptArgs};
 
 /// A Python callable as the refiner's oracle.
@@ -28,17 +28,22 @@ struct PythonOracle {
 
 impl SampleOracle for PythonOracle {
     fn sample(&self, x: f64) -> f64 {
-        let mut error = self.error.lock().expect("the oracle's lock is never poisoned");
+        let mut error = self
+            .error
+            .lock()
+            .expect("the oracle's lock is never poisoned");
         if error.is_some() {
             return f64::NAN;
         }
-        Python::attach(|py| match self.f.call1(py, (x,)).and_then(|v| v.extract::<f64>(py)) {
-            Ok(v) => v,
-            Err(e) => {
-                *error = Some(e);
-                f64::NAN
-            }
-        })
+        Python::attach(
+            |py| match self.f.call1(py, (x,)).and_then(|v| v.extract::<f64>(py)) {
+                Ok(v) => v,
+                Err(e) => {
+                    *error = Some(e);
+                    f64::NAN
+                }
+            },
+        )
     }
 }
 
@@ -55,7 +60,20 @@ struct AdaptReport {
     rounds: Vec<RoundLog>,
 }
 
-/// Adaptive sampling and reconstruction of `f` on `domain`.
+/// Adaptive sampling and reconstruction of `f` on `domain`, as `rkwave adapt`: the wavelet
+/// tree and the samples grow together where `f` needs detail, until the estimated RMS error
+/// is below `tolerance`, the depth limit or the sample `budget`. Returns a `Fit` whose report
+/// also has the rounds and the stop reason, and whose `samples` are the positions and values
+/// asked for.
+///
+/// `f` is a Python callable `f(x: float) -> float` (called once per sample, with the GIL
+/// taken for each call; an exception it raises is raised again here), a built-in signal name
+/// (`"jumps"`, `"heavisine"`, ...) or an expression in `x` (`"sin(8*x) + (x > 0.6)"`).
+///
+/// >>> import rkwave
+/// >>> g = rkwave.adapt(lambda x: 0.0 if x < 0.4 else 1.0, budget=3000, max_depth=12)
+/// >>> g.report["stop"] in ("tolerance", "depth_limit", "budget")
+/// True
 #[pyfunction]
 #[pyo3(signature = (f, domain=(0.0, 1.0), budget=100_000, *, p=3, tolerance=1e-6,
     max_depth=32, base_samples=256, seed=1, rho=2.0, theta=0.5, indicator="coefficients",
@@ -98,7 +116,7 @@ pub fn adapt(
         indicator,
         probes,
     })?;
-    let t0 = Instant::now();
+    let (started, t0) = (unix_now(), Instant::now());
     let result = if let Ok(text) = f.extract::<String>() {
         // A built-in signal or an expression in x, as `rkwave adapt --signal`.
         if let Ok(signal) = text.parse::<Signal>() {
@@ -141,6 +159,8 @@ pub fn adapt(
         solve: fit.timings.solve_s,
         residual: total - solved,
         total,
+        started,
+        finished: unix_now(),
     };
     let method = rkwave::reconstruct::Method::Global(params.solve);
     let report = AdaptReport {

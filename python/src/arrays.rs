@@ -67,10 +67,12 @@ pub fn floats<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Floats<'py>>
 
 /// The 1D data of `view` (`name` in errors): borrowed when contiguous, gathered otherwise.
 pub fn vector<'a>(view: &'a ArrayViewD<'_, f64>, name: &str) -> PyResult<Cow<'a, [f64]>> {
-    let v = view
-        .view()
-        .into_dimensionality::<Ix1>()
-        .map_err(|_| invalid(format!("{name} must be 1-dimensional, got shape {:?}", view.shape())))?;
+    let v = view.view().into_dimensionality::<Ix1>().map_err(|_| {
+        invalid(format!(
+            "{name} must be 1-dimensional, got shape {}",
+            shape(view.shape())
+        ))
+    })?;
     Ok(match v.to_slice() {
         Some(s) => Cow::Borrowed(s),
         None => Cow::Owned(v.to_vec()),
@@ -83,7 +85,10 @@ pub fn columns<'a>(view: &'a ArrayViewD<'_, f64>, name: &str) -> PyResult<Vec<Co
     match view.ndim() {
         1 => Ok(vec![vector(view, name)?]),
         2 => {
-            let v = view.view().into_dimensionality::<Ix2>().expect("2 dimensions");
+            let v = view
+                .view()
+                .into_dimensionality::<Ix2>()
+                .expect("2 dimensions");
             Ok((0..v.ncols())
                 .map(|c| v.index_axis_move(Axis(1), c))
                 .map(|c| match c.to_slice() {
@@ -93,9 +98,23 @@ pub fn columns<'a>(view: &'a ArrayViewD<'_, f64>, name: &str) -> PyResult<Vec<Co
                 .collect())
         }
         _ => Err(invalid(format!(
-            "{name} must have shape (m,) or (m, channels), got {:?}",
-            view.shape()
+            "{name} must have shape (m,) or (m, channels), got {}",
+            shape(view.shape())
         ))),
+    }
+}
+
+/// A shape as Python prints it: `(3,)`, `(3, 2)`.
+pub fn shape(dims: &[usize]) -> String {
+    match dims {
+        [one] => format!("({one},)"),
+        _ => format!(
+            "({})",
+            dims.iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     }
 }
 

@@ -21,7 +21,7 @@ use pyo3::prelude::*;
 use rkwave::error::ErrorKind;
 
 create_exception!(
-    _rkwave,
+    rkwave,
     RkwaveError,
     PyValueError,
     "A request rkwave refuses: bad input, samples that cannot determine the basis, a solve \
@@ -29,13 +29,13 @@ create_exception!(
      library's error kind (e.g. 'InvalidInput')."
 );
 create_exception!(
-    _rkwave,
+    rkwave,
     ResourceLimitError,
     PyMemoryError,
     "A request refused before allocating: it would need more memory than the limit."
 );
 create_exception!(
-    _rkwave,
+    rkwave,
     RkwaveWarning,
     PyUserWarning,
     "A fallback or warning of a fit (a lowered level, another solver, a barely supported \
@@ -132,6 +132,7 @@ kinded!(
     rkwave::io::IoError,
     rkwave::io::output::OutputError,
     rkwave::refine::RefineError,
+    rkwave::resources::ResourceError,
 );
 
 /// The Python exception of a library error.
@@ -139,13 +140,13 @@ pub fn to_py<E: Kinded>(e: E) -> PyErr {
     raise(e.error_kind(), &e.to_string())
 }
 
-/// Issues every message in `notes` as an [`RkwaveWarning`] (stack level 2: the caller's line).
+/// Issues every message in `notes` as an [`RkwaveWarning`] (stack level 1: the line that called rkwave).
 pub fn warn_all(py: Python<'_>, notes: &[String]) -> PyResult<()> {
     let category = py.get_type::<RkwaveWarning>();
     for note in notes {
-        let text = CString::new(in_keywords(note).replace('\0', " "))
-            .expect("NUL bytes were replaced");
-        PyErr::warn(py, &category, &text, 2)?;
+        let text =
+            CString::new(in_keywords(note).replace('\0', " ")).expect("NUL bytes were replaced");
+        PyErr::warn(py, &category, &text, 1)?;
     }
     Ok(())
 }

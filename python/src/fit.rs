@@ -30,6 +30,18 @@ pub struct FitSeconds {
     pub residual: f64,
     /// Everything inside the library call, conversion excluded.
     pub total: f64,
+    /// When the library call started, in seconds since the Unix epoch (`time.time()`'s
+    /// clock): with `finished`, shows whether calls from several threads overlapped.
+    pub started: f64,
+    /// When the library call finished (same clock).
+    pub finished: f64,
+}
+
+/// Seconds since the Unix epoch.
+pub fn unix_now() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// The report of a 1D fit: the fields of `rkwave reconstruct --json` that describe the fit.
@@ -68,7 +80,13 @@ pub struct FitReport {
 }
 
 impl FitReport {
-    pub fn new(fit: &Fit, samples: usize, method: &Method, residual_rms: Vec<f64>, time_s: FitSeconds) -> Self {
+    pub fn new(
+        fit: &Fit,
+        samples: usize,
+        method: &Method,
+        residual_rms: Vec<f64>,
+        time_s: FitSeconds,
+    ) -> Self {
         let basis = fit.active.basis();
         Self {
             samples,
@@ -233,7 +251,9 @@ impl PyFit {
 fn sample_domain(xs: &[f64]) -> PyResult<rkwave::sampling::Domain> {
     let (a, b) = xs
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
     if xs.is_empty() {
         return Err(invalid("x is empty: give at least one sample"));
     }
@@ -269,7 +289,21 @@ fn levels_arg(levels: Option<&Bound<'_, PyAny>>) -> PyResult<Option<(u32, u32)>>
         .map_err(|_| invalid("levels must be \"auto\" or a pair of levels (n, N) such as (4, 9)"))
 }
 
-/// Fits scattered samples by least squares in a CDV wavelet basis.
+/// Fits scattered samples `y` at positions `x` by least squares in a CDV wavelet basis
+/// `Psi(n, N)` on `domain` (default: `[min x, max x]`), as `rkwave reconstruct`.
+///
+/// `y` is `(m,)` or `(m, channels)`. `p` (1..=10) sets the vanishing moments, `levels` is
+/// `"auto"` (from the samples and `rho`) or `(n, N)`, `method` is `"single"` (global least
+/// squares through the single-scale basis, the default), `"local"` (local inversion, knobs
+/// `rings`, `solver`, `cutoff`), `"global"` (sparse least squares) or `"dense"` (SVD
+/// pseudo-inverse, small problems). Fallbacks are issued as `RkwaveWarning` and listed in
+/// `Fit.report`.
+///
+/// >>> import numpy as np, rkwave
+/// >>> x = np.random.default_rng(7).uniform(0, 1, 2000)
+/// >>> f = rkwave.fit(x, x**2, domain=(0, 1), p=3)
+/// >>> bool(abs(f(np.array([0.3]))[0] - 0.09) < 1e-9)
+/// True
 #[pyfunction]
 #[pyo3(signature = (x, y, domain=None, p=3, levels=None, method="single", *, family=None,
     rho=2.0, coarse_samples=256.0, rings=1, solver="svd", cutoff=1e-12, ridge=0.0,
@@ -315,8 +349,8 @@ pub fn fit<'py>(
     let ys = columns(&yv, "y")?;
     if ys.first().is_some_and(|c| c.len() != xs.len()) || ys.is_empty() {
         return Err(invalid(format!(
-            "y has shape {:?} but x has {} samples: give y as (m,) or (m, channels) with m = {}",
-            yv.shape(),
+            "y has shape {} but x has {} samples: give y as (m,) or (m, channels) with m = {}",
+            crate::arrays::shape(yv.shape()),
             xs.len(),
             xs.len()
         )));
@@ -328,11 +362,12 @@ pub fn fit<'py>(
     let channels: Vec<&[f64]> = ys.iter().map(|c| c.as_ref()).collect();
     let (fitted, residual, seconds) = py
         .detach(|| {
-            let t0 = Instant::now();
+            let (started, t0) = (unix_now(), Instant::now());
             let fitted = fit_samples(&xs, &channels, domain, &params)?;
             let solved = t0.elapsed().as_secs_f64();
             let residual = sample_residual(&fitted, &fitted.evaluator()?, &xs, &channels)?;
-            Ok((fitted, residual, (solved, t0.elapsed().as_secs_f64())))
+            let seconds = (solved, t0.elapsed().as_secs_f64(), started, unix_now());
+            Ok((fitted, residual, seconds))
         })
         .map_err(to_py::<rkwave::reconstruct::ReconstructError>)?;
     let time_s = FitSeconds {
@@ -340,6 +375,8 @@ pub fn fit<'py>(
         solve: fitted.timings.solve_s,
         residual: seconds.1 - seconds.0,
         total: seconds.1,
+        started: seconds.2,
+        finished: seconds.3,
     };
     let report = FitReport::new(&fitted, xs.len(), &params.method, residual, time_s);
     warn_all(py, &report.warnings)?;
@@ -352,7 +389,12 @@ pub fn fit<'py>(
 }
 
 /// The local inversion against the global pseudo-inverse on a test signal (docs/design.md
-/// §5), as `rkwave report --json` prints it.
+/// §5), as a dict: the fields `rkwave report --json` prints.
+///
+/// >>> import rkwave
+/// >>> r = rkwave.local_vs_global(p=3, fine=6, samples=512)
+/// >>> r["functions"], r["reference"]
+/// (128, 'dense_pinv')
 #[pyfunction]
 #[pyo3(signature = (p=3, fine=8, coarse=None, samples=1024, layout="uniform", seed=1,
     signal="smooth", rings=1, solver="svd", cutoff=1e-12, grid=8192, family=None))]

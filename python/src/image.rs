@@ -48,7 +48,9 @@ pub struct ImageReport {
 /// The method from `method` and `filter` (a film filter by name: `box`, `triangle`,
 /// `gaussian`, `mitchell`, `lanczos`).
 fn method_of(method: &str, filter: Option<&str>) -> PyResult<Method> {
-    let chosen: Method = method.parse().map_err(|e| invalid(format!("method: {e}")))?;
+    let chosen: Method = method
+        .parse()
+        .map_err(|e| invalid(format!("method: {e}")))?;
     match filter {
         None => Ok(chosen),
         Some(name) => {
@@ -81,8 +83,8 @@ pub fn samples_of(
     let pos = columns(&xyv, "xy")?;
     if xyv.ndim() != 2 || pos.len() != 2 {
         return Err(invalid(format!(
-            "xy must have shape (m, 2) (x, y in pixel units), got {:?}",
-            xyv.shape()
+            "xy must have shape (m, 2) (x, y in pixel units), got {}",
+            crate::arrays::shape(xyv.shape())
         )));
     }
     let vd = floats(values, "values")?;
@@ -90,16 +92,20 @@ pub fn samples_of(
     let vals = columns(&vv, "values")?;
     if vv.shape()[0] != pos[0].len() {
         return Err(invalid(format!(
-            "values has shape {:?} but xy has {} samples: give values as (m,) or (m, channels) \
+            "values has shape {} but xy has {} samples: give values as (m,) or (m, channels) \
              with m = {}",
-            vv.shape(),
+            crate::arrays::shape(vv.shape()),
             pos[0].len(),
             pos[0].len()
         )));
     }
     let mut pos = pos.into_iter().map(|c| c.into_owned());
     let (xs, ys) = (pos.next().expect("x"), pos.next().expect("y"));
-    if let Some(i) = xs.iter().zip(&ys).position(|(x, y)| !(x.is_finite() && y.is_finite())) {
+    if let Some(i) = xs
+        .iter()
+        .zip(&ys)
+        .position(|(x, y)| !(x.is_finite() && y.is_finite()))
+    {
         return Err(invalid(format!(
             "sample {i}: position ({}, {}) is not finite: fix or remove that sample",
             xs[i], ys[i]
@@ -114,7 +120,22 @@ pub fn samples_of(
     .map_err(to_py)
 }
 
-/// Reconstructs an image from scattered samples on the image plane.
+/// Reconstructs a `W x H` image from scattered samples on the image plane, as `rkwave
+/// reconstruct --dim 2`: returns the `(H, W, C)` float64 pixels and a report dict.
+///
+/// `xy` is `(m, 2)` in pixel units (pixel `(X, Y)` covers `[X, X+1] x [Y, Y+1]`), `values`
+/// `(m,)` or `(m, C)` with 1 to 4 channels. `method` is `"wavelet"` (the least-squares fit,
+/// box-integrated over each pixel), `"local"` (its local inversion), or a film filter;
+/// `filter="gaussian"` (or `box`, `triangle`, `mitchell`, `lanczos`) splats the same samples
+/// through that film filter for comparison.
+///
+/// >>> import numpy as np, rkwave
+/// >>> xy = np.random.default_rng(3).uniform(0, 16, (4 * 16 * 16, 2))
+/// >>> img, rep = rkwave.reconstruct_image(xy, np.c_[xy, xy[:, :1]] / 16, resolution=(16, 16))
+/// >>> img.shape, rep["method"]
+/// ((16, 16, 3), 'wavelet')
+/// >>> rkwave.reconstruct_image(xy, xy[:, 0], resolution=(16, 16), filter="gaussian")[1]["method"]
+/// 'gaussian'
 #[pyfunction]
 #[pyo3(signature = (xy, values, resolution, p=2, method="wavelet", filter=None))]
 pub fn reconstruct_image<'py>(

@@ -91,8 +91,8 @@ fn samples_from(plane: ImagePlane, obj: &Bound<'_, PyAny>) -> PyResult<ImageSamp
     let view = data.view();
     if view.ndim() != 2 || !(3..=6).contains(&view.shape()[1]) {
         return Err(invalid(format!(
-            "samples must have shape (m, 2 + channels) with 1 to 4 channels, got {:?}",
-            view.shape()
+            "samples must have shape (m, 2 + channels) with 1 to 4 channels, got {}",
+            crate::arrays::shape(view.shape())
         )));
     }
     let cols = crate::arrays::columns(&view, "samples")?;
@@ -127,8 +127,8 @@ fn positions_from(obj: &Bound<'_, PyAny>) -> PyResult<SamplePositions> {
     let view = data.view();
     if view.ndim() != 2 || view.shape()[1] != 2 {
         return Err(invalid(format!(
-            "positions must have shape (n, 2), got {:?}",
-            view.shape()
+            "positions must have shape (n, 2), got {}",
+            crate::arrays::shape(view.shape())
         )));
     }
     let cols = crate::arrays::columns(&view, "positions")?;
@@ -243,7 +243,12 @@ impl PyPlan {
     /// >>> xy = plan.positions(); plan.add(xy, xy[:, 0] / 16)
     /// >>> plan.round
     /// 1
-    fn add(&mut self, py: Python<'_>, xy: &Bound<'_, PyAny>, values: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn add(
+        &mut self,
+        py: Python<'_>,
+        xy: &Bound<'_, PyAny>,
+        values: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
         if self.state.stop.is_some() {
             return Err(invalid(
                 "the plan has stopped: no positions are pending; take the result with image()",
