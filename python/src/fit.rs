@@ -102,14 +102,7 @@ impl FitReport {
             residual_rms,
             time_s,
             solve: fit.solve.clone(),
-            fallbacks: fit
-                .fallbacks
-                .iter()
-                .map(|f| FallbackNote {
-                    fallback: f.clone(),
-                    message: f.to_string(),
-                })
-                .collect(),
+            fallbacks: FallbackNote::all(&fit.fallbacks),
             warnings: fit.warnings(),
         }
     }

@@ -3,47 +3,18 @@
 //! point `rkwave reconstruct --dim 2` calls): the wavelet fit, its local inversion, or a film
 //! filter on the same samples.
 
+use std::path::Path;
 use std::time::Instant;
 
 use pyo3::prelude::*;
 use rkwave::image::filters::FilmFilterKind;
-use rkwave::image::splat::SplatReport;
-use rkwave::image::wavelet::WaveletReport;
-use rkwave::image::{reconstruct, ImagePlane, ImageSamples, Method, StageTimes};
-use serde::Serialize;
+use rkwave::image::report::FileReconstructionReport;
+use rkwave::image::{reconstruct, ImagePlane, ImageSamples, Method};
 
 use crate::arrays::{columns, floats, image_out};
 use crate::errors::{invalid, to_py, warn_all};
 use crate::params::wavelet_params;
 use crate::report::to_dict;
-
-/// The report of `rkwave.reconstruct_image`: the fields of `rkwave reconstruct --dim 2
-/// --json` that describe the reconstruction.
-#[derive(Clone, Debug, Serialize)]
-pub struct ImageReport {
-    /// `WxH`.
-    pub resolution: String,
-    /// Samples `m`.
-    pub samples: usize,
-    /// Value channels per sample.
-    pub channels: usize,
-    /// The method (`wavelet`, `local` or a film filter's name).
-    pub method: Method,
-    /// Vanishing moments of the wavelet methods.
-    pub p: usize,
-    /// Basis functions (wavelet methods).
-    pub functions: Option<usize>,
-    /// The wavelet solve's report.
-    pub solve: Option<WaveletReport>,
-    /// The film filter's fallbacks.
-    pub splat: Option<SplatReport>,
-    /// Seconds per stage inside the library.
-    pub time_s: StageTimes,
-    /// Seconds checking and converting the samples (outside the library's stages).
-    pub convert_s: f64,
-    /// Every fallback or cut-off, in words (also issued as `RkwaveWarning`).
-    pub notes: Vec<String>,
-}
 
 /// The method from `method` and `filter` (a film filter by name: `box`, `triangle`,
 /// `gaussian`, `mitchell`, `lanczos`).
@@ -156,19 +127,13 @@ pub fn reconstruct_image<'py>(
     let done = py
         .detach(|| reconstruct(method, &samples, &wavelet))
         .map_err(to_py)?;
-    let report = ImageReport {
-        resolution: plane.to_string(),
-        samples: samples.len(),
-        channels: samples.channels(),
-        method,
-        p: wavelet.p,
-        functions: done.functions,
-        solve: done.solve.clone(),
-        splat: done.splat,
-        time_s: done.time_s,
-        convert_s,
-        notes: done.notes.clone(),
-    };
+    // The report of `rkwave reconstruct --dim 2 --json`; the samples came from memory, and
+    // "read" is checking and converting them.
+    let memory = Path::new("<numpy>");
+    let total = t0.elapsed().as_secs_f64();
+    let report = FileReconstructionReport::new(
+        memory, memory, plane, &samples, method, wavelet.p, &done, convert_s, 0.0, total,
+    );
     warn_all(py, &report.notes)?;
     let image = image_out(py, &done.image.channels, plane.width(), plane.height());
     let report = to_dict(py, &serde_json::to_string(&report).expect("plain data"))?;

@@ -21,11 +21,11 @@ def scattered(spp=4, seed=11):
     "method, flags, p",
     [("wavelet", [], 2), ("wavelet", [], 3), ("local", ["--method", "local"], 2)],
 )
-def test_image_equals_cli_bit_for_bit(tmp_path, cli, method, flags, p):
+def test_image_equals_cli_bit_for_bit(tmp_path, cli_json, method, flags, p):
     xy = scattered()
     values = disc_scene(xy)
     np.save(tmp_path / "s.npy", np.c_[xy, values])
-    cli(
+    theirs = cli_json(
         "reconstruct", "--dim", 2, "--input", tmp_path / "s.npy", "--resolution", f"{W}x{H}",
         "--output", tmp_path / "i.npy", "--p", p, *flags,
     )
@@ -35,6 +35,10 @@ def test_image_equals_cli_bit_for_bit(tmp_path, cli, method, flags, p):
     assert image.shape == (H, W, 3) and image.dtype == np.float64
     np.testing.assert_array_equal(image, np.load(tmp_path / "i.npy"))
     assert report["method"] == method and report["samples"] == len(xy)
+    # The command line's report, field for field (paths and times aside).
+    assert report.keys() == theirs.keys()
+    for key in ["resolution", "samples", "channels", "method", "p", "functions", "notes"]:
+        assert report[key] == theirs[key], key
 
 
 def test_linear_functions_are_reproduced():

@@ -206,6 +206,19 @@ pub struct FallbackNote {
     pub message: String,
 }
 
+impl FallbackNote {
+    /// Each of `fallbacks` with its message, in order.
+    pub fn all(fallbacks: &[Fallback]) -> Vec<Self> {
+        fallbacks
+            .iter()
+            .map(|f| FallbackNote {
+                fallback: f.clone(),
+                message: f.to_string(),
+            })
+            .collect()
+    }
+}
+
 impl ReconstructReport {
     /// The report of `rec`, reconstructed from `samples` (read from `input`, written to
     /// `output`) with `method`; `time_s.kernel`, `solve` and `evaluate` are taken from the fit,
@@ -254,14 +267,7 @@ impl ReconstructReport {
                 SolveReport::SingleScale(rep) => Some(rep.clone()),
                 _ => None,
             },
-            fallbacks: fit
-                .fallbacks
-                .iter()
-                .map(|f| FallbackNote {
-                    fallback: f.clone(),
-                    message: f.to_string(),
-                })
-                .collect(),
+            fallbacks: FallbackNote::all(&fit.fallbacks),
             warnings: fit.warnings(),
         }
     }
