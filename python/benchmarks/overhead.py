@@ -8,10 +8,11 @@ default single-scale method) and a 512 x 512 image from 4 samples per pixel, 3 c
 (`rkwave.reconstruct_image`, the wavelet method, p = 2). The reference is the library's own
 time for the same call, reported by the command line on the same input file (`rkwave
 reconstruct --json`: `time_s.kernel + time_s.solve` in 1D; `time_s.fit + time_s.pixels` on
-the image plane), so reading files and writing outputs are not counted against either side.
-The Python side is the wall time of the whole call (conversion, checks, report, warnings);
-its own report also gives the time inside the library in the same process, so the
-overhead is shown against both. Runs alternate (CLI, Python, CLI, ...); medians are shown.
+the image plane), so reading files and writing outputs are not counted against either side
+(the CLI's 1D figure leaves out the library's checks before the solve, so the ratio is
+conservative). The Python side is the wall time of the whole call (conversion, checks,
+report, warnings); its own report also gives the time of the whole library call in the same
+process (`time_s.total`), against which the in-process overhead is shown. Runs alternate (CLI, Python, CLI, ...); medians are shown.
 """
 
 import argparse
@@ -54,7 +55,7 @@ def main():
         t = time.perf_counter()
         f = rkwave.fit(x, y)
         res["1d_py_wall"].append(time.perf_counter() - t)
-        res["1d_py_library"].append(f.report["time_s"]["kernel"] + f.report["time_s"]["solve"])
+        res["1d_py_library"].append(f.report["time_s"]["total"])
 
     w = h = 512
     xy = rng.uniform(0.0, 1.0, (4 * w * h, 2)) * [w, h]
