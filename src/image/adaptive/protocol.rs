@@ -432,7 +432,7 @@ impl PlanState {
             next_round,
             stop,
             total_positions: self.positions(),
-            budget: self.params.budget,
+            budget: self.params.stop.budget,
         })
     }
 
@@ -441,7 +441,7 @@ impl PlanState {
     /// output pixels the plan's parameters ask for ([`AdaptiveParams::pixels`]). With the
     /// samples of the round at which the plan stopped, this is the in-process loop's result.
     pub fn reconstruct(&self, samples: &ImageSamples) -> Result<PlanReconstruction, ProtocolError> {
-        self.reconstruct_as(samples, self.params.pixels)
+        self.reconstruct_as(samples, self.params.output.pixels)
     }
 
     /// [`PlanState::reconstruct`] with the output pixels `estimate` instead of the plan's
@@ -465,7 +465,7 @@ impl PlanState {
             samples.values(),
             estimate,
             sigma,
-            self.params.residual_z,
+            self.params.output.residual_z,
         )?;
         Ok(PlanReconstruction {
             tree: plan.tree().clone(),
