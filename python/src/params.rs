@@ -5,11 +5,17 @@
 
 use pyo3::prelude::*;
 use rkwave::basis::FilterFamily;
-use rkwave::image::adaptive::AdaptiveParams;
+use rkwave::image::adaptive::{
+    AdaptiveParams, ImageSampling, NoiseParams, QuadTreeParams, StopParams as ImageStop,
+    TreeParams as ImageTree,
+};
 use rkwave::image::{ImagePlane, WaveletParams};
 use rkwave::kernel::LevelParams;
 use rkwave::reconstruct::{FitParams, Levels, Method, SingleScaleSolver};
-use rkwave::refine::{Indicator, RefineParams};
+use rkwave::refine::{
+    BaseSampling, Indicator, IntervalTreeParams, MarkingParams, RefineParams,
+    StopParams as RefineStop, TreeParams as RefineTree,
+};
 use rkwave::report::ReportSetting;
 use rkwave::sampling::{Domain, Layout, Signal};
 use rkwave::solve::{GlobalLsParams, LocalInversionParams, Solver, MAX_RINGS};
@@ -265,12 +271,26 @@ pub fn plan_params(plane: ImagePlane, a: &PlanArgs) -> PyResult<AdaptiveParams> 
         }
     };
     Ok(AdaptiveParams {
-        p: a.p.map_or(Ok(base.p), image_p)?,
-        rho: a.rho.unwrap_or(base.rho),
-        below_pixel: a.below_pixel.unwrap_or(base.below_pixel),
-        seed: a.seed.unwrap_or(base.seed),
-        false_alarm: a.false_alarm.unwrap_or(base.false_alarm),
-        budget,
+        tree: ImageTree {
+            p: a.p.map_or(Ok(base.tree.p), image_p)?,
+            rho: a.rho.unwrap_or(base.tree.rho),
+        },
+        quad: QuadTreeParams {
+            below_pixel: a.below_pixel.unwrap_or(base.quad.below_pixel),
+            ..base.quad
+        },
+        sampling: ImageSampling {
+            seed: a.seed.unwrap_or(base.sampling.seed),
+            ..base.sampling
+        },
+        noise: NoiseParams {
+            false_alarm: a.false_alarm.unwrap_or(base.noise.false_alarm),
+            ..base.noise
+        },
+        stop: ImageStop {
+            budget,
+            ..base.stop
+        },
         ..base
     })
 }
@@ -323,23 +343,31 @@ pub fn refine_params(a: &AdaptArgs<'_>) -> PyResult<RefineParams> {
     };
     let params = RefineParams {
         domain: a.domain,
-        p: a.p,
-        family: Some(family(a.family)?.unwrap_or_else(|| FilterFamily::cdv_default(a.p.max(1)))),
-        coarse: a.coarse,
-        base_samples: a.base_samples,
-        base_layout: a
-            .layout
-            .parse::<Layout>()
-            .map_err(|e| invalid(format!("layout: {e}")))?,
-        base_depth: a.base_depth,
-        max_depth: a.max_depth,
-        rho: a.rho,
-        tolerance: a.tolerance,
-        budget: a.budget,
         indicator,
-        theta: a.theta,
-        seed: a.seed,
         reference_grid: 0,
+        tree: RefineTree { p: a.p, rho: a.rho },
+        interval: IntervalTreeParams {
+            family: Some(
+                family(a.family)?.unwrap_or_else(|| FilterFamily::cdv_default(a.p.max(1))),
+            ),
+            coarse: a.coarse,
+            base_depth: a.base_depth,
+            max_depth: a.max_depth,
+        },
+        sampling: BaseSampling {
+            base_samples: a.base_samples,
+            base_layout: a
+                .layout
+                .parse::<Layout>()
+                .map_err(|e| invalid(format!("layout: {e}")))?,
+            seed: a.seed,
+        },
+        stop: RefineStop {
+            tolerance: a.tolerance,
+            budget: a.budget,
+            ..RefineParams::default().stop
+        },
+        marking: MarkingParams { theta: a.theta },
         ..RefineParams::default()
     };
     params.validate().map_err(to_py)?;

@@ -303,7 +303,7 @@ impl PyPlan {
             ));
         };
         let estimate = if residual {
-            self.state.params.pixels
+            self.state.params.output.pixels
         } else {
             PixelEstimate::FitOnly
         };
@@ -343,7 +343,7 @@ impl PyPlan {
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let report = PlanReport {
             resolution: self.state.plane.to_string(),
-            budget: self.state.params.budget,
+            budget: self.state.params.stop.budget,
             round: self.state.round(),
             handed_out: self.state.positions(),
             samples: self.samples.as_ref().map_or(0, ImageSamples::len),
@@ -450,7 +450,7 @@ impl PyPlan {
         format!(
             "rkwave.Plan(resolution={}, budget={}, round={}, samples={}, done={})",
             self.state.plane,
-            self.state.params.budget,
+            self.state.params.stop.budget,
             self.state.round(),
             self.samples.as_ref().map_or(0, ImageSamples::len),
             if self.done() { "True" } else { "False" }
