@@ -8,7 +8,9 @@ use serde::Serialize;
 
 use super::rms;
 use crate::io::SampleSet;
-use crate::reconstruct::{Fallback, Fit, Method, ReconstructError, SingleScaleReport, SolveReport};
+use crate::reconstruct::{
+    Fallback, Fit, FitEvaluator, Method, ReconstructError, SingleScaleReport, SolveReport,
+};
 use crate::sampling::Domain;
 use crate::solve::Summary;
 
@@ -71,25 +73,37 @@ where
         sink(&xs, &values)?;
         sink_s += t.elapsed().as_secs_f64();
     }
-    // The QR found the residual on the way; otherwise evaluate the fit at the samples.
-    let residual_rms = match &fit.solve {
-        SolveReport::SingleScale(SingleScaleReport {
-            residual_rms: Some(r),
-            ..
-        }) => r.clone(),
-        _ => evaluator
-            .evaluate(&samples.positions)?
-            .iter()
-            .zip(&samples.values)
-            .map(|(r, f)| rms(r, f))
-            .collect(),
-    };
+    let residual_rms = sample_residual(&fit, &evaluator, &samples.positions, &samples.values)?;
     Ok(GridReconstruction {
         fit,
         points,
         residual_rms,
         evaluate_s,
         sink_s,
+    })
+}
+
+/// The RMS residual `sqrt( sum_i (f~(x_i) - f_i)^2 / m )` of `fit` at the samples
+/// (`values`: one slice per channel), per channel: from the solve's report when the QR found
+/// it on the way, else by evaluating the fit (through `evaluator`, made from `fit`) at
+/// `positions`.
+pub fn sample_residual<V: AsRef<[f64]>>(
+    fit: &Fit,
+    evaluator: &FitEvaluator<'_>,
+    positions: &[f64],
+    values: &[V],
+) -> Result<Vec<f64>, ReconstructError> {
+    Ok(match &fit.solve {
+        SolveReport::SingleScale(SingleScaleReport {
+            residual_rms: Some(r),
+            ..
+        }) => r.clone(),
+        _ => evaluator
+            .evaluate(positions)?
+            .iter()
+            .zip(values)
+            .map(|(r, f)| rms(r, f.as_ref()))
+            .collect(),
     })
 }
 
@@ -192,6 +206,19 @@ pub struct FallbackNote {
     pub message: String,
 }
 
+impl FallbackNote {
+    /// Each of `fallbacks` with its message, in order.
+    pub fn all(fallbacks: &[Fallback]) -> Vec<Self> {
+        fallbacks
+            .iter()
+            .map(|f| FallbackNote {
+                fallback: f.clone(),
+                message: f.to_string(),
+            })
+            .collect()
+    }
+}
+
 impl ReconstructReport {
     /// The report of `rec`, reconstructed from `samples` (read from `input`, written to
     /// `output`) with `method`; `time_s.kernel`, `solve` and `evaluate` are taken from the fit,
@@ -240,14 +267,7 @@ impl ReconstructReport {
                 SolveReport::SingleScale(rep) => Some(rep.clone()),
                 _ => None,
             },
-            fallbacks: fit
-                .fallbacks
-                .iter()
-                .map(|f| FallbackNote {
-                    fallback: f.clone(),
-                    message: f.to_string(),
-                })
-                .collect(),
+            fallbacks: FallbackNote::all(&fit.fallbacks),
             warnings: fit.warnings(),
         }
     }

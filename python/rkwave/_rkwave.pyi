@@ -1,0 +1,139 @@
+"""Type stubs of the compiled module rkwave._rkwave (re-exported by rkwave)."""
+
+from os import PathLike
+from typing import Any, Callable, Literal, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+PathArg = Union[str, PathLike]
+
+class RkwaveError(ValueError):
+    """A request rkwave refuses; ``kind`` is the library's error kind (e.g. 'InvalidInput')."""
+
+    kind: str
+
+class ResourceLimitError(MemoryError):
+    """Refused before allocating: more memory than the limit."""
+
+class RkwaveWarning(UserWarning):
+    """A fallback or warning of a fit (the CLI's ``warning:`` / ``note:`` lines)."""
+
+class Fit:
+    """A fitted reconstruction ``f(x) = sum_a c_a Psi_a(x)``."""
+
+    def __call__(self, x: ArrayLike) -> FloatArray: ...
+    def evaluate(self, x: ArrayLike) -> FloatArray: ...
+    @property
+    def coefficients(self) -> FloatArray: ...
+    @property
+    def indices(self) -> list[int]: ...
+    @property
+    def levels(self) -> Tuple[int, int]: ...
+    @property
+    def domain(self) -> Tuple[float, float]: ...
+    @property
+    def report(self) -> dict[str, Any]: ...
+    @property
+    def samples(self) -> Optional[FloatArray]: ...
+
+def fit(
+    x: ArrayLike,
+    y: ArrayLike,
+    domain: Optional[Tuple[float, float]] = None,
+    p: int = 3,
+    levels: Union[Literal["auto"], Tuple[int, int], None] = None,
+    method: Literal["single", "local", "global", "dense"] = "single",
+    *,
+    family: Optional[Literal["db", "sym"]] = None,
+    rho: float = 2.0,
+    coarse_samples: float = 256.0,
+    rings: int = 1,
+    solver: Literal["svd", "qr", "cholesky"] = "svd",
+    cutoff: float = 1e-12,
+    ridge: float = 0.0,
+    factorization: Literal["qr", "normal"] = "qr",
+) -> Fit: ...
+def local_vs_global(
+    p: int = 3,
+    fine: int = 8,
+    coarse: Optional[int] = None,
+    samples: int = 1024,
+    layout: str = "uniform",
+    seed: int = 1,
+    signal: str = "smooth",
+    rings: int = 1,
+    solver: Literal["svd", "qr", "cholesky"] = "svd",
+    cutoff: float = 1e-12,
+    grid: int = 8192,
+    family: Optional[Literal["db", "sym"]] = None,
+) -> dict[str, Any]: ...
+def reconstruct_image(
+    xy: ArrayLike,
+    values: ArrayLike,
+    resolution: Tuple[int, int],
+    p: int = 2,
+    method: str = "wavelet",
+    filter: Optional[
+        Literal["box", "triangle", "gaussian", "mitchell", "lanczos"]
+    ] = None,
+) -> Tuple[FloatArray, dict[str, Any]]: ...
+def adapt(
+    f: Union[Callable[[float], float], str],
+    domain: Tuple[float, float] = (0.0, 1.0),
+    budget: int = 100_000,
+    *,
+    p: int = 3,
+    tolerance: float = 1e-6,
+    max_depth: int = 32,
+    base_samples: int = 256,
+    seed: int = 1,
+    rho: float = 2.0,
+    theta: float = 0.5,
+    indicator: Literal["coefficients", "residual", "both"] = "coefficients",
+    probes: int = 1,
+    layout: str = "jittered",
+    coarse: Optional[int] = None,
+    base_depth: Optional[int] = None,
+    family: Optional[Literal["db", "sym"]] = None,
+) -> Fit: ...
+
+class Plan:
+    """Adaptive sampling of the image plane driven by a renderer, in process."""
+
+    def __init__(
+        self,
+        resolution: Tuple[int, int],
+        spp: Optional[int] = None,
+        budget: Optional[int] = None,
+        *,
+        p: Optional[int] = None,
+        rho: Optional[float] = None,
+        below_pixel: Optional[int] = None,
+        seed: Optional[int] = None,
+        false_alarm: Optional[float] = None,
+    ) -> None: ...
+    def positions(self) -> FloatArray: ...
+    def add(self, xy: ArrayLike, values: ArrayLike) -> None: ...
+    @property
+    def done(self) -> bool: ...
+    @property
+    def round(self) -> int: ...
+    def image(self, residual: bool = True) -> FloatArray: ...
+    @property
+    def samples(self) -> Optional[FloatArray]: ...
+    @property
+    def report(self) -> dict[str, Any]: ...
+    def save(self, dir: PathArg) -> None: ...
+    @staticmethod
+    def load(
+        dir: PathArg,
+        samples: Union[ArrayLike, PathArg, None] = None,
+        positions: Union[ArrayLike, PathArg, None] = None,
+    ) -> "Plan": ...
+
+def set_memory_limit(limit: Union[int, str, None]) -> None: ...

@@ -1,0 +1,152 @@
+//! The library's errors as Python exceptions, by their [`ErrorKind`] (the engine's error
+//! policy, `src/error.rs`), and its warnings through Python's `warnings`.
+//!
+//! | kind | Python exception |
+//! |---|---|
+//! | `InvalidInput`, `Undetermined`, `NotConverged`, `Numerical`, `Unreadable`, `OutputRefused` | [`RkwaveError`] (a `ValueError`) |
+//! | `ResourceLimit` | [`ResourceLimitError`] (a `MemoryError`) |
+//! | `WriteFailed` | `OSError` |
+//! | `Internal` | `RuntimeError` (a bug to report) |
+//!
+//! The message is the library's, as the command line prints it after `error:`, except that
+//! the library's parameter spellings (`LevelParams::rho`) become this module's keyword
+//! arguments (`rho=`), as the command line turns them into its flags.
+
+use std::ffi::CString;
+use std::fmt::Display;
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyRuntimeError, PyUserWarning, PyValueError};
+use pyo3::prelude::*;
+use rkwave::error::ErrorKind;
+
+create_exception!(
+    rkwave,
+    RkwaveError,
+    PyValueError,
+    "A request rkwave refuses: bad input, samples that cannot determine the basis, a solve \
+     that failed on these data. The message names the problem and the fix; `kind` is the \
+     library's error kind (e.g. 'InvalidInput')."
+);
+create_exception!(
+    rkwave,
+    ResourceLimitError,
+    PyMemoryError,
+    "A request refused before allocating: it would need more memory than the limit."
+);
+create_exception!(
+    rkwave,
+    RkwaveWarning,
+    PyUserWarning,
+    "A fallback or warning of a fit (a lowered level, another solver, a barely supported \
+     block); the same text the command line prints after `warning:` or `note:`."
+);
+
+/// Library spellings and what this module's callers type instead, longest first.
+const KEYWORD_SPELLINGS: &[(&str, &str)] = &[
+    (
+        "GlobalLsParams::rank_policy = RankPolicy::Regularize (ridge GlobalLsParams::ridge, \
+         e.g. 1e-10) or GlobalLsParams::method = GlobalMethod::Cgls",
+        "method=\"single\" (it sets the undetermined directions to zero and reports them)",
+    ),
+    (
+        "GlobalLsParams::rank_policy = RankPolicy::Regularize, or the local inversion",
+        "method=\"single\", or the local inversion",
+    ),
+    (
+        "`cutoff` of LocalInversionParams or Method::Dense",
+        "cutoff=",
+    ),
+    ("Levels::Fixed { fine, .. }", "levels=(n, N)"),
+    ("Levels::Auto", "levels=\"auto\""),
+    ("LevelParams::rho", "rho="),
+    ("RefineParams::rho", "rho="),
+    ("LevelParams::coarse_samples", "coarse_samples="),
+    ("Method::SingleScale", "method=\"single\""),
+    ("Method::Local", "method=\"local\""),
+    ("Method::Global", "method=\"global\""),
+    ("Method::Dense", "method=\"dense\""),
+    ("Solver::Qr", "solver=\"qr\""),
+    ("Solver::Svd", "solver=\"svd\""),
+];
+
+/// `message` with the library's parameter spellings replaced by keyword arguments.
+pub fn in_keywords(message: &str) -> String {
+    KEYWORD_SPELLINGS
+        .iter()
+        .fold(message.to_string(), |m, (library, keyword)| {
+            m.replace(library, keyword)
+        })
+}
+
+/// The Python exception of a failure of `kind` with `message` (module docs).
+pub fn raise(kind: ErrorKind, message: &str) -> PyErr {
+    let message = in_keywords(message);
+    match kind {
+        ErrorKind::ResourceLimit => ResourceLimitError::new_err(message),
+        ErrorKind::WriteFailed => PyOSError::new_err(message),
+        ErrorKind::Internal => {
+            PyRuntimeError::new_err(format!("internal error, please report: {message}"))
+        }
+        kind => {
+            let err = RkwaveError::new_err(message);
+            Python::attach(|py| {
+                // The kind's name as the library spells it; setting an attribute on a fresh
+                // exception cannot fail short of memory exhaustion.
+                let _ = err.value(py).setattr("kind", format!("{kind:?}"));
+            });
+            err
+        }
+    }
+}
+
+/// A user error ([`ErrorKind::InvalidInput`]) with `message`.
+pub fn invalid(message: impl Into<String>) -> PyErr {
+    raise(ErrorKind::InvalidInput, &message.into())
+}
+
+/// An error of the library that knows its kind.
+pub trait Kinded: Display {
+    /// Its [`ErrorKind`].
+    fn error_kind(&self) -> ErrorKind;
+}
+
+macro_rules! kinded {
+    ($($t:ty),* $(,)?) => {
+        $(impl Kinded for $t {
+            fn error_kind(&self) -> ErrorKind {
+                self.kind()
+            }
+        })*
+    };
+}
+
+kinded!(
+    rkwave::reconstruct::ReconstructError,
+    rkwave::basis::BasisError,
+    rkwave::sampling::DomainError,
+    rkwave::image::ImageError,
+    rkwave::image::WaveletError,
+    rkwave::image::adaptive::protocol::ProtocolError,
+    rkwave::image::adaptive::AdaptiveError,
+    rkwave::io::IoError,
+    rkwave::io::output::OutputError,
+    rkwave::refine::RefineError,
+    rkwave::resources::ResourceError,
+);
+
+/// The Python exception of a library error.
+pub fn to_py<E: Kinded>(e: E) -> PyErr {
+    raise(e.error_kind(), &e.to_string())
+}
+
+/// Issues every message in `notes` as an [`RkwaveWarning`] (stack level 1: the line that called rkwave).
+pub fn warn_all(py: Python<'_>, notes: &[String]) -> PyResult<()> {
+    let category = py.get_type::<RkwaveWarning>();
+    for note in notes {
+        let text =
+            CString::new(in_keywords(note).replace('\0', " ")).expect("NUL bytes were replaced");
+        PyErr::warn(py, &category, &text, 1)?;
+    }
+    Ok(())
+}

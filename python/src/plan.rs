@@ -1,0 +1,459 @@
+//! Adaptive sampling of the image plane in process: `rkwave.Plan`, the renderer's loop of
+//! `rkwave plan` without files. The plan is the library's [`PlanState`] (the protocol of
+//! `src/image/adaptive/protocol.rs`: start, advance with every sample so far, reconstruct on
+//! the tree the samples were planned for); this class keeps every sample so far in memory
+//! and the positions it handed out for the next round.
+//!
+//! `save(dir)` writes the state in the format of `rkwave plan --state DIR` (`state.json`),
+//! every sample so far as `samples.npy` (`m x (2 + channels)`, what `--samples` and
+//! `reconstruct --dim 2 --state` read) and the pending positions as `next.npy` (`n x 2`, what
+//! `--out` writes), so a loop can move between the command line and Python either way.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use pyo3::prelude::*;
+use rkwave::image::adaptive::protocol::{PlanState, PlanStep, ProtocolError};
+use rkwave::image::adaptive::{PixelEstimate, SamplePositions};
+use rkwave::image::report::plan_fit_notes;
+use rkwave::image::{ImagePlane, ImageSamples};
+use rkwave::io::output::write_new;
+use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
+use serde::Serialize;
+
+use crate::arrays::{image_out, positions_out};
+use crate::errors::{invalid, to_py, warn_all};
+use crate::image::{plane_of, samples_of};
+use crate::params::{plan_params, PlanArgs};
+use crate::report::to_dict;
+
+/// Seconds a plan spent inside the library (fits, positions, reconstructions) and in this
+/// module's own work around it (checks, conversion, copies of the samples).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct PlanSeconds {
+    /// Inside the library's calls.
+    pub library: f64,
+    /// Everything else this class did.
+    pub glue: f64,
+}
+
+/// What the plan reports: where it stands, every round's log, the last image's notes.
+#[derive(Serialize)]
+struct PlanReport<'a> {
+    resolution: String,
+    budget: usize,
+    round: usize,
+    handed_out: usize,
+    samples: usize,
+    done: bool,
+    stop: Option<rkwave::refine::StopReason>,
+    steps: &'a [PlanStep],
+    time_s: PlanSeconds,
+}
+
+/// Adaptive sampling of the image plane (module docs).
+#[pyclass(name = "Plan", module = "rkwave")]
+pub struct PyPlan {
+    state: PlanState,
+    /// Positions handed out for the round in progress (empty once the plan stopped).
+    next: SamplePositions,
+    /// Every sample so far, in the order added.
+    samples: Option<ImageSamples>,
+    steps: Vec<PlanStep>,
+    time_s: PlanSeconds,
+}
+
+fn state_hint(dir: &Path, e: ProtocolError) -> PyErr {
+    match e {
+        ProtocolError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            invalid(format!(
+                "no plan in {}: start one with rkwave.Plan(resolution=(W, H), spp=S) or \
+                 `rkwave plan --resolution WxH --spp S --out next.npy --state {}`",
+                dir.display(),
+                dir.display()
+            ))
+        }
+        e => to_py(e),
+    }
+}
+
+/// A path from a Python `str` or `os.PathLike`, `None` for anything else.
+fn path_of(obj: &Bound<'_, PyAny>) -> Option<PathBuf> {
+    obj.extract::<PathBuf>().ok()
+}
+
+/// Samples `(m, 2 + channels)` as an array or a file (`.npy` or CSV), on `plane`.
+fn samples_from(plane: ImagePlane, obj: &Bound<'_, PyAny>) -> PyResult<ImageSamples> {
+    if let Some(path) = path_of(obj) {
+        return read_image_samples(&path, plane).map_err(to_py);
+    }
+    let data = crate::arrays::floats(obj, "samples")?;
+    let view = data.view();
+    if view.ndim() != 2 || !(3..=6).contains(&view.shape()[1]) {
+        return Err(invalid(format!(
+            "samples must have shape (m, 2 + channels) with 1 to 4 channels, got {}",
+            crate::arrays::shape(view.shape())
+        )));
+    }
+    let cols = crate::arrays::columns(&view, "samples")?;
+    let mut cols = cols.into_iter().map(|c| c.into_owned());
+    let (xs, ys) = (cols.next().expect("x"), cols.next().expect("y"));
+    ImageSamples::new(plane, xs, ys, cols.collect()).map_err(to_py)
+}
+
+/// Positions `n x 2` from a `.npy` file.
+fn positions_file(path: &Path) -> PyResult<SamplePositions> {
+    let set = read_samples(path).map_err(to_py)?;
+    if set.channels() != 1 {
+        return Err(invalid(format!(
+            "{}: positions are n x 2 (x, y), this file has {} columns",
+            path.display(),
+            1 + set.channels()
+        )));
+    }
+    let mut values = set.values;
+    Ok(SamplePositions {
+        xs: set.positions,
+        ys: values.swap_remove(0),
+    })
+}
+
+/// Positions `(n, 2)` as an array or a `.npy` file.
+fn positions_from(obj: &Bound<'_, PyAny>) -> PyResult<SamplePositions> {
+    if let Some(path) = path_of(obj) {
+        return positions_file(&path);
+    }
+    let data = crate::arrays::floats(obj, "positions")?;
+    let view = data.view();
+    if view.ndim() != 2 || view.shape()[1] != 2 {
+        return Err(invalid(format!(
+            "positions must have shape (n, 2), got {}",
+            crate::arrays::shape(view.shape())
+        )));
+    }
+    let cols = crate::arrays::columns(&view, "positions")?;
+    Ok(SamplePositions {
+        xs: cols[0].to_vec(),
+        ys: cols[1].to_vec(),
+    })
+}
+
+/// `samples` with the samples of `new` appended (the channels must agree).
+fn appended(old: Option<&ImageSamples>, new: ImageSamples) -> PyResult<ImageSamples> {
+    let Some(old) = old else { return Ok(new) };
+    if old.channels() != new.channels() {
+        return Err(to_py(ProtocolError::Channels {
+            state: old.channels(),
+            given: new.channels(),
+        }));
+    }
+    let join = |a: &[f64], b: &[f64]| [a, b].concat();
+    ImageSamples::new(
+        old.plane(),
+        join(old.xs(), new.xs()),
+        join(old.ys(), new.ys()),
+        old.values()
+            .iter()
+            .zip(new.values())
+            .map(|(a, b)| join(a, b))
+            .collect(),
+    )
+    .map_err(to_py)
+}
+
+/// `.npy` bytes of the columns `first`, then `rest`.
+fn npy_of(first: &[f64], rest: Vec<Vec<f64>>) -> PyResult<Vec<u8>> {
+    let set = SampleSet::new(first.to_vec(), rest).map_err(to_py)?;
+    npy_bytes(&set).map_err(to_py)
+}
+
+#[pymethods]
+impl PyPlan {
+    /// A new plan on a `W x H` image with a sample budget (`spp` per pixel on average, or
+    /// `budget` in all); the other parameters default as in `rkwave plan`.
+    ///
+    /// >>> import rkwave
+    /// >>> plan = rkwave.Plan(resolution=(32, 32), spp=4)
+    /// >>> plan.positions().shape[1], plan.done
+    /// (2, False)
+    #[new]
+    #[pyo3(signature = (resolution, spp=None, budget=None, *, p=None, rho=None,
+        below_pixel=None, seed=None, false_alarm=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        resolution: (usize, usize),
+        spp: Option<usize>,
+        budget: Option<usize>,
+        p: Option<usize>,
+        rho: Option<f64>,
+        below_pixel: Option<u32>,
+        seed: Option<u64>,
+        false_alarm: Option<f64>,
+    ) -> PyResult<Self> {
+        let plane = plane_of(resolution)?;
+        let params = plan_params(
+            plane,
+            &PlanArgs {
+                budget,
+                spp,
+                p,
+                rho,
+                below_pixel,
+                seed,
+                false_alarm,
+            },
+        )?;
+        let t = Instant::now();
+        let (state, next) = py
+            .detach(|| PlanState::start(plane, &params))
+            .map_err(to_py)?;
+        Ok(Self {
+            state,
+            next,
+            samples: None,
+            steps: Vec::new(),
+            time_s: PlanSeconds {
+                library: t.elapsed().as_secs_f64(),
+                glue: 0.0,
+            },
+        })
+    }
+
+    /// The positions to render next, `(n, 2)` float64 (x, y in pixel units); `(0, 2)` once
+    /// the plan is done. Pass them to `add` as given (the plan recognises its positions).
+    ///
+    /// >>> import rkwave
+    /// >>> xy = rkwave.Plan(resolution=(16, 8), budget=512).positions()
+    /// >>> bool((xy[:, 0] <= 16).all() and (xy[:, 1] <= 8).all())
+    /// True
+    fn positions<'py>(&mut self, py: Python<'py>) -> Bound<'py, PyAny> {
+        let t = Instant::now();
+        let out = positions_out(py, &self.next.xs, &self.next.ys);
+        self.time_s.glue += t.elapsed().as_secs_f64();
+        out
+    }
+
+    /// Adds the rendered samples of the positions handed out (`xy` `(n, 2)` as returned by
+    /// `positions()`, `values` `(n,)` or `(n, channels)`) and plans the next round: the fit
+    /// on every sample so far, then new positions or the stop (`done`).
+    ///
+    /// >>> import rkwave
+    /// >>> plan = rkwave.Plan(resolution=(16, 16), spp=4)
+    /// >>> xy = plan.positions(); plan.add(xy, xy[:, 0] / 16)
+    /// >>> plan.round
+    /// 1
+    fn add(
+        &mut self,
+        py: Python<'_>,
+        xy: &Bound<'_, PyAny>,
+        values: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        if self.state.stop.is_some() {
+            return Err(invalid(
+                "the plan has stopped: no positions are pending; take the result with image()",
+            ));
+        }
+        let t = Instant::now();
+        let new = samples_of(self.state.plane, xy, values)?;
+        let all = appended(self.samples.as_ref(), new)?;
+        let t_lib = Instant::now();
+        let state = &mut self.state;
+        let step = py.detach(|| state.advance(&all)).map_err(to_py)?;
+        let library = t_lib.elapsed().as_secs_f64();
+        self.next = step.next.clone();
+        self.samples = Some(all);
+        self.steps.push(step);
+        self.time_s.library += library;
+        self.time_s.glue += t.elapsed().as_secs_f64() - library;
+        Ok(())
+    }
+
+    /// Whether the plan has stopped (budget spent, tolerance reached, depth limit): then
+    /// `positions()` is empty and `image()` is the final image.
+    #[getter]
+    fn done(&self) -> bool {
+        self.state.stop.is_some()
+    }
+
+    /// The last round whose positions were handed out (0: the base positions).
+    #[getter]
+    fn round(&self) -> usize {
+        self.state.round()
+    }
+
+    /// The image `(H, W, C)` from every sample so far on the tree they were planned for: by
+    /// default the fit's box pixels plus the significant mean residual (as `rkwave
+    /// reconstruct --dim 2 --state`); `residual=False` gives the fit's box pixels alone (as
+    /// `--no-residual`). Before the plan is done this is an intermediate image (a warning
+    /// says so).
+    ///
+    /// >>> import rkwave, warnings
+    /// >>> plan = rkwave.Plan(resolution=(16, 16), spp=4)
+    /// >>> xy = plan.positions(); plan.add(xy, xy[:, 0] / 16)
+    /// >>> with warnings.catch_warnings():
+    /// ...     warnings.simplefilter("ignore")
+    /// ...     plan.image().shape
+    /// (16, 16, 1)
+    #[pyo3(signature = (residual=true))]
+    fn image<'py>(&mut self, py: Python<'py>, residual: bool) -> PyResult<Bound<'py, PyAny>> {
+        let Some(samples) = &self.samples else {
+            return Err(invalid(
+                "the plan has no samples yet: render positions() and add() them first",
+            ));
+        };
+        let estimate = if residual {
+            self.state.params.output.pixels
+        } else {
+            PixelEstimate::FitOnly
+        };
+        let t = Instant::now();
+        let state = &self.state;
+        let done = py
+            .detach(|| state.reconstruct_as(samples, estimate))
+            .map_err(to_py)?;
+        self.time_s.library += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        warn_all(py, &plan_fit_notes(&done))?;
+        let plane = self.state.plane;
+        let out = image_out(py, &done.image.channels, plane.width(), plane.height());
+        self.time_s.glue += t.elapsed().as_secs_f64();
+        Ok(out)
+    }
+
+    /// Every sample so far, `(m, 2 + channels)`: x, y, values (the file `rkwave plan
+    /// --samples` reads); `None` before the first `add`.
+    #[getter]
+    fn samples<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        self.samples.as_ref().map(|s| {
+            let mut cols = vec![s.xs().to_vec(), s.ys().to_vec()];
+            cols.extend(s.values().iter().cloned());
+            crate::arrays::channels_out(py, cols, false)
+        })
+    }
+
+    /// Where the plan stands, as a plain dict: resolution, budget, round, positions handed
+    /// out, samples, `done` and the stop reason, every round's log (`steps`, as in `rkwave
+    /// plan --json`) and the seconds spent inside the library and around it (`time_s`).
+    ///
+    /// >>> import rkwave
+    /// >>> rkwave.Plan(resolution=(16, 16), spp=4).report["budget"]
+    /// 1024
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let report = PlanReport {
+            resolution: self.state.plane.to_string(),
+            budget: self.state.params.stop.budget,
+            round: self.state.round(),
+            handed_out: self.state.positions(),
+            samples: self.samples.as_ref().map_or(0, ImageSamples::len),
+            done: self.done(),
+            stop: self.state.stop,
+            steps: &self.steps,
+            time_s: self.time_s,
+        };
+        to_dict(py, &serde_json::to_string(&report).expect("plain data"))
+    }
+
+    /// Writes the plan into `dir` (module docs): `state.json` as `rkwave plan --state DIR`,
+    /// `samples.npy` (every sample so far) and `next.npy` (the pending positions).
+    ///
+    /// >>> import rkwave, tempfile
+    /// >>> d = tempfile.mkdtemp(); plan = rkwave.Plan(resolution=(16, 16), spp=4)
+    /// >>> plan.save(d); rkwave.Plan.load(d).positions().shape == plan.positions().shape
+    /// True
+    fn save(&self, py: Python<'_>, dir: PathBuf) -> PyResult<()> {
+        let state = &self.state;
+        let samples = self.samples.as_ref();
+        let next = &self.next;
+        py.detach(|| -> PyResult<()> {
+            state.save(&dir).map_err(to_py)?;
+            let file = dir.join("samples.npy");
+            match samples {
+                Some(s) => {
+                    let mut rest = vec![s.ys().to_vec()];
+                    rest.extend(s.values().iter().cloned());
+                    write_new(&file, &npy_of(s.xs(), rest)?, true).map_err(to_py)?;
+                }
+                None if file.exists() => std::fs::remove_file(&file).map_err(|e| {
+                    pyo3::exceptions::PyOSError::new_err(format!(
+                        "cannot remove the stale {}: {e}",
+                        file.display()
+                    ))
+                })?,
+                None => {}
+            }
+            let bytes = npy_of(&next.xs, vec![next.ys.clone()])?;
+            write_new(&dir.join("next.npy"), &bytes, true).map_err(to_py)
+        })
+    }
+
+    /// A plan from `dir`: a state written by `save` or by `rkwave plan --state DIR`. The
+    /// samples so far come from `samples` (an `(m, 2 + channels)` array or a sample file) or
+    /// else `DIR/samples.npy`; the pending positions from `positions` (an `(n, 2)` array or
+    /// the `.npy` that `rkwave plan --out` wrote) or else `DIR/next.npy` (a plan at its base
+    /// round regenerates them).
+    ///
+    /// >>> import rkwave, tempfile
+    /// >>> d = tempfile.mkdtemp(); rkwave.Plan(resolution=(8, 8), budget=256).save(d)
+    /// >>> rkwave.Plan.load(d).report["budget"]
+    /// 256
+    #[staticmethod]
+    #[pyo3(signature = (dir, samples=None, positions=None))]
+    fn load(
+        dir: PathBuf,
+        samples: Option<&Bound<'_, PyAny>>,
+        positions: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let state = PlanState::load(&dir).map_err(|e| state_hint(&dir, e))?;
+        let plane = state.plane;
+        let samples = match samples {
+            Some(obj) => Some(samples_from(plane, obj)?),
+            None => {
+                let file = dir.join("samples.npy");
+                if file.exists() {
+                    Some(read_image_samples(&file, plane).map_err(to_py)?)
+                } else {
+                    None
+                }
+            }
+        };
+        let next = match positions {
+            Some(obj) => positions_from(obj)?,
+            None if state.stop.is_some() => SamplePositions::default(),
+            None => {
+                let file = dir.join("next.npy");
+                if file.exists() {
+                    positions_file(&file)?
+                } else if state.round() == 0 && samples.is_none() {
+                    PlanState::start(plane, &state.params).map_err(to_py)?.1
+                } else {
+                    return Err(invalid(format!(
+                        "the positions of round {} are not in {}: pass positions= (the .npy \
+                         `rkwave plan --out` wrote for that round)",
+                        state.round(),
+                        dir.display()
+                    )));
+                }
+            }
+        };
+        Ok(Self {
+            state,
+            next,
+            samples,
+            steps: Vec::new(),
+            time_s: PlanSeconds::default(),
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "rkwave.Plan(resolution={}, budget={}, round={}, samples={}, done={})",
+            self.state.plane,
+            self.state.params.stop.budget,
+            self.state.round(),
+            self.samples.as_ref().map_or(0, ImageSamples::len),
+            if self.done() { "True" } else { "False" }
+        )
+    }
+}

@@ -1,0 +1,141 @@
+"""rkwave.Plan: the renderer's loop in process gives the positions, tree and image of
+`rkwave plan` driven through files, bit for bit, and its state moves between the two."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+import rkwave
+from conftest import disc_scene
+
+W, H, SPP = 32, 24, 4
+
+
+def cli_loop(cli, run, rounds=None):
+    """`rkwave plan` through files with disc_scene as the renderer; stops after `rounds`
+    calls (None: until the plan stops). Returns the positions of every round and the path
+    of the last sample file."""
+    cli("plan", "--resolution", f"{W}x{H}", "--spp", SPP, "--state", run, "--out", run / "n0.npy")
+    positions, everything = [np.load(run / "n0.npy")], None
+    k = 0
+    while rounds is None or k < rounds:
+        new = positions[-1]
+        rendered = np.c_[new, disc_scene(new)]
+        everything = rendered if everything is None else np.r_[everything, rendered]
+        np.save(run / f"s{k}.npy", everything)
+        k += 1
+        report = json.loads(
+            cli("plan", "--state", run, "--samples", run / f"s{k - 1}.npy", "--out",
+                run / f"n{k}.npy", "--json")[1]
+        )
+        if report["stop"] is not None:
+            break
+        positions.append(np.load(run / f"n{k}.npy"))
+    return positions, run / f"s{k - 1}.npy"
+
+
+def python_loop(plan):
+    positions = []
+    while not plan.done:
+        xy = plan.positions()
+        positions.append(xy)
+        plan.add(xy, disc_scene(xy))
+    return positions
+
+
+def test_plan_equals_cli_from_files(tmp_path, cli):
+    run = tmp_path / "run"
+    cli_positions, last = cli_loop(cli, run)
+    cli("reconstruct", "--dim", 2, "--state", run, "--input", last, "--output", tmp_path / "i.npy")
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
+    positions = python_loop(plan)
+    assert len(positions) == len(cli_positions) > 2
+    for mine, theirs in zip(positions, cli_positions):
+        np.testing.assert_array_equal(mine, theirs)
+    image = plan.image()
+    assert image.shape == (H, W, 3)
+    np.testing.assert_array_equal(image, np.load(tmp_path / "i.npy"))
+    np.testing.assert_array_equal(plan.samples, np.load(last))
+    report = plan.report
+    assert report["done"] and report["samples"] == len(np.load(last)) <= W * H * SPP
+    assert len(report["steps"]) == len(positions)
+    assert plan.positions().shape == (0, 2)
+
+
+def test_state_moves_between_cli_and_python(tmp_path, cli):
+    whole = rkwave.Plan(resolution=(W, H), spp=SPP)
+    python_loop(whole)
+    expected = whole.image()
+    # Python -> CLI: two rounds here, saved, then continued and reconstructed by the CLI.
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
+    for _ in range(2):
+        xy = plan.positions()
+        plan.add(xy, disc_scene(xy))
+    plan.save(tmp_path / "a")
+    samples, nxt = np.load(tmp_path / "a" / "samples.npy"), np.load(tmp_path / "a" / "next.npy")
+    np.testing.assert_array_equal(nxt, plan.positions())
+    k = 0
+    while len(nxt):
+        samples = np.r_[samples, np.c_[nxt, disc_scene(nxt)]]
+        np.save(tmp_path / f"s{k}.npy", samples)
+        cli("plan", "--state", tmp_path / "a", "--samples", tmp_path / f"s{k}.npy", "--out",
+            tmp_path / f"n{k}.npy")
+        nxt, k = np.load(tmp_path / f"n{k}.npy"), k + 1
+    cli("reconstruct", "--dim", 2, "--state", tmp_path / "a", "--input", tmp_path / f"s{k - 1}.npy",
+        "--output", tmp_path / "a.npy")
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), expected)
+    # CLI -> Python: two calls of the CLI, loaded with its files, finished here.
+    run = tmp_path / "b"
+    positions, last = cli_loop(cli, run, rounds=2)
+    loaded = rkwave.Plan.load(run, samples=last, positions=run / "n2.npy")
+    np.testing.assert_array_equal(loaded.positions(), positions[-1])
+    python_loop(loaded)
+    np.testing.assert_array_equal(loaded.image(), expected)
+    # save / load in Python alone.
+    plan.save(tmp_path / "c")
+    again = rkwave.Plan.load(tmp_path / "c")
+    np.testing.assert_array_equal(again.positions(), plan.positions())
+    python_loop(again)
+    np.testing.assert_array_equal(again.image(), expected)
+
+
+def test_plan_refuses_what_the_cli_refuses(tmp_path):
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
+    xy = plan.positions()
+    with pytest.raises(rkwave.RkwaveError, match="not the positions this plan handed out"):
+        plan.add(xy[1:], disc_scene(xy[1:]))  # a lost sample
+    with pytest.raises(rkwave.RkwaveError, match="not the positions this plan handed out"):
+        rounded = xy.astype(np.float32).astype(float)
+        plan.add(rounded, disc_scene(rounded))  # positions rounded to float32 on the way
+    with pytest.raises(rkwave.RkwaveError, match="no samples yet"):
+        plan.image()
+    plan.add(xy, disc_scene(xy))  # the refusals changed nothing
+    assert plan.round == 1
+    nxt = plan.positions()
+    with pytest.raises(rkwave.RkwaveError, match="channels"):
+        plan.add(nxt, disc_scene(nxt)[:, :2])
+    with pytest.raises(rkwave.RkwaveError, match="budget="):
+        rkwave.Plan(resolution=(W, H))
+    with pytest.raises(rkwave.RkwaveError, match="not both"):
+        rkwave.Plan(resolution=(W, H), spp=4, budget=100)
+    with pytest.raises(rkwave.RkwaveError, match="p = 1 to 4"):
+        rkwave.Plan(resolution=(W, H), spp=4, p=6)
+    with pytest.raises(rkwave.RkwaveError, match="no plan in"):
+        rkwave.Plan.load(tmp_path / "nothing")
+    with pytest.raises(rkwave.RkwaveError, match="budget"):
+        rkwave.Plan(resolution=(W, H), budget=10)
+    done = rkwave.Plan(resolution=(16, 16), spp=4)
+    python_loop(done)
+    with pytest.raises(rkwave.RkwaveError, match="stopped"):
+        done.add(np.ones((1, 2)), np.ones(1))
+
+
+def test_intermediate_image_warns():
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
+    xy = plan.positions()
+    plan.add(xy, disc_scene(xy))
+    with pytest.warns(rkwave.RkwaveWarning, match="has not stopped"):
+        image = plan.image(residual=False)
+    assert image.shape == (H, W, 3)
