@@ -101,10 +101,9 @@ pub struct DensityOptions {
     pub keep_scaling: bool,
 }
 
-/// Measured (three clusters of 3,000 samples; two blocks of 1,000 with nothing in
-/// `[0.3, 0.7]`, wider than a coarse support): thresholds `1e-3 ..= 3e-2` keep the clusters'
-/// error (3.4e-4) and bound the blocks' gap (`|f~| <= 0.97`, against 44 when every function
-/// is fitted); `0.1` already drops scaling functions the clusters need (error 1.8e-2).
+/// The default threshold sits inside the range that both keeps clustered samples' error and
+/// bounds the fit across a gap wider than a coarse support; larger thresholds drop scaling
+/// functions the clusters need (docs/measurements.md, "Trees from sample density").
 impl Default for DensityOptions {
     fn default() -> Self {
         Self {

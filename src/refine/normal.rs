@@ -24,11 +24,10 @@
 //! for the update, `O(nnz(G))` to hand `G` (columns in order of arrival) to the sparse
 //! Cholesky of [`crate::solve::normal_ls_corrected`] (one corrected semi-normal step from the
 //! cached rows: `O(nnz(K))` more), and that factorization, in AMD order. An earlier version
-//! eliminated the finest level first (sparser on a narrow adaptive tree: at `P = 934`,
-//! `nnz(L) = 87,741` against `145,113` with AMD), but on a full level the chain of same-level
-//! neighbours carries the fill of each elimination to the next one, so every coarser level
-//! ends up coupled to every other: with `2e4` base samples (`P = 8,273`) a round cost 3.3 s
-//! against 0.13 s with AMD, and at `1e6` samples the factor asked for 213 GB.
+//! eliminated the finest level first (sparser on a narrow adaptive tree), but on a full level
+//! the chain of same-level neighbours carries the fill of each elimination to the next one,
+//! so every coarser level ends up coupled to every other (docs/measurements.md, "What a round
+//! costs").
 
 use std::collections::HashMap;
 

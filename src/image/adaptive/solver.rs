@@ -59,11 +59,10 @@ impl TreeSolver {
     }
 }
 
-/// PCG to a relative residual of `1e-6` (`rkwave image --adaptive --solver pcg`). Measured
-/// (`shapes`, 8 spp, rounds at `1e-2`): the output's PSNR is the same to 0.01 dB at `1e-4`
-/// and `1e-6` at 256² (53.75 / 53.74) and to 0.03 dB at 512² (59.55 / 59.52), the final fit
-/// taking 22 against 96 iterations at 512²; `1e-6` keeps two orders of margin (the earlier
-/// default, `1e-10`, only added iterations).
+/// PCG to a relative residual of `1e-6` (`rkwave image --adaptive --solver pcg`): the
+/// output's PSNR is the same at `1e-4` and `1e-6` (docs/measurements.md, "The iterative
+/// solvers"), so `1e-6` keeps two orders of margin (the earlier default, `1e-10`, only added
+/// iterations).
 impl Default for TreeSolver {
     fn default() -> Self {
         Self::Pcg {

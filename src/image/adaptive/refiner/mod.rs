@@ -14,8 +14,8 @@
 //!    the spare samples are spread over the slots that stay slots
 //!    ([`super::marking::spread`], by [`GrowthParams::spread`]), so a budget-driven run
 //!    ends at the budget after about `log(budget / base) / log(1 + min_growth)` rounds
-//!    (measured: at 128², 4 spp, camera stopped at the round limit, 40, with 42,428 of
-//!    65,536 samples spent, rounds after the third adding 24 to 3,000 samples each).
+//!    (without it, a concentrated indicator stopped runs at the round limit with a third of
+//!    the budget unspent: docs/measurements.md, "Variants tried at 64²").
 //!    Noise ([`super::significance`]): slots whose parent's detail is within the noise are
 //!    not markable; when nothing significant is left, a *densifying* round (no cell marked)
 //!    raises the samples of every slot instead (up to double, at least the least growth),

@@ -51,8 +51,8 @@ pub struct AdaptiveParams {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct QuadTreeParams {
     /// Depth limit below the pixel: the finest level per axis is
-    /// `J = ceil(log2 size) + below_pixel` (1: half-pixel functions at edges; measured at 64²,
-    /// 4 spp on `shapes`, quarter-pixel ones spent the budget on too few edge cells).
+    /// `J = ceil(log2 size) + below_pixel` (1: half-pixel functions at edges; quarter-pixel ones
+    /// spent the budget on too few edge cells: docs/measurements.md, "Variants tried at 64²").
     pub below_pixel: u32,
     /// Level of the base leaves along x (`None`: the finest whose samples fit in
     /// `base_fraction` of the budget).
@@ -108,11 +108,9 @@ pub struct FitParams {
     /// round's coefficients to the solver's tolerance (PCG; the Schwarz CG takes no start and
     /// solves the final fit afresh). Ignored by the direct solve.
     ///
-    /// Measured (PCG to `1e-6`, `shapes`, 8 spp): at 128² loose rounds at `1e-2` take 18-31
-    /// iterations against 218-254 and the run 14 s against 52 s, and at 256² 62 s against
-    /// 158 s, with the fit's PSNR within 0.5 dB and the output's higher (the round fits'
-    /// residuals raise the noise estimate of a noise-free scene from `1e-5` to `3e-3`, so
-    /// fewer pixels take a residual correction).
+    /// Loose rounds cost a fraction of the iterations for nearly the same fit; the round fits'
+    /// larger residuals raise the noise estimate of a noise-free scene, so fewer pixels take a
+    /// residual correction (docs/measurements.md, "Loose rounds").
     pub round_tolerance: Option<f64>,
     /// Measure each round's fit against the same fit rebuilt from scratch (fresh solver
     /// state, zero start: no continued normal matrix or diagonal, no warm start), reported
