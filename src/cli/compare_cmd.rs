@@ -37,8 +37,8 @@ pub struct CompareArgs {
     /// Resolution `WxH`.
     #[arg(long, default_value = "256x256")]
     pub resolution: String,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 4)]
+    /// Samples per pixel, plain or in `1e3` notation.
+    #[arg(long, default_value_t = 4, value_parser = super::limits::count)]
     pub spp: usize,
     /// Sampler: uniform, stratified or sobol.
     #[arg(long, default_value = "stratified")]

@@ -14,9 +14,10 @@ use rkwave::io::image_file::write_image;
 use rkwave::lab::experiment::TruthParams;
 
 use super::image_args::{
-    check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs, SolverChoice,
+    check_outputs, check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs,
+    SolverChoice,
 };
-use super::{check_writable, CliError};
+use super::CliError;
 
 /// `params` with the fields of the JSON object `json` replaced (validated by the library).
 fn override_params(params: AdaptiveParams, json: &str) -> Result<AdaptiveParams, CliError> {
@@ -57,9 +58,12 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let depth_path = figure_path(&args.out, "depth");
     let samples_path = figure_path(&args.out, "samples");
     let figure = figure_path(&args.out, "adaptive");
-    for path in [&args.out, &depth_path, &samples_path, &figure] {
-        check_writable(path, args.force)?;
-    }
+    let scene_file = scene_path(&args.scene)?;
+    check_outputs(
+        &[&args.out, &depth_path, &samples_path, &figure],
+        args.force,
+        &[&scene_file],
+    )?;
     let plane = parse_resolution(&args.resolution)?;
     if !(args.noise.is_finite() && args.noise >= 0.0) {
         return Err(CliError::Invalid(format!(
@@ -90,7 +94,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             (spp + 1).saturating_mul(plane.pixels())
         )));
     }
-    let scene = Scene::from_file(scene_path(&args.scene)?)?;
+    let scene = Scene::from_file(&scene_file)?;
     let params = AdaptiveParams {
         p: check_p(args.p)?,
         rho: args.rho.map_or(Ok(2.0), check_rho)?,

@@ -7,18 +7,27 @@ use std::time::Instant;
 use rkwave::image::report::FileReconstructionReport;
 use rkwave::image::{reconstruct, Method, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
+use rkwave::io::output::check_output;
 use rkwave::io::read_image_samples;
 
 use super::image_args::{check_p, parse_resolution, spinner};
 use super::reconstruct_args::ReconstructArgs;
 use super::solve_args::MethodArg;
-use super::{check_writable, CliError};
+use super::CliError;
 
 /// Runs the 2D path of `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
     ImageFormat::from_path(&args.output).map_err(|e| CliError::flag("--output", e))?;
-    check_writable(&args.output, args.force)?;
+    // Before any work: the output is new (or --force), its folder exists and takes a file,
+    // and it is none of the inputs (the samples, the plan's state), after links and spellings.
+    let state_file = args
+        .state
+        .as_deref()
+        .map(rkwave::image::adaptive::protocol::PlanState::path);
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(state_file.as_deref());
+    check_output(&args.output, args.force, &inputs)?;
     if let Some(dir) = &args.state {
         return super::plan_cmd::reconstruct(args, dir, started);
     }

@@ -42,7 +42,7 @@ use super::AdaptiveError;
 use crate::adaptive::QuadTree;
 use crate::adaptive::StopReason;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
-use crate::io::output::{write_new, OutputError};
+use crate::io::output::{persist, temporary, write_new, OutputError};
 
 /// The `format` field of a plan state.
 pub const STATE_FORMAT: &str = "rkwave-image-plan";
@@ -519,11 +519,68 @@ impl PlanState {
     /// atomically.
     pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
         let file = Self::path(dir);
-        std::fs::create_dir_all(dir).map_err(|source| OutputError::NotWritable {
-            file: file.clone(),
-            source,
-        })?;
+        create_folder(dir, &file)?;
         write_new(&file, self.to_json().as_bytes(), true)?;
         Ok(())
     }
+
+    /// Commits a round as one step: the state into `dir` and the positions `bytes` to
+    /// `positions` (replacing an existing file only with `overwrite`), both or neither.
+    ///
+    /// Both are written to temporary files beside their targets first; then the positions
+    /// are moved into place (refused if the file appeared meanwhile), then the state (a
+    /// rename over the previous state). When the state cannot be moved, the positions just
+    /// placed are removed again: a failed commit leaves the previous state and no positions
+    /// file, and the same call can be retried.
+    pub fn commit(
+        &self,
+        dir: &Path,
+        positions: &Path,
+        bytes: &[u8],
+        overwrite: bool,
+    ) -> Result<(), ProtocolError> {
+        let file = Self::path(dir);
+        create_folder(dir, &file)?;
+        if let Some(folder) = positions.parent().filter(|d| !d.as_os_str().is_empty()) {
+            create_folder(folder, positions)?;
+        }
+        let state_tmp = write_temporary(&file, self.to_json().as_bytes())?;
+        let positions_tmp = match write_temporary(positions, bytes) {
+            Ok(t) => t,
+            Err(e) => {
+                let _ = std::fs::remove_file(&state_tmp);
+                return Err(e.into());
+            }
+        };
+        if let Err(e) = persist(&positions_tmp, positions, overwrite) {
+            let _ = std::fs::remove_file(&state_tmp);
+            return Err(e.into());
+        }
+        if let Err(e) = persist(&state_tmp, &file, true) {
+            let _ = std::fs::remove_file(positions);
+            return Err(e.into());
+        }
+        Ok(())
+    }
+}
+
+/// Creates `folder` (and its parents) for the file `file`.
+fn create_folder(folder: &Path, file: &Path) -> Result<(), OutputError> {
+    std::fs::create_dir_all(folder).map_err(|source| OutputError::NotWritable {
+        file: file.to_path_buf(),
+        source,
+    })
+}
+
+/// `bytes` in a fresh temporary file beside `target` (removed again if the write fails).
+fn write_temporary(target: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
+    let tmp = temporary(target);
+    std::fs::write(&tmp, bytes).map_err(|source| {
+        let _ = std::fs::remove_file(&tmp);
+        OutputError::NotWritable {
+            file: target.to_path_buf(),
+            source,
+        }
+    })?;
+    Ok(tmp)
 }
