@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use rkwave::image::adaptive::experiment::compare_adaptive;
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, TreeSolver};
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
 use rkwave::io::image_file::write_image;
@@ -118,6 +118,24 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
+    // Before sampling: the budget's samples (and as many stratified ones for the film
+    // filters), the tree fit at the depth limit, the truth and the images.
+    let mut request = super::image_memory::tree_request(
+        plane,
+        3,
+        budget as f64,
+        params.p,
+        params.below_pixel,
+        params.rho,
+        !matches!(params.solver, TreeSolver::Pcg { .. }),
+        8,
+    );
+    request.positions = budget as f64;
+    super::image_memory::check(
+        &request,
+        format!("the adaptive image of {plane} at a budget of {budget} samples"),
+        "a smaller --budget, --spp or --resolution, or --solver pcg",
+    )?;
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
     let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)?;
     bar.finish_and_clear();

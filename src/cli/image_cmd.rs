@@ -94,6 +94,22 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
+    // Before sampling: the samples, the fit, the truth and the output image (twice the
+    // samples when the equivalent filter resamples the scene).
+    let mut request =
+        super::image_memory::method_request(plane, sampling.spp, method, wavelet.p, wavelet.rho, 2);
+    if show.is_some() {
+        request.samples *= 2.0;
+    }
+    super::image_memory::check(
+        &request,
+        format!(
+            "{method} on {plane} at {} samples per pixel ({} samples)",
+            sampling.spp,
+            rkwave::norms::show(request.samples)
+        ),
+        "a smaller --resolution or --spp",
+    )?;
     let bar = spinner(&format!("{} on {} at {plane}", method, scene.name()));
     let cmp = compare_methods(&scene, &sampling, &[method], &wavelet, &truth)?;
     bar.finish_and_clear();

@@ -163,6 +163,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             };
             let params = params(args, plane, &state.params)?;
             state.check_params(plane, &params).map_err(protocol)?;
+            super::image_memory::check_reading(path)?;
             let samples = read_image_samples(path, state.plane)?;
             let step = state.advance(&samples).map_err(protocol)?;
             let next = step.next.clone();
@@ -249,6 +250,7 @@ pub fn reconstruct(
             )));
         }
     }
+    super::image_memory::check_reading(&args.input)?;
     let samples = read_image_samples(&args.input, state.plane)?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly

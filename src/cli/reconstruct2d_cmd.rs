@@ -49,9 +49,31 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         pixel_filter: None,
         ..WaveletParams::default()
     };
+    super::image_memory::check_reading(&args.input)?;
     let bar = spinner("reading samples");
     let samples = read_image_samples(&args.input, plane)?;
     let read_s = started.elapsed().as_secs_f64();
+    // Before the fit: the fit and the output image, from the sizes read.
+    let request = super::image_memory::uniform_request(
+        plane,
+        samples.channels(),
+        samples.len() as f64,
+        wavelet.p,
+        wavelet.rho,
+        method == Method::Local,
+        1,
+    );
+    if let Err(e) = super::image_memory::check(
+        &request,
+        format!(
+            "reconstructing {} samples onto {plane} pixels by {method}",
+            samples.len()
+        ),
+        "a smaller --resolution, fewer samples, or --method local / a lower --p",
+    ) {
+        bar.finish_and_clear();
+        return Err(e);
+    }
     bar.set_message("reconstructing");
     let done = reconstruct(method, &samples, &wavelet)?;
     bar.set_message("writing");

@@ -356,6 +356,54 @@ impl PlanState {
         })
     }
 
+    /// Refuses, before the fit, a round (or reconstruction) whose tree fit on `samples`, the
+    /// output image and the `next` positions it may hand out exceed the memory limit
+    /// ([`crate::resources::ImageRequest`]): the tree of `plan` has at most the base levels
+    /// plus one per round, up to the depth limit.
+    fn check_memory(
+        &self,
+        plan: &ImagePlan,
+        samples: &ImageSamples,
+        next: usize,
+    ) -> Result<(), ProtocolError> {
+        use crate::resources::{tree_levels, ImageRequest, ImageSolve};
+        let p = self.params.p;
+        let (w, h) = (self.plane.width(), self.plane.height());
+        let limit = tree_levels(p, w, h, self.params.below_pixel);
+        let levels = (plan.base_steps() + plan.progress().marked.len() as u32 + 1).min(limit);
+        let rho = self.params.rho;
+        let solve = match self.params.solver {
+            super::TreeSolver::Pcg { .. } => ImageSolve::TreePcg { p, levels, rho },
+            _ => ImageSolve::TreeDirect { p, levels, rho },
+        };
+        let request = ImageRequest {
+            pixels: self.plane.pixels() as f64,
+            channels: samples.channels(),
+            samples: samples.len() as f64,
+            from_file: false,
+            positions: next as f64,
+            solve,
+            images: 2,
+        };
+        request
+            .estimate()
+            .check(
+                || {
+                    format!(
+                        "the plan's fit of {} samples on a tree of {levels} levels ({})",
+                        samples.len(),
+                        self.plane
+                    )
+                },
+                || {
+                    "a smaller budget (--budget, --spp) or depth limit (--below-pixel) for a \
+                     new plan"
+                        .into()
+                },
+            )
+            .map_err(|e| ProtocolError::Adaptive(e.into()))
+    }
+
     /// Checks the state's own consistency: format, version, one issued record per round.
     fn check_layout(&self, file: &Path) -> Result<(), ProtocolError> {
         let bad = |problem: String| ProtocolError::State {
@@ -404,6 +452,11 @@ impl PlanState {
             });
         }
         let mut plan = self.plan_at(k)?;
+        self.check_memory(
+            &plan,
+            samples,
+            self.params.budget.saturating_sub(self.positions()),
+        )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(samples.xs(), samples.ys(), &values)?;
         self.channels = Some(samples.channels());
@@ -453,6 +506,7 @@ impl PlanState {
     ) -> Result<PlanReconstruction, ProtocolError> {
         let k = self.matching_round(samples)?;
         let plan = self.plan_at(k)?;
+        self.check_memory(&plan, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let (fit, significance) = plan.fit(samples.xs(), samples.ys(), &values)?;
         // the noise estimate of this fit, as the in-process loop's last round
@@ -492,9 +546,13 @@ impl PlanState {
         })?;
         state.check_layout(file)?;
         ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
-            ProtocolError::State {
-                file: file.to_path_buf(),
-                problem: e.to_string(),
+            match e {
+                // A memory limit below the plan's budget is no fault of the state.
+                AdaptiveError::Resource(e) => ProtocolError::Adaptive(e.into()),
+                e => ProtocolError::State {
+                    file: file.to_path_buf(),
+                    problem: e.to_string(),
+                },
             }
         })?;
         Ok(state)
