@@ -69,6 +69,57 @@ fn with(mut args: Vec<String>, extra: &[&str]) -> Vec<String> {
     args
 }
 
+/// `plan` continuing the plan in `state` with `samples`, the next positions to `out`.
+fn plan_round(state: &Path, samples: &Path, out: &Path) -> Vec<String> {
+    [
+        "plan",
+        "--state",
+        arg(state),
+        "--samples",
+        arg(samples),
+        "--out",
+        arg(out),
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// `plan` starting a plan at `resolution` and `spp` in `state`, the base positions to `out`.
+fn plan_start(resolution: &str, spp: &str, state: &Path, out: &Path) -> Vec<String> {
+    [
+        "plan",
+        "--resolution",
+        resolution,
+        "--spp",
+        spp,
+        "--state",
+        arg(state),
+        "--out",
+        arg(out),
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// `image --scene shapes` at `resolution` and `spp`, the truth cached in `truth`, the image
+/// to `out`, then `extra`.
+fn image_cmd(resolution: &str, spp: &str, truth: &Path, out: &Path, extra: &[&str]) -> Vec<String> {
+    let base = [
+        "image",
+        "--scene",
+        "shapes",
+        "--resolution",
+        resolution,
+        "--spp",
+        spp,
+        "--truth-cache",
+        arg(truth),
+        "--out",
+        arg(out),
+    ];
+    with(base.map(String::from).to_vec(), extra)
+}
+
 /// The renderer of the plan loop: the positions of `next` (n x 2) with the value of the
 /// disc scene appended to `previous` samples, written to `out`.
 fn render(previous: Option<&Path>, next: &Path, out: &Path) {
@@ -99,17 +150,7 @@ fn render(previous: Option<&Path>, next: &Path, out: &Path) {
 /// Starts a plan at `resolution`, `spp` in `dir`, renders its base and returns the samples.
 fn started_plan(dir: &Path, resolution: &str, spp: &str) -> PathBuf {
     let n0 = dir.join("n0.npy");
-    succeeds(&[
-        "plan",
-        "--resolution",
-        resolution,
-        "--spp",
-        spp,
-        "--state",
-        arg(dir),
-        "--out",
-        arg(&n0),
-    ]);
+    succeeds(&plan_start(resolution, spp, dir, &n0));
     let s0 = dir.join("s0.npy");
     render(None, &n0, &s0);
     s0
@@ -177,37 +218,18 @@ fn large_image_requests_are_refused_before_allocating() {
     );
     assert!(!out.exists());
     let png = d.join("big.png");
-    let e = user_error(&[
-        "image",
-        "--scene",
-        "shapes",
-        "--resolution",
-        "8192x8192",
-        "--spp",
-        "16",
-        "--truth-cache",
-        arg(&d.join("truth")),
-        "--out",
-        arg(&png),
-    ]);
+    let e = user_error(&image_cmd("8192x8192", "16", &d.join("truth"), &png, &[]));
     assert!(
         e.contains("samples") && e.contains("memory") && e.contains("--spp"),
         "{e}"
     );
-    let e = user_error(&[
-        "image",
-        "--scene",
-        "shapes",
-        "--resolution",
+    let e = user_error(&image_cmd(
         "8192x8192",
-        "--spp",
         "16",
-        "--adaptive",
-        "--truth-cache",
-        arg(&d.join("truth")),
-        "--out",
-        arg(&png),
-    ]);
+        &d.join("truth"),
+        &png,
+        &["--adaptive"],
+    ));
     assert!(e.contains("memory") && e.contains("--budget"), "{e}");
     assert!(!png.exists());
     let e = user_error(&[
@@ -236,17 +258,13 @@ fn a_plan_round_above_the_limit_is_refused_and_the_state_survives() {
     let state = std::fs::read(d.join("state.json")).unwrap();
     let n1 = d.join("n1.npy");
     let round = |limit: &str| {
-        user_error(&[
-            "--memory-limit",
-            limit,
-            "plan",
-            "--state",
-            arg(&d),
-            "--samples",
-            arg(&s0),
-            "--out",
-            arg(&n1),
-        ])
+        user_error(&with(
+            vec!["--memory-limit".into(), limit.into()],
+            &plan_round(&d, &s0, &n1)
+                .iter()
+                .map(String::as_str)
+                .collect::<Vec<_>>(),
+        ))
     };
     let e = round("20M");
     assert!(e.contains("normal matrix") && e.contains("factor"), "{e}");
@@ -257,15 +275,7 @@ fn a_plan_round_above_the_limit_is_refused_and_the_state_survives() {
     );
     assert!(!n1.exists());
     assert_eq!(std::fs::read(d.join("state.json")).unwrap(), state);
-    succeeds(&[
-        "plan",
-        "--state",
-        arg(&d),
-        "--samples",
-        arg(&s0),
-        "--out",
-        arg(&n1),
-    ]);
+    succeeds(&plan_round(&d, &s0, &n1));
 }
 
 /// Class "checks after the work": an output in a missing folder was found only after the fit
@@ -492,6 +502,8 @@ fn peak_probe() {
         return;
     };
     let args: Vec<&str> = joined.split('\u{1f}').collect();
+    // reaped below by `wait4`, which clippy does not see
+    #[allow(clippy::zombie_processes)]
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_rkwave"))
         .args(&args)
         .stdout(std::process::Stdio::null())
@@ -575,25 +587,12 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
             &d,
         ));
         let half = format!("{}x{}", r / 2, r / 2);
-        let direct = with(
-            [
-                "image",
-                "--scene",
-                "shapes",
-                "--resolution",
-                &half,
-                "--spp",
-                "4",
-                "--adaptive",
-                "--force",
-                "--truth-cache",
-                arg(&d.join("truth")),
-                "--out",
-                arg(&d.join("a.npy")),
-            ]
-            .map(String::from)
-            .to_vec(),
-            &[],
+        let direct = image_cmd(
+            &half,
+            "4",
+            &d.join("truth"),
+            &d.join("a.npy"),
+            &["--adaptive", "--force"],
         );
         ratios.push(measure(format!("adaptive direct {half}"), direct, "1M", &d));
         let compare = [
@@ -747,17 +746,7 @@ fn sweep_state() {
     let s0 = started_plan(&d, "16x16", "4");
     let good = std::fs::read(d.join("state.json")).unwrap();
     let n1 = d.join("n1.npy");
-    let call = |state: &Path| {
-        user_error(&[
-            "plan",
-            "--state",
-            arg(state),
-            "--samples",
-            arg(&s0),
-            "--out",
-            arg(&n1),
-        ])
-    };
+    let call = |state: &Path| user_error(&plan_round(state, &s0, &n1));
     for bad in [
         &b"{"[..],
         b"",

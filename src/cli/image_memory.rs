@@ -58,17 +58,30 @@ pub fn uniform_request(
     images: usize,
 ) -> ImageRequest {
     let functions = uniform_image_functions(p, plane.width(), plane.height(), samples, rho);
+    let solve = if local {
+        ImageSolve::Local { p, functions }
+    } else {
+        ImageSolve::Uniform { p, functions }
+    };
+    request(plane, channels, samples, solve, images)
+}
+
+/// `samples` samples of `channels` on `plane` (generated or already read), fitted by
+/// `solve`, `images` output images held.
+fn request(
+    plane: ImagePlane,
+    channels: usize,
+    samples: f64,
+    solve: ImageSolve,
+    images: usize,
+) -> ImageRequest {
     ImageRequest {
         pixels: plane.pixels() as f64,
         channels,
         samples,
         from_file: false,
         positions: 0.0,
-        solve: if local {
-            ImageSolve::Local { p, functions }
-        } else {
-            ImageSolve::Uniform { p, functions }
-        },
+        solve,
         images,
     }
 }
@@ -109,19 +122,12 @@ pub fn tree_request(
     images: usize,
 ) -> ImageRequest {
     let levels = tree_levels(p, plane.width(), plane.height(), below_pixel);
-    ImageRequest {
-        pixels: plane.pixels() as f64,
-        channels,
-        samples,
-        from_file: false,
-        positions: 0.0,
-        solve: if direct {
-            ImageSolve::TreeDirect { p, levels, rho }
-        } else {
-            ImageSolve::TreePcg { p, levels, rho }
-        },
-        images,
-    }
+    let solve = if direct {
+        ImageSolve::TreeDirect { p, levels, rho }
+    } else {
+        ImageSolve::TreePcg { p, levels, rho }
+    };
+    request(plane, channels, samples, solve, images)
 }
 
 /// The larger of two requests (commands that run their parts one after the other).
