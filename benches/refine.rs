@@ -4,6 +4,7 @@
 //! (a 1e6-sample tree takes ~50 s to build, a round ~35 s).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use rkwave::refine::{BaseSampling, StopParams};
 use rkwave::refine::{RefineParams, Refiner, SignalOracle};
 use rkwave::sampling::{Domain, Signal};
 
@@ -13,9 +14,15 @@ const SAMPLES: usize = 1_000_000;
 fn round_vs_rebuild(c: &mut Criterion) {
     let oracle = SignalOracle::new(Signal::Jumps, Domain::UNIT);
     let params = RefineParams {
-        base_samples: SAMPLES,
-        tolerance: 1e-12,
-        budget: 2 * SAMPLES,
+        sampling: BaseSampling {
+            base_samples: SAMPLES,
+            ..RefineParams::default().sampling
+        },
+        stop: StopParams {
+            tolerance: 1e-12,
+            budget: 2 * SAMPLES,
+            ..RefineParams::default().stop
+        },
         ..RefineParams::default()
     };
     let mut group = c.benchmark_group("refine_1e6");

@@ -40,6 +40,7 @@ use crate::reconstruct::ReconstructError;
 use crate::refine::RefineError;
 use crate::report::scaling::ScalingError;
 use crate::resources::ResourceError;
+use crate::solve::cholesky::CholeskyError;
 use crate::solve::SolveError;
 
 use ErrorKind::{
@@ -135,6 +136,15 @@ impl ResourceError {
         match self {
             ResourceError::TooLarge { .. } => ResourceLimit,
             ResourceError::BadLimit { .. } => InvalidInput,
+        }
+    }
+}
+
+impl CholeskyError {
+    /// The kind of this error ([`crate::error`]): a failed factorization is numerical.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            CholeskyError::Symbolic { .. } | CholeskyError::NotPositive { .. } => Numerical,
         }
     }
 }
@@ -275,7 +285,8 @@ impl ImageFitError {
             | ImageFitError::Empty { .. }
             | ImageFitError::NonFiniteValue { .. }
             | ImageFitError::Smoothing { .. } => InvalidInput,
-            ImageFitError::Solve(_) => Numerical,
+            ImageFitError::Factor(e) => e.kind(),
+            ImageFitError::NonFiniteCoefficients { .. } => Numerical,
             ImageFitError::Local(e) => e.kind(),
         }
     }

@@ -262,7 +262,8 @@ proptest! {
     #[test]
     fn plan_state_reader_on_tampered_states(pick in any::<usize>(), value in json_value()) {
         let plane = rkwave::image::ImagePlane::new(16, 16).unwrap();
-        let params = AdaptiveParams { budget: 1024, ..AdaptiveParams::default() };
+        let mut params = AdaptiveParams::default();
+        params.stop.budget = 1024;
         let (state, _) = PlanState::start(plane, &params).unwrap();
         let mut json: serde_json::Value = serde_json::from_str(&state.to_json()).unwrap();
         let mut paths = Vec::new();

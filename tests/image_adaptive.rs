@@ -15,6 +15,9 @@ use rkwave::refine::StopReason;
 
 use common::scenes::{edge_distance, jittered, polynomial, straight_edge};
 use common::trees::deepen_randomly;
+use rkwave::image::adaptive::{
+    GrowthParams, ImageSampling, MarkingParams, QuadTreeParams, StopParams, TreeParams,
+};
 
 fn basis(p: usize, w: usize, h: usize, j: (u32, u32)) -> TensorBasis {
     TensorBasis::new(p, FilterFamily::cdv_default(p), w, h, j).unwrap()
@@ -151,7 +154,7 @@ fn slots_partition_the_image() {
     let b = basis(2, 48, 32, (7, 7));
     let tree = random_tree(b, 1, 40, 9);
     let area: f64 = tree
-        .slots()
+        .leaves()
         .iter()
         .map(|&c| {
             let r = tree.rect(c);
@@ -166,7 +169,7 @@ fn slots_partition_the_image() {
     let mut rng = Pcg64::seed_from_u64(4);
     for _ in 0..200 {
         let (x, y) = (rng.random::<f64>() * 48.0, rng.random::<f64>() * 32.0);
-        let s = tree.slot_at(x, y);
+        let s = tree.leaf_at(x, y);
         let r = tree.rect(s);
         assert!(r[0] <= x && x <= r[1] && r[2] <= y && y <= r[3]);
         assert_eq!(tree.depth_at(x, y), s.step);
@@ -175,7 +178,10 @@ fn slots_partition_the_image() {
 
 fn params(budget: usize) -> AdaptiveParams {
     AdaptiveParams {
-        budget,
+        stop: StopParams {
+            budget,
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     }
 }
@@ -186,7 +192,10 @@ fn params(budget: usize) -> AdaptiveParams {
 fn polynomial_scene_is_not_deepened() {
     let plane = ImagePlane::new(32, 32).unwrap();
     let p = AdaptiveParams {
-        tolerance: 1e-8,
+        stop: StopParams {
+            tolerance: 1e-8,
+            ..(params(20_000)).stop
+        },
         ..params(20_000)
     };
     let run = refine_image(&polynomial, plane, &p).unwrap();
@@ -194,7 +203,7 @@ fn polynomial_scene_is_not_deepened() {
     assert_eq!(run.report.rounds.len(), 1);
     assert_eq!(run.xs.len(), run.report.base_samples);
     let base_step = run.report.base_levels.0 - run.report.coarse_levels.0;
-    assert!(run.tree.slots().iter().all(|c| c.step == base_step));
+    assert!(run.tree.leaves().iter().all(|c| c.step == base_step));
 }
 
 /// A single straight edge: the refiner deepens along it and nowhere far from it.
@@ -240,15 +249,24 @@ fn invariant_and_budget_after_every_round() {
     for (budget, rho) in [(4 * w * h, 4.0), (3 * w * h, 2.5)] {
         for rounds in 0..5 {
             let p = AdaptiveParams {
-                max_rounds: rounds,
-                rho,
-                seed: 7,
+                stop: StopParams {
+                    max_rounds: rounds,
+                    ..(params(budget)).stop
+                },
+                tree: TreeParams {
+                    rho,
+                    ..(params(budget)).tree
+                },
+                sampling: ImageSampling {
+                    seed: 7,
+                    ..(params(budget)).sampling
+                },
                 ..params(budget)
             };
             let run = refine_image(&straight_edge, plane, &p).unwrap();
             assert!(run.xs.len() <= budget, "{} > {budget}", run.xs.len());
-            let counts = run.tree.slot_counts(&run.xs, &run.ys);
-            for slot in run.tree.slots() {
+            let counts = run.tree.leaf_counts(&run.xs, &run.ys);
+            for slot in run.tree.leaves() {
                 let c = counts.get(&slot).copied().unwrap_or(0);
                 assert!(c >= rho.ceil() as usize, "slot {slot:?} has {c} samples");
             }
@@ -282,7 +300,10 @@ fn deterministic_for_a_seed() {
         &straight_edge,
         plane,
         &AdaptiveParams {
-            seed: 2,
+            sampling: ImageSampling {
+                seed: 2,
+                ..(params(3000)).sampling
+            },
             ..params(3000)
         },
     )
@@ -303,14 +324,20 @@ fn bad_input_gives_typed_errors() {
     ));
     for (rho, theta) in [(f64::NAN, 0.5), (0.5, 0.5), (4.0, 0.0), (4.0, f64::NAN)] {
         let e = bad(AdaptiveParams {
-            rho,
-            theta,
+            tree: TreeParams {
+                rho,
+                ..(params(5000)).tree
+            },
+            marking: MarkingParams { theta },
             ..params(5000)
         });
         assert!(matches!(e, AdaptiveError::Parameter { .. }), "{e}");
     }
     let e = bad(AdaptiveParams {
-        tolerance: -1.0,
+        stop: StopParams {
+            tolerance: -1.0,
+            ..(params(5000)).stop
+        },
         ..params(5000)
     });
     assert!(e.to_string().contains("tolerance"));
@@ -319,7 +346,10 @@ fn bad_input_gives_typed_errors() {
     assert!(matches!(e, AdaptiveError::BudgetTooSmall { .. }), "{e}");
     assert!(e.to_string().contains("100"));
     let e = bad(AdaptiveParams {
-        base_level: Some(2),
+        quad: QuadTreeParams {
+            base_level: Some(2),
+            ..(params(5000)).quad
+        },
         ..params(5000)
     });
     assert!(matches!(e, AdaptiveError::Parameter { .. }), "{e}");
@@ -361,7 +391,10 @@ fn every_round_grows_by_the_least_growth_or_spends_the_budget() {
         for spread in [SpreadRule::Uniform, SpreadRule::Indicator] {
             for budget in [4 * 1024, 8 * 1024 + 3] {
                 let p = AdaptiveParams {
-                    spread,
+                    growth: GrowthParams {
+                        spread,
+                        ..(params(budget)).growth
+                    },
                     ..params(budget)
                 };
                 let run = refine_image(&scene, plane, &p).unwrap();
@@ -369,7 +402,8 @@ fn every_round_grows_by_the_least_growth_or_spends_the_budget() {
                 let what = format!("{name}, {spread:?}, budget {budget}");
                 for pair in rounds.windows(2) {
                     let (now, next) = (pair[0].samples, pair[1].samples);
-                    let least = ((p.min_growth * now as f64).ceil() as usize).min(budget - now);
+                    let least =
+                        ((p.growth.min_growth * now as f64).ceil() as usize).min(budget - now);
                     assert!(
                         next - now >= least,
                         "{what}: round {} added {} samples to {now}, least {least}",
@@ -382,7 +416,7 @@ fn every_round_grows_by_the_least_growth_or_spends_the_budget() {
                     assert_eq!(run.xs.len(), budget, "{what}: budget left");
                 }
                 let most = (budget as f64 / run.report.base_samples as f64).ln()
-                    / (1.0 + p.min_growth).ln()
+                    / (1.0 + p.growth.min_growth).ln()
                     + 1.0;
                 assert!(
                     (rounds.len() - 1) as f64 <= most,

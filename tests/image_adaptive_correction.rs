@@ -16,6 +16,7 @@ use rkwave::image::ImagePlane;
 // `polynomial`: in the coarse space every tree holds, so the fit reproduces it and its
 // residuals are rounding.
 use common::scenes::{polynomial, straight_edge};
+use rkwave::image::adaptive::{OutputParams, StopParams};
 
 const W: usize = 32;
 const H: usize = 32;
@@ -23,8 +24,14 @@ const H: usize = 32;
 fn run(oracle: &dyn rkwave::image::adaptive::ImageOracle) -> AdaptiveImage {
     let plane = ImagePlane::new(W, H).unwrap();
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
-        pixels: PixelEstimate::ResidualCorrected,
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
+        output: OutputParams {
+            pixels: PixelEstimate::ResidualCorrected,
+            ..AdaptiveParams::default().output
+        },
         ..AdaptiveParams::default()
     };
     refine_image(oracle, plane, &params).unwrap()
@@ -219,10 +226,13 @@ fn insignificant_mean_residuals_are_not_added() {
 fn the_default_output_is_clamped_to_the_local_sample_range() {
     let plane = ImagePlane::new(W, H).unwrap();
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     };
-    assert_eq!(params.pixels, PixelEstimate::ResidualClamped);
+    assert_eq!(params.output.pixels, PixelEstimate::ResidualClamped);
     let clamped = refine_image(&straight_edge, plane, &params).unwrap();
     let corrected = run(&straight_edge);
     assert_eq!(clamped.xs, corrected.xs);

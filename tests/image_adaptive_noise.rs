@@ -13,13 +13,17 @@ use rkwave::refine::StopReason;
 
 // `polynomial`: every wavelet coefficient is zero, the detail of a fit is noise alone.
 use common::scenes::{edge_distance, polynomial, straight_edge};
+use rkwave::image::adaptive::{ImageSampling, NoiseParams, StopParams, TreeParams};
 
 /// Noise deviation of the tests: 5% of a unit range, 1/14 of the edge's contrast 0.7.
 const SIGMA: f64 = 0.05;
 
 fn params(budget: usize) -> AdaptiveParams {
     AdaptiveParams {
-        budget,
+        stop: StopParams {
+            budget,
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     }
 }
@@ -93,7 +97,7 @@ fn noisy_polynomial_scene_is_not_deepened() {
     let base_step = run.report.base_levels.0 - run.report.coarse_levels.0;
     let deeper = run
         .tree
-        .slots()
+        .leaves()
         .iter()
         .filter(|c| c.step != base_step)
         .count();
@@ -112,7 +116,7 @@ fn noisy_polynomial_scene_is_not_deepened() {
     );
     assert!(run.xs.len() <= budget);
     assert!(
-        run.xs.len() + run.tree.slots().len() > budget,
+        run.xs.len() + run.tree.leaves().len() > budget,
         "budget left: {} of {budget} spent",
         run.xs.len()
     );
@@ -137,12 +141,15 @@ fn noisy_polynomial_scene_is_not_deepened() {
         &oracle,
         plane,
         &AdaptiveParams {
-            false_alarm: 0.0,
+            noise: NoiseParams {
+                false_alarm: 0.0,
+                ..(params(budget)).noise
+            },
             ..params(budget)
         },
     )
     .unwrap();
-    let deepest = chased.tree.slots().iter().map(|c| c.step).max().unwrap();
+    let deepest = chased.tree.leaves().iter().map(|c| c.step).max().unwrap();
     assert!(deepest > base_step + 1, "deepest step {deepest}");
 }
 
@@ -193,15 +200,24 @@ fn noisy_invariant_budget_and_determinism() {
     for (budget, rho) in [(4 * w * h, 2.0), (3 * w * h, 2.5)] {
         for rounds in [0, 1, 3, 6, 40] {
             let p = AdaptiveParams {
-                max_rounds: rounds,
-                rho,
-                seed: 7,
+                stop: StopParams {
+                    max_rounds: rounds,
+                    ..(params(budget)).stop
+                },
+                tree: TreeParams {
+                    rho,
+                    ..(params(budget)).tree
+                },
+                sampling: ImageSampling {
+                    seed: 7,
+                    ..(params(budget)).sampling
+                },
                 ..params(budget)
             };
             let run = refine_image(&oracle, plane, &p).unwrap();
             assert!(run.xs.len() <= budget, "{} > {budget}", run.xs.len());
-            let counts = run.tree.slot_counts(&run.xs, &run.ys);
-            for slot in run.tree.slots() {
+            let counts = run.tree.leaf_counts(&run.xs, &run.ys);
+            for slot in run.tree.leaves() {
                 let c = counts.get(&slot).copied().unwrap_or(0);
                 assert!(c >= rho.ceil() as usize, "slot {slot:?} has {c} samples");
             }

@@ -13,6 +13,7 @@ use rkwave::basis::FilterFamily;
 use rkwave::image::adaptive::fit::tree_kernel;
 use rkwave::image::adaptive::pcg::{SingleScaleRows, TreeNormalOperator};
 use rkwave::image::adaptive::{fit_tree_with, QuadTree, TreeSolver};
+use rkwave::image::adaptive::{FitParams, StopParams};
 
 /// A random tree on a 16 x 16 image (p = 2, levels (5, 5), half-pixel limit): the base step 1
 /// full, then `deepen` random slots below the limit activated, and `spp` jittered samples per
@@ -243,12 +244,18 @@ fn bad_schwarz_parameters_are_refused() {
         (1e-8, 10, 8.0, -1.0),
     ] {
         let params = AdaptiveParams {
-            budget: 1000,
-            solver: TreeSolver::Schwarz {
-                tolerance,
-                max_iterations,
-                tile,
-                halo,
+            stop: StopParams {
+                budget: 1000,
+                ..AdaptiveParams::default().stop
+            },
+            fit: FitParams {
+                solver: TreeSolver::Schwarz {
+                    tolerance,
+                    max_iterations,
+                    tile,
+                    halo,
+                },
+                ..AdaptiveParams::default().fit
             },
             ..AdaptiveParams::default()
         };
@@ -278,9 +285,15 @@ fn loose_rounds_end_in_the_accurate_fit() {
         max_iterations: 5000,
     };
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
-        solver: pcg,
-        round_tolerance: Some(1e-2),
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
+        fit: FitParams {
+            solver: pcg,
+            round_tolerance: Some(1e-2),
+            ..AdaptiveParams::default().fit
+        },
         ..AdaptiveParams::default()
     };
     let run = refine_image(&edge, plane, &params).unwrap();
@@ -331,11 +344,17 @@ fn loose_rounds_end_in_the_accurate_fit() {
     );
     // the direct solve ignores it
     let reference = AdaptiveParams {
-        budget: 4 * plane.pixels(),
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     };
     let with = AdaptiveParams {
-        round_tolerance: Some(1e-2),
+        fit: FitParams {
+            round_tolerance: Some(1e-2),
+            ..reference.fit
+        },
         ..reference
     };
     let (a, b) = (
@@ -347,7 +366,10 @@ fn loose_rounds_end_in_the_accurate_fit() {
     // out of range
     for t in [0.0, 1.0, f64::NAN, -1e-3] {
         let bad = AdaptiveParams {
-            round_tolerance: Some(t),
+            fit: FitParams {
+                round_tolerance: Some(t),
+                ..params.fit
+            },
             ..params
         };
         match bad.validate() {
@@ -374,11 +396,11 @@ fn the_continued_diagonal_equals_the_rebuilt_one() {
         let mut rng = Pcg64::seed_from_u64(seed + 100);
         for _ in 0..6 {
             let slots: Vec<_> = grown
-                .slots()
+                .leaves()
                 .into_iter()
                 .filter(|c| c.step < grown.steps())
                 .collect();
-            grown.activate(slots[rng.random_range(0..slots.len())]);
+            grown.deepen(slots[rng.random_range(0..slots.len())]);
         }
         assert!(grown.len() > tree.len());
         let old = xs.len() * 2 / 3;
@@ -463,12 +485,21 @@ fn measuring_rebuilds_changes_nothing_else() {
     };
     for solver in [pcg, TreeSolver::Direct] {
         let plain = AdaptiveParams {
-            budget: 4 * plane.pixels(),
-            solver,
+            stop: StopParams {
+                budget: 4 * plane.pixels(),
+                ..AdaptiveParams::default().stop
+            },
+            fit: FitParams {
+                solver,
+                ..AdaptiveParams::default().fit
+            },
             ..AdaptiveParams::default()
         };
         let measured = AdaptiveParams {
-            measure_rebuild: true,
+            fit: FitParams {
+                measure_rebuild: true,
+                ..plain.fit
+            },
             ..plain
         };
         let (a, b) = (

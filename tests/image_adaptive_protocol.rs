@@ -18,6 +18,7 @@ use rkwave::image::{ImagePlane, ImageSamples};
 use rkwave::io::{read_npy, write_npy, SampleSet};
 
 use common::scenes::straight_edge;
+use rkwave::image::adaptive::{ImageSampling, StopParams};
 
 /// The samples so far, grown round by round as a renderer would.
 struct Rendered {
@@ -100,8 +101,14 @@ fn protocol_gives_the_in_process_image() {
         plane,
     };
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
-        seed: 11,
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
+        sampling: ImageSampling {
+            seed: 11,
+            ..AdaptiveParams::default().sampling
+        },
         ..AdaptiveParams::default()
     };
     let run = refine_image(&oracle, plane, &params).unwrap();
@@ -130,8 +137,14 @@ fn protocol_with_noise_gives_the_in_process_image() {
         seed: 3,
     };
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
-        seed: 11,
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
+        sampling: ImageSampling {
+            seed: 11,
+            ..AdaptiveParams::default().sampling
+        },
         ..AdaptiveParams::default()
     };
     let run = refine_image(&oracle, plane, &params).unwrap();
@@ -161,7 +174,10 @@ fn protocol_with_noise_gives_the_in_process_image() {
 fn samples_in_any_order() {
     let plane = ImagePlane::new(32, 32).unwrap();
     let params = AdaptiveParams {
-        budget: 3 * plane.pixels(),
+        stop: StopParams {
+            budget: 3 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     };
     let run = refine_image(&straight_edge, plane, &params).unwrap();
@@ -199,7 +215,10 @@ fn samples_in_any_order() {
 fn earlier_rounds_are_recognised() {
     let plane = ImagePlane::new(32, 32).unwrap();
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     };
     let (state, base) = PlanState::start(plane, &params).unwrap();
@@ -226,8 +245,8 @@ fn earlier_rounds_are_recognised() {
     assert_eq!(done.round, 0);
     assert!(!done.complete);
     assert_eq!(done.fit.report.functions, step.log.functions);
-    let base_depth = done.tree.slots()[0].step;
-    assert!(done.tree.slots().iter().all(|c| c.step == base_depth));
+    let base_depth = done.tree.leaves()[0].step;
+    assert!(done.tree.leaves().iter().all(|c| c.step == base_depth));
 }
 
 /// A state written before the output pixels were a parameter (no `pixels`, no `residual_z`)
@@ -237,7 +256,10 @@ fn earlier_rounds_are_recognised() {
 fn a_state_without_the_output_parameters_parses_with_the_defaults() {
     let plane = ImagePlane::new(32, 32).unwrap();
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     };
     let (state, rendered) = drive(&straight_edge, plane, &params);
@@ -245,8 +267,8 @@ fn a_state_without_the_output_parameters_parses_with_the_defaults() {
     let fields = value["params"].as_object_mut().unwrap();
     assert!(fields.remove("pixels").is_some() && fields.remove("residual_z").is_some());
     let old = PlanState::from_json(&value.to_string(), "state.json".as_ref()).unwrap();
-    assert_eq!(old.params.pixels, PixelEstimate::ResidualClamped);
-    assert_eq!(old.params.residual_z, 3.0);
+    assert_eq!(old.params.output.pixels, PixelEstimate::ResidualClamped);
+    assert_eq!(old.params.output.residual_z, 3.0);
     assert_eq!(old, state);
     let run = refine_image(&straight_edge, plane, &params).unwrap();
     let done = old.reconstruct(&rendered.samples(plane)).unwrap();
@@ -257,13 +279,29 @@ fn a_state_without_the_output_parameters_parses_with_the_defaults() {
 fn bad_input_is_refused() {
     let plane = ImagePlane::new(32, 32).unwrap();
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
-        seed: 5,
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
+        sampling: ImageSampling {
+            seed: 5,
+            ..AdaptiveParams::default().sampling
+        },
         ..AdaptiveParams::default()
     };
     let (state, base) = PlanState::start(plane, &params).unwrap();
     // samples of another seed
-    let (_, other) = PlanState::start(plane, &AdaptiveParams { seed: 6, ..params }).unwrap();
+    let (_, other) = PlanState::start(
+        plane,
+        &AdaptiveParams {
+            sampling: ImageSampling {
+                seed: 6,
+                ..params.sampling
+            },
+            ..params
+        },
+    )
+    .unwrap();
     let mut foreign = Rendered::new(1);
     foreign.render(&straight_edge, &other);
     let err = state.clone().advance(&foreign.samples(plane)).unwrap_err();
@@ -324,7 +362,10 @@ fn bad_input_is_refused() {
         .check_params(
             plane,
             &AdaptiveParams {
-                budget: 5000,
+                stop: StopParams {
+                    budget: 5000,
+                    ..params.stop
+                },
                 ..params
             },
         )
@@ -459,7 +500,10 @@ fn command_line_protocol_gives_the_in_process_image() {
         &straight_edge,
         plane,
         &AdaptiveParams {
-            budget,
+            stop: StopParams {
+                budget,
+                ..AdaptiveParams::default().stop
+            },
             ..AdaptiveParams::default()
         },
     )

@@ -13,6 +13,7 @@ use rkwave::refine::{
     quadrature_error, refine, ExpressionOracle, Indicator, RefineError, RefineParams, Refinement,
     Refiner, SampleOracle, SignalOracle, Step, StopReason, MAX_DEPTH_LIMIT,
 };
+use rkwave::refine::{BaseSampling, IntervalTreeParams, MarkingParams, StopParams, TreeParams};
 use rkwave::sampling::{Domain, Layout, Signal};
 use rkwave::solve::dense_pinv;
 
@@ -32,9 +33,18 @@ fn polynomials_of_degree_below_p_are_reproduced_without_deepening() {
         let f = monomials(p);
         let params = RefineParams {
             domain,
-            p,
-            tolerance: 1e-8,
-            seed: SEED_A,
+            tree: TreeParams {
+                p,
+                ..RefineParams::default().tree
+            },
+            stop: StopParams {
+                tolerance: 1e-8,
+                ..RefineParams::default().stop
+            },
+            sampling: BaseSampling {
+                seed: SEED_A,
+                ..RefineParams::default().sampling
+            },
             ..RefineParams::default()
         };
         let r = refine(&f, &params).unwrap();
@@ -63,10 +73,22 @@ fn one_jump_deepens_only_within_a_few_supports_of_the_jump() {
     let f = |x: f64| 0.3 * x * x + if x >= jump { 1.0 } else { 0.0 };
     for p in [3usize, 4] {
         let params = RefineParams {
-            p,
-            max_depth: 14,
-            tolerance: 1e-5,
-            seed: SEED_A,
+            tree: TreeParams {
+                p,
+                ..RefineParams::default().tree
+            },
+            interval: IntervalTreeParams {
+                max_depth: 14,
+                ..RefineParams::default().interval
+            },
+            stop: StopParams {
+                tolerance: 1e-5,
+                ..RefineParams::default().stop
+            },
+            sampling: BaseSampling {
+                seed: SEED_A,
+                ..RefineParams::default().sampling
+            },
             ..RefineParams::default()
         };
         let r = refine(&f, &params).unwrap();
@@ -118,12 +140,24 @@ fn local_oversampling_holds_after_every_round() {
     ] {
         let oracle = SignalOracle::new(signal, Domain::UNIT);
         let params = RefineParams {
-            max_depth: 14,
-            tolerance: 1e-6,
-            rho,
-            budget: 3000,
-            base_layout: Layout::Random,
-            seed: SEED_A,
+            interval: IntervalTreeParams {
+                max_depth: 14,
+                ..RefineParams::default().interval
+            },
+            stop: StopParams {
+                tolerance: 1e-6,
+                budget: 3000,
+                ..RefineParams::default().stop
+            },
+            tree: TreeParams {
+                rho,
+                ..RefineParams::default().tree
+            },
+            sampling: BaseSampling {
+                base_layout: Layout::Random,
+                seed: SEED_A,
+                ..RefineParams::default().sampling
+            },
             ..RefineParams::default()
         };
         let mut refiner = Refiner::new(&oracle, &params).unwrap();
@@ -183,9 +217,15 @@ fn the_refiner_stops_at_the_budget() {
     let mut last = 0;
     for budget in [400usize, 700, 1500] {
         let params = RefineParams {
-            budget,
-            tolerance: 1e-12,
-            seed: SEED_A,
+            stop: StopParams {
+                budget,
+                tolerance: 1e-12,
+                ..RefineParams::default().stop
+            },
+            sampling: BaseSampling {
+                seed: SEED_A,
+                ..RefineParams::default().sampling
+            },
             ..RefineParams::default()
         };
         let r = refine(&oracle, &params).unwrap();
@@ -209,8 +249,14 @@ fn the_refiner_stops_at_the_budget() {
 fn a_seed_fixes_everything_and_rounds_reuse_exactly() {
     let oracle = SignalOracle::new(Signal::HeaviSine, Domain::UNIT);
     let params = RefineParams {
-        budget: 1200,
-        seed: SEED_A,
+        stop: StopParams {
+            budget: 1200,
+            ..RefineParams::default().stop
+        },
+        sampling: BaseSampling {
+            seed: SEED_A,
+            ..RefineParams::default().sampling
+        },
         ..RefineParams::default()
     };
     let a = refine(&oracle, &params).unwrap();
@@ -221,7 +267,10 @@ fn a_seed_fixes_everything_and_rounds_reuse_exactly() {
     let c = refine(
         &oracle,
         &RefineParams {
-            seed: SEED_B,
+            sampling: BaseSampling {
+                seed: SEED_B,
+                ..params.sampling
+            },
             ..params
         },
     )
@@ -247,8 +296,14 @@ fn a_seed_fixes_everything_and_rounds_reuse_exactly() {
 fn expressions_refine_where_they_jump() {
     let e = ExpressionOracle::parse("sin(8*x) + (x > 0.6)").unwrap();
     let params = RefineParams {
-        max_depth: 16,
-        tolerance: 1e-5,
+        interval: IntervalTreeParams {
+            max_depth: 16,
+            ..RefineParams::default().interval
+        },
+        stop: StopParams {
+            tolerance: 1e-5,
+            ..RefineParams::default().stop
+        },
         ..RefineParams::default()
     };
     let r = refine(&e, &params).unwrap();
@@ -264,38 +319,80 @@ fn bad_input_is_a_clear_error() {
         Err(RefineError::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
         other => panic!("expected an invalid {name}, got {other:?}"),
     };
-    invalid(RefineParams { budget: 0, ..base }, "budget");
     invalid(
         RefineParams {
-            tolerance: 0.0,
+            stop: StopParams {
+                budget: 0,
+                ..base.stop
+            },
+            ..base
+        },
+        "budget",
+    );
+    invalid(
+        RefineParams {
+            stop: StopParams {
+                tolerance: 0.0,
+                ..base.stop
+            },
             ..base
         },
         "tolerance",
     );
     invalid(
         RefineParams {
-            tolerance: -1.0,
+            stop: StopParams {
+                tolerance: -1.0,
+                ..base.stop
+            },
             ..base
         },
         "tolerance",
     );
     invalid(
         RefineParams {
-            tolerance: f64::NAN,
+            stop: StopParams {
+                tolerance: f64::NAN,
+                ..base.stop
+            },
             ..base
         },
         "tolerance",
     );
     invalid(
         RefineParams {
-            max_depth: 53,
+            interval: IntervalTreeParams {
+                max_depth: 53,
+                ..base.interval
+            },
             ..base
         },
         "max depth",
     );
-    invalid(RefineParams { rho: 0.5, ..base }, "rho");
-    invalid(RefineParams { theta: 0.0, ..base }, "theta");
-    invalid(RefineParams { p: 11, ..base }, "p");
+    invalid(
+        RefineParams {
+            tree: TreeParams {
+                rho: 0.5,
+                ..base.tree
+            },
+            ..base
+        },
+        "rho",
+    );
+    invalid(
+        RefineParams {
+            marking: MarkingParams { theta: 0.0 },
+            ..base
+        },
+        "theta",
+    );
+    invalid(
+        RefineParams {
+            tree: TreeParams { p: 11, ..base.tree },
+            ..base
+        },
+        "p",
+    );
     invalid(
         RefineParams {
             indicator: Indicator::Residual { probes: 0 },
@@ -306,7 +403,10 @@ fn bad_input_is_a_clear_error() {
     match refine(
         &f,
         &RefineParams {
-            max_depth: 5,
+            interval: IntervalTreeParams {
+                max_depth: 5,
+                ..base.interval
+            },
             ..base
         },
     ) {
@@ -322,7 +422,10 @@ fn bad_input_is_a_clear_error() {
     match refine(
         &f,
         &RefineParams {
-            budget: 100,
+            stop: StopParams {
+                budget: 100,
+                ..base.stop
+            },
             ..base
         },
     ) {
@@ -427,10 +530,19 @@ fn refinement_reaches_the_resolution_of_f64_next_to_a_non_dyadic_jump() {
     for (jump, deepest) in [(a, 47), (b, 52)] {
         let oracle = ExpressionOracle::parse(&format!("x^2 - 2*x - (x > {jump:?})")).unwrap();
         let params = RefineParams {
-            max_depth: MAX_DEPTH_LIMIT,
-            tolerance: 1e-14,
-            budget: 3000,
-            seed: SEED_A,
+            interval: IntervalTreeParams {
+                max_depth: MAX_DEPTH_LIMIT,
+                ..RefineParams::default().interval
+            },
+            stop: StopParams {
+                tolerance: 1e-14,
+                budget: 3000,
+                ..RefineParams::default().stop
+            },
+            sampling: BaseSampling {
+                seed: SEED_A,
+                ..RefineParams::default().sampling
+            },
             ..RefineParams::default()
         };
         let r = refine(&oracle, &params).unwrap();
@@ -528,10 +640,19 @@ fn refinement_stops_at_the_resolution_of_the_domain() {
     let oracle = ExpressionOracle::parse("x - (x > 1000.3183098861837)").unwrap();
     let params = RefineParams {
         domain,
-        max_depth: MAX_DEPTH_LIMIT,
-        tolerance: 1e-14,
-        budget: 3000,
-        seed: SEED_B,
+        interval: IntervalTreeParams {
+            max_depth: MAX_DEPTH_LIMIT,
+            ..RefineParams::default().interval
+        },
+        stop: StopParams {
+            tolerance: 1e-14,
+            budget: 3000,
+            ..RefineParams::default().stop
+        },
+        sampling: BaseSampling {
+            seed: SEED_B,
+            ..RefineParams::default().sampling
+        },
         ..RefineParams::default()
     };
     let r = refine(&oracle, &params).unwrap();
@@ -557,41 +678,74 @@ fn depth_and_budget_hints_name_a_value_that_works() {
     let base = RefineParams::default();
     let cases = [
         RefineParams {
-            coarse: Some(40),
-            max_depth: 40,
+            interval: IntervalTreeParams {
+                coarse: Some(40),
+                max_depth: 40,
+                ..base.interval
+            },
             ..base
         },
         RefineParams {
-            coarse: Some(60),
-            max_depth: 52,
+            interval: IntervalTreeParams {
+                coarse: Some(60),
+                max_depth: 52,
+                ..base.interval
+            },
             ..base
         },
         RefineParams {
-            coarse: Some(50),
-            max_depth: 40,
+            interval: IntervalTreeParams {
+                coarse: Some(50),
+                max_depth: 40,
+                ..base.interval
+            },
             ..base
         },
         RefineParams {
-            base_depth: Some(51),
-            max_depth: 52,
+            interval: IntervalTreeParams {
+                base_depth: Some(51),
+                max_depth: 52,
+                ..base.interval
+            },
             ..base
         },
         RefineParams {
-            base_depth: Some(30),
-            max_depth: 20,
+            interval: IntervalTreeParams {
+                base_depth: Some(30),
+                max_depth: 20,
+                ..base.interval
+            },
             ..base
         },
         RefineParams {
-            base_samples: 100_000,
-            max_depth: 8,
+            sampling: BaseSampling {
+                base_samples: 100_000,
+                ..base.sampling
+            },
+            interval: IntervalTreeParams {
+                max_depth: 8,
+                ..base.interval
+            },
             ..base
         },
         RefineParams {
-            base_samples: 5000,
-            budget: 1000,
+            sampling: BaseSampling {
+                base_samples: 5000,
+                ..base.sampling
+            },
+            stop: StopParams {
+                budget: 1000,
+                ..base.stop
+            },
             ..base
         },
-        RefineParams { budget: 10, ..base },
+        RefineParams {
+            stop: StopParams {
+                budget: 10,
+                ..base.stop
+            },
+            ..base
+        },
     ];
     for bad in cases {
         let err = bad.validate().expect_err("invalid");
@@ -608,27 +762,42 @@ fn depth_and_budget_hints_name_a_value_that_works() {
         let fixed = if let Some(v) = number("raise the max depth to at least") {
             assert!(v <= u64::from(MAX_DEPTH_LIMIT), "{text}");
             RefineParams {
-                max_depth: v as u32,
+                interval: IntervalTreeParams {
+                    max_depth: v as u32,
+                    ..bad.interval
+                },
                 ..bad
             }
         } else if let Some(v) = number("lower the coarse level n to at most") {
             RefineParams {
-                coarse: Some(v as u32),
+                interval: IntervalTreeParams {
+                    coarse: Some(v as u32),
+                    ..bad.interval
+                },
                 ..bad
             }
         } else if let Some(v) = number("lower the base depth to at most") {
             RefineParams {
-                base_depth: Some(v as u32),
+                interval: IntervalTreeParams {
+                    base_depth: Some(v as u32),
+                    ..bad.interval
+                },
                 ..bad
             }
         } else if let Some(v) = number("lower the base samples to at most") {
             RefineParams {
-                base_samples: v as usize,
+                sampling: BaseSampling {
+                    base_samples: v as usize,
+                    ..bad.sampling
+                },
                 ..bad
             }
         } else if let Some(v) = number("raise the budget to at least") {
             RefineParams {
-                budget: v as usize,
+                stop: StopParams {
+                    budget: v as usize,
+                    ..bad.stop
+                },
                 ..bad
             }
         } else {

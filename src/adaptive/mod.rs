@@ -5,11 +5,11 @@
 //! Both dimensions grow the same object. A tree `T` of wavelets closed under "parent
 //! present" over a coarse level; its *local depth* `d(x)` is the finest active level at `x`,
 //! and the points of depth `d` form whole dyadic cells one level deeper, the tree's *leaves*
-//! (1D) or *slots* (2D): each is one slot of the local space, holding one function per
+//! (both dimensions): each is one slot of the local space, holding one function per
 //! `2^D` cell of `[0, 1]^D`. The sampling invariant is
 //!
 //! ```text
-//! samples(C) >= ceil(rho)      for every leaf (slot) C,
+//! samples(C) >= ceil(rho)      for every leaf C,
 //! ```
 //!
 //! and a round fits on `T`, indicates the predicted detail `eta_C` of every markable unit,
@@ -26,8 +26,8 @@
 //! |------|-------------------------|---------------------|
 //! | tree | [`WaveletTree`] of wavelet indices | [`QuadTree`] of [`Cell`]s (three details each) |
 //! | cell depth | level `j` (absolute) | step `s` (levels `cx + s`, `cy + s`: two coarse levels) |
-//! | leaf | [`Leaf`] (`leaves()`) | slot cell (`slots()`) |
-//! | deepen | `extend`, `deepen` (wavelets and their ancestors) | `activate` (one cell) |
+//! | leaf | [`Leaf`] (`leaves()`) | leaf [`Cell`] (`leaves()`, `leaf_at`) |
+//! | deepen | `extend`, `deepen` (wavelets and their ancestors) | `deepen` (one cell) |
 //! | children | 2 | 4 |
 //! | budget cut | binary search on the new leaves' shortfall | prefix of additive costs |
 //!
@@ -35,9 +35,11 @@
 
 pub mod density;
 pub mod marking;
+pub mod params;
 mod stop;
 pub mod tree;
 
+pub use params::{MarkingParams, StopParams, TreeParams};
 pub use stop::StopReason;
 pub use tree::interval::{Leaf, WaveletTree};
 pub use tree::quad::{Cell, QuadTree};

@@ -17,6 +17,7 @@ use rkwave::refine::{
 use rkwave::sampling::{Domain, Layout, Signal};
 
 use super::{check_writable, figures, CliError, FamilyArg};
+use rkwave::refine::{BaseSampling, IntervalTreeParams, MarkingParams, StopParams, TreeParams};
 
 /// Refinement indicator on the command line.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -177,20 +178,29 @@ impl AdaptArgs {
         };
         let params = RefineParams {
             domain,
-            p: self.p,
-            family: Some(family),
-            coarse: self.coarse,
-            base_samples: self.base_samples,
-            base_layout,
-            base_depth: self.base_depth,
-            max_depth: self.max_depth,
-            rho: self.rho,
-            tolerance: self.tolerance,
-            budget: self.budget,
             indicator,
-            theta: self.theta,
-            seed: self.seed,
             reference_grid: self.round_grid,
+            tree: TreeParams {
+                p: self.p,
+                rho: self.rho,
+            },
+            interval: IntervalTreeParams {
+                family: Some(family),
+                coarse: self.coarse,
+                base_depth: self.base_depth,
+                max_depth: self.max_depth,
+            },
+            sampling: BaseSampling {
+                base_samples: self.base_samples,
+                base_layout,
+                seed: self.seed,
+            },
+            stop: StopParams {
+                tolerance: self.tolerance,
+                budget: self.budget,
+                ..RefineParams::default().stop
+            },
+            marking: MarkingParams { theta: self.theta },
             ..RefineParams::default()
         };
         params.validate().map_err(refine_error)?;
@@ -297,7 +307,7 @@ fn compare(args: &AdaptArgs, params: &RefineParams, truth: Truth<'_>) -> Result<
         return Err(CliError::Invalid(format!(
             "--compare-uniform: no sample count up to the budget {}: give --counts or a budget \
              of at least 512",
-            params.budget
+            params.stop.budget
         )));
     }
     let out = compare_uniform(truth, params, &budgets, args.grid).map_err(refine_error)?;

@@ -24,6 +24,7 @@ use super::image_args::{
     check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path, WaveletFitArgs,
 };
 use super::{check_writable, CliError};
+use rkwave::image::adaptive::{ImageSampling, TreeParams};
 
 /// `rkwave compare`.
 #[derive(Args, Debug)]
@@ -310,8 +311,14 @@ fn adaptive_rows(
 ) -> Result<AdaptiveRows, CliError> {
     let table = args.out.join(ADAPTIVE_TABLE);
     let params = AdaptiveParams {
-        p,
-        seed: args.seed,
+        tree: TreeParams {
+            p,
+            ..AdaptiveParams::default().tree
+        },
+        sampling: ImageSampling {
+            seed: args.seed,
+            ..AdaptiveParams::default().sampling
+        },
         ..AdaptiveParams::default()
     };
     let mut notes = Vec::new();

@@ -17,6 +17,7 @@ use rkwave::lab::figure::save_side_by_side;
 use rkwave::lab::table::comparison_markdown;
 
 use super::CliError;
+use rkwave::image::adaptive::StopParams;
 
 /// The demo's scene (a built-in one) and resolution.
 const DEMO_SCENE: &str = "shapes";
@@ -58,7 +59,10 @@ pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
     eprintln!("image plane: {DEMO_SCENE} done");
     let plane = ImagePlane::new(ADAPTIVE_SIDE, ADAPTIVE_SIDE).expect("valid demo resolution");
     let params = AdaptiveParams {
-        budget: 4 * plane.pixels(),
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
         ..AdaptiveParams::default()
     };
     let adaptive = compare_adaptive(&scene, plane, 4, 0.0, &params, &truth)?;

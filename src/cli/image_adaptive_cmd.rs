@@ -18,6 +18,9 @@ use super::image_args::{
     SolverChoice,
 };
 use super::CliError;
+use rkwave::image::adaptive::{
+    FitParams, ImageSampling, NoiseParams, OutputParams, QuadTreeParams, StopParams, TreeParams,
+};
 
 /// `params` with the fields of the JSON object `json` replaced (validated by the library).
 fn override_params(params: AdaptiveParams, json: &str) -> Result<AdaptiveParams, CliError> {
@@ -96,17 +99,37 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     }
     let scene = Scene::from_file(&scene_file)?;
     let params = AdaptiveParams {
-        p: check_p(args.p)?,
-        rho: args.rho.map_or(Ok(2.0), check_rho)?,
-        below_pixel: a.below_pixel,
-        false_alarm: a.false_alarm,
-        seed: args.seed,
-        budget,
-        solver: a.solver.solver(),
-        pixels: if a.no_residual {
-            PixelEstimate::FitOnly
-        } else {
-            PixelEstimate::ResidualClamped
+        tree: TreeParams {
+            p: check_p(args.p)?,
+            rho: args.rho.map_or(Ok(2.0), check_rho)?,
+        },
+        quad: QuadTreeParams {
+            below_pixel: a.below_pixel,
+            ..AdaptiveParams::default().quad
+        },
+        noise: NoiseParams {
+            false_alarm: a.false_alarm,
+            ..AdaptiveParams::default().noise
+        },
+        sampling: ImageSampling {
+            seed: args.seed,
+            ..AdaptiveParams::default().sampling
+        },
+        stop: StopParams {
+            budget,
+            ..AdaptiveParams::default().stop
+        },
+        fit: FitParams {
+            solver: a.solver.solver(),
+            ..AdaptiveParams::default().fit
+        },
+        output: OutputParams {
+            pixels: if a.no_residual {
+                PixelEstimate::FitOnly
+            } else {
+                PixelEstimate::ResidualClamped
+            },
+            ..AdaptiveParams::default().output
         },
         ..AdaptiveParams::default()
     };
@@ -124,10 +147,10 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         plane,
         3,
         budget as f64,
-        params.p,
-        params.below_pixel,
-        params.rho,
-        !matches!(params.solver, TreeSolver::Pcg { .. }),
+        params.tree.p,
+        params.quad.below_pixel,
+        params.tree.rho,
+        !matches!(params.fit.solver, TreeSolver::Pcg { .. }),
         8,
     );
     request.positions = budget as f64;

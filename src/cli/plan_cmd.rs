@@ -15,6 +15,7 @@ use rkwave::io::{npy_bytes, read_image_samples, SampleSet};
 
 use super::image_args::{check_p, parse_resolution};
 use super::{check_writable, CliError};
+use rkwave::image::adaptive::{ImageSampling, NoiseParams, QuadTreeParams, StopParams, TreeParams};
 
 /// `rkwave plan`.
 #[derive(Args, Debug)]
@@ -73,15 +74,29 @@ fn params(
     let budget = match (args.budget, args.spp) {
         (Some(b), _) => b,
         (None, Some(s)) => s.saturating_mul(plane.pixels()),
-        (None, None) => base.budget,
+        (None, None) => base.stop.budget,
     };
     Ok(AdaptiveParams {
-        p: args.p.map_or(Ok(base.p), check_p)?,
-        rho: args.rho.unwrap_or(base.rho),
-        below_pixel: args.below_pixel.unwrap_or(base.below_pixel),
-        seed: args.seed.unwrap_or(base.seed),
-        false_alarm: args.false_alarm.unwrap_or(base.false_alarm),
-        budget,
+        tree: TreeParams {
+            p: args.p.map_or(Ok(base.tree.p), check_p)?,
+            rho: args.rho.unwrap_or(base.tree.rho),
+        },
+        quad: QuadTreeParams {
+            below_pixel: args.below_pixel.unwrap_or(base.quad.below_pixel),
+            ..base.quad
+        },
+        sampling: ImageSampling {
+            seed: args.seed.unwrap_or(base.sampling.seed),
+            ..base.sampling
+        },
+        noise: NoiseParams {
+            false_alarm: args.false_alarm.unwrap_or(base.noise.false_alarm),
+            ..base.noise
+        },
+        stop: StopParams {
+            budget,
+            ..base.stop
+        },
         ..*base
     })
 }
@@ -187,7 +202,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "new plan for {} (budget {}): {} base positions -> {}; render them, then call \
              again with --samples",
             state.plane,
-            state.params.budget,
+            state.params.stop.budget,
             next.len(),
             args.out.display()
         ),
@@ -203,7 +218,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             state.round(),
             args.out.display(),
             state.positions(),
-            state.params.budget
+            state.params.stop.budget
         ),
         (Some(s), Some(stop)) => println!(
             "round {}: fit on {} samples ({} functions, estimated RMS error {:.3e}); the plan \
@@ -255,16 +270,16 @@ pub fn reconstruct(
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly
     } else {
-        state.params.pixels
+        state.params.output.pixels
     };
     let done = state.reconstruct_as(&samples, estimate).map_err(protocol)?;
     rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
     let mut overridden = Vec::new();
     // The plan fixes the basis and the solve: say so when the user asked for others.
-    if args.filter.p != state.params.p {
+    if args.filter.p != state.params.tree.p {
         overridden.push(format!(
             "p = {} from the plan's tree (--p, {} here, is not used with --state)",
-            state.params.p, args.filter.p
+            state.params.tree.p, args.filter.p
         ));
     }
     if args.filter.family.is_some() {

@@ -146,7 +146,7 @@ impl PlanCallReport {
             round: state.round(),
             positions: next.len(),
             total_positions: state.positions(),
-            budget: state.params.budget,
+            budget: state.params.stop.budget,
             stop: state.stop,
             step,
         }
@@ -217,7 +217,7 @@ impl PlanReconstructionReport {
             channels: samples.channels(),
             round: done.round,
             complete: done.complete,
-            p: state.params.p,
+            p: state.params.tree.p,
             levels: done.tree.basis().levels(),
             cells_per_step: done.tree.cells_per_step(),
             fit: done.fit.report.clone(),

@@ -9,7 +9,9 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::measure::{grid_error, quadrature_error, ErrorFigures, Reconstruction};
-use super::{refine, RefineError, RefineParams, Refinement, RoundLog, SampleOracle, StopReason};
+use super::{
+    refine, RefineError, RefineParams, Refinement, RoundLog, SampleOracle, StopParams, StopReason,
+};
 use crate::reconstruct::{fit, FitParams};
 use crate::sampling::Layout;
 
@@ -193,13 +195,13 @@ pub fn uniform_fit(
     grid: usize,
 ) -> Result<(UniformSummary, Errors), RefineError> {
     let domain = params.domain;
-    let xs = Layout::Uniform.generate(m, domain, params.seed);
+    let xs = Layout::Uniform.generate(m, domain, params.sampling.seed);
     let values: Vec<f64> = xs.iter().map(|&x| truth.oracle.sample(x)).collect();
     if let Some((x, v)) = xs.iter().zip(&values).find(|(_, v)| !v.is_finite()) {
         return Err(RefineError::NonFiniteValue { x: *x, value: *v });
     }
     let fp = FitParams {
-        p: params.p,
+        p: params.tree.p,
         family: Some(params.family()),
         ..FitParams::default()
     };
@@ -246,10 +248,10 @@ pub fn adaptive_vs_uniform(
     let report = AdaptReport {
         signal: truth.name.to_string(),
         domain: [domain.a(), domain.b()],
-        p: params.p,
+        p: params.tree.p,
         coarse: params.coarse(),
         base_depth: r.base_depth,
-        depth_limit: params.max_depth,
+        depth_limit: params.interval.max_depth,
         samples: m,
         base_samples: r.base_samples(),
         refinement_samples: m - r.base_samples(),
@@ -284,7 +286,7 @@ pub fn comparison_budgets(counts: &[usize], params: &RefineParams) -> Vec<usize>
     if counts.is_empty() {
         (9..=24)
             .map(|k| 1usize << k)
-            .filter(|&c| c <= params.budget)
+            .filter(|&c| c <= params.stop.budget)
             .collect()
     } else {
         counts.to_vec()
@@ -301,8 +303,11 @@ pub fn compare_uniform(
     let mut rows = Vec::with_capacity(budgets.len());
     for &budget in budgets {
         let p = RefineParams {
-            budget,
             reference_grid: 0,
+            stop: StopParams {
+                budget,
+                ..params.stop
+            },
             ..*params
         };
         p.validate()?;

@@ -48,7 +48,9 @@
 //! use rkwave::refine::{refine, RefineParams, SampleOracle};
 //!
 //! let f = |x: f64| if x < 0.4 { x } else { 1.0 + x }; // one jump
-//! let params = RefineParams { max_depth: 10, tolerance: 1e-6, ..RefineParams::default() };
+//! let mut params = RefineParams::default();
+//! params.interval.max_depth = 10;
+//! params.stop.tolerance = 1e-6;
 //! let result = refine(&f, &params)?;
 //! assert!(result.tree.local_depth(0.4) > result.tree.local_depth(0.9));
 //! # Ok::<(), rkwave::refine::RefineError>(())
@@ -73,10 +75,11 @@ pub use crate::adaptive::tree::interval::{
     cell_of, support_cells, Leaf, WaveletTree, ACTIVE_SET_MAX_LEVEL,
 };
 pub use crate::adaptive::StopReason;
+pub use crate::adaptive::{MarkingParams, StopParams, TreeParams};
 pub use error::RefineError;
 pub use measure::{grid_error, quadrature_error, ErrorFigures, Reconstruction};
 pub use oracle::{ExpressionError, ExpressionOracle, SampleOracle, SignalOracle};
-pub use params::{Indicator, RefineParams, MAX_DEPTH_LIMIT};
+pub use params::{BaseSampling, Indicator, IntervalTreeParams, RefineParams, MAX_DEPTH_LIMIT};
 pub use refinement::{Refinement, RoundLog, RoundTimes};
 pub use refiner::{refine, Refiner, Step};
 pub use samples::{Sample, SampleOrigin};

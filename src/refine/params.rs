@@ -1,8 +1,10 @@
 //! Knobs of the refiner: each field says what it costs and what it buys.
 
-use serde::Serialize;
+use serde::ser::SerializeStruct;
+use serde::{Serialize, Serializer};
 
 use super::RefineError;
+use crate::adaptive::{MarkingParams, StopParams, TreeParams};
 use crate::basis::{minimum_level, FilterFamily, MAX_VANISHING_MOMENTS};
 use crate::sampling::{Domain, Layout};
 use crate::solve::GlobalLsParams;
@@ -30,49 +32,30 @@ pub enum Indicator {
     },
 }
 
-/// Parameters of [`crate::refine::refine`].
-#[derive(Clone, Copy, Debug, Serialize)]
+/// Parameters of [`crate::refine::refine`], in groups: the local space ([`TreeParams`],
+/// shared with the image refiner), the interval tree's levels ([`IntervalTreeParams`]), the
+/// base sampling ([`BaseSampling`]), the indicator, the marking ([`MarkingParams`]) and the
+/// stop ([`StopParams`]), both shared, and the solve of each round.
+///
+/// Serialized flat, one key a field, as before the grouping (`domain`, `p`, `coarse`, ...).
+#[derive(Clone, Copy, Debug)]
 pub struct RefineParams {
     /// The domain `[a, b]`.
     pub domain: Domain,
-    /// Vanishing moments `p`: higher resolves smooth parts with fewer samples; supports (and
-    /// so the refined zone around a singularity) are `2p - 1` cells wide.
-    pub p: usize,
-    /// Interior filter family; `None` is CDV's choice for `p`.
-    #[serde(skip)]
-    pub family: Option<FilterFamily>,
-    /// Coarse scaling level `n`; `None` is `j_min(p)`. Larger makes everything more local.
-    pub coarse: Option<u32>,
-    /// Base samples `m0`: the sampling of the whole domain before any refinement.
-    pub base_samples: usize,
-    /// Layout of the base samples (seeded); leaves it leaves short are topped up.
-    pub base_layout: Layout,
-    /// Depth of the uniform base tree; `None` is the deepest level whose leaves the base
-    /// samples fill with `rho` each (`rho 2^{d+1} <= m0`, at least `n`).
-    pub base_depth: Option<u32>,
-    /// Depth limit `D`: finest wavelet level the tree may reach (at most [`MAX_DEPTH_LIMIT`]).
-    /// Deeper resolves singularities further at ~`4 (2p - 1) rho` samples per level and
-    /// singularity.
-    pub max_depth: u32,
-    /// Local oversampling `rho`: every leaf (one slot of the local space) holds at least
-    /// `ceil(rho)` samples. Larger is better conditioned and costs samples everywhere.
-    pub rho: f64,
-    /// Target RMS error `sqrt(int (f - f~)^2 / (b - a))`, as estimated by the indicator: the
-    /// refiner stops once the estimate is below it.
-    pub tolerance: f64,
-    /// Sample budget (base samples included): a round adds only as many marks as it can
-    /// sample.
-    pub budget: usize,
+    /// Vanishing moments `p` and local oversampling `rho` (every leaf holds `ceil(rho)`
+    /// samples).
+    pub tree: TreeParams,
+    /// The levels of the interval tree: filters, coarse level, base depth, depth limit.
+    pub interval: IntervalTreeParams,
+    /// The base sampling of the whole domain and the seed.
+    pub sampling: BaseSampling,
     /// Refinement indicator.
     pub indicator: Indicator,
-    /// Dörfler fraction `theta` in `(0, 1]`: each round marks the largest indicators holding
-    /// `theta` of the estimated squared error. Smaller is more selective (fewer samples per
-    /// round, more rounds); 1 marks everything that is not yet zero.
-    pub theta: f64,
-    /// Safety limit on rounds.
-    pub max_rounds: usize,
-    /// Seed of every random choice (base layout, jitter): the same seed gives the same result.
-    pub seed: u64,
+    /// Dörfler fraction `theta`.
+    pub marking: MarkingParams,
+    /// Target RMS error `sqrt(int (f - f~)^2 / (b - a))` (positive), sample budget, round
+    /// limit.
+    pub stop: StopParams,
     /// The global least-squares solve of each round.
     pub solve: GlobalLsParams,
     /// Diagnostics: points of a uniform grid on which each round's error against the oracle is
@@ -80,55 +63,127 @@ pub struct RefineParams {
     pub reference_grid: usize,
 }
 
+/// The levels of the 1D tree (what the image refiner's quadtree counts differently, in steps
+/// below the pixel).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntervalTreeParams {
+    /// Interior filter family; `None` is CDV's choice for `p`.
+    pub family: Option<FilterFamily>,
+    /// Coarse scaling level `n`; `None` is `j_min(p)`. Larger makes everything more local.
+    pub coarse: Option<u32>,
+    /// Depth of the uniform base tree; `None` is the deepest level whose leaves the base
+    /// samples fill with `rho` each (`rho 2^{d+1} <= m0`, at least `n`).
+    pub base_depth: Option<u32>,
+    /// Depth limit `D`: finest wavelet level the tree may reach (at most [`MAX_DEPTH_LIMIT`]).
+    /// Deeper resolves singularities further at ~`4 (2p - 1) rho` samples per level and
+    /// singularity.
+    pub max_depth: u32,
+}
+
+impl Default for IntervalTreeParams {
+    fn default() -> Self {
+        Self {
+            family: None,
+            coarse: None,
+            base_depth: None,
+            max_depth: 32,
+        }
+    }
+}
+
+/// The base sampling of the 1D refiner.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseSampling {
+    /// Base samples `m0`: the sampling of the whole domain before any refinement.
+    pub base_samples: usize,
+    /// Layout of the base samples (seeded); leaves it leaves short are topped up.
+    pub base_layout: Layout,
+    /// Seed of every random choice (base layout, jitter): the same seed gives the same result.
+    pub seed: u64,
+}
+
+impl Default for BaseSampling {
+    fn default() -> Self {
+        Self {
+            base_samples: 256,
+            base_layout: Layout::Jittered,
+            seed: 1,
+        }
+    }
+}
+
 impl Default for RefineParams {
     fn default() -> Self {
         Self {
             domain: Domain::UNIT,
-            p: 3,
-            family: None,
-            coarse: None,
-            base_samples: 256,
-            base_layout: Layout::Jittered,
-            base_depth: None,
-            max_depth: 32,
-            rho: 2.0,
-            tolerance: 1e-4,
-            budget: 100_000,
+            tree: TreeParams { p: 3, rho: 2.0 },
+            interval: IntervalTreeParams::default(),
+            sampling: BaseSampling::default(),
             indicator: Indicator::Coefficients,
-            theta: 0.5,
-            max_rounds: 1000,
-            seed: 1,
+            marking: MarkingParams::default(),
+            stop: StopParams {
+                tolerance: 1e-4,
+                budget: 100_000,
+                max_rounds: 1000,
+            },
             solve: GlobalLsParams::default(),
             reference_grid: 0,
         }
     }
 }
 
+impl Serialize for RefineParams {
+    /// The flat form of the ungrouped parameters (the filter family is not serialized).
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut m = serializer.serialize_struct("RefineParams", 16)?;
+        m.serialize_field("domain", &self.domain)?;
+        m.serialize_field("p", &self.tree.p)?;
+        m.serialize_field("coarse", &self.interval.coarse)?;
+        m.serialize_field("base_samples", &self.sampling.base_samples)?;
+        m.serialize_field("base_layout", &self.sampling.base_layout)?;
+        m.serialize_field("base_depth", &self.interval.base_depth)?;
+        m.serialize_field("max_depth", &self.interval.max_depth)?;
+        m.serialize_field("rho", &self.tree.rho)?;
+        m.serialize_field("tolerance", &self.stop.tolerance)?;
+        m.serialize_field("budget", &self.stop.budget)?;
+        m.serialize_field("indicator", &self.indicator)?;
+        m.serialize_field("theta", &self.marking.theta)?;
+        m.serialize_field("max_rounds", &self.stop.max_rounds)?;
+        m.serialize_field("seed", &self.sampling.seed)?;
+        m.serialize_field("solve", &self.solve)?;
+        m.serialize_field("reference_grid", &self.reference_grid)?;
+        m.end()
+    }
+}
+
 impl RefineParams {
     /// The filter family (CDV's choice when not given).
     pub fn family(&self) -> FilterFamily {
-        self.family
-            .unwrap_or_else(|| FilterFamily::cdv_default(self.p.max(1)))
+        self.interval
+            .family
+            .unwrap_or_else(|| FilterFamily::cdv_default(self.tree.p.max(1)))
     }
 
     /// The coarse level (`j_min(p)` when not given).
     pub fn coarse(&self) -> u32 {
-        self.coarse
-            .unwrap_or_else(|| minimum_level(self.p.clamp(1, MAX_VANISHING_MOMENTS)))
+        self.interval
+            .coarse
+            .unwrap_or_else(|| minimum_level(self.tree.p.clamp(1, MAX_VANISHING_MOMENTS)))
     }
 
     /// Samples per leaf, `ceil(rho)`.
     pub fn per_leaf(&self) -> usize {
-        self.rho.ceil().max(1.0) as usize
+        self.tree.rho.ceil().max(1.0) as usize
     }
 
     /// The base depth (given, or from the base samples).
     pub fn base_depth(&self) -> u32 {
         let n = self.coarse();
-        self.base_depth.unwrap_or_else(|| {
+        self.interval.base_depth.unwrap_or_else(|| {
             let need = self.per_leaf() as f64;
             let mut d = n;
-            while d < MAX_DEPTH_LIMIT && need * 2f64.powi(d as i32 + 2) <= self.base_samples as f64
+            while d < MAX_DEPTH_LIMIT
+                && need * 2f64.powi(d as i32 + 2) <= self.sampling.base_samples as f64
             {
                 d += 1;
             }
@@ -146,18 +201,21 @@ impl RefineParams {
     fn depth_fix(&self, base: u32) -> String {
         if base <= MAX_DEPTH_LIMIT {
             let mut fix = format!("raise the max depth to at least {base}");
-            if self.base_depth.is_none() && self.coarse() <= self.max_depth {
+            if self.interval.base_depth.is_none() && self.coarse() <= self.interval.max_depth {
                 // The base depth came from the base samples: fewer make it shallower.
-                let most = self.base_leaf_samples(self.max_depth) * 2.0 - 1.0;
+                let most = self.base_leaf_samples(self.interval.max_depth) * 2.0 - 1.0;
                 fix.push_str(&format!(" or give at most {most} base samples"));
             }
             fix
-        } else if self.base_depth.is_some() && self.coarse() <= self.max_depth {
-            format!("lower the base depth to at most {}", self.max_depth)
+        } else if self.interval.base_depth.is_some() && self.coarse() <= self.interval.max_depth {
+            format!(
+                "lower the base depth to at most {}",
+                self.interval.max_depth
+            )
         } else {
             format!(
                 "lower the coarse level n to at most {}",
-                self.max_depth.min(MAX_DEPTH_LIMIT)
+                self.interval.max_depth.min(MAX_DEPTH_LIMIT)
             )
         }
     }
@@ -165,8 +223,8 @@ impl RefineParams {
     /// The way out of a base sampling above the budget: a value that works.
     fn budget_fix(&self, base: u32) -> String {
         let n = self.coarse();
-        let jmin = minimum_level(self.p.clamp(1, MAX_VANISHING_MOMENTS));
-        let budget = self.budget as f64;
+        let jmin = minimum_level(self.tree.p.clamp(1, MAX_VANISHING_MOMENTS));
+        let budget = self.stop.budget as f64;
         if self.base_leaf_samples(n) > budget {
             // Even the coarsest base tree this coarse level allows does not fit.
             let fits = (jmin..n)
@@ -176,12 +234,13 @@ impl RefineParams {
                 Some(c) => format!("lower the coarse level n to at most {c}"),
                 None => format!(
                     "raise the budget to at least {}",
-                    self.base_leaf_samples(jmin).max(self.base_samples as f64)
+                    self.base_leaf_samples(jmin)
+                        .max(self.sampling.base_samples as f64)
                 ),
             };
         }
-        if self.base_samples > self.budget {
-            return format!("lower the base samples to at most {}", self.budget);
+        if self.sampling.base_samples > self.stop.budget {
+            return format!("lower the base samples to at most {}", self.stop.budget);
         }
         // A given base depth too deep for the budget.
         let fits = (n..base)
@@ -200,41 +259,44 @@ impl RefineParams {
     pub fn validate(&self) -> Result<(), RefineError> {
         let bad =
             |name, value: String, fix| Err(RefineError::InvalidParameter { name, value, fix });
-        if self.p == 0 || self.p > MAX_VANISHING_MOMENTS {
-            return bad("p", self.p.to_string(), "choose p in 1..=10");
+        if self.tree.p == 0 || self.tree.p > MAX_VANISHING_MOMENTS {
+            return bad("p", self.tree.p.to_string(), "choose p in 1..=10");
         }
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+        if !(self.stop.tolerance.is_finite() && self.stop.tolerance > 0.0) {
             return bad(
                 "tolerance",
-                self.tolerance.to_string(),
+                self.stop.tolerance.to_string(),
                 "give a positive target RMS error, e.g. 1e-4",
             );
         }
-        if self.budget == 0 {
+        if self.stop.budget == 0 {
             return bad(
                 "budget",
                 "0".into(),
                 "give a positive sample budget, e.g. 4096",
             );
         }
-        if self.base_samples == 0 {
+        if self.sampling.base_samples == 0 {
             return bad(
                 "base samples",
                 "0".into(),
                 "give at least one base sample, e.g. 256",
             );
         }
-        if !(self.rho.is_finite() && self.rho >= 1.0 && self.rho <= 64.0) {
+        if !(self.tree.rho.is_finite() && self.tree.rho >= 1.0 && self.tree.rho <= 64.0) {
             return bad(
                 "rho",
-                self.rho.to_string(),
+                self.tree.rho.to_string(),
                 "give a local oversampling in [1, 64], e.g. 2",
             );
         }
-        if !(self.theta.is_finite() && self.theta > 0.0 && self.theta <= 1.0) {
+        if !(self.marking.theta.is_finite()
+            && self.marking.theta > 0.0
+            && self.marking.theta <= 1.0)
+        {
             return bad(
                 "theta",
-                self.theta.to_string(),
+                self.marking.theta.to_string(),
                 "give a marking fraction in (0, 1], e.g. 0.5",
             );
         }
@@ -247,10 +309,10 @@ impl RefineParams {
                 );
             }
         }
-        if self.max_depth > MAX_DEPTH_LIMIT {
+        if self.interval.max_depth > MAX_DEPTH_LIMIT {
             return bad(
                 "max depth",
-                self.max_depth.to_string(),
+                self.interval.max_depth.to_string(),
                 "choose a depth limit of at most 52 (MAX_DEPTH_LIMIT)",
             );
         }
@@ -259,16 +321,18 @@ impl RefineParams {
         // The base tree has 2^{base+1} leaves of ceil(rho) samples each: refused here, before
         // a tree or a sample of that size is allocated.
         let required = self.base_leaf_samples(base);
-        if required > self.budget as f64 || self.base_samples > self.budget {
+        if required > self.stop.budget as f64 || self.sampling.base_samples > self.stop.budget {
             return Err(RefineError::BudgetBelowBase {
-                budget: self.budget,
-                required: required.max(self.base_samples as f64).min(u64::MAX as f64) as u64,
+                budget: self.stop.budget,
+                required: required
+                    .max(self.sampling.base_samples as f64)
+                    .min(u64::MAX as f64) as u64,
                 fix: self.budget_fix(base),
             });
         }
-        if self.max_depth < base {
+        if self.interval.max_depth < base {
             return Err(RefineError::MaxDepthBelowBase {
-                max_depth: self.max_depth,
+                max_depth: self.interval.max_depth,
                 base_depth: base,
                 fix: self.depth_fix(base),
             });

@@ -88,7 +88,9 @@ pub struct Refiner<'o, O: SampleOracle + ?Sized> {
 ///
 /// // A kink at x = 1/3: the tree deepens there and stays coarse elsewhere.
 /// let kink = |x: f64| (x - 1.0 / 3.0).abs();
-/// let params = RefineParams { tolerance: 1e-3, budget: 4000, ..RefineParams::default() };
+/// let mut params = RefineParams::default();
+/// params.stop.tolerance = 1e-3;
+/// params.stop.budget = 4000;
 /// let r = refine(&kink, &params)?;
 /// assert!(r.samples.len() <= 4000);
 /// let v = r.evaluate(&[0.8])?;
@@ -110,25 +112,33 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
     pub fn new(oracle: &'o O, params: &RefineParams) -> Result<Self, RefineError> {
         params.validate()?;
         let domain = params.domain;
-        let bank = FilterBank::shared(params.p, params.family())?;
+        let bank = FilterBank::shared(params.tree.p, params.family())?;
         let coarse = params.coarse();
         let base_depth = params.base_depth();
-        let full = CdvBasis::with_bank(bank.clone(), coarse, params.max_depth, domain)?;
-        let tree = WaveletTree::uniform(bank, coarse, base_depth as i32, params.max_depth, domain)?;
-        let mut rng = Pcg64::seed_from_u64(params.seed ^ 0x5EED_0FAD_A971);
+        let full = CdvBasis::with_bank(bank.clone(), coarse, params.interval.max_depth, domain)?;
+        let tree = WaveletTree::uniform(
+            bank,
+            coarse,
+            base_depth as i32,
+            params.interval.max_depth,
+            domain,
+        )?;
+        let mut rng = Pcg64::seed_from_u64(params.sampling.seed ^ 0x5EED_0FAD_A971);
         let t0 = Instant::now();
-        let mut xs = params
-            .base_layout
-            .generate(params.base_samples, domain, params.seed);
+        let mut xs = params.sampling.base_layout.generate(
+            params.sampling.base_samples,
+            domain,
+            params.sampling.seed,
+        );
         // Top-ups for the base leaves the layout left short.
         let mut sorted: Vec<f64> = xs.iter().map(|&x| domain.to_unit(x)).collect();
         sorted.sort_by(f64::total_cmp);
         let top_up = fill_leaves(&sorted, &tree.leaves(), params.per_leaf(), domain, &mut rng)?;
         xs.extend(top_up);
         let mut store = SampleStore::new();
-        if xs.len() > params.budget {
+        if xs.len() > params.stop.budget {
             return Err(RefineError::BudgetBelowBase {
-                budget: params.budget,
+                budget: params.stop.budget,
                 required: xs.len() as u64,
                 fix: format!("raise the budget to at least {}", xs.len()),
             });
@@ -320,7 +330,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
                 .collect();
             let points = probe_points(&markable, probes, params.domain, &mut self.rng);
             // Without budget for the probes, Both goes on with the coefficients alone.
-            if self.store.len() + points.len() <= params.budget {
+            if self.store.len() + points.len() <= params.stop.budget {
                 let xs: Vec<f64> = points.iter().map(|p| p.1).collect();
                 let fitted = self.evaluate(&xs)?;
                 let before = self.store.len();
@@ -355,7 +365,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         // A NaN estimate never satisfies a stop test (`NaN <= t` is false; kept explicit).
         let below = |sq: f64| {
             let e = (sq / length).sqrt();
-            e.is_finite() && e <= params.tolerance
+            e.is_finite() && e <= params.stop.tolerance
         };
         if below(indication.total_sq) {
             return Err(StopReason::Tolerance);
@@ -366,7 +376,7 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         // Dörfler's set on every markable unit; of it, the marks whose new leaves f64 cannot
         // sample are dropped. If none is left, what is left of the error (a fraction `theta`
         // of it at least) sits below the resolution of f64: refinement stops there.
-        let dorfler = indication.dorfler(params.theta);
+        let dorfler = indication.dorfler(params.marking.theta);
         let resolvable: Vec<bool> = indication
             .units
             .iter()
@@ -394,11 +404,11 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             };
             &filtered
         };
-        if self.round + 1 >= params.max_rounds {
+        if self.round + 1 >= params.stop.max_rounds {
             return Err(StopReason::MaxRounds);
         }
         let need = params.per_leaf();
-        let remaining = params.budget.saturating_sub(self.store.len());
+        let remaining = params.stop.budget.saturating_sub(self.store.len());
         let trial = |k: usize| -> Marks {
             let mut tree = self.tree.clone();
             tree.extend(
@@ -567,7 +577,7 @@ fn fit_round(
                     pivot,
                     column_samples,
                     per_leaf: params.per_leaf(),
-                    p: params.p,
+                    p: params.tree.p,
                 },
                 e => e,
             })?;

@@ -168,14 +168,25 @@ fn expressions_follow_the_documented_semantics() {
 #[test]
 fn incremental_normal_equations_equal_a_fresh_k_transpose_k() {
     use crate::kernel::kernel_matrix;
-    use crate::refine::{RefineParams, Refiner, SignalOracle, Step};
+    use crate::refine::{
+        BaseSampling, IntervalTreeParams, RefineParams, Refiner, SignalOracle, Step, StopParams,
+    };
     use crate::sampling::Signal;
     let oracle = SignalOracle::new(Signal::Jumps, Domain::UNIT);
     let params = RefineParams {
-        max_depth: 16,
-        tolerance: 1e-9,
-        budget: 1500,
-        seed: 7,
+        interval: IntervalTreeParams {
+            max_depth: 16,
+            ..RefineParams::default().interval
+        },
+        stop: StopParams {
+            tolerance: 1e-9,
+            budget: 1500,
+            ..RefineParams::default().stop
+        },
+        sampling: BaseSampling {
+            seed: 7,
+            ..RefineParams::default().sampling
+        },
         ..RefineParams::default()
     };
     let mut refiner = Refiner::new(&oracle, &params).unwrap();

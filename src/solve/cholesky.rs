@@ -12,7 +12,7 @@
 //! right-hand side is solved from the one factor ([`SparseCholesky::solve_in_place`]).
 //! The one wrapper of faer's sparse Cholesky for every caller: the 1D and tree normal
 //! equations ([`crate::solve::normal_ls`]) and the 2D stencil normal equations
-//! (`crate::image::fit`).
+//! (the image fit's `NormalSystem`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};

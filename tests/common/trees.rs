@@ -9,7 +9,7 @@ use rkwave::image::adaptive::{Cell, QuadTree};
 pub fn deepen_randomly(tree: &mut QuadTree, cells: usize, rng: &mut impl Rng) {
     for _ in 0..cells {
         let slots: Vec<Cell> = tree
-            .slots()
+            .leaves()
             .into_iter()
             .filter(|c| c.step < tree.steps())
             .collect();
@@ -17,7 +17,7 @@ pub fn deepen_randomly(tree: &mut QuadTree, cells: usize, rng: &mut impl Rng) {
             break;
         }
         let c = slots[rng.random_range(0..slots.len())];
-        assert!(tree.activate(c));
+        assert!(tree.deepen(c));
     }
 }
 
@@ -30,7 +30,7 @@ pub fn sample_slots(
     xs: &mut Vec<f64>,
     ys: &mut Vec<f64>,
 ) {
-    for slot in tree.slots() {
+    for slot in tree.leaves() {
         let r = tree.rect(slot);
         for _ in 0..per_slot {
             xs.push(r[0] + (r[1] - r[0]) * rng.random::<f64>());

@@ -17,10 +17,10 @@
 //!
 //! *Local depth.* A point lies in one cell per step; its depth `d` is the number of leading
 //! active steps (`0..=L`), and its local space is that of `V_{cx+d} (x) V_{cy+d}`. The cell of
-//! step `d` holding the point is a *slot*: it is inactive (or at the limit `d = L`) while its
-//! parent is active, so all its points have depth `d`, and the slots partition the image. A
-//! slot holds one tensor function of the local space; the sampling invariant of the refiner
-//! is `samples(slot) >= ceil(rho)` for every slot. A tree that is full up to step `L` spans
+//! step `d` holding the point is a *leaf*: it is inactive (or at the limit `d = L`) while its
+//! parent is active, so all its points have depth `d`, and the leaves partition the image. A
+//! leaf holds one tensor function of the local space; the sampling invariant of the refiner
+//! is `samples(leaf) >= ceil(rho)` for every leaf. A tree that is full up to step `L` spans
 //! `V_Jx (x) V_Jy`, the uniform engine's space.
 
 use std::collections::HashMap;
@@ -117,10 +117,11 @@ impl QuadTree {
         flags[cell.ky * w + cell.kx]
     }
 
-    /// Activates `cell` (adds its three functions). Returns false if it was active already.
+    /// Deepens the tree at `cell` (activates it: adds its three functions). Returns false if
+    /// it was active already.
     /// Panics if its parent is inactive or it lies at or beyond the depth limit (a broken
-    /// internal contract: only slots below the limit are offered for refinement).
-    pub fn activate(&mut self, cell: Cell) -> bool {
+    /// internal contract: only leaves below the limit are offered for refinement).
+    pub fn deepen(&mut self, cell: Cell) -> bool {
         assert!(cell.step < self.steps(), "cell {cell:?} at the depth limit");
         if let Some(parent) = cell.parent() {
             assert!(self.is_active(parent), "parent of {cell:?} inactive");
@@ -223,8 +224,8 @@ impl QuadTree {
         }
     }
 
-    /// The slot holding `(x, y)`: the cell of step `d`, `d` the local depth there.
-    pub fn slot_at(&self, x: f64, y: f64) -> Cell {
+    /// The leaf holding `(x, y)`: the cell of step `d`, `d` the local depth there.
+    pub fn leaf_at(&self, x: f64, y: f64) -> Cell {
         let mut step = 0;
         while step < self.steps() && self.is_active(self.cell_at(step, x, y)) {
             step += 1;
@@ -234,11 +235,11 @@ impl QuadTree {
 
     /// Local depth `d(x, y)` in steps (`0..=L`): the local space is `V_{cx+d} (x) V_{cy+d}`.
     pub fn depth_at(&self, x: f64, y: f64) -> u32 {
-        self.slot_at(x, y).step
+        self.leaf_at(x, y).step
     }
 
-    /// Every slot (the leaves of the quadtree), in depth-first order from the step-0 cells.
-    pub fn slots(&self) -> Vec<Cell> {
+    /// Every leaf of the quadtree, in depth-first order from the step-0 cells.
+    pub fn leaves(&self) -> Vec<Cell> {
         let (w, h) = self.cell_dims(0);
         let mut out = Vec::new();
         let mut stack: Vec<Cell> = (0..h)
@@ -270,11 +271,11 @@ impl QuadTree {
         ]
     }
 
-    /// Samples per slot: the slot of every position, counted.
-    pub fn slot_counts(&self, xs: &[f64], ys: &[f64]) -> HashMap<Cell, usize> {
+    /// Samples per leaf: the leaf of every position, counted.
+    pub fn leaf_counts(&self, xs: &[f64], ys: &[f64]) -> HashMap<Cell, usize> {
         let mut counts = HashMap::new();
         for (&x, &y) in xs.iter().zip(ys) {
-            *counts.entry(self.slot_at(x, y)).or_insert(0) += 1;
+            *counts.entry(self.leaf_at(x, y)).or_insert(0) += 1;
         }
         counts
     }

@@ -50,6 +50,7 @@ pub enum AdaptiveRunError {
 }
 
 pub use super::correction::RESIDUAL_Z;
+use crate::image::adaptive::StopParams;
 
 /// The method name of the adaptive fit's box pixels alone.
 pub const FIT_ONLY: &str = "adaptive wavelet, fit only";
@@ -123,7 +124,10 @@ pub fn compare_adaptive(
     let (truth_image, _, _) = truth_cached(&truth.cache, scene, plane, truth.rate);
     let t = std::time::Instant::now();
     let params = AdaptiveParams {
-        budget: spp * plane.pixels(),
+        stop: StopParams {
+            budget: spp * plane.pixels(),
+            ..params.stop
+        },
         ..*params
     };
     if !(noise.is_finite() && noise >= 0.0) {
@@ -138,7 +142,7 @@ pub fn compare_adaptive(
     let noisy = NoisyOracle {
         inner: &clean,
         sigma: noise,
-        seed: params.seed.wrapping_add(1),
+        seed: params.sampling.seed.wrapping_add(1),
     };
     let oracle: &dyn ImageOracle = if noise > 0.0 { &noisy } else { &clean };
     let run = refine_image(oracle, plane, &params)?;
@@ -171,7 +175,7 @@ pub fn compare_adaptive(
         &run.values,
         super::PixelEstimate::ResidualCorrected,
         sigma,
-        params.residual_z,
+        params.output.residual_z,
     )?;
     rows.push(AdaptiveRow {
         method: UNCLAMPED.into(),
@@ -187,7 +191,7 @@ pub fn compare_adaptive(
             spp,
             sampler: Sampler::Stratified,
             noise,
-            seed: params.seed,
+            seed: params.sampling.seed,
         },
     )?;
     let adaptive_set =

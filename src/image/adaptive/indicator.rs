@@ -76,7 +76,7 @@ pub fn indicate(
     let min_ratio = (-(p + 1) as f64).exp2();
     let max_ratio = max_ratio.max(min_ratio);
     let mut out = Indication::default();
-    for slot in tree.slots() {
+    for slot in tree.leaves() {
         let Some(parent) = slot.parent() else {
             continue;
         };

@@ -42,13 +42,15 @@ pub use crate::adaptive::marking;
 /// The quadtree under its old path, for the solver modules' `super::tree` imports.
 use crate::adaptive::tree::quad as tree;
 pub use crate::adaptive::{Cell, QuadTree};
+pub use crate::adaptive::{MarkingParams, StopParams, TreeParams};
 pub use correction::{PixelEstimate, ResidualCorrection};
 pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, FitState, TreeFit, TreeFitReport};
 pub use gram::TreeGram;
 pub use pcg::TreeSolver;
 pub use refiner::{
     refine_image, AdaptiveImage, AdaptiveParams, AdaptiveReport, AdaptiveTimes, Decision,
-    ImagePlan, ImageRound, PlanProgress, RebuildCost, Round, SamplePositions,
+    FitParams, GrowthParams, ImagePlan, ImageRound, ImageSampling, IndicatorParams, NoiseParams,
+    OutputParams, PlanProgress, QuadTreeParams, RebuildCost, Round, SamplePositions,
 };
 pub use significance::{NoiseLevel, Significance};
 

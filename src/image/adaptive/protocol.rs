@@ -367,12 +367,12 @@ impl PlanState {
         next: usize,
     ) -> Result<(), ProtocolError> {
         use crate::resources::{tree_levels, ImageRequest, ImageSolve};
-        let p = self.params.p;
+        let p = self.params.tree.p;
         let (w, h) = (self.plane.width(), self.plane.height());
-        let limit = tree_levels(p, w, h, self.params.below_pixel);
+        let limit = tree_levels(p, w, h, self.params.quad.below_pixel);
         let levels = (plan.base_steps() + plan.progress().marked.len() as u32 + 1).min(limit);
-        let rho = self.params.rho;
-        let solve = match self.params.solver {
+        let rho = self.params.tree.rho;
+        let solve = match self.params.fit.solver {
             super::TreeSolver::Pcg { .. } => ImageSolve::TreePcg { p, levels, rho },
             _ => ImageSolve::TreeDirect { p, levels, rho },
         };
@@ -455,7 +455,7 @@ impl PlanState {
         self.check_memory(
             &plan,
             samples,
-            self.params.budget.saturating_sub(self.positions()),
+            self.params.stop.budget.saturating_sub(self.positions()),
         )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(samples.xs(), samples.ys(), &values)?;
@@ -485,7 +485,7 @@ impl PlanState {
             next_round,
             stop,
             total_positions: self.positions(),
-            budget: self.params.budget,
+            budget: self.params.stop.budget,
         })
     }
 
@@ -494,7 +494,7 @@ impl PlanState {
     /// output pixels the plan's parameters ask for ([`AdaptiveParams::pixels`]). With the
     /// samples of the round at which the plan stopped, this is the in-process loop's result.
     pub fn reconstruct(&self, samples: &ImageSamples) -> Result<PlanReconstruction, ProtocolError> {
-        self.reconstruct_as(samples, self.params.pixels)
+        self.reconstruct_as(samples, self.params.output.pixels)
     }
 
     /// [`PlanState::reconstruct`] with the output pixels `estimate` instead of the plan's
@@ -519,7 +519,7 @@ impl PlanState {
             samples.values(),
             estimate,
             sigma,
-            self.params.residual_z,
+            self.params.output.residual_z,
         )?;
         Ok(PlanReconstruction {
             tree: plan.tree().clone(),

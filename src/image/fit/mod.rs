@@ -21,6 +21,7 @@ use thiserror::Error;
 
 use crate::basis::tensor::{TensorBasis, TensorError, TensorLevelParams, TensorValue};
 use crate::basis::{CdvBasis, FilterFamily};
+use crate::solve::cholesky::CholeskyError;
 use crate::solve::SolveError;
 
 pub use normal::{NormalEquations2d, StencilPattern};
@@ -142,9 +143,18 @@ pub enum ImageFitError {
         /// The value.
         value: f64,
     },
-    /// The solve failed (an internal error or an impossible system).
+    /// The sparse Cholesky factorization of the normal matrix failed.
     #[error("the 2D normal equations could not be solved: {0}")]
-    Solve(String),
+    Factor(#[from] CholeskyError),
+    /// A solve returned non-finite coefficients (an internal error).
+    #[error(
+        "the 2D normal equations could not be solved: channel {channel} has non-finite \
+         coefficients (an internal error: please report)"
+    )]
+    NonFiniteCoefficients {
+        /// 0-based channel.
+        channel: usize,
+    },
     /// A smoothing penalty with `p = 1` (Haar functions do not overlap) or not finite.
     #[error(
         "smoothing {smoothing} with p = {p}: the first-difference penalty needs p >= 2 and a \
@@ -376,9 +386,7 @@ pub fn fit_image(
     let (coefficients, factor, cg) = match params.solver {
         NormalSolver::Cholesky => {
             let t = Instant::now();
-            let f = system
-                .factor(params.ordering)
-                .map_err(|e| ImageFitError::Solve(e.to_string()))?;
+            let f = system.factor(params.ordering)?;
             timings.factor_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let z = system.solve_factored(&rhs);
@@ -435,9 +443,7 @@ pub fn fit_image(
         .enumerate()
         .find(|(_, z)| z.iter().any(|v: &f64| !v.is_finite()))
     {
-        return Err(ImageFitError::Solve(format!(
-            "channel {c} has non-finite coefficients (an internal error: please report)"
-        )));
+        return Err(ImageFitError::NonFiniteCoefficients { channel: c });
     }
     let (nx, ny) = basis.dims();
     let report = ImageSolveReport {

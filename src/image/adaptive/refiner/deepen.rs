@@ -17,10 +17,10 @@ impl ImagePlan {
     /// indicator of every slot (the weights of the spare samples).
     pub(super) fn tally(&self, xs: &[f64], ys: &[f64], ind: &Indication) -> Tally {
         let params = &self.params;
-        let left = params.budget.saturating_sub(xs.len());
+        let left = params.stop.budget.saturating_sub(xs.len());
         // the oversampling so far: ceil(rho), or more after densifying rounds
-        let counts = self.tree.slot_counts(xs, ys);
-        let slots = self.tree.slots();
+        let counts = self.tree.leaf_counts(xs, ys);
+        let slots = self.tree.leaves();
         let target = slots
             .iter()
             .map(|s| counts.get(s).copied().unwrap_or(0))
@@ -28,7 +28,7 @@ impl ImagePlan {
             .unwrap_or(0)
             .max(self.per_slot);
         // the round's least growth: min_growth x the samples, or the rest of the budget
-        let goal = ((params.min_growth * xs.len() as f64).ceil() as usize).min(left);
+        let goal = ((params.growth.min_growth * xs.len() as f64).ceil() as usize).min(left);
         let eta: HashMap<Cell, f64> = ind
             .units
             .iter()
@@ -66,7 +66,7 @@ impl ImagePlan {
             return None;
         }
         let t = Instant::now();
-        let mut rng = round_rng(self.params.seed, round + 1);
+        let mut rng = round_rng(self.params.sampling.seed, round + 1);
         let mut next = SamplePositions::default();
         let (_, to) = spread_samples(
             &self.tree,
@@ -99,14 +99,14 @@ impl ImagePlan {
         let tree = &self.tree;
         let (left, goal, target) = (tally.left, tally.goal, tally.target);
         let etas: Vec<f64> = ind.units.iter().map(|u| u.1).collect();
-        let n = dorfler(&etas, params.theta).max(1);
+        let n = dorfler(&etas, params.marking.theta).max(1);
         // every unit is a candidate: the Dörfler set, extended to the least growth
         let marked: Vec<Cell> = ind.units.iter().map(|u| u.0).collect();
         // samples already in each child of each marked slot
         let index: HashMap<Cell, usize> = marked.iter().enumerate().map(|(i, &c)| (c, i)).collect();
         let mut child_counts = vec![[0usize; 4]; marked.len()];
         for (&x, &y) in xs.iter().zip(ys) {
-            let slot = tree.slot_at(x, y);
+            let slot = tree.leaf_at(x, y);
             if let Some(&i) = index.get(&slot) {
                 let c = tree.cell_at(slot.step + 1, x, y);
                 child_counts[i][(c.ky & 1) * 2 + (c.kx & 1)] += 1;
@@ -115,7 +115,7 @@ impl ImagePlan {
         // children at the depth limit get at least ceil(rho_limit) samples
         let per_child = PerChild {
             target,
-            limit_slot: target.max(params.rho_limit.ceil() as usize),
+            limit_slot: target.max(params.sampling.rho_limit.ceil() as usize),
             steps: tree.steps(),
         };
         let costs: Vec<usize> = marked
@@ -124,7 +124,7 @@ impl ImagePlan {
             .map(|(m, cc)| cc.iter().map(|&c| per_child.of(m).saturating_sub(c)).sum())
             .collect();
         // a share of the least growth kept for spreading
-        let reserved = (params.spread_share * goal as f64).ceil() as usize;
+        let reserved = (params.growth.spread_share * goal as f64).ceil() as usize;
         let mark_goal = goal - reserved.min(goal);
         let mut k = n;
         let mut spent: usize = costs[..n].iter().sum();
@@ -160,11 +160,11 @@ impl ImagePlan {
         log: &mut ImageRound,
     ) -> SamplePositions {
         let k = marking.k;
-        let mut rng = round_rng(self.params.seed, round + 1);
+        let mut rng = round_rng(self.params.sampling.seed, round + 1);
         let mut next = SamplePositions::default();
         for (cell, counts) in marking.marked[..k].iter().zip(&marking.child_counts) {
             let per_slot = marking.per_child.of(cell);
-            self.tree.activate(*cell);
+            self.tree.deepen(*cell);
             for (q, child) in cell.children().into_iter().enumerate() {
                 let need = per_slot.saturating_sub(counts[q]);
                 next.stratified(self.tree.rect(child), need, &mut rng);
@@ -184,7 +184,7 @@ impl ImagePlan {
                 &stay,
                 &tally.counts,
                 &tally.eta,
-                self.params.spread,
+                self.params.growth.spread,
                 marking.extra,
                 &mut next,
                 &mut rng,

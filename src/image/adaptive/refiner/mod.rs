@@ -12,7 +12,7 @@
 //!    limit). *Least growth*: every sampling round adds at least `min_growth` times the
 //!    samples of its fit, or the rest of the budget if less; when the marked slots cost less,
 //!    the spare samples are spread over the slots that stay slots
-//!    ([`super::marking::spread`], by [`AdaptiveParams::spread`]), so a budget-driven run
+//!    ([`super::marking::spread`], by [`GrowthParams::spread`]), so a budget-driven run
 //!    ends at the budget after about `log(budget / base) / log(1 + min_growth)` rounds
 //!    (measured: at 128², 4 spp, camera stopped at the round limit, 40, with 42,428 of
 //!    65,536 samples spent, rounds after the third adding 24 to 3,000 samples each).
@@ -32,7 +32,7 @@
 //!
 //! Every round refits: by default the direct solve (kernel rows, `G` continued from the last
 //! round's, Cholesky), bit-identical to a rebuild, so the file protocol's rounds are the
-//! in-process ones bit for bit. [`AdaptiveParams::solver`] may choose matrix-free PCG
+//! in-process ones bit for bit. [`FitParams::solver`] may choose matrix-free PCG
 //! ([`super::pcg`]), which in the in-process loop starts from the last round's coefficients;
 //! the file protocol starts each PCG round from 0, so under PCG its fits agree with the
 //! loop's to the PCG tolerance, not bit for bit.
@@ -51,7 +51,10 @@ mod report;
 mod run;
 mod step;
 
-pub use params::AdaptiveParams;
+pub use params::{
+    AdaptiveParams, FitParams, GrowthParams, ImageSampling, IndicatorParams, NoiseParams,
+    OutputParams, QuadTreeParams,
+};
 pub use plan::{Decision, ImagePlan, PlanProgress, Round};
 pub use positions::SamplePositions;
 pub use report::{AdaptiveImage, AdaptiveReport, AdaptiveTimes, ImageRound, RebuildCost};

@@ -87,10 +87,10 @@ impl ImagePlan {
         params.validate()?;
         // A lower bound of what the budget's samples hold at the last fit: the position (16
         // bytes), one value (8) and the finest level's (2p - 1)^2 kernel entries (16 each).
-        let per_sample = 24.0 + 16.0 * ((2 * params.p - 1) as f64).powi(2);
+        let per_sample = 24.0 + 16.0 * ((2 * params.tree.p - 1) as f64).powi(2);
         crate::resources::check(
-            || format!("a budget of {} samples", params.budget),
-            params.budget as f64 * per_sample,
+            || format!("a budget of {} samples", params.stop.budget),
+            params.stop.budget as f64 * per_sample,
             || {
                 format!(
                     "lower the budget to at most {} samples",
@@ -100,15 +100,23 @@ impl ImagePlan {
         )?;
         let (w, h) = (plane.width(), plane.height());
         let levels = (
-            finest_level(w, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
-            finest_level(h, params.below_pixel).max(crate::basis::minimum_level(params.p) + 2),
+            finest_level(w, params.quad.below_pixel)
+                .max(crate::basis::minimum_level(params.tree.p) + 2),
+            finest_level(h, params.quad.below_pixel)
+                .max(crate::basis::minimum_level(params.tree.p) + 2),
         );
-        let basis = TensorBasis::new(params.p, FilterFamily::cdv_default(params.p), w, h, levels)?;
+        let basis = TensorBasis::new(
+            params.tree.p,
+            FilterFamily::cdv_default(params.tree.p),
+            w,
+            h,
+            levels,
+        )?;
         let steps = basis.steps();
         let (cx, cy) = basis.coarse_levels();
-        let per_slot = params.rho.ceil() as usize;
+        let per_slot = params.tree.rho.ceil() as usize;
         let base_cost = |s: u32| (1usize << (cx + s)) * (1usize << (cy + s)) * per_slot;
-        let s0 = match params.base_level {
+        let s0 = match params.quad.base_level {
             Some(level) => {
                 if level <= cx || level > cx + steps {
                     return Err(AdaptiveError::Parameter {
@@ -121,12 +129,14 @@ impl ImagePlan {
             }
             None => (1..steps)
                 .rev()
-                .find(|&s| base_cost(s) as f64 <= params.base_fraction * params.budget as f64)
+                .find(|&s| {
+                    base_cost(s) as f64 <= params.quad.base_fraction * params.stop.budget as f64
+                })
                 .unwrap_or(1),
         };
-        if base_cost(s0) > params.budget {
+        if base_cost(s0) > params.stop.budget {
             return Err(AdaptiveError::BudgetTooSmall {
-                budget: params.budget,
+                budget: params.stop.budget,
                 base: base_cost(s0),
                 slots: base_cost(s0) / per_slot,
                 per_slot,
@@ -172,7 +182,7 @@ impl ImagePlan {
                         reason,
                     });
                 }
-                plan.tree.activate(cell);
+                plan.tree.deepen(cell);
             }
         }
         plan.progress = progress;
@@ -212,9 +222,9 @@ impl ImagePlan {
     /// the seed's round-0 stream (the same for every call).
     pub fn base_positions(&self) -> SamplePositions {
         let base = QuadTree::uniform(self.tree.basis().clone(), self.base_steps);
-        let mut rng = round_rng(self.params.seed, 0);
+        let mut rng = round_rng(self.params.sampling.seed, 0);
         let mut out = SamplePositions::default();
-        for slot in base.slots() {
+        for slot in base.leaves() {
             out.stratified(base.rect(slot), self.per_slot, &mut rng);
         }
         out
@@ -234,7 +244,7 @@ impl ImagePlan {
             xs,
             ys,
             values,
-            self.params.solver,
+            self.params.fit.solver,
             None,
             &mut FitState::default(),
         )
@@ -255,13 +265,13 @@ impl ImagePlan {
         let params = &self.params;
         let tree = &self.tree;
         let ch = values.len();
-        if params.false_alarm <= 0.0 {
+        if params.noise.false_alarm <= 0.0 {
             return Ok((
                 fit_tree_updating(tree, xs, ys, values, solver, start, state)?,
                 None,
             ));
         }
-        let probes = probe_values(params.seed, xs, ys, params.probes);
+        let probes = probe_values(params.sampling.seed, xs, ys, params.noise.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
         let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, state)?;
@@ -273,8 +283,8 @@ impl ImagePlan {
             &rows,
             &all,
             ch,
-            params.false_alarm,
-            tree.slots().len(),
+            params.noise.false_alarm,
+            tree.leaves().len(),
         );
         state.rows = Some(rows);
         fit.coefficients.truncate(ch);
@@ -295,7 +305,7 @@ impl ImagePlan {
     ) -> AdaptiveReport {
         let (cx, cy) = self.tree.basis().coarse_levels();
         let mut notes = fit_notes(&fit.report);
-        notes.extend(noise_notes(&rounds, self.params.false_alarm));
+        notes.extend(noise_notes(&rounds, self.params.noise.false_alarm));
         let spread: Vec<String> = rounds
             .iter()
             .filter(|r| r.spread > 0)
@@ -305,8 +315,8 @@ impl ImagePlan {
             notes.push(format!(
                 "the marked slots cost less than the least growth ({} x the samples, or the rest \
                  of the budget): spare samples spread over the other slots by {:?} ({})",
-                self.params.min_growth,
-                self.params.spread,
+                self.params.growth.min_growth,
+                self.params.growth.spread,
                 spread.join(", ")
             ));
         }
@@ -316,7 +326,7 @@ impl ImagePlan {
             base_levels: (cx + self.base_steps, cy + self.base_steps),
             base_samples,
             samples,
-            budget: self.params.budget,
+            budget: self.params.stop.budget,
             functions: fit.report.functions,
             cells_per_step: self.tree.cells_per_step(),
             stop,

@@ -81,9 +81,9 @@ pub fn refine_image(
         &store.xs,
         &store.ys,
         &store.values,
-        params.pixels,
+        params.output.pixels,
         sigma,
-        params.residual_z,
+        params.output.residual_z,
     )?;
     let mut report = plan.report(base_samples, store.xs.len(), &fit, stop, rounds, times);
     report.notes.push(correction.note());

@@ -28,9 +28,10 @@ impl ImagePlan {
         ys: &[f64],
         values: &[&[f64]],
     ) -> Result<Round, AdaptiveError> {
-        let solver = self.params.solver;
+        let solver = self.params.fit.solver;
         let loose = self
             .params
+            .fit
             .round_tolerance
             .and_then(|t| solver.with_tolerance(t))
             .filter(|&s| s != solver);
@@ -126,7 +127,7 @@ impl ImagePlan {
         self.state = state;
         let (fit, significance) = fitted?;
         let fit_s = t.elapsed().as_secs_f64();
-        let rebuild = if self.params.measure_rebuild {
+        let rebuild = if self.params.fit.measure_rebuild {
             let t = Instant::now();
             let (again, _) =
                 self.fit_updating(xs, ys, values, solver, None, &mut FitState::default())?;
@@ -140,7 +141,7 @@ impl ImagePlan {
         } else {
             None
         };
-        if matches!(self.params.solver, TreeSolver::Pcg { .. }) {
+        if matches!(self.params.fit.solver, TreeSolver::Pcg { .. }) {
             // the next round starts from this one's image and probe coefficients
             let mut start = fit.coefficients.clone();
             if let Some(s) = &significance {
@@ -164,7 +165,7 @@ impl ImagePlan {
         indicate(
             tree,
             &fit.coefficients,
-            self.params.max_ratio,
+            self.params.indicator.max_ratio,
             threshold.as_ref().map(|f| f as &dyn Fn(Cell) -> f64),
         )
     }
@@ -184,7 +185,7 @@ impl ImagePlan {
             samples,
             new_samples: samples.saturating_sub(self.progress.samples_fitted),
             functions: fit.report.functions,
-            max_depth: self.tree.slots().iter().map(|c| c.step).max().unwrap_or(0),
+            max_depth: self.tree.leaves().iter().map(|c| c.step).max().unwrap_or(0),
             estimate_rms: (ind.total_sq / self.plane.pixels() as f64).sqrt(),
             marked: 0,
             noise: significance.as_ref().map(|s| s.level.clone()),
@@ -206,11 +207,11 @@ impl ImagePlan {
         nothing_significant: bool,
         round: usize,
     ) -> Option<StopReason> {
-        if estimate_rms <= self.params.tolerance {
+        if estimate_rms <= self.params.stop.tolerance {
             Some(StopReason::Tolerance)
         } else if nothing_significant && ind.insignificant.is_empty() {
             Some(StopReason::DepthLimit)
-        } else if round >= self.params.max_rounds {
+        } else if round >= self.params.stop.max_rounds {
             Some(StopReason::MaxRounds)
         } else {
             None

@@ -1,0 +1,405 @@
+//! The parameters of the adaptive image refiner ([`AdaptiveParams`]) in groups, and their
+//! ranges (`validate` per group).
+//!
+//! The local space ([`TreeParams`]: `p`, `rho`), the Dörfler marking ([`MarkingParams`]) and
+//! the stop ([`StopParams`]) are the 1D refiner's types ([`crate::adaptive::params`]); what
+//! is the image plane's own sits in its own group: the quadtree's levels
+//! ([`QuadTreeParams`]), the sampling at the depth limit ([`ImageSampling`]), the indicator's
+//! decay cap ([`IndicatorParams`]), the least growth per round ([`GrowthParams`]), the noise
+//! test ([`NoiseParams`]), the solver ([`FitParams`]) and the output pixels
+//! ([`OutputParams`]). Serialized flat (module `flat`), one key a parameter as before.
+
+mod flat;
+
+use serde::{Deserialize, Serialize};
+
+use super::super::correction::{PixelEstimate, RESIDUAL_Z};
+use super::super::pcg::TreeSolver;
+use super::super::AdaptiveError;
+use crate::adaptive::marking::SpreadRule;
+use crate::adaptive::{MarkingParams, StopParams, TreeParams};
+
+/// Parameters of the adaptive image refiner.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "flat::FlatParams", into = "flat::FlatParams")]
+pub struct AdaptiveParams {
+    /// Vanishing moments `p` (2 is the practical choice in 2D) and samples per slot,
+    /// `ceil(rho)` (the local oversampling).
+    pub tree: TreeParams,
+    /// The quadtree's levels: depth limit below the pixel, base level.
+    pub quad: QuadTreeParams,
+    /// Samples at the depth limit and the seed.
+    pub sampling: ImageSampling,
+    /// Dörfler fraction `theta` of the estimated squared error marked per round, in `(0, 1]`.
+    pub marking: MarkingParams,
+    /// The indicator's decay ratio cap.
+    pub indicator: IndicatorParams,
+    /// The least growth per round and where its spare samples go.
+    pub growth: GrowthParams,
+    /// Stop when the estimated RMS error (per unit area) is at most the tolerance (0:
+    /// budget-driven); most samples in total (positive); most rounds.
+    pub stop: StopParams,
+    /// The solver of every round's fit.
+    pub fit: FitParams,
+    /// The noise test that keeps noise from deepening the tree.
+    pub noise: NoiseParams,
+    /// The output pixels.
+    pub output: OutputParams,
+}
+
+/// The levels of the quadtree (what the 1D refiner's interval tree counts as absolute levels).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QuadTreeParams {
+    /// Depth limit below the pixel: the finest level per axis is
+    /// `J = ceil(log2 size) + below_pixel` (1: half-pixel functions at edges; measured at 64²,
+    /// 4 spp on `shapes`, quarter-pixel ones spent the budget on too few edge cells).
+    pub below_pixel: u32,
+    /// Level of the base leaves along x (`None`: the finest whose samples fit in
+    /// `base_fraction` of the budget).
+    pub base_level: Option<u32>,
+    /// Share of the budget the automatic base level may spend.
+    pub base_fraction: f64,
+}
+
+/// The sampling beyond `ceil(rho)` per leaf.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImageSampling {
+    /// Samples per leaf at the depth limit, `ceil(rho_limit)` (at least `ceil(rho)`): where
+    /// the tree can go no deeper, more samples per function turn the fit from near
+    /// interpolation into an average.
+    pub rho_limit: f64,
+    /// Seed of the sample positions.
+    pub seed: u64,
+}
+
+/// The indicator of the image refiner.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IndicatorParams {
+    /// Cap `r_max` of the indicator's decay ratio (module `indicator`): `1/2` is a straight
+    /// edge's ratio; larger values give unresolved oscillations (textures) more priority and
+    /// let a few cells go deep before the whole edge is resolved.
+    pub max_ratio: f64,
+}
+
+/// The least growth per round (the image refiner's addition to Dörfler marking).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GrowthParams {
+    /// Least growth per round as a share of the current samples: if the Dörfler set costs
+    /// fewer new samples, the next leaves in indicator order are marked too (fewer rounds on a
+    /// concentrated indicator; 0: pure Dörfler).
+    pub min_growth: f64,
+    /// Where the spare samples of a round go when the marked leaves cost less than the least
+    /// growth ([`super::super::marking::spread`]).
+    pub spread: SpreadRule,
+    /// Share of each round's least growth kept for spreading ([`GrowthParams::spread`])
+    /// whatever the marked leaves cost (0: only what they leave).
+    pub spread_share: f64,
+}
+
+/// The solver of the rounds' fits.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitParams {
+    /// Solver of every round's fit ([`TreeSolver::Direct`]: the reference; PCG: see
+    /// [`super::super::pcg`]).
+    pub solver: TreeSolver,
+    /// Relative residual of the iterative solvers ([`TreeSolver::Pcg`],
+    /// [`TreeSolver::Schwarz`]) in the rounds' fits, which only feed the indicator (`None`:
+    /// the solver's own tolerance). The final fit, the output, is always continued from the
+    /// round's coefficients to the solver's tolerance (PCG; the Schwarz CG takes no start and
+    /// solves the final fit afresh). Ignored by the direct solve.
+    ///
+    /// Measured (PCG to `1e-6`, `shapes`, 8 spp): at 128² loose rounds at `1e-2` take 18-31
+    /// iterations against 218-254 and the run 14 s against 52 s, and at 256² 62 s against
+    /// 158 s, with the fit's PSNR within 0.5 dB and the output's higher (the round fits'
+    /// residuals raise the noise estimate of a noise-free scene from `1e-5` to `3e-3`, so
+    /// fewer pixels take a residual correction).
+    pub round_tolerance: Option<f64>,
+    /// Measure each round's fit against the same fit rebuilt from scratch (fresh solver
+    /// state, zero start: no continued normal matrix or diagonal, no warm start), reported
+    /// in [`super::ImageRound::rebuild`]. Doubles the fits' cost; the rebuilds' seconds are
+    /// kept apart ([`super::AdaptiveTimes::rebuild_s`]) and change nothing else.
+    pub measure_rebuild: bool,
+}
+
+/// The noise test ([`super::super::significance`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NoiseParams {
+    /// False-alarm rate `alpha`: a leaf is deepened only where its parent's detail is
+    /// significant, so that noise alone marks a leaf in a round with probability at most
+    /// about `alpha`; the noise level is estimated from the fit's residuals (0: no test,
+    /// every detail counts).
+    pub false_alarm: f64,
+    /// Probe channels of the noise test (variance of the coefficients and the noise level).
+    pub probes: usize,
+}
+
+/// The output pixels ([`super::super::correction`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OutputParams {
+    /// The fit's box pixels plus the significant mean residual of each pixel's samples,
+    /// clamped to the local range of the samples (the default; restores detail the fit cannot
+    /// represent and removes its ringing, at the cost of some noise where the residual passes
+    /// the test), without the clamp, or the box pixels alone. Does not change the rounds.
+    pub pixels: PixelEstimate,
+    /// Standard errors `z` of the residual mean beyond which a pixel is corrected: larger
+    /// values add less noise and restore less detail (0: every pixel with a nonzero mean
+    /// residual).
+    pub residual_z: f64,
+}
+
+impl Default for AdaptiveParams {
+    fn default() -> Self {
+        Self {
+            tree: TreeParams { p: 2, rho: 2.0 },
+            quad: QuadTreeParams {
+                below_pixel: 1,
+                base_level: None,
+                base_fraction: 0.3,
+            },
+            sampling: ImageSampling {
+                rho_limit: 2.0,
+                seed: 1,
+            },
+            marking: MarkingParams { theta: 0.5 },
+            indicator: IndicatorParams { max_ratio: 0.5 },
+            growth: GrowthParams {
+                min_growth: 0.25,
+                spread: SpreadRule::Indicator,
+                spread_share: 0.0,
+            },
+            stop: StopParams {
+                tolerance: 0.0,
+                budget: 0,
+                max_rounds: 40,
+            },
+            fit: FitParams {
+                solver: TreeSolver::Direct,
+                round_tolerance: Some(1e-2),
+                measure_rebuild: false,
+            },
+            noise: NoiseParams {
+                false_alarm: 0.01,
+                probes: 4,
+            },
+            output: OutputParams {
+                pixels: PixelEstimate::ResidualClamped,
+                residual_z: RESIDUAL_Z,
+            },
+        }
+    }
+}
+
+/// A parameter out of its range.
+fn bad(parameter: &'static str, value: String, expected: &'static str) -> AdaptiveError {
+    AdaptiveError::Parameter {
+        parameter,
+        value,
+        expected,
+    }
+}
+
+/// Fails with `bad(..)` unless `ok`.
+fn check(
+    ok: bool,
+    parameter: &'static str,
+    value: impl ToString,
+    expected: &'static str,
+) -> Result<(), AdaptiveError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(bad(parameter, value.to_string(), expected))
+    }
+}
+
+impl AdaptiveParams {
+    /// Checks every parameter's range, group by group (the budget last but the solver's:
+    /// the default budget, 0, is the one value a caller always sets).
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        let (tree, marking) = (&self.tree, &self.marking);
+        check(
+            (1..=8).contains(&tree.p),
+            "p",
+            tree.p,
+            "vanishing moments in 1..=8",
+        )?;
+        self.quad.validate()?;
+        check(
+            tree.rho.is_finite() && (1.0..=256.0).contains(&tree.rho),
+            "rho",
+            tree.rho,
+            "samples per slot in [1, 256]",
+        )?;
+        self.sampling.validate()?;
+        self.growth.validate()?;
+        check(
+            marking.theta > 0.0 && marking.theta <= 1.0,
+            "theta",
+            marking.theta,
+            "a Dörfler fraction in (0, 1]",
+        )?;
+        self.quad.validate_base_fraction()?;
+        self.indicator.validate()?;
+        self.growth.validate_min_growth()?;
+        let tolerance = self.stop.tolerance;
+        check(
+            tolerance.is_finite() && tolerance >= 0.0,
+            "tolerance",
+            tolerance,
+            "a finite RMS error >= 0 (0: run until the budget is spent)",
+        )?;
+        self.noise.validate()?;
+        self.output.validate()?;
+        check(
+            self.stop.budget != 0,
+            "budget",
+            "0",
+            "a positive number of samples",
+        )?;
+        self.fit.validate()
+    }
+}
+
+impl QuadTreeParams {
+    /// Checks the depth limit below the pixel (the base fraction: `validate_base_fraction`).
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.below_pixel <= 6,
+            "below_pixel",
+            self.below_pixel,
+            "levels below the pixel in 0..=6",
+        )
+    }
+
+    fn validate_base_fraction(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.base_fraction > 0.0 && self.base_fraction <= 1.0,
+            "base_fraction",
+            self.base_fraction,
+            "a share of the budget in (0, 1]",
+        )
+    }
+}
+
+impl ImageSampling {
+    /// Checks the samples per leaf at the depth limit.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.rho_limit.is_finite() && (1.0..=256.0).contains(&self.rho_limit),
+            "rho_limit",
+            self.rho_limit,
+            "samples per slot at the depth limit in [1, 256]",
+        )
+    }
+}
+
+impl IndicatorParams {
+    /// Checks the decay ratio cap.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.max_ratio > 0.0 && self.max_ratio < 1.0,
+            "max_ratio",
+            self.max_ratio,
+            "a decay ratio cap in (0, 1)",
+        )
+    }
+}
+
+impl GrowthParams {
+    /// Checks the share kept for spreading (the least growth: `validate_min_growth`).
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.spread_share.is_finite() && (0.0..=1.0).contains(&self.spread_share),
+            "spread_share",
+            self.spread_share,
+            "a share of the least growth in [0, 1]",
+        )
+    }
+
+    fn validate_min_growth(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.min_growth.is_finite() && (0.0..=10.0).contains(&self.min_growth),
+            "min_growth",
+            self.min_growth,
+            "a share of the samples in [0, 10]",
+        )
+    }
+}
+
+impl NoiseParams {
+    /// Checks the false-alarm rate and, with a noise test, the probe channels.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.false_alarm.is_finite() && (0.0..1.0).contains(&self.false_alarm),
+            "false_alarm",
+            self.false_alarm,
+            "a false-alarm rate in [0, 1) (0: no noise test)",
+        )?;
+        check(
+            self.false_alarm == 0.0 || (1..=64).contains(&self.probes),
+            "probes",
+            self.probes,
+            "probe channels in 1..=64 for the noise test",
+        )
+    }
+}
+
+impl OutputParams {
+    /// Checks the residual test's threshold.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        check(
+            self.residual_z.is_finite() && self.residual_z >= 0.0,
+            "residual_z",
+            self.residual_z,
+            "a finite number of standard errors >= 0",
+        )
+    }
+}
+
+impl FitParams {
+    /// Checks the iterative solvers' settings and the rounds' tolerance.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        if let TreeSolver::Schwarz {
+            tolerance,
+            max_iterations,
+            tile,
+            halo,
+        } = self.solver
+        {
+            if !(tolerance > 0.0 && tolerance < 1.0)
+                || max_iterations == 0
+                || !(tile.is_finite() && tile >= 1.0)
+                || !(halo.is_finite() && halo >= 0.0)
+            {
+                return Err(bad(
+                    "solver",
+                    format!("{:?}", self.solver),
+                    "a Schwarz tolerance in (0, 1), at least one iteration, tiles of at least \
+                     one pixel and a finite halo >= 0",
+                ));
+            }
+        }
+        if let Some(t) = self.round_tolerance {
+            check(
+                t > 0.0 && t < 1.0,
+                "round_tolerance",
+                t,
+                "a relative residual in (0, 1) (or null: the solver's tolerance)",
+            )?;
+        }
+        if let TreeSolver::Pcg {
+            tolerance,
+            max_iterations,
+        } = self.solver
+        {
+            if !(tolerance > 0.0 && tolerance < 1.0) || max_iterations == 0 {
+                return Err(bad(
+                    "solver",
+                    format!("{:?}", self.solver),
+                    "a PCG tolerance in (0, 1) and at least one iteration",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
