@@ -13,6 +13,32 @@
 //!   result, `8 (2 r n + n^2 + n g)` bytes per block and one block per thread;
 //! - a grid of `G` positions: `8 G (1 + channels)` bytes.
 //!
+//! On the image plane one estimate serves every path ([`ImageRequest`] →
+//! [`ImageEstimate`]: the uniform fit, local inversion, the adaptive tree fit by the direct
+//! solve or PCG, the plan's rounds, `image` and `compare`), by part, from sizes alone
+//! (samples `m`, channels `c`, pixels, `p`, functions `P`, tree levels `L`), in bytes:
+//!
+//! - samples: `8 m (2 + c)` held, three times while a file is read (its bytes, the decoded
+//!   table, the samples);
+//! - positions handed out or generated: `16 n`;
+//! - the uniform fit's normal matrix on the `(4p - 3)^2` stencil, upper triangle, values and
+//!   indices, twice (the matrix and the copy factored): `16 P (4p - 3)^2`; its sparse Cholesky
+//!   factor under nested dissection, `nnz(L) ~ kappa (2p - 1)^2 P log2 P` entries of 8 bytes
+//!   (the top separators of a 2D grid; `kappa` = [`FACTOR_FILL`]);
+//! - local inversion: the kernel matrix and its transpose, `32 m (2p - 1)^2`;
+//! - the tree fit on `L` levels: kernel rows of `r = 2 (2p - 1)^2 L` entries per sample
+//!   (`32 m r` with the transpose, the direct solve; `8 m r` for the matrix-free PCG), the
+//!   normal matrix with `g = (4p - 3)^2 (2L + 1)` entries per function (48 bytes each: the
+//!   matrix continued between rounds and the copy factored), its factor `f = 2.1 g` entries
+//!   per function (8 bytes); `P = m / rho` functions at most (`rho` samples per leaf);
+//! - output images `8 W H c` each, and one more for the encoded file;
+//! - scratch: right-hand sides and coefficients, `24 P c`.
+//!
+//! The stencil and row counts follow from the supports (`2p - 1` cells per axis); the fill
+//! constants are calibrated against the solver's own counts (`normal_nnz`, `factor_nnz` of
+//! `--json`) and the child's peak resident memory is checked against the total in
+//! `tests/hardening_image.rs` (docs/measurements.md, "Image plane: resource estimates").
+//!
 //! The limit is three quarters of `MemTotal` in `/proc/meminfo` (8 GiB where that file
 //! does not exist), or what [`set_memory_limit`] set (the command line's `--memory-limit`).
 //! A request above it is refused with [`ResourceError::TooLarge`], which says what it would
@@ -179,6 +205,213 @@ pub fn grid_bytes(len: usize, channels: usize) -> f64 {
     8.0 * len as f64 * (1.0 + channels as f64)
 }
 
+/// Nested-dissection fill of the uniform image fit's factor: `nnz(L) = FACTOR_FILL (2p -
+/// 1)^2 P log2 P` (module docs).
+pub const FACTOR_FILL: f64 = 1.3;
+
+/// Factor entries per normal-matrix entry of the tree fit (module docs).
+pub const TREE_FACTOR_PER_NORMAL: f64 = 2.1;
+
+/// How an image-plane request fits its samples: what decides the large parts of
+/// [`ImageEstimate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum ImageSolve {
+    /// No basis: film filters or positions alone.
+    None,
+    /// The uniform tensor fit on `functions` single-scale functions by sparse Cholesky.
+    Uniform {
+        /// Vanishing moments.
+        p: usize,
+        /// Functions `P = 2^{Jx + Jy}`.
+        functions: f64,
+    },
+    /// Local inversion of the uniform kernel matrix.
+    Local {
+        /// Vanishing moments.
+        p: usize,
+        /// Functions `P`.
+        functions: f64,
+    },
+    /// The adaptive tree fit by the direct solve (its largest fit).
+    TreeDirect {
+        /// Vanishing moments.
+        p: usize,
+        /// Levels of the tree, coarse to deepest.
+        levels: u32,
+        /// Samples per leaf `rho`: the tree has at most `m / rho` functions.
+        rho: f64,
+    },
+    /// The adaptive tree fit by matrix-free PCG (its largest fit).
+    TreePcg {
+        /// Vanishing moments.
+        p: usize,
+        /// Levels of the tree, coarse to deepest.
+        levels: u32,
+        /// Samples per leaf.
+        rho: f64,
+    },
+}
+
+/// The sizes of an image-plane request, all an [`ImageEstimate`] needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImageRequest {
+    /// Pixels `W H`.
+    pub pixels: f64,
+    /// Value channels `c`.
+    pub channels: usize,
+    /// Samples fitted `m`.
+    pub samples: f64,
+    /// Whether the samples are read from a file (three copies while reading).
+    pub from_file: bool,
+    /// Positions handed out or generated besides the samples.
+    pub positions: f64,
+    /// The fit.
+    pub solve: ImageSolve,
+    /// Output images held at once (each `8 W H c`, one more for the encoded file).
+    pub images: usize,
+}
+
+/// What an image-plane request holds at its peak, by part, in bytes (module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ImageEstimate {
+    /// Sample positions and values (and the file being read).
+    pub samples: f64,
+    /// Positions handed out or generated.
+    pub positions: f64,
+    /// Kernel rows (and their transpose).
+    pub kernel_rows: f64,
+    /// The normal matrix.
+    pub normal_matrix: f64,
+    /// The sparse Cholesky factor.
+    pub factor: f64,
+    /// Output images and the encoded file.
+    pub output_images: f64,
+    /// Right-hand sides and coefficients.
+    pub scratch: f64,
+}
+
+impl ImageRequest {
+    /// The estimate of this request (module docs), computed from the sizes alone.
+    pub fn estimate(&self) -> ImageEstimate {
+        let m = self.samples;
+        let c = self.channels as f64;
+        let copies = if self.from_file { 3.0 } else { 1.0 };
+        let mut e = ImageEstimate {
+            samples: copies * 8.0 * m * (2.0 + c),
+            positions: 16.0 * self.positions,
+            output_images: if self.images == 0 {
+                0.0
+            } else {
+                8.0 * self.pixels * c * (self.images as f64 + 1.0)
+            },
+            ..ImageEstimate::default()
+        };
+        let stencil = |p: usize| ((4 * p).saturating_sub(3) as f64).powi(2);
+        let support = |p: usize| ((2 * p).saturating_sub(1) as f64).powi(2);
+        match self.solve {
+            ImageSolve::None => {}
+            ImageSolve::Uniform { p, functions } => {
+                e.normal_matrix = 16.0 * functions * stencil(p);
+                e.factor = 8.0 * FACTOR_FILL * support(p) * functions * functions.max(2.0).log2();
+                e.scratch = 24.0 * functions * c;
+            }
+            ImageSolve::Local { p, functions } => {
+                e.kernel_rows = 32.0 * m * support(p);
+                e.scratch = 24.0 * functions * c;
+            }
+            ImageSolve::TreeDirect { p, levels, rho } | ImageSolve::TreePcg { p, levels, rho } => {
+                let l = levels as f64;
+                let functions = m / rho.max(1.0);
+                let row = 2.0 * support(p) * l;
+                e.scratch = 24.0 * functions * c;
+                if matches!(self.solve, ImageSolve::TreeDirect { .. }) {
+                    let g = stencil(p) * (2.0 * l + 1.0);
+                    e.kernel_rows = 32.0 * m * row;
+                    e.normal_matrix = 48.0 * functions * g;
+                    e.factor = 8.0 * functions * TREE_FACTOR_PER_NORMAL * g;
+                } else {
+                    e.kernel_rows = 8.0 * m * row;
+                }
+            }
+        }
+        e
+    }
+}
+
+impl ImageEstimate {
+    /// The sum of the parts.
+    pub fn total(&self) -> f64 {
+        self.samples
+            + self.positions
+            + self.kernel_rows
+            + self.normal_matrix
+            + self.factor
+            + self.output_images
+            + self.scratch
+    }
+
+    /// The nonzero parts as `samples 42 MB, factor 1.2 GB, ...`.
+    pub fn parts(&self) -> String {
+        [
+            ("samples", self.samples),
+            ("positions", self.positions),
+            ("kernel rows", self.kernel_rows),
+            ("normal matrix", self.normal_matrix),
+            ("factor", self.factor),
+            ("output images", self.output_images),
+            ("scratch", self.scratch),
+        ]
+        .iter()
+        .filter(|(_, b)| *b > 0.0)
+        .map(|(name, b)| format!("{name} {}", format_bytes(*b)))
+        .collect::<Vec<_>>()
+        .join(", ")
+    }
+
+    /// Refuses the request above [`memory_limit`]: `what` names it and its size, `fix` the
+    /// flag to change; the message lists the parts.
+    pub fn check(
+        &self,
+        what: impl FnOnce() -> String,
+        fix: impl FnOnce() -> String,
+    ) -> Result<(), ResourceError> {
+        check(
+            || format!("{} ({})", what(), self.parts()),
+            self.total(),
+            fix,
+        )
+    }
+}
+
+/// Functions `P = 2^{Jx + Jy}` of the uniform image fit of `samples` samples on a `width x
+/// height` image at `rho` samples per function ([`crate::basis::tensor::auto_level`]).
+pub fn uniform_image_functions(
+    p: usize,
+    width: usize,
+    height: usize,
+    samples: f64,
+    rho: f64,
+) -> f64 {
+    let params = crate::basis::tensor::TensorLevelParams {
+        rho,
+        ..Default::default()
+    };
+    let pixels = width.saturating_mul(height);
+    let m = samples.min(usize::MAX as f64) as usize;
+    let jx = crate::basis::tensor::auto_level(width, m, pixels, p, params);
+    let jy = crate::basis::tensor::auto_level(height, m, pixels, p, params);
+    2f64.powi((jx + jy) as i32)
+}
+
+/// Levels of the adaptive tree at its depth limit on a `width x height` image: from
+/// `j_min(p)` to `ceil(log2 max(W, H)) + below_pixel`.
+pub fn tree_levels(p: usize, width: usize, height: usize, below_pixel: u32) -> u32 {
+    let fine = (width.max(height).max(1) as f64).log2().ceil() as u32 + below_pixel;
+    let coarse = crate::basis::minimum_level(p);
+    fine.saturating_sub(coarse) + 1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -206,5 +439,59 @@ mod tests {
         assert!(msg.len() < 300, "{msg}");
         check(|| "small".into(), 1024.0, String::new).unwrap();
         assert_eq!(format_bytes(1536.0 * 1024.0 * 1024.0), "1.5 GB");
+    }
+
+    /// The parts follow their formulas: a uniform fit's factor grows as `P log2 P`, the
+    /// tree's direct fit holds more than its PCG fit, files are counted three times, and a
+    /// request of `u64::MAX` samples stays finite and is refused.
+    #[test]
+    fn image_estimates_follow_the_formulas() {
+        let uniform = |functions: f64| ImageRequest {
+            pixels: 65536.0,
+            channels: 3,
+            samples: 4.0 * 65536.0,
+            from_file: false,
+            positions: 0.0,
+            solve: ImageSolve::Uniform { p: 2, functions },
+            images: 1,
+        };
+        let (a, b) = (uniform(65536.0).estimate(), uniform(262144.0).estimate());
+        let ratio = b.factor / a.factor;
+        assert!((ratio - 4.0 * 18.0 / 16.0).abs() < 1e-12, "{ratio}");
+        assert_eq!(a.normal_matrix, 16.0 * 65536.0 * 25.0);
+        let file = ImageRequest {
+            from_file: true,
+            ..uniform(65536.0)
+        };
+        assert_eq!(file.estimate().samples, 3.0 * a.samples);
+        let tree = |solve| ImageRequest {
+            solve,
+            ..uniform(0.0)
+        };
+        let direct = tree(ImageSolve::TreeDirect {
+            p: 2,
+            levels: 7,
+            rho: 2.0,
+        });
+        let pcg = tree(ImageSolve::TreePcg {
+            p: 2,
+            levels: 7,
+            rho: 2.0,
+        });
+        assert!(direct.estimate().total() > 4.0 * pcg.estimate().total());
+        assert_eq!(pcg.estimate().factor, 0.0);
+        let huge = ImageRequest {
+            samples: u64::MAX as f64,
+            ..uniform(2f64.powi(60))
+        }
+        .estimate();
+        assert!(huge.total().is_finite());
+        let e = huge
+            .check(|| "a test".into(), || "fewer samples".into())
+            .unwrap_err();
+        assert!(e.to_string().contains("factor"), "{e}");
+        assert_eq!(uniform_image_functions(2, 256, 256, 262144.0, 4.0), 65536.0);
+        assert_eq!(tree_levels(2, 256, 256, 1), 7);
+        assert_eq!(tree_levels(2, 128, 128, 1), 6);
     }
 }

@@ -1,5 +1,6 @@
-//! Fuzzing under proptest: the sample readers (CSV, `.npy`), the expression and domain
-//! parsers, and the command line's argument space. Each property: no panic, and either a
+//! Fuzzing under proptest: the sample readers (CSV, `.npy`; 1D and the image plane's), the
+//! plan state reader, the expression and domain parsers, and the command line's argument
+//! space. Each property: no panic, and either a
 //! typed error or a valid result (finite positions, consistent lengths); the binary exits
 //! with 0, 1 or 2 and never prints a panic report. Case counts are fixed so the whole file
 //! runs in well under a minute on the CI machine.
@@ -9,6 +10,8 @@ mod common;
 use std::time::Duration;
 
 use proptest::prelude::*;
+use rkwave::image::adaptive::protocol::PlanState;
+use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::io::{parse_csv, read_samples};
 use rkwave::refine::{ExpressionOracle, SampleOracle};
 use rkwave::sampling::Domain;
@@ -146,6 +149,130 @@ proptest! {
             check_set(&set);
         }
         let _ = std::fs::remove_file(&path);
+    }
+}
+
+/// A scratch file of this process and thread with extension `ext`.
+fn fuzz_file(ext: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!(
+        "rkwave-fuzz-{}-{:?}.{ext}",
+        std::process::id(),
+        std::thread::current().id()
+    ))
+}
+
+/// Image samples read from a file: on the plane, finite, one value per channel and sample.
+fn check_image_samples(s: &rkwave::image::ImageSamples, w: usize, h: usize) {
+    assert!(!s.is_empty() && (1..=4).contains(&s.channels()));
+    for (x, y) in s.xs().iter().zip(s.ys()) {
+        assert!((0.0..=w as f64).contains(x) && (0.0..=h as f64).contains(y));
+    }
+    for c in s.values() {
+        assert_eq!(c.len(), s.len());
+        assert!(c.iter().all(|v| v.is_finite()));
+    }
+}
+
+/// A value a tampered plan state may hold in place of one of its own.
+fn json_value() -> impl Strategy<Value = serde_json::Value> {
+    use serde_json::json;
+    prop_oneof![
+        Just(json!(null)),
+        Just(json!(-1)),
+        Just(json!(0)),
+        Just(json!(1e308)),
+        Just(json!(u64::MAX)),
+        Just(json!("zz")),
+        Just(json!("ffffffffffffffffff")),
+        Just(json!([])),
+        Just(json!({})),
+        Just(json!(true)),
+        (0u32..100_000).prop_map(|v| json!(v)),
+        any::<f64>().prop_map(|v| json!(v)),
+    ]
+}
+
+/// Every leaf of a JSON value, as a JSON pointer.
+fn leaves(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                leaves(x, format!("{at}/{k}"), out);
+            }
+        }
+        serde_json::Value::Array(a) if !a.is_empty() => {
+            for (i, x) in a.iter().enumerate() {
+                leaves(x, format!("{at}/{i}"), out);
+            }
+        }
+        _ => out.push(at),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// The image plane's sample reader (`.npy` and CSV, 2 to 7 columns, values and positions
+    /// anywhere, bytes flipped): a typed error or samples on the plane, never a panic.
+    #[test]
+    fn image_sample_reader_never_panics(
+        rows in 0usize..8,
+        cols in 0usize..8,
+        data in proptest::collection::vec(
+            prop_oneof![any::<f64>(), -2.0..20.0f64, Just(f64::NAN)], 0..56),
+        flips in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..3),
+        as_npy in any::<bool>(),
+        w in 1usize..20,
+        h in 1usize..20,
+    ) {
+        let (path, mut bytes) = if as_npy {
+            (fuzz_file("npy"), npy(rows, cols, &data, "<f8"))
+        } else {
+            let mut text = String::from("x,y,v\n");
+            for row in data.chunks(cols.max(1)) {
+                let cells: Vec<String> = row.iter().map(|v| v.to_string()).collect();
+                text.push_str(&cells.join(","));
+                text.push('\n');
+            }
+            (fuzz_file("csv"), text.into_bytes())
+        };
+        for (at, b) in flips {
+            if !bytes.is_empty() {
+                let i = at % bytes.len();
+                bytes[i] ^= b;
+            }
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let plane = rkwave::image::ImagePlane::new(w, h).unwrap();
+        if let Ok(s) = rkwave::io::read_image_samples(&path, plane) {
+            check_image_samples(&s, w, h);
+        }
+        let _ = std::fs::remove_file(&path);
+    }
+
+    /// The plan state reader on arbitrary bytes: a typed error, never a panic.
+    #[test]
+    fn plan_state_reader_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
+        let text = String::from_utf8_lossy(&bytes);
+        let _ = PlanState::from_json(&text, std::path::Path::new("state.json"));
+    }
+
+    /// A valid plan state with one field replaced by a hostile value: read back or refused
+    /// with a typed error; a state read back can still be checked against its own plane.
+    #[test]
+    fn plan_state_reader_on_tampered_states(pick in any::<usize>(), value in json_value()) {
+        let plane = rkwave::image::ImagePlane::new(16, 16).unwrap();
+        let mut params = AdaptiveParams::default();
+        params.stop.budget = 1024;
+        let (state, _) = PlanState::start(plane, &params).unwrap();
+        let mut json: serde_json::Value = serde_json::from_str(&state.to_json()).unwrap();
+        let mut paths = Vec::new();
+        leaves(&json, String::new(), &mut paths);
+        let at = &paths[pick % paths.len()];
+        *json.pointer_mut(at).unwrap() = value;
+        if let Ok(back) = PlanState::from_json(&json.to_string(), std::path::Path::new("state.json")) {
+            let _ = back.check_params(back.plane, &back.params);
+        }
     }
 }
 

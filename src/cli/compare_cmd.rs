@@ -38,8 +38,8 @@ pub struct CompareArgs {
     /// Resolution `WxH`.
     #[arg(long, default_value = "256x256")]
     pub resolution: String,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 4)]
+    /// Samples per pixel, plain or in `1e3` notation.
+    #[arg(long, default_value_t = 4, value_parser = super::limits::count)]
     pub spp: usize,
     /// Sampler: uniform, stratified or sobol.
     #[arg(long, default_value = "stratified")]
@@ -123,10 +123,6 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             }
         }
     }
-    std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
-        path: args.out.clone(),
-        source,
-    })?;
     let wavelet = WaveletParams {
         p,
         pixel_filter: None,
@@ -138,6 +134,44 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: PathBuf::from("out/truth"),
     };
+    // Before any work: the largest run (the methods one after the other, each result image
+    // held for the figures; the adaptive rows' tree fit when asked for).
+    let images = methods.len() + 1;
+    let mut request = methods
+        .iter()
+        .map(|&m| super::image_memory::method_request(plane, args.spp, m, p, wavelet.rho, images))
+        .reduce(super::image_memory::larger)
+        .ok_or_else(|| CliError::Invalid("--methods: give at least one method".into()))?;
+    if args.adaptive {
+        let defaults = AdaptiveParams::default();
+        let tree = super::image_memory::tree_request(
+            plane,
+            3,
+            args.spp as f64 * plane.pixels() as f64,
+            p,
+            defaults.below_pixel,
+            defaults.rho,
+            !matches!(
+                defaults.solver,
+                rkwave::image::adaptive::TreeSolver::Pcg { .. }
+            ),
+            8,
+        );
+        request = super::image_memory::larger(request, tree);
+    }
+    super::image_memory::check(
+        &request,
+        format!(
+            "comparing {} methods on {plane} at {} samples per pixel",
+            methods.len(),
+            args.spp
+        ),
+        "a smaller --resolution or --spp, or fewer --methods",
+    )?;
+    std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
+        path: args.out.clone(),
+        source,
+    })?;
     let runs = scenes.len() * args.noise.len();
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::new(runs as u64)

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, TreeSolver};
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
 use rkwave::io::image_file::write_image;
@@ -14,9 +14,10 @@ use rkwave::lab::adaptive::compare_adaptive;
 use rkwave::lab::experiment::TruthParams;
 
 use super::image_args::{
-    check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs, SolverChoice,
+    check_outputs, check_p, check_rho, parse_resolution, scene_path, spinner, ImageArgs,
+    SolverChoice,
 };
-use super::{check_writable, CliError};
+use super::CliError;
 use rkwave::image::adaptive::{
     FitParams, ImageSampling, NoiseParams, OutputParams, QuadTreeParams, StopParams, TreeParams,
 };
@@ -60,9 +61,12 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let depth_path = figure_path(&args.out, "depth");
     let samples_path = figure_path(&args.out, "samples");
     let figure = figure_path(&args.out, "adaptive");
-    for path in [&args.out, &depth_path, &samples_path, &figure] {
-        check_writable(path, args.force)?;
-    }
+    let scene_file = scene_path(&args.scene)?;
+    check_outputs(
+        &[&args.out, &depth_path, &samples_path, &figure],
+        args.force,
+        &[&scene_file],
+    )?;
     let plane = parse_resolution(&args.resolution)?;
     if !(args.noise.is_finite() && args.noise >= 0.0) {
         return Err(CliError::Invalid(format!(
@@ -93,7 +97,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             (spp + 1).saturating_mul(plane.pixels())
         )));
     }
-    let scene = Scene::from_file(scene_path(&args.scene)?)?;
+    let scene = Scene::from_file(&scene_file)?;
     let params = AdaptiveParams {
         tree: TreeParams {
             p: check_p(args.p)?,
@@ -137,6 +141,24 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
+    // Before sampling: the budget's samples (and as many stratified ones for the film
+    // filters), the tree fit at the depth limit, the truth and the images.
+    let mut request = super::image_memory::tree_request(
+        plane,
+        3,
+        budget as f64,
+        params.tree.p,
+        params.quad.below_pixel,
+        params.tree.rho,
+        !matches!(params.fit.solver, TreeSolver::Pcg { .. }),
+        8,
+    );
+    request.positions = budget as f64;
+    super::image_memory::check(
+        &request,
+        format!("the adaptive image of {plane} at a budget of {budget} samples"),
+        "a smaller --budget, --spp or --resolution, or --solver pcg",
+    )?;
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
     let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)?;
     bar.finish_and_clear();

@@ -22,8 +22,8 @@ pub struct ImageArgs {
     /// Resolution `WxH` in pixels.
     #[arg(long, default_value = "256x256")]
     pub resolution: String,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 4)]
+    /// Samples per pixel, plain or in `1e3` notation.
+    #[arg(long, default_value_t = 4, value_parser = super::limits::count)]
     pub spp: usize,
     /// Sampler: uniform, stratified or sobol.
     #[arg(long, default_value = "stratified")]
@@ -82,8 +82,8 @@ pub struct AdaptiveArgs {
     /// with `--spp` as the average samples per pixel (or `--budget`).
     #[arg(long)]
     pub adaptive: bool,
-    /// Total sample budget of the adaptive mode (default: spp x pixels).
-    #[arg(long)]
+    /// Total sample budget of the adaptive mode (default: spp x pixels), plain or in `1e6` notation.
+    #[arg(long, value_parser = super::limits::count)]
     pub budget: Option<usize>,
     /// Adaptive mode: depth limit in levels below the pixel.
     #[arg(long, default_value_t = 1)]
@@ -178,6 +178,20 @@ pub fn scene_path(arg: &str) -> Result<PathBuf, CliError> {
     Err(CliError::Invalid(format!(
         "--scene {arg}: no such file and no built-in scene of that name (built-in: {names})"
     )))
+}
+
+/// Before any work: each of `outputs` is new (or `force`), its folder exists and takes a
+/// file (the command does not create it), and it is none of `inputs` after symbolic links,
+/// hard links and path spellings ([`rkwave::io::output::check_output`]).
+pub fn check_outputs(
+    outputs: &[&std::path::Path],
+    force: bool,
+    inputs: &[&std::path::Path],
+) -> Result<(), CliError> {
+    for out in outputs {
+        rkwave::io::output::check_output(out, force, inputs)?;
+    }
+    Ok(())
 }
 
 /// Parses `--resolution`.

@@ -12,10 +12,10 @@ use rkwave::lab::experiment::{
 };
 
 use super::image_args::{
-    check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path, spinner,
-    ImageArgs,
+    check_outputs, check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path,
+    spinner, ImageArgs,
 };
-use super::{check_writable, CliError};
+use super::CliError;
 
 fn parse_pixel(s: &str) -> Result<(usize, usize), CliError> {
     let bad = || {
@@ -44,7 +44,8 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     if args.adaptive.adaptive {
         return super::image_adaptive_cmd::run(args);
     }
-    check_writable(&args.out, args.force)?;
+    let scene_file = scene_path(&args.scene)?;
+    check_outputs(&[&args.out], args.force, &[&scene_file])?;
     let plane = parse_resolution(&args.resolution)?;
     let sampler = parse_sampler(&args.sampler)?;
     let method: Method = args
@@ -68,9 +69,13 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     };
     let show = args.show_filter.as_deref().map(parse_pixel).transpose()?;
     if let Some((x, y)) = show {
-        check_writable(&filter_csv_path(&args.out, x, y), args.force)?;
+        check_outputs(
+            &[&filter_csv_path(&args.out, x, y)],
+            args.force,
+            &[&scene_file],
+        )?;
     }
-    let scene = Scene::from_file(scene_path(&args.scene)?)?;
+    let scene = Scene::from_file(&scene_file)?;
     let sampling = SamplingParams {
         plane,
         spp: args.spp,
@@ -89,6 +94,22 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
+    // Before sampling: the samples, the fit, the truth and the output image (twice the
+    // samples when the equivalent filter resamples the scene).
+    let mut request =
+        super::image_memory::method_request(plane, sampling.spp, method, wavelet.p, wavelet.rho, 2);
+    if show.is_some() {
+        request.samples *= 2.0;
+    }
+    super::image_memory::check(
+        &request,
+        format!(
+            "{method} on {plane} at {} samples per pixel ({} samples)",
+            sampling.spp,
+            rkwave::norms::show(request.samples)
+        ),
+        "a smaller --resolution or --spp",
+    )?;
     let bar = spinner(&format!("{} on {} at {plane}", method, scene.name()));
     let cmp = compare_methods(&scene, &sampling, &[method], &wavelet, &truth)?;
     bar.finish_and_clear();

@@ -64,6 +64,13 @@ pub fn channels(text: &str) -> Result<usize, String> {
     count_in(text, 1, MAX_CHANNELS)
 }
 
+/// A whole count bounded later (by the command's own checks or the memory estimate, which
+/// name the flag and what would fit): `0..=u64::MAX`, plain or in `1e9` notation, as every
+/// count flag of the command line.
+pub fn count(text: &str) -> Result<usize, String> {
+    count_in(text, 0, u64::MAX)
+}
+
 /// A sample count given as a number (`1e6`): `1..=1e8`, whole.
 pub fn size(text: &str) -> Result<f64, String> {
     count_in(text, 1, MAX_POINTS).map(|v| v as f64)
@@ -91,5 +98,10 @@ mod tests {
         }
         assert!(channels("0").is_err());
         assert_eq!(grid_or_zero("0").unwrap(), 0);
+        assert_eq!(count("1e9").unwrap(), 1_000_000_000);
+        assert_eq!(count("0").unwrap(), 0);
+        for bad in ["1e30", "2.5", "-1", "nan", "x"] {
+            assert!(count(bad).is_err(), "{bad}");
+        }
     }
 }

@@ -12,6 +12,7 @@ pub mod hints;
 pub mod image_adaptive_cmd;
 pub mod image_args;
 pub mod image_cmd;
+pub mod image_memory;
 pub mod limits;
 pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
@@ -297,6 +298,9 @@ pub enum CliError {
     /// A flag's value the command line itself refuses (its message names the flag).
     #[error("{0}")]
     Invalid(String),
+    /// A request refused before allocating: what it would need, and the flag to change.
+    #[error(transparent)]
+    Resources(rkwave::resources::ResourceError),
     /// A broken contract of the command line itself (a bug to report).
     #[error("internal error, please report: {0}")]
     Internal(String),
@@ -341,6 +345,7 @@ impl CliError {
             CliError::Output(e) => e.kind(),
             CliError::Flag { source, .. } => source.kind(),
             CliError::Parse { .. } | CliError::Invalid(_) => ErrorKind::InvalidInput,
+            CliError::Resources(e) => e.kind(),
             CliError::Internal(_) => ErrorKind::Internal,
         }
     }

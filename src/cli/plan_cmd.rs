@@ -10,7 +10,7 @@ use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, SamplePositions};
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::ImagePlane;
-use rkwave::io::output::{same_file, write_new, OutputError};
+use rkwave::io::output::{same_file, OutputError};
 use rkwave::io::{npy_bytes, read_image_samples, SampleSet};
 
 use super::image_args::{check_p, parse_resolution};
@@ -34,11 +34,11 @@ pub struct PlanArgs {
     /// Image resolution `WxH` (needed to start; later calls check it).
     #[arg(long)]
     pub resolution: Option<String>,
-    /// Total sample budget (or `--spp`).
-    #[arg(long, conflicts_with = "spp")]
+    /// Total sample budget (or `--spp`), plain or in `1e6` notation.
+    #[arg(long, conflicts_with = "spp", value_parser = super::limits::count)]
     pub budget: Option<usize>,
-    /// Average samples per pixel: the budget is spp x pixels.
-    #[arg(long)]
+    /// Average samples per pixel: the budget is spp x pixels; plain or in `1e3` notation.
+    #[arg(long, value_parser = super::limits::count)]
     pub spp: Option<usize>,
     /// Vanishing moments p (default 2).
     #[arg(long)]
@@ -178,20 +178,17 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             };
             let params = params(args, plane, &state.params)?;
             state.check_params(plane, &params).map_err(protocol)?;
+            super::image_memory::check_reading(path)?;
             let samples = read_image_samples(path, state.plane)?;
             let step = state.advance(&samples).map_err(protocol)?;
             let next = step.next.clone();
             (state, next, Some(step))
         }
     };
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
-    write_new(&args.out, &positions_npy(&next), args.force)?;
-    state.save(&args.state).map_err(protocol)?;
+    // The round is committed as one step: the positions and the state, or neither.
+    state
+        .commit(&args.state, &args.out, &positions_npy(&next), args.force)
+        .map_err(protocol)?;
     if args.json {
         let report = PlanCallReport::new(&state, &args.state, &args.out, &next, step);
         println!(
@@ -268,6 +265,7 @@ pub fn reconstruct(
             )));
         }
     }
+    super::image_memory::check_reading(&args.input)?;
     let samples = read_image_samples(&args.input, state.plane)?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly

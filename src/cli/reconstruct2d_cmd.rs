@@ -8,24 +8,33 @@ use rkwave::image::estimate::{EstimateError, ShrinkParams};
 use rkwave::image::report::FileReconstructionReport;
 use rkwave::image::{reconstruct_estimated, Method, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
+use rkwave::io::output::check_output;
 use rkwave::io::read_image_samples;
 
 use super::image_args::{check_p, parse_resolution, spinner};
 use super::reconstruct_args::ReconstructArgs;
 use super::solve_args::MethodArg;
-use super::{check_writable, CliError};
+use super::CliError;
 
 /// Runs the 2D path of `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
     ImageFormat::from_path(&args.output).map_err(|e| CliError::flag("--output", e))?;
-    check_writable(&args.output, args.force)?;
     if let (Some(_), Some(pixels)) = (&args.state, args.pixels) {
         return Err(CliError::Invalid(format!(
             "--pixels {pixels} is for the uniform path: with --state the plan's own output is \
              written (see --no-residual); drop --pixels or --state"
         )));
     }
+    // Before any work: the output is new (or --force), its folder exists and takes a file,
+    // and it is none of the inputs (the samples, the plan's state), after links and spellings.
+    let state_file = args
+        .state
+        .as_deref()
+        .map(rkwave::image::adaptive::protocol::PlanState::path);
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(state_file.as_deref());
+    check_output(&args.output, args.force, &inputs)?;
     if let Some(dir) = &args.state {
         return super::plan_cmd::reconstruct(args, dir, started);
     }
@@ -47,9 +56,31 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         pixel_filter: None,
         ..WaveletParams::default()
     };
+    super::image_memory::check_reading(&args.input)?;
     let bar = spinner("reading samples");
     let samples = read_image_samples(&args.input, plane)?;
     let read_s = started.elapsed().as_secs_f64();
+    // Before the fit: the fit and the output image, from the sizes read.
+    let request = super::image_memory::uniform_request(
+        plane,
+        samples.channels(),
+        samples.len() as f64,
+        wavelet.p,
+        wavelet.rho,
+        method == Method::Local,
+        1,
+    );
+    if let Err(e) = super::image_memory::check(
+        &request,
+        format!(
+            "reconstructing {} samples onto {plane} pixels by {method}",
+            samples.len()
+        ),
+        "a smaller --resolution, fewer samples, or --method local / a lower --p",
+    ) {
+        bar.finish_and_clear();
+        return Err(e);
+    }
     bar.set_message("reconstructing");
     let estimate = args.pixels.unwrap_or_default();
     let (done, estimated) = reconstruct_estimated(

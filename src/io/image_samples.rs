@@ -29,7 +29,22 @@ pub fn image_samples(
     })
 }
 
+/// The names of the columns after `x` of an image-plane array file: `y`, then the channels
+/// (`value` for one, `value1`, `value2`, ... otherwise), so an error names the column a user
+/// wrote, not the generic reader's `value2` for the first channel.
+fn image_column_names(columns: usize) -> Vec<String> {
+    let mut names = vec!["y".to_string()];
+    names.extend(SampleSet::default_names(columns.saturating_sub(1)));
+    names.truncate(columns);
+    names
+}
+
 /// Reads the image-plane samples of `path` on `plane` (module docs).
 pub fn read_image_samples(path: &Path, plane: ImagePlane) -> Result<ImageSamples, IoError> {
-    image_samples(read_samples(path)?, plane, path)
+    let table = if super::is_npy(path) {
+        super::npy::parse_npy_named(&super::read_bytes(path)?, path, image_column_names)?
+    } else {
+        read_samples(path)?
+    };
+    image_samples(table, plane, path)
 }

@@ -54,7 +54,16 @@ pub fn read_npy(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
 /// # Ok::<(), IoError>(())
 /// ```
 pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoError> {
-    let file = file.as_ref();
+    parse_npy_named(bytes, file.as_ref(), SampleSet::default_names)
+}
+
+/// [`parse_npy`] with the names of columns `1..k` given by `names(k - 1)` (errors name a
+/// column by them: an image-plane file's column 1 is `y`, not a value channel).
+pub(crate) fn parse_npy_named(
+    bytes: &[u8],
+    file: &Path,
+    names: impl FnOnce(usize) -> Vec<String>,
+) -> Result<SampleSet, IoError> {
     let truncated = |what: &str, expected: usize| IoError::Truncated {
         file: file.to_path_buf(),
         what: what.to_string(),
@@ -206,7 +215,7 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
     };
     let fortran = header.order() == Order::Fortran;
 
-    let names = SampleSet::default_names(k - 1);
+    let names = names(k - 1);
     let mut positions = Vec::with_capacity(m);
     let mut values = vec![Vec::with_capacity(m); k - 1];
     for i in 0..m {

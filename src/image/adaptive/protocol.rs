@@ -42,7 +42,7 @@ use super::AdaptiveError;
 use crate::adaptive::QuadTree;
 use crate::adaptive::StopReason;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
-use crate::io::output::{write_new, OutputError};
+use crate::io::output::{persist, temporary, write_new, OutputError};
 
 /// The `format` field of a plan state.
 pub const STATE_FORMAT: &str = "rkwave-image-plan";
@@ -356,6 +356,54 @@ impl PlanState {
         })
     }
 
+    /// Refuses, before the fit, a round (or reconstruction) whose tree fit on `samples`, the
+    /// output image and the `next` positions it may hand out exceed the memory limit
+    /// ([`crate::resources::ImageRequest`]): the tree of `plan` has at most the base levels
+    /// plus one per round, up to the depth limit.
+    fn check_memory(
+        &self,
+        plan: &ImagePlan,
+        samples: &ImageSamples,
+        next: usize,
+    ) -> Result<(), ProtocolError> {
+        use crate::resources::{tree_levels, ImageRequest, ImageSolve};
+        let p = self.params.tree.p;
+        let (w, h) = (self.plane.width(), self.plane.height());
+        let limit = tree_levels(p, w, h, self.params.quad.below_pixel);
+        let levels = (plan.base_steps() + plan.progress().marked.len() as u32 + 1).min(limit);
+        let rho = self.params.tree.rho;
+        let solve = match self.params.fit.solver {
+            super::TreeSolver::Pcg { .. } => ImageSolve::TreePcg { p, levels, rho },
+            _ => ImageSolve::TreeDirect { p, levels, rho },
+        };
+        let request = ImageRequest {
+            pixels: self.plane.pixels() as f64,
+            channels: samples.channels(),
+            samples: samples.len() as f64,
+            from_file: false,
+            positions: next as f64,
+            solve,
+            images: 2,
+        };
+        request
+            .estimate()
+            .check(
+                || {
+                    format!(
+                        "the plan's fit of {} samples on a tree of {levels} levels ({})",
+                        samples.len(),
+                        self.plane
+                    )
+                },
+                || {
+                    "a smaller budget (--budget, --spp) or depth limit (--below-pixel) for a \
+                     new plan"
+                        .into()
+                },
+            )
+            .map_err(|e| ProtocolError::Adaptive(e.into()))
+    }
+
     /// Checks the state's own consistency: format, version, one issued record per round.
     fn check_layout(&self, file: &Path) -> Result<(), ProtocolError> {
         let bad = |problem: String| ProtocolError::State {
@@ -404,6 +452,11 @@ impl PlanState {
             });
         }
         let mut plan = self.plan_at(k)?;
+        self.check_memory(
+            &plan,
+            samples,
+            self.params.stop.budget.saturating_sub(self.positions()),
+        )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(samples.xs(), samples.ys(), &values)?;
         self.channels = Some(samples.channels());
@@ -453,6 +506,7 @@ impl PlanState {
     ) -> Result<PlanReconstruction, ProtocolError> {
         let k = self.matching_round(samples)?;
         let plan = self.plan_at(k)?;
+        self.check_memory(&plan, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let (fit, significance) = plan.fit(samples.xs(), samples.ys(), &values)?;
         // the noise estimate of this fit, as the in-process loop's last round
@@ -492,9 +546,13 @@ impl PlanState {
         })?;
         state.check_layout(file)?;
         ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
-            ProtocolError::State {
-                file: file.to_path_buf(),
-                problem: e.to_string(),
+            match e {
+                // A memory limit below the plan's budget is no fault of the state.
+                AdaptiveError::Resource(e) => ProtocolError::Adaptive(e.into()),
+                e => ProtocolError::State {
+                    file: file.to_path_buf(),
+                    problem: e.to_string(),
+                },
             }
         })?;
         Ok(state)
@@ -519,11 +577,68 @@ impl PlanState {
     /// atomically.
     pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
         let file = Self::path(dir);
-        std::fs::create_dir_all(dir).map_err(|source| OutputError::NotWritable {
-            file: file.clone(),
-            source,
-        })?;
+        create_folder(dir, &file)?;
         write_new(&file, self.to_json().as_bytes(), true)?;
         Ok(())
     }
+
+    /// Commits a round as one step: the state into `dir` and the positions `bytes` to
+    /// `positions` (replacing an existing file only with `overwrite`), both or neither.
+    ///
+    /// Both are written to temporary files beside their targets first; then the positions
+    /// are moved into place (refused if the file appeared meanwhile), then the state (a
+    /// rename over the previous state). When the state cannot be moved, the positions just
+    /// placed are removed again: a failed commit leaves the previous state and no positions
+    /// file, and the same call can be retried.
+    pub fn commit(
+        &self,
+        dir: &Path,
+        positions: &Path,
+        bytes: &[u8],
+        overwrite: bool,
+    ) -> Result<(), ProtocolError> {
+        let file = Self::path(dir);
+        create_folder(dir, &file)?;
+        if let Some(folder) = positions.parent().filter(|d| !d.as_os_str().is_empty()) {
+            create_folder(folder, positions)?;
+        }
+        let state_tmp = write_temporary(&file, self.to_json().as_bytes())?;
+        let positions_tmp = match write_temporary(positions, bytes) {
+            Ok(t) => t,
+            Err(e) => {
+                let _ = std::fs::remove_file(&state_tmp);
+                return Err(e.into());
+            }
+        };
+        if let Err(e) = persist(&positions_tmp, positions, overwrite) {
+            let _ = std::fs::remove_file(&state_tmp);
+            return Err(e.into());
+        }
+        if let Err(e) = persist(&state_tmp, &file, true) {
+            let _ = std::fs::remove_file(positions);
+            return Err(e.into());
+        }
+        Ok(())
+    }
+}
+
+/// Creates `folder` (and its parents) for the file `file`.
+fn create_folder(folder: &Path, file: &Path) -> Result<(), OutputError> {
+    std::fs::create_dir_all(folder).map_err(|source| OutputError::NotWritable {
+        file: file.to_path_buf(),
+        source,
+    })
+}
+
+/// `bytes` in a fresh temporary file beside `target` (removed again if the write fails).
+fn write_temporary(target: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
+    let tmp = temporary(target);
+    std::fs::write(&tmp, bytes).map_err(|source| {
+        let _ = std::fs::remove_file(&tmp);
+        OutputError::NotWritable {
+            file: target.to_path_buf(),
+            source,
+        }
+    })?;
+    Ok(tmp)
 }
