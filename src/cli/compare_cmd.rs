@@ -149,10 +149,10 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             3,
             args.spp as f64 * plane.pixels() as f64,
             p,
-            defaults.below_pixel,
-            defaults.rho,
+            defaults.quad.below_pixel,
+            defaults.tree.rho,
             !matches!(
-                defaults.solver,
+                defaults.fit.solver,
                 rkwave::image::adaptive::TreeSolver::Pcg { .. }
             ),
             8,
