@@ -1,8 +1,8 @@
 //! Issue 27 through the binary: the image plane keeps the README's promises. Each failure
 //! class of the issue has a regression test here that failed on the binary before the fix
-//! (the class is named in its doc), then the hostile sweep of the image-plane surface (sizes,
-//! values, files, state, paths, concurrency), each case with the exit code and message it
-//! must give: 0 success, 1 a failure of the machine, 2 a user error; never 101 (panic) or 134
+//! (the class is named in its doc), and the memory estimate against the measured peak; the
+//! hostile sweep is in `tests/hardening_image_sweep.rs`. Each case with the exit code and
+//! message it must give: 0 success, 1 a failure of the machine, 2 a user error; never 101 (panic) or 134
 //! (abort).
 
 mod common;

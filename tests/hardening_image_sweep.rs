@@ -62,11 +62,6 @@ fn reconstruct2d(input: &Path, output: &Path, resolution: &str) -> Vec<String> {
     .to_vec()
 }
 
-fn with(mut args: Vec<String>, extra: &[&str]) -> Vec<String> {
-    args.extend(extra.iter().map(|s| s.to_string()));
-    args
-}
-
 /// `plan` continuing the plan in `state` with `samples`, the next positions to `out`.
 fn plan_round(state: &Path, samples: &Path, out: &Path) -> Vec<String> {
     [
@@ -97,25 +92,6 @@ fn plan_start(resolution: &str, spp: &str, state: &Path, out: &Path) -> Vec<Stri
     ]
     .map(String::from)
     .to_vec()
-}
-
-/// `image --scene shapes` at `resolution` and `spp`, the truth cached in `truth`, the image
-/// to `out`, then `extra`.
-fn image_cmd(resolution: &str, spp: &str, truth: &Path, out: &Path, extra: &[&str]) -> Vec<String> {
-    let base = [
-        "image",
-        "--scene",
-        "shapes",
-        "--resolution",
-        resolution,
-        "--spp",
-        spp,
-        "--truth-cache",
-        arg(truth),
-        "--out",
-        arg(out),
-    ];
-    with(base.map(String::from).to_vec(), extra)
 }
 
 /// The renderer of the plan loop: the positions of `next` (n x 2) with the value of the
