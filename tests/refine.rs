@@ -1,11 +1,10 @@
-//! The adaptive refiner (DESIGN §6): exact reproduction without deepening, refinement that
-//! stays at the singularity, the local oversampling invariant after every round (checked
+//! The adaptive refiner (docs/design.md §6): exact reproduction without deepening, refinement
+//! that stays at the singularity, the local oversampling invariant after every round (checked
 //! against column counts of an independently built `K`), the budget, determinism, the
-//! incremental fit against a rebuild, bad input, and the `rkwave adapt` command.
+//! incremental fit against a rebuild, and bad input; the `rkwave adapt` command is in
+//! `tests/adapt_cli.rs`.
 
 mod common;
-
-use common::rkwave;
 
 use rkwave::basis::minimum_level;
 use rkwave::kernel::kernel_matrix;
@@ -448,68 +447,6 @@ fn bad_input_is_a_clear_error() {
     assert_eq!(minimum_level(3), 4);
 }
 
-#[test]
-fn adapt_reports_json_and_rejects_bad_input_with_exit_code_2() {
-    let out = rkwave(&[
-        "adapt", "--signal", "jumps", "--budget", "1024", "--grid", "4096", "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
-    for key in [
-        "samples",
-        "basis_size",
-        "max_depth",
-        "error_l2",
-        "error_max",
-        "error_l2_quadrature",
-        "rounds",
-    ] {
-        assert!(!v[key].is_null(), "missing {key}");
-    }
-    assert!(v["samples"].as_u64().unwrap() <= 1024);
-    assert!(v["uniform"]["error_l2"].as_f64().unwrap() > v["error_l2"].as_f64().unwrap());
-    assert!(!v["rounds"].as_array().unwrap().is_empty());
-    let out = rkwave(&[
-        "adapt",
-        "--signal",
-        "sin(8*x) + (x > 0.6)",
-        "--budget",
-        "600",
-        "--grid",
-        "1024",
-        "--json",
-    ]);
-    assert!(out.status.success());
-    for bad in [
-        vec!["--signal", "jumps", "--budget", "0"],
-        vec!["--signal", "jumps", "--tolerance", "0"],
-        vec!["--signal", "jumps", "--tolerance", "-1e-3"],
-        vec!["--signal", "jumps", "--max-depth", "4"],
-        vec!["--signal", "sin(8*x"],
-        vec!["--signal", "wobble"],
-        vec![
-            "--signal",
-            "1/(x - 0.5)",
-            "--base-samples",
-            "255",
-            "--layout",
-            "endpoints",
-        ],
-    ] {
-        let args: Vec<&str> = std::iter::once("adapt")
-            .chain(bad.iter().copied())
-            .collect();
-        let out = rkwave(&args);
-        assert_eq!(out.status.code(), Some(2), "{bad:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.starts_with("error: "), "{bad:?}: {err}");
-    }
-}
-
 /// Depth to the last bit: a unit jump at a non-dyadic position on a quadratic background
 /// (reproduced exactly by `p = 3`, so every refinement goes to the jump), depth allowed to 52.
 /// Near `sqrt(2) - 1` an ulp is `2^-54`, so the refiner stops with `Resolution` once a new
@@ -790,24 +727,4 @@ fn depth_and_budget_hints_name_a_value_that_works() {
             .validate()
             .unwrap_or_else(|e| panic!("{text}\n  applied, still: {e}"));
     }
-}
-
-/// `rkwave adapt --coarse 40 --max-depth 40` is refused before anything of size `2^40` is
-/// allocated: exit 2 with a message naming the coarse level and a value that works.
-#[test]
-fn adapt_refuses_a_base_tree_above_the_budget_up_front() {
-    let out = rkwave(&[
-        "adapt",
-        "--signal",
-        "jumps",
-        "--coarse",
-        "40",
-        "--max-depth",
-        "40",
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.starts_with("error: "), "{err}");
-    assert!(err.contains("coarse level n to at most 14"), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
 }
