@@ -5,148 +5,16 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::{rkwave, succeeds, text, user_error, Scratch};
+use common::image_cli::{
+    arg, plan_round, reconstruct2d, samples_npy, started_plan, write_npy_unchecked,
+};
+use common::{rkwave, text, user_error, Scratch};
 use rkwave::io::{write_npy, SampleSet};
 
 fn scratch(name: &str) -> Scratch {
     common::scratch("hardening-image-sweep", name)
-}
-
-fn arg(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// `n` image samples on `w x h` (positions by a fixed additive recurrence, a disc of value 1
-/// on a ramp), `channels` equal channels, as `.npy` `n x (2 + channels)`.
-fn samples_npy(path: &Path, w: usize, h: usize, n: usize, channels: usize) -> PathBuf {
-    let xs: Vec<f64> = (0..n)
-        .map(|i| w as f64 * (i as f64 * 0.754_877_666_2).fract())
-        .collect();
-    let ys: Vec<f64> = (0..n)
-        .map(|i| h as f64 * (i as f64 * 0.569_840_290_9).fract())
-        .collect();
-    let v: Vec<f64> = xs
-        .iter()
-        .zip(&ys)
-        .map(|(x, y)| {
-            let (dx, dy) = (x - w as f64 / 3.0, y - h as f64 / 2.0);
-            if dx * dx + dy * dy < (w as f64 / 4.0).powi(2) {
-                1.0
-            } else {
-                0.2 + 0.5 * x / w as f64
-            }
-        })
-        .collect();
-    let mut values = vec![ys];
-    values.extend(std::iter::repeat_n(v, channels));
-    write_npy(path, &SampleSet::new(xs, values).unwrap()).unwrap();
-    path.to_path_buf()
-}
-
-/// `reconstruct --dim 2` arguments on `w x h`.
-fn reconstruct2d(input: &Path, output: &Path, resolution: &str) -> Vec<String> {
-    [
-        "reconstruct",
-        "--dim",
-        "2",
-        "--input",
-        arg(input),
-        "--resolution",
-        resolution,
-        "--output",
-        arg(output),
-    ]
-    .map(String::from)
-    .to_vec()
-}
-
-/// `plan` continuing the plan in `state` with `samples`, the next positions to `out`.
-fn plan_round(state: &Path, samples: &Path, out: &Path) -> Vec<String> {
-    [
-        "plan",
-        "--state",
-        arg(state),
-        "--samples",
-        arg(samples),
-        "--out",
-        arg(out),
-    ]
-    .map(String::from)
-    .to_vec()
-}
-
-/// `plan` starting a plan at `resolution` and `spp` in `state`, the base positions to `out`.
-fn plan_start(resolution: &str, spp: &str, state: &Path, out: &Path) -> Vec<String> {
-    [
-        "plan",
-        "--resolution",
-        resolution,
-        "--spp",
-        spp,
-        "--state",
-        arg(state),
-        "--out",
-        arg(out),
-    ]
-    .map(String::from)
-    .to_vec()
-}
-
-/// The renderer of the plan loop: the positions of `next` (n x 2) with the value of the
-/// disc scene appended to `previous` samples, written to `out`.
-fn render(previous: Option<&Path>, next: &Path, out: &Path) {
-    let pos = rkwave::io::read_npy(next).unwrap();
-    let (mut xs, mut ys, mut vs) = match previous {
-        Some(p) => {
-            let s = rkwave::io::read_npy(p).unwrap();
-            (
-                s.positions.clone(),
-                s.values[0].clone(),
-                s.values[1].clone(),
-            )
-        }
-        None => (Vec::new(), Vec::new(), Vec::new()),
-    };
-    for (x, y) in pos.positions.iter().zip(&pos.values[0]) {
-        xs.push(*x);
-        ys.push(*y);
-        vs.push(if (x - 40.0).powi(2) + (y - 30.0).powi(2) < 400.0 {
-            1.0
-        } else {
-            0.2
-        });
-    }
-    write_npy(out, &SampleSet::new(xs, vec![ys, vs]).unwrap()).unwrap();
-}
-
-/// Starts a plan at `resolution`, `spp` in `dir`, renders its base and returns the samples.
-fn started_plan(dir: &Path, resolution: &str, spp: &str) -> PathBuf {
-    let n0 = dir.join("n0.npy");
-    succeeds(&plan_start(resolution, spp, dir, &n0));
-    let s0 = dir.join("s0.npy");
-    render(None, &n0, &s0);
-    s0
-}
-
-/// `.npy` bytes of `set` written by hand (the crate's writer refuses non-finite values).
-fn write_npy_unchecked(path: &Path, set: &SampleSet) {
-    let (m, k) = (set.len(), 1 + set.channels());
-    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({m}, {k}), }}");
-    let unpadded = 10 + header.len() + 1;
-    header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
-    header.push('\n');
-    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    bytes.extend_from_slice(header.as_bytes());
-    for i in 0..m {
-        bytes.extend_from_slice(&set.positions[i].to_le_bytes());
-        for c in &set.values {
-            bytes.extend_from_slice(&c[i].to_le_bytes());
-        }
-    }
-    std::fs::write(path, bytes).unwrap();
 }
 
 // ---------------------------------------------------------------------------------------

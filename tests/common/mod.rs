@@ -6,12 +6,15 @@
 //!   basis reproduces);
 //! - [`trees`]: random quadtrees and samples in every slot, for the tree fits;
 //! - [`oracle`]: the dense least-squares oracle `c = K^+ f` by an SVD (nalgebra), with the
-//!   one tolerance rule every solver is held to.
+//!   one tolerance rule every solver is held to;
+//! - [`image_cli`]: image-plane sample files, `reconstruct --dim 2` / `plan` arguments and a
+//!   renderer answering a plan, for the image plane's hardening tests.
 //!
 //! Each test file that needs them declares `mod common;`; what a file does not use is dead
 //! code there, hence the `allow`.
 #![allow(dead_code, unused_imports)]
 
+pub mod image_cli;
 pub mod oracle;
 pub mod runner;
 pub mod scenes;
