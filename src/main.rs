@@ -23,7 +23,7 @@ fn main() {
     }));
     let parsed = cli::Cli::parse();
     if let Err(e) = cli::run(parsed) {
-        eprintln!("error: {}", cli::hints::in_flags(&e.to_string()));
+        eprintln!("error: {}", cli::hints::in_flags(|| e.to_string()));
         std::process::exit(e.exit_code());
     }
 }

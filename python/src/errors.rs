@@ -9,8 +9,9 @@
 //! | `Internal` | `RuntimeError` (a bug to report) |
 //!
 //! The message is the library's, as the command line prints it after `error:`, except that
-//! the library's parameter spellings (`LevelParams::rho`) become this module's keyword
-//! arguments (`rho=`), as the command line turns them into its flags.
+//! each fix it advises ([`Fix`], typed data in the library's errors) is spelled as this
+//! module's keyword argument (`rho=`, [`keyword`]) where the command line spells its flag;
+//! no message text is rewritten.
 
 use std::ffi::CString;
 use std::fmt::Display;
@@ -18,7 +19,7 @@ use std::fmt::Display;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyRuntimeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
-use rkwave::error::ErrorKind;
+use rkwave::error::{spelled, ErrorKind, Fix};
 
 create_exception!(
     rkwave,
@@ -42,46 +43,30 @@ create_exception!(
      block); the same text the command line prints after `warning:` or `note:`."
 );
 
-/// Library spellings and what this module's callers type instead, longest first.
-const KEYWORD_SPELLINGS: &[(&str, &str)] = &[
-    (
-        "GlobalLsParams::rank_policy = RankPolicy::Regularize (ridge GlobalLsParams::ridge, \
-         e.g. 1e-10) or GlobalLsParams::method = GlobalMethod::Cgls",
-        "method=\"single\" (it sets the undetermined directions to zero and reports them)",
-    ),
-    (
-        "GlobalLsParams::rank_policy = RankPolicy::Regularize, or the local inversion",
-        "method=\"single\", or the local inversion",
-    ),
-    (
-        "`cutoff` of LocalInversionParams or Method::Dense",
-        "cutoff=",
-    ),
-    ("Levels::Fixed { fine, .. }", "levels=(n, N)"),
-    ("Levels::Auto", "levels=\"auto\""),
-    ("LevelParams::rho", "rho="),
-    ("RefineParams::rho", "rho="),
-    ("LevelParams::coarse_samples", "coarse_samples="),
-    ("Method::SingleScale", "method=\"single\""),
-    ("Method::Local", "method=\"local\""),
-    ("Method::Global", "method=\"global\""),
-    ("Method::Dense", "method=\"dense\""),
-    ("Solver::Qr", "solver=\"qr\""),
-    ("Solver::Svd", "solver=\"svd\""),
-];
-
-/// `message` with the library's parameter spellings replaced by keyword arguments.
-pub fn in_keywords(message: &str) -> String {
-    KEYWORD_SPELLINGS
-        .iter()
-        .fold(message.to_string(), |m, (library, keyword)| {
-            m.replace(library, keyword)
-        })
+/// `fix` as this module's callers spell it: the keyword argument that sets the parameter,
+/// or the call that gets the same effect.
+pub fn keyword(fix: Fix) -> &'static str {
+    match fix {
+        Fix::RegularizedAnswer => {
+            "method=\"single\" (it sets the undetermined directions to zero and reports them)"
+        }
+        Fix::RegularizeOrLocal => "method=\"single\", or the local inversion",
+        Fix::Cutoff => "cutoff=",
+        Fix::FixedLevels => "levels=(n, N)",
+        Fix::AutoLevels => "levels=\"auto\"",
+        Fix::Rho | Fix::RefineRho => "rho=",
+        Fix::MethodSingleScale => "method=\"single\"",
+        Fix::MethodLocal => "method=\"local\"",
+        Fix::MethodGlobal => "method=\"global\"",
+        Fix::MethodDense => "method=\"dense\"",
+        Fix::SolverQr => "solver=\"qr\"",
+        _ => fix.in_library(),
+    }
 }
 
 /// The Python exception of a failure of `kind` with `message` (module docs).
 pub fn raise(kind: ErrorKind, message: &str) -> PyErr {
-    let message = in_keywords(message);
+    let message = message.to_string();
     match kind {
         ErrorKind::ResourceLimit => ResourceLimitError::new_err(message),
         ErrorKind::WriteFailed => PyOSError::new_err(message),
@@ -137,15 +122,14 @@ kinded!(
 
 /// The Python exception of a library error.
 pub fn to_py<E: Kinded>(e: E) -> PyErr {
-    raise(e.error_kind(), &e.to_string())
+    raise(e.error_kind(), &spelled(keyword, || e.to_string()))
 }
 
 /// Issues every message in `notes` as an [`RkwaveWarning`] (stack level 1: the line that called rkwave).
 pub fn warn_all(py: Python<'_>, notes: &[String]) -> PyResult<()> {
     let category = py.get_type::<RkwaveWarning>();
     for note in notes {
-        let text =
-            CString::new(in_keywords(note).replace('\0', " ")).expect("NUL bytes were replaced");
+        let text = CString::new(note.replace('\0', " ")).expect("NUL bytes were replaced");
         PyErr::warn(py, &category, &text, 1)?;
     }
     Ok(())

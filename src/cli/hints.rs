@@ -1,45 +1,35 @@
-//! The library's messages speak of parameters (`LevelParams::rho`, `Method::Local`); on the
-//! command line the same advice must name the flags that set them. [`in_flags`] rewrites the
-//! library spellings a message can contain into this command line's flags, so every hint a
-//! user reads names something they can type.
+//! The library's messages speak of parameters (`LevelParams::rho`, `Method::Local`) through
+//! typed [`Fix`] values; on the command line the same advice names the flags that set them.
+//! [`flag`] spells each fix as this command line's flag, and [`in_flags`] formats a message
+//! with that spelling, so every hint a user reads names something they can type. No message
+//! text is inspected or rewritten.
 
-/// Library spellings and what the command line says instead, longest first (a phrase is
-/// replaced before the shorter names inside it). A parameter with no flag is rewritten into
-/// the command-line way to get the same effect.
-const FLAG_SPELLINGS: &[(&str, &str)] = &[
-    (
-        "GlobalLsParams::rank_policy = RankPolicy::Regularize (ridge GlobalLsParams::ridge, \
-         e.g. 1e-10) or GlobalLsParams::method = GlobalMethod::Cgls",
-        "--method single (it sets the undetermined directions to zero and reports them)",
-    ),
-    (
-        "GlobalLsParams::rank_policy = RankPolicy::Regularize, or the local inversion",
-        "--method single, or the local inversion",
-    ),
-    (
-        "`cutoff` of LocalInversionParams or Method::Dense",
-        "--cutoff",
-    ),
-    ("Levels::Fixed { fine, .. }", "--levels n..N"),
-    ("Levels::Auto", "--levels auto"),
-    ("LevelParams::rho", "--rho"),
-    ("RefineParams::rho", "--rho"),
-    ("LevelParams::coarse_samples", "--coarse-samples"),
-    ("Method::SingleScale", "--method single"),
-    ("Method::Local", "--method local"),
-    ("Method::Global", "--method global"),
-    ("Method::Dense", "--method dense"),
-    ("Solver::Qr", "--solver qr"),
-    ("Solver::Svd", "--solver svd"),
-];
+use rkwave::error::{spelled, Fix};
 
-/// `message` with every library spelling of [`FLAG_SPELLINGS`] replaced by its flag.
-pub fn in_flags(message: &str) -> String {
-    FLAG_SPELLINGS
-        .iter()
-        .fold(message.to_string(), |m, (library, flag)| {
-            m.replace(library, flag)
-        })
+/// `fix` as the command line spells it: the flag that sets the parameter, or the
+/// command-line way to get the same effect where the parameter has no flag.
+pub fn flag(fix: Fix) -> &'static str {
+    match fix {
+        Fix::RegularizedAnswer => {
+            "--method single (it sets the undetermined directions to zero and reports them)"
+        }
+        Fix::RegularizeOrLocal => "--method single, or the local inversion",
+        Fix::Cutoff => "--cutoff",
+        Fix::FixedLevels => "--levels n..N",
+        Fix::AutoLevels => "--levels auto",
+        Fix::Rho | Fix::RefineRho => "--rho",
+        Fix::MethodSingleScale => "--method single",
+        Fix::MethodLocal => "--method local",
+        Fix::MethodGlobal => "--method global",
+        Fix::MethodDense => "--method dense",
+        Fix::SolverQr => "--solver qr",
+        _ => fix.in_library(),
+    }
+}
+
+/// The text `format` makes (e.g. `|| error.to_string()`) with every [`Fix`] spelled as a flag.
+pub fn in_flags<R>(format: impl FnOnce() -> R) -> R {
+    spelled(flag, format)
 }
 
 #[cfg(test)]
@@ -52,20 +42,31 @@ mod tests {
         let undersampled = rkwave::solve::SolveError::Undersampled {
             samples: 3,
             functions: 8,
-        }
-        .to_string();
+        };
         let rank = rkwave::solve::SolveError::RankDeficient {
             column: 2,
             pivot: 1e-14,
             threshold: 1e-10,
             column_samples: 1,
-        }
-        .to_string();
-        for m in [undersampled, rank] {
-            let cli = in_flags(&m);
+        };
+        for e in [undersampled, rank] {
+            let library = e.to_string();
+            let cli = in_flags(|| e.to_string());
+            assert!(library.contains("RankPolicy::Regularize"), "{library}");
             assert!(!cli.contains("::"), "{cli}");
             assert!(cli.contains("--method"), "{cli}");
+            // The spelling holds only inside `in_flags`.
+            assert_eq!(e.to_string(), library);
         }
-        assert_eq!(in_flags("raise LevelParams::rho"), "raise --rho");
+    }
+
+    /// Every fix has a flag spelling: none falls back to the library's Rust path.
+    #[test]
+    fn every_fix_is_spelled_as_a_flag() {
+        for fix in Fix::ALL {
+            let text = flag(fix);
+            assert!(text.starts_with("--"), "{fix:?}: {text}");
+            assert!(!text.contains("::"), "{fix:?}: {text}");
+        }
     }
 }

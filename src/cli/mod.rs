@@ -262,6 +262,18 @@ pub enum CliError {
     /// An image file.
     #[error(transparent)]
     ImageFile(#[from] rkwave::io::image_file::ImageFileError),
+    /// A pixel estimate (`reconstruct --dim 2 --pixels`).
+    #[error(transparent)]
+    Estimate(rkwave::image::estimate::EstimateError),
+    /// A library error said in the command line's words: the message names the flag or the
+    /// file; the kind is the library error's, so the exit code stays the library's.
+    #[error("{message}")]
+    Library {
+        /// The library error's kind.
+        kind: ErrorKind,
+        /// What the command line says.
+        message: String,
+    },
     /// A file operation failed.
     #[error("cannot write {path}: {source}")]
     Write {
@@ -340,6 +352,8 @@ impl CliError {
             CliError::AdaptiveRun(e) => e.kind(),
             CliError::Protocol(e) => e.kind(),
             CliError::ImageFile(e) => e.kind(),
+            CliError::Estimate(e) => e.kind(),
+            CliError::Library { kind, .. } => *kind,
             CliError::Write { .. } => ErrorKind::WriteFailed,
             CliError::WouldOverwrite { .. } => ErrorKind::OutputRefused,
             CliError::Output(e) => e.kind(),
@@ -392,17 +406,27 @@ pub fn check_writable(path: &std::path::Path, force: bool) -> Result<(), CliErro
         rkwave::io::output::check_output(path, true, &[])?;
     } else {
         rkwave::io::output::check_output(&probe_dir.join(".rkwave-probe"), true, &[]).map_err(
-            |e| {
-                CliError::Invalid(format!(
+            |e| CliError::Library {
+                kind: e.kind(),
+                message: format!(
                     "cannot write {}: its directory would be created in {}, which refuses \
                      new files ({e})",
                     path.display(),
                     probe_dir.display()
-                ))
+                ),
             },
         )?;
     }
     Ok(())
+}
+
+/// Prints `report` as one pretty JSON object (`--json`); the reports are plain data, whose
+/// serialization cannot fail.
+pub fn print_json(report: &impl serde::Serialize) {
+    println!(
+        "{}",
+        serde_json::to_string_pretty(report).expect("plain data")
+    );
 }
 
 /// `--memory-limit`: bytes or a size such as `4G`.

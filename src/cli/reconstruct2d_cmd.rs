@@ -92,7 +92,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     )
     .map_err(|e| match e {
         EstimateError::Wavelet(e) => CliError::Wavelet(e),
-        other => CliError::Invalid(other.to_string()),
+        other => CliError::Estimate(other),
     })?;
     let method = if estimate.uses_fit() {
         method

@@ -103,7 +103,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         );
     } else {
         for w in &report.warnings {
-            eprintln!("warning: {}", super::hints::in_flags(w));
+            eprintln!("warning: {w}");
         }
         println!(
             "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \

@@ -12,6 +12,7 @@ mod evaluate;
 mod kernel_functions;
 mod outcome;
 mod single_scale;
+mod undersampled;
 
 pub use evaluate::FitEvaluator;
 pub use kernel_functions::{dual_kernel, reproducing_kernel};
@@ -20,13 +21,15 @@ pub use single_scale::{
     single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
     SingleScaleSolver, PIVOT_TOLERANCE,
 };
+use undersampled::undersampled;
+pub use undersampled::UndersampledFix;
 
 use std::time::Instant;
 
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::basis::{minimum_level, BasisError, CdvBasis, FilterFamily};
+use crate::basis::{BasisError, CdvBasis, FilterFamily};
 use crate::kernel::{
     check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
 };
@@ -157,7 +160,7 @@ pub enum ReconstructError {
         functions: usize,
         /// What to change: only changes that can work here (more samples; a smaller fine
         /// level or a larger `rho` only where the basis is not already the smallest for `p`).
-        fix: String,
+        fix: UndersampledFix,
     },
     /// The request would need more memory than the limit.
     #[error(transparent)]
@@ -359,56 +362,6 @@ pub fn fit(
     let mut fitted = fit_active(active, positions, values, params.method, levels)?;
     fitted.fallbacks.splice(0..0, lowered(dropped));
     Ok(fitted)
-}
-
-/// [`ReconstructError::Undersampled`] with a fix that can work: at the smallest basis `p`
-/// allows (fine level at [`minimum_level`]) only more samples or a smaller `p`; otherwise
-/// also fewer functions, by the parameter that sets them (`levels`: `None` for an active set
-/// given by the caller).
-fn undersampled(
-    samples: usize,
-    functions: usize,
-    p: usize,
-    fine: u32,
-    levels: Option<&Levels>,
-) -> ReconstructError {
-    let min = minimum_level(p);
-    let fix = if fine <= min {
-        let smaller = if p > 1 {
-            format!(
-                ", or a smaller p (p = 1 needs {} samples)",
-                crate::resources::dimension(minimum_level(1))
-            )
-        } else {
-            String::new()
-        };
-        format!(
-            "{functions} functions is the smallest basis for p = {p} (level {min}), so give \
-             at least {functions} samples{smaller}"
-        )
-    } else {
-        match levels {
-            Some(Levels::Auto(lp)) => format!(
-                "give at least {functions} samples, or let the automatic levels choose fewer \
-                 functions with a larger oversampling rate (LevelParams::rho = {}; 2 gives \
-                 about samples / 2 functions)",
-                crate::norms::show(lp.rho)
-            ),
-            Some(Levels::Fixed { .. }) => format!(
-                "give at least {functions} samples, or fewer functions: a smaller fine level \
-                 N (Levels::Fixed {{ fine, .. }}; at least {min} for p = {p}) or automatic \
-                 levels (Levels::Auto)"
-            ),
-            None => {
-                format!("give at least {functions} samples, or an active set with fewer functions")
-            }
-        }
-    };
-    ReconstructError::Undersampled {
-        samples,
-        functions,
-        fix,
-    }
 }
 
 /// The fallback record of `dropped` lowered levels (none if zero).

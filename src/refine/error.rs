@@ -65,7 +65,8 @@ pub enum RefineError {
     #[error(
         "the refinement round's fit is rank deficient: pivot {pivot:.3e} at column {column} \
          ({column_samples} samples in its support) with {per_leaf} sample(s) per leaf at \
-         p = {p}: raise RefineParams::rho to 2 or more, so that every leaf holds two samples"
+         p = {p}: raise {rho} to 2 or more, so that every leaf holds two samples",
+        rho = crate::error::Fix::RefineRho
     )]
     RankDeficient {
         /// The column (active function, in the solve's order) where the pivot fell.

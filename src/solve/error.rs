@@ -7,6 +7,8 @@
 
 use thiserror::Error;
 
+use crate::error::Fix;
+
 /// Everything that can go wrong in `crate::solve`.
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
@@ -16,9 +18,8 @@ pub enum SolveError {
     #[error(
         "{samples} samples cannot determine {functions} basis functions (K^T K is \
          singular): give at least {functions} samples (twice as many is better) or fewer \
-         basis functions (a smaller fine level), or accept a regularized answer with \
-         GlobalLsParams::rank_policy = RankPolicy::Regularize (ridge \
-         GlobalLsParams::ridge, e.g. 1e-10) or GlobalLsParams::method = GlobalMethod::Cgls"
+         basis functions (a smaller fine level), or accept a regularized answer with {fix}",
+        fix = Fix::RegularizedAnswer
     )]
     Undersampled {
         /// Samples `m` (rows of `K`).
@@ -32,9 +33,10 @@ pub enum SolveError {
         "rank deficient: pivot {pivot:.3e} of the equilibrated normal matrix at column \
          {column} is below the threshold {threshold:.3e} (column has {column_samples} \
          nonzero samples). Add samples where that basis function lives, lower the fine \
-         level, or accept a regularized answer: GlobalLsParams::rank_policy = \
-         RankPolicy::Regularize, or the local inversion (Method::Local), which cuts \
-         unsupported directions"
+         level, or accept a regularized answer: {regularize} ({local}), which cuts \
+         unsupported directions",
+        regularize = Fix::RegularizeOrLocal,
+        local = Fix::MethodLocal
     )]
     RankDeficient {
         /// A column (basis function) at which the factorization found the deficiency.
@@ -56,6 +58,21 @@ pub enum SolveError {
     Factorization {
         /// Which factorization, where, and what to change.
         what: String,
+    },
+
+    /// The dense SVD of the kernel matrix did not converge.
+    #[error(
+        "factorization failed: dense SVD of the {rows} x {cols} kernel matrix: {detail}; try \
+         {qr} locally",
+        qr = Fix::SolverQr
+    )]
+    DenseSvd {
+        /// Rows of `K`.
+        rows: usize,
+        /// Columns of `K`.
+        cols: usize,
+        /// The SVD's own report.
+        detail: String,
     },
 
     /// Shapes of the inputs do not fit together.
@@ -95,8 +112,8 @@ pub enum SolveError {
     #[error(
         "non-finite output in {what}: the result overflows f64. Rescale the values \
          (e.g. divide them by their largest magnitude), or drop more singular values: \
-         raise the relative cut-off of the pseudo-inverse (`cutoff` of \
-         LocalInversionParams or Method::Dense, e.g. 1e-8)"
+         raise the relative cut-off of the pseudo-inverse ({cutoff}, e.g. 1e-8)",
+        cutoff = Fix::Cutoff
     )]
     NonFiniteOutput {
         /// Which output.
@@ -106,8 +123,9 @@ pub enum SolveError {
     /// A dense reference was asked for a matrix that is too large.
     #[error(
         "matrix {rows} x {cols} is too large for the dense reference (limit {limit} per \
-         dimension); use the sparse least squares instead (Method::Global or \
-         Method::SingleScale)"
+         dimension); use the sparse least squares instead ({global} or {single})",
+        global = Fix::MethodGlobal,
+        single = Fix::MethodSingleScale
     )]
     TooLarge {
         /// Rows of `K`.
