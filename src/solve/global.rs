@@ -125,8 +125,10 @@ pub fn dense_pinv(k: &CsMat<f64>, cutoff: f64) -> Result<DensePinv, SolveError> 
         MemStack::new(&mut mem),
         Default::default(),
     )
-    .map_err(|e| SolveError::Factorization {
-        what: format!("dense SVD of the {m} x {p} kernel matrix: {e:?}; try Solver::Qr locally"),
+    .map_err(|e| SolveError::DenseSvd {
+        rows: m,
+        cols: p,
+        detail: format!("{e:?}"),
     })?;
     let mut pinv = Mat::<f64>::zeros(p, m);
     let mut mem = MemBuffer::new(pseudoinverse_from_svd_scratch::<f64>(m, p, par));
@@ -302,15 +304,7 @@ fn cholesky_ls(
     }
     Ok(GlobalLs {
         coefficients,
-        report: GlobalReport {
-            method: GlobalMethod::Cholesky,
-            iterations: vec![0; ch],
-            residuals,
-            ridge: solved.ridge,
-            min_pivot: solved.min_pivot,
-            normal_nnz: solved.normal_nnz,
-            factor_nnz: solved.factor_nnz,
-        },
+        report: solved.report(residuals),
     })
 }
 

@@ -32,7 +32,7 @@ mod outcome;
 mod params;
 mod sparse;
 pub mod vectors;
-pub(crate) use sparse::{csr_from_row_parts, raw as csr_raw};
+pub(crate) use sparse::{csr_by_rows, raw as csr_raw, RowAccumulator};
 #[cfg(test)]
 mod tests;
 

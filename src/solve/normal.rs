@@ -37,6 +37,22 @@ pub(crate) struct Factored {
     pub factor_nnz: usize,
 }
 
+impl Factored {
+    /// The report of this direct solve (no iterations), with the relative normal-equation
+    /// `residuals` per channel.
+    pub(crate) fn report(&self, residuals: Vec<f64>) -> GlobalReport {
+        GlobalReport {
+            method: GlobalMethod::Cholesky,
+            iterations: vec![0; residuals.len()],
+            residuals,
+            ridge: self.ridge,
+            min_pivot: self.min_pivot,
+            normal_nnz: self.normal_nnz,
+            factor_nnz: self.factor_nnz,
+        }
+    }
+}
+
 /// `(y, d) -> D K^T (f - K D y)` for equilibrated coefficients `y` (row-major `P x ch`) and
 /// the column scaling `d` (`D = diag(d)`): the right-hand side of a correction step of the
 /// semi-normal equations.
@@ -383,15 +399,7 @@ fn normal_ls_with(
     }
     Ok(GlobalLs {
         coefficients,
-        report: GlobalReport {
-            method: GlobalMethod::Cholesky,
-            iterations: vec![0; ch],
-            residuals,
-            ridge: solved.ridge,
-            min_pivot: solved.min_pivot,
-            normal_nnz: solved.normal_nnz,
-            factor_nnz: solved.factor_nnz,
-        },
+        report: solved.report(residuals),
     })
 }
 

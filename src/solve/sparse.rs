@@ -102,50 +102,101 @@ pub(crate) fn check_finite_output(x: &[f64], what: &str) -> Result<(), SolveErro
     }
 }
 
-/// The full symmetric normal matrix `G = K^T K` as CSR (sorted indices, both triangles),
-/// computed row-parallel with a dense accumulator per work chunk.
+/// The full symmetric normal matrix `G = K^T K` as CSR (sorted indices, both triangles):
+/// row `a` is `G[a, b] = sum_j K[j, a] K[j, b]`, summed over the samples `j` in ascending
+/// order ([`csr_by_rows`]).
 pub(crate) fn normal_matrix(k: &CsMat<f64>, kt: &CsMat<f64>) -> CsMat<f64> {
     let p = k.cols();
     let chunks = (rayon::current_num_threads() * 8).max(1);
-    let chunk_len = p.div_ceil(chunks).max(1);
-    let starts: Vec<usize> = (0..p).step_by(chunk_len).collect();
     let (kp, ki, kd) = raw(k);
     let (tp, ti, td) = raw(kt);
+    csr_by_rows((p, p), p.div_ceil(chunks).max(1), |a, row| {
+        for t in tp[a]..tp[a + 1] {
+            let (j, kja) = (ti[t], td[t]);
+            for s in kp[j]..kp[j + 1] {
+                row.add(ki[s], kja * kd[s]);
+            }
+        }
+    })
+}
+
+/// One row of a sparse product at a time: `row[b] += v` for each entry added, summed in the
+/// order added (a dense accumulator with a mark per column, so a row costs its entries, not
+/// its width), then emitted in ascending column order. Every normal matrix assembled from
+/// the rows of `K` (the global solve's `K^T K`, the adaptive image fit's Gram matrix and its
+/// continuation) sums through this, so the same entries in the same order give the same bits.
+pub(crate) struct RowAccumulator {
+    sum: Vec<f64>,
+    mark: Vec<usize>,
+    touched: Vec<usize>,
+    row: usize,
+}
+
+impl RowAccumulator {
+    /// An accumulator for rows of `width` columns.
+    pub(crate) fn new(width: usize) -> Self {
+        Self {
+            sum: vec![0.0; width],
+            mark: vec![usize::MAX; width],
+            touched: Vec::new(),
+            row: usize::MAX,
+        }
+    }
+
+    /// Starts row `row` (empty).
+    fn start(&mut self, row: usize) {
+        self.touched.clear();
+        self.row = row;
+    }
+
+    /// Adds `v` to column `b` of the current row.
+    #[inline]
+    pub(crate) fn add(&mut self, b: usize, v: f64) {
+        if self.mark[b] != self.row {
+            self.mark[b] = self.row;
+            self.sum[b] = 0.0;
+            self.touched.push(b);
+        }
+        self.sum[b] += v;
+    }
+
+    /// Appends the current row's entries, by ascending column, to `indices` and `values`;
+    /// returns their count.
+    fn finish(&mut self, indices: &mut Vec<usize>, values: &mut Vec<f64>) -> usize {
+        self.touched.sort_unstable();
+        for &b in &self.touched {
+            indices.push(b);
+            values.push(self.sum[b]);
+        }
+        self.touched.len()
+    }
+}
+
+/// The CSR matrix of `shape` whose row `a` holds what `row(a, accumulator)` adds, rows
+/// computed in parallel tasks of `rows_per_task` (at least 1; the result does not depend on
+/// it: each row is summed on its own).
+pub(crate) fn csr_by_rows(
+    shape: (usize, usize),
+    rows_per_task: usize,
+    row: impl Fn(usize, &mut RowAccumulator) + Sync,
+) -> CsMat<f64> {
+    let starts: Vec<usize> = (0..shape.0).step_by(rows_per_task.max(1)).collect();
     let parts: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = starts
         .par_iter()
         .map(|&start| {
-            let end = (start + chunk_len).min(p);
-            let mut acc = vec![0.0f64; p];
-            let mut mark = vec![usize::MAX; p];
-            let mut touched: Vec<usize> = Vec::new();
+            let end = (start + rows_per_task.max(1)).min(shape.0);
+            let mut acc = RowAccumulator::new(shape.1);
             let mut lens = Vec::with_capacity(end - start);
-            let mut idx = Vec::new();
-            let mut val = Vec::new();
+            let (mut idx, mut val) = (Vec::new(), Vec::new());
             for a in start..end {
-                touched.clear();
-                for t in tp[a]..tp[a + 1] {
-                    let (j, kja) = (ti[t], td[t]);
-                    for s in kp[j]..kp[j + 1] {
-                        let (b, kjb) = (ki[s], kd[s]);
-                        if mark[b] != a {
-                            mark[b] = a;
-                            acc[b] = 0.0;
-                            touched.push(b);
-                        }
-                        acc[b] += kja * kjb;
-                    }
-                }
-                touched.sort_unstable();
-                for &b in &touched {
-                    idx.push(b);
-                    val.push(acc[b]);
-                }
-                lens.push(touched.len());
+                acc.start(a);
+                row(a, &mut acc);
+                lens.push(acc.finish(&mut idx, &mut val));
             }
             (lens, idx, val)
         })
         .collect();
-    csr_from_row_parts((p, p), parts)
+    csr_from_row_parts(shape, parts)
 }
 
 /// A CSR matrix of `shape` from consecutive blocks of rows, each `(row lengths, column

@@ -30,10 +30,9 @@
 //! that of what changed: `sum_{j new} r_j^2 / 2 + sum_{a} |supp(a)| r_new`, against
 //! `sum_j r_j^2 / 2` for a rebuild (`r_j` the nonzeros of row `j`).
 
-use rayon::prelude::*;
 use sprs::CsMat;
 
-use crate::solve::{csr_from_row_parts, csr_raw as raw};
+use crate::solve::{csr_by_rows, csr_raw as raw, RowAccumulator};
 
 /// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
 #[derive(Clone)]
@@ -149,74 +148,34 @@ pub(crate) fn assemble(
     };
     let threads = rayon::current_num_threads().max(1);
     let rows_per_task = p.div_ceil(threads * 16).max(MIN_ROWS_PER_TASK);
-    let starts: Vec<usize> = (0..p).step_by(rows_per_task).collect();
-    let parts: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = starts
-        .par_iter()
-        .map(|&start| {
-            let end = (start + rows_per_task).min(p);
-            let mut acc = vec![0.0f64; p];
-            let mut mark = vec![usize::MAX; p];
-            let mut touched: Vec<usize> = Vec::new();
-            let mut lens = Vec::with_capacity(end - start);
-            let (mut idx, mut val) = (Vec::new(), Vec::new());
-            for a in start..end {
-                touched.clear();
-                let mut add = |b: usize, v: f64, touched: &mut Vec<usize>| {
-                    if mark[b] != a {
-                        mark[b] = a;
-                        acc[b] = 0.0;
-                        touched.push(b);
-                    }
-                    acc[b] += v;
-                };
-                match (&carried, &newk) {
-                    (Some((prev, map, mo)), Some((np, ni, nd))) if is_old[a] => {
-                        // The old sums first (over old samples), continued below.
-                        let (up, ui, ud) = raw(&prev.upper);
-                        let o = old_index[a];
-                        for t in up[o]..up[o + 1] {
-                            add(map[ui[t]], ud[t], &mut touched);
-                        }
-                        for t in tp[a]..tp[a + 1] {
-                            let (j, kja) = (ti[t], td[t]);
-                            if j < *mo {
-                                // Old sample: only its entries on new functions are new.
-                                let row = &ni[np[j]..np[j + 1]];
-                                let from = np[j] + row.partition_point(|&b| b < a);
-                                for s in from..np[j + 1] {
-                                    add(ni[s], kja * nd[s], &mut touched);
-                                }
-                            } else {
-                                let row = &ki[kp[j]..kp[j + 1]];
-                                let from = kp[j] + row.partition_point(|&b| b < a);
-                                for s in from..kp[j + 1] {
-                                    add(ki[s], kja * kd[s], &mut touched);
-                                }
-                            }
-                        }
-                    }
-                    _ => {
-                        for t in tp[a]..tp[a + 1] {
-                            let (j, kja) = (ti[t], td[t]);
-                            let row = &ki[kp[j]..kp[j + 1]];
-                            let from = kp[j] + row.partition_point(|&b| b < a);
-                            for s in from..kp[j + 1] {
-                                add(ki[s], kja * kd[s], &mut touched);
-                            }
-                        }
-                    }
-                }
-                touched.sort_unstable();
-                for &b in &touched {
-                    idx.push(b);
-                    val.push(acc[b]);
-                }
-                lens.push(touched.len());
+    let upper = csr_by_rows((p, p), rows_per_task, |a, acc| match (&carried, &newk) {
+        (Some((prev, map, mo)), Some((np, ni, nd))) if is_old[a] => {
+            // The old sums first (over old samples), continued below.
+            let (up, ui, ud) = raw(&prev.upper);
+            let o = old_index[a];
+            for t in up[o]..up[o + 1] {
+                acc.add(map[ui[t]], ud[t]);
             }
-            (lens, idx, val)
-        })
-        .collect();
-    let upper = csr_from_row_parts((p, p), parts);
+            for t in tp[a]..tp[a + 1] {
+                let (j, kja) = (ti[t], td[t]);
+                if j < *mo {
+                    // Old sample: only its entries on new functions are new.
+                    let row = &ni[np[j]..np[j + 1]];
+                    let from = np[j] + row.partition_point(|&b| b < a);
+                    for s in from..np[j + 1] {
+                        acc.add(ni[s], kja * nd[s]);
+                    }
+                } else {
+                    upper_row(acc, a, j, kja, (kp, ki, kd));
+                }
+            }
+        }
+        _ => {
+            for t in tp[a]..tp[a + 1] {
+                upper_row(acc, a, ti[t], td[t], (kp, ki, kd));
+            }
+        }
+    });
     let full = mirror(&upper);
     let update = carried
         .as_ref()
@@ -231,6 +190,21 @@ pub(crate) fn assemble(
         upper,
     };
     (full, kept, update)
+}
+
+/// Adds `k_ja K[j, b]` for the entries `b >= a` of row `j` of `K` (CSR arrays).
+fn upper_row(
+    acc: &mut RowAccumulator,
+    a: usize,
+    j: usize,
+    kja: f64,
+    (kp, ki, kd): (&[usize], &[usize], &[f64]),
+) {
+    let row = &ki[kp[j]..kp[j + 1]];
+    let from = kp[j] + row.partition_point(|&b| b < a);
+    for s in from..kp[j + 1] {
+        acc.add(ki[s], kja * kd[s]);
+    }
 }
 
 /// Both triangles from the upper one: row `a` is `(b, G[b, a])` for `b < a` (the upper rows'
