@@ -412,9 +412,147 @@ pub fn tree_levels(p: usize, width: usize, height: usize, below_pixel: u32) -> u
     fine.saturating_sub(coarse) + 1
 }
 
+/// The requests of the image-plane paths, built from their sizes (the command line, the
+/// Python module and the tile code call these, so every path is estimated alike).
+impl ImageRequest {
+    /// `samples` samples of `channels` on a `width x height` image (generated, not read from
+    /// a file), fitted by `solve`, `images` output images held.
+    pub fn new(
+        (width, height): (usize, usize),
+        channels: usize,
+        samples: f64,
+        solve: ImageSolve,
+        images: usize,
+    ) -> Self {
+        ImageRequest {
+            pixels: width as f64 * height as f64,
+            channels,
+            samples,
+            from_file: false,
+            positions: 0.0,
+            solve,
+            images,
+        }
+    }
+
+    /// The uniform fit (the sparse Cholesky, or local inversion with `local`) at `rho`
+    /// samples per function ([`uniform_image_functions`]).
+    pub fn uniform(
+        (width, height): (usize, usize),
+        channels: usize,
+        samples: f64,
+        p: usize,
+        rho: f64,
+        local: bool,
+        images: usize,
+    ) -> Self {
+        let functions = uniform_image_functions(p, width, height, samples, rho);
+        let solve = if local {
+            ImageSolve::Local { p, functions }
+        } else {
+            ImageSolve::Uniform { p, functions }
+        };
+        Self::new((width, height), channels, samples, solve, images)
+    }
+
+    /// The adaptive tree fit at its depth limit ([`tree_levels`]): the assembled normal
+    /// matrix and its factor with `direct`, matrix-free otherwise.
+    #[allow(clippy::too_many_arguments)]
+    pub fn tree(
+        (width, height): (usize, usize),
+        channels: usize,
+        samples: f64,
+        p: usize,
+        below_pixel: u32,
+        rho: f64,
+        direct: bool,
+        images: usize,
+    ) -> Self {
+        let levels = tree_levels(p, width, height, below_pixel);
+        let solve = if direct {
+            ImageSolve::TreeDirect { p, levels, rho }
+        } else {
+            ImageSolve::TreePcg { p, levels, rho }
+        };
+        Self::new((width, height), channels, samples, solve, images)
+    }
+
+    /// The larger (by estimated total) of two requests: a run whose parts come one after
+    /// the other needs the larger part's memory.
+    pub fn larger(self, other: Self) -> Self {
+        if other.estimate().total() > self.estimate().total() {
+            other
+        } else {
+            self
+        }
+    }
+}
+
+/// Memory a sample file of `bytes` bytes needs while it is read: its bytes, the decoded
+/// table and the samples; three copies of an `.npy` file's data (`npy`), and for CSV four
+/// times its bytes each for the table and the samples (a number takes at least two bytes
+/// of text and eight in memory).
+pub fn reading_bytes(bytes: f64, npy: bool) -> f64 {
+    if npy {
+        3.0 * bytes
+    } else {
+        9.0 * bytes
+    }
+}
+
+/// Refuses to read the sample file `path` above the memory limit ([`reading_bytes`]),
+/// before reading it, `fix` saying what to change; a file that cannot be inspected passes
+/// (its reader names the problem).
+pub fn check_reading(
+    path: &std::path::Path,
+    fix: impl FnOnce() -> String,
+) -> Result<(), ResourceError> {
+    let Ok(meta) = std::fs::metadata(path) else {
+        return Ok(());
+    };
+    let bytes = meta.len() as f64;
+    let npy = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    check(
+        || format!("reading {} ({})", path.display(), format_bytes(bytes)),
+        reading_bytes(bytes, npy),
+        fix,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The builders fill every field from the sizes; `larger` keeps the larger estimate.
+    #[test]
+    fn image_requests_are_built_from_sizes() {
+        let uniform = ImageRequest::uniform((64, 32), 3, 8192.0, 2, 4.0, false, 2);
+        assert_eq!(uniform.pixels, 2048.0);
+        assert!(!uniform.from_file);
+        let functions = uniform_image_functions(2, 64, 32, 8192.0, 4.0);
+        assert_eq!(uniform.solve, ImageSolve::Uniform { p: 2, functions });
+        let local = ImageRequest::uniform((64, 32), 3, 8192.0, 2, 4.0, true, 2);
+        assert_eq!(local.solve, ImageSolve::Local { p: 2, functions });
+        let tree = ImageRequest::tree((64, 32), 3, 8192.0, 2, 1, 2.0, true, 2);
+        let levels = tree_levels(2, 64, 32, 1);
+        assert_eq!(
+            tree.solve,
+            ImageSolve::TreeDirect {
+                p: 2,
+                levels,
+                rho: 2.0
+            }
+        );
+        let (a, b) = (uniform.estimate().total(), tree.estimate().total());
+        assert_ne!(a, b);
+        let larger = if a > b { uniform } else { tree };
+        assert_eq!(uniform.larger(tree), larger);
+        assert_eq!(tree.larger(uniform), larger);
+        assert_eq!(reading_bytes(100.0, true), 300.0);
+        assert_eq!(reading_bytes(100.0, false), 900.0);
+    }
 
     #[test]
     fn sizes_parse_and_refuse_garbage() {

@@ -1,14 +1,13 @@
 //! Every image-plane command's memory, checked before its work: the sizes of the request
-//! (pixels, channels, samples, `p`, the fit) become one [`ImageRequest`], whose
-//! [`rkwave::resources::ImageEstimate`] is refused above the memory limit with its parts and
-//! the flag to change (exit 2), before the samples are read or generated and before the fit.
+//! (pixels, channels, samples, `p`, the fit) become one [`ImageRequest`]
+//! ([`rkwave::resources`] builds it), whose [`rkwave::resources::ImageEstimate`] is refused
+//! above the memory limit with its parts and the flag to change (exit 2), before the samples
+//! are read or generated and before the fit.
 
 use std::path::Path;
 
 use rkwave::image::ImagePlane;
-use rkwave::resources::{
-    tree_levels, uniform_image_functions, ImageRequest, ImageSolve, ResourceError,
-};
+use rkwave::resources::{ImageRequest, ImageSolve, ResourceError};
 
 use super::CliError;
 
@@ -20,34 +19,14 @@ pub fn check(request: &ImageRequest, what: String, fix: &str) -> Result<(), CliE
         .map_err(CliError::from)
 }
 
-/// Before a sample file is read: reading holds its bytes, the decoded table and the samples
-/// (three copies of an `.npy` file's data; a CSV number takes at least two bytes of text and
-/// eight in memory, so four times its bytes each for the table and the samples).
+/// Before a sample file is read ([`rkwave::resources::check_reading`]).
 pub fn check_reading(path: &Path) -> Result<(), CliError> {
-    let Ok(meta) = std::fs::metadata(path) else {
-        return Ok(()); // the reader names a missing file
-    };
-    let bytes = meta.len() as f64;
-    let is_npy = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
-    let needed = if is_npy { 3.0 * bytes } else { 9.0 * bytes };
-    rkwave::resources::check(
-        || {
-            format!(
-                "reading {} ({})",
-                path.display(),
-                rkwave::resources::format_bytes(bytes)
-            )
-        },
-        needed,
-        || "split the samples or raise --memory-limit".into(),
-    )
-    .map_err(CliError::from)
+    rkwave::resources::check_reading(path, || "split the samples or raise --memory-limit".into())
+        .map_err(CliError::from)
 }
 
 /// The uniform fit (`Method::Wavelet`, or local inversion with `local`) of `samples`
-/// samples on `plane`, `images` output images held.
+/// samples on `plane`, `images` output images held ([`ImageRequest::uniform`]).
 pub fn uniform_request(
     plane: ImagePlane,
     channels: usize,
@@ -57,33 +36,15 @@ pub fn uniform_request(
     local: bool,
     images: usize,
 ) -> ImageRequest {
-    let functions = uniform_image_functions(p, plane.width(), plane.height(), samples, rho);
-    let solve = if local {
-        ImageSolve::Local { p, functions }
-    } else {
-        ImageSolve::Uniform { p, functions }
-    };
-    request(plane, channels, samples, solve, images)
-}
-
-/// `samples` samples of `channels` on `plane` (generated or already read), fitted by
-/// `solve`, `images` output images held.
-fn request(
-    plane: ImagePlane,
-    channels: usize,
-    samples: f64,
-    solve: ImageSolve,
-    images: usize,
-) -> ImageRequest {
-    ImageRequest {
-        pixels: plane.pixels() as f64,
+    ImageRequest::uniform(
+        (plane.width(), plane.height()),
         channels,
         samples,
-        from_file: false,
-        positions: 0.0,
-        solve,
+        p,
+        rho,
+        local,
         images,
-    }
+    )
 }
 
 /// `method`'s fit of `spp` samples per pixel on `plane` (3 channels, a scene's), with the
@@ -109,7 +70,7 @@ pub fn method_request(
 }
 
 /// The adaptive tree fit of `samples` samples on `plane` at its depth limit (`direct`: the
-/// assembled normal matrix and its factor; otherwise matrix-free).
+/// assembled normal matrix and its factor; otherwise matrix-free; [`ImageRequest::tree`]).
 #[allow(clippy::too_many_arguments)]
 pub fn tree_request(
     plane: ImagePlane,
@@ -121,22 +82,21 @@ pub fn tree_request(
     direct: bool,
     images: usize,
 ) -> ImageRequest {
-    let levels = tree_levels(p, plane.width(), plane.height(), below_pixel);
-    let solve = if direct {
-        ImageSolve::TreeDirect { p, levels, rho }
-    } else {
-        ImageSolve::TreePcg { p, levels, rho }
-    };
-    request(plane, channels, samples, solve, images)
+    ImageRequest::tree(
+        (plane.width(), plane.height()),
+        channels,
+        samples,
+        p,
+        below_pixel,
+        rho,
+        direct,
+        images,
+    )
 }
 
 /// The larger of two requests (commands that run their parts one after the other).
 pub fn larger(a: ImageRequest, b: ImageRequest) -> ImageRequest {
-    if b.estimate().total() > a.estimate().total() {
-        b
-    } else {
-        a
-    }
+    a.larger(b)
 }
 
 impl From<ResourceError> for CliError {
