@@ -240,10 +240,7 @@ pub fn run(args: &AdaptArgs) -> Result<(), CliError> {
         figures::save(&figure4_layout(&r, truth).map_err(refine_error)?, plot)?;
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
     } else {
         print!("{}", table(&report));
         if let Some(plot) = &args.plot {
@@ -315,10 +312,7 @@ fn compare(args: &AdaptArgs, params: &RefineParams, truth: Truth<'_>) -> Result<
         figures::save(&error_against_samples(&out.comparison, &out.signal), plot)?;
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&out).expect("plain data")
-        );
+        super::print_json(&out);
     } else {
         println!(
             "{}: adaptive vs uniform (RMS on a grid of {}; L2 by quadrature)",

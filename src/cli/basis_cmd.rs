@@ -34,10 +34,7 @@ pub fn run(args: &BasisArgs) -> Result<(), CliError> {
     .map_err(rkwave::reconstruct::ReconstructError::from)?;
     let rep = basis_report(&basis, args.points, args.seed, started);
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rep).expect("plain data serializes")
-        );
+        super::print_json(&rep);
     } else {
         print!("{}", table(&rep));
     }

@@ -84,10 +84,7 @@ pub fn run(args: &ReportArgs) -> Result<(), CliError> {
     let setting = args.setting()?;
     let report = local_vs_global(&setting)?;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
     } else {
         print!("{}", table(&report));
     }

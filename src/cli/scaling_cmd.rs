@@ -131,10 +131,7 @@ pub fn run(args: &ScalingArgs) -> Result<(), CliError> {
         }
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rows).expect("plain data")
-        );
+        super::print_json(&rows);
     }
     Ok(())
 }

@@ -1,4 +1,4 @@
-//! Adaptive sampling on the image plane (docs/design.md §6–7; issue 13): a quadtree of the
+//! Adaptive sampling on the image plane (docs/design.md §6–7): a quadtree of the
 //! non-standard tensor basis that spends samples where the scene needs them.
 //!
 //! * [`QuadTree`] (in the adaptive core, [`crate::adaptive`], with Dörfler marking

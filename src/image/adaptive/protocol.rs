@@ -1,4 +1,4 @@
-//! The renderer in the loop (issue 13, item 3): the refiner's rounds driven through files.
+//! The renderer in the loop: the refiner's rounds driven through files.
 //!
 //! A renderer is not in the process, so the rounds of [`ImagePlan`] are split at the oracle
 //! calls. The plan's state between calls is a [`PlanState`]: the plane, the parameters, the

@@ -1,4 +1,4 @@
-//! Noise in the indicator (issue 13, item 4): which detail coefficients stand out of the
+//! Noise in the indicator: which detail coefficients stand out of the
 //! noise of Monte Carlo samples.
 //!
 //! Sample values are `f_i = L(x_i, y_i) + n_i` with noise `n_i` of deviation `sigma` (unknown

@@ -5,7 +5,7 @@
 //! without samples are left as they are). A pixel integral of a function whose samples in the
 //! pixel all lie in `[a, b]` is not known to lie there (the samples may miss a peak), but a
 //! least-squares fit that leaves that range next to a bright edge is ringing, not resolving:
-//! the clamp removes the overshoot of the fit beside an emitter (issue 28, item 3) and never
+//! the clamp removes the overshoot of the fit beside an emitter and never
 //! moves a value that is inside its pixel's range.
 
 use super::statistics::PixelStatistics;

@@ -1,4 +1,4 @@
-//! Noise-aware pixel estimates (issue 28, items 2 and 3 on the uniform path): what a pixel's
+//! Noise-aware pixel estimates on the uniform path: what a pixel's
 //! value is, given the samples in it and the noise they carry.
 //!
 //! * [`UniformEstimate::Fit`]: the least-squares fit's box pixels ([`crate::image::reconstruct`]),
