@@ -21,6 +21,11 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
                 .into(),
         ));
     }
+    if args.dim != 1 && args.stream != super::reconstruct_args::StreamArg::Auto {
+        return Err(CliError::Invalid(
+            "--stream reads 1D samples in chunks: use it with --dim 1".into(),
+        ));
+    }
     match args.dim {
         1 if args.state.is_some() => {
             return Err(CliError::Invalid(
@@ -39,6 +44,15 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             args.grid
         )));
     }
+    let params = FitParams {
+        p: args.filter.p,
+        family: args.filter.family_given(),
+        levels: args.solve.levels()?,
+        method: args.solve.method(args.method)?,
+    };
+    if super::reconstruct_stream::chooses_streaming(args, &params)? {
+        return super::reconstruct_stream::run(args, &params, started);
+    }
     let bar = ProgressBar::new_spinner();
     bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("template"));
     bar.set_message("reading samples");
@@ -48,26 +62,10 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         Some(d) => d,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            Domain::new(a, b).map_err(|e| match e {
-                rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
-                    "all samples sit at x = {}: give --domain a,b explicitly",
-                    rkwave::norms::show(a)
-                )),
-                other => CliError::Invalid(format!(
-                    "the samples span [{}, {}], which is no usable domain: {other}",
-                    rkwave::norms::show(a),
-                    rkwave::norms::show(b)
-                )),
-            })?
+            domain_of_bounds(a, b)?
         }
     };
     validate_positions(&set, domain)?;
-    let params = FitParams {
-        p: args.filter.p,
-        family: args.filter.family_given(),
-        levels: args.solve.levels()?,
-        method: args.solve.method(args.method)?,
-    };
     bar.set_message("fitting");
     let channels: Vec<&[f64]> = set.values.iter().map(|v| v.as_slice()).collect();
     let fitted = fit(&set.positions, &channels, domain, &params)?;
@@ -124,4 +122,19 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         );
     }
     Ok(())
+}
+
+/// The domain `[a, b]` of samples spanning `a..b` (no `--domain` given).
+pub(super) fn domain_of_bounds(a: f64, b: f64) -> Result<Domain, CliError> {
+    Domain::new(a, b).map_err(|e| match e {
+        rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
+            "all samples sit at x = {}: give --domain a,b explicitly",
+            rkwave::norms::show(a)
+        )),
+        other => CliError::Invalid(format!(
+            "the samples span [{}, {}], which is no usable domain: {other}",
+            rkwave::norms::show(a),
+            rkwave::norms::show(b)
+        )),
+    })
 }

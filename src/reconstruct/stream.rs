@@ -436,6 +436,17 @@ pub fn fit_streamed(
     };
     let mut levels = choose_levels(m, params);
     guard_uniform(m, channels, params, &levels)?;
+    crate::resources::check(
+        || {
+            format!(
+                "the streamed banded QR of {m} samples on levels {}..{}",
+                levels.coarse, levels.fine
+            )
+        },
+        stream_bytes(params.p, levels.fine, channels),
+        || "lower the fine level N (automatic levels: raise rho)".to_string(),
+    )
+    .map_err(ReconstructError::from)?;
     let auto = matches!(params.levels, Levels::Auto(_));
     let mut report = StreamReport::default();
     let mut dropped = 0u32;
@@ -556,6 +567,17 @@ pub fn fit_streamed(
         reason: "the samples leave directions undetermined at every level tried".into(),
         fix: "fit them in memory (local inversion decides them) or give fixed, lower levels".into(),
     })
+}
+
+/// Peak bytes of [`fit_streamed`] on levels `..=fine` with `channels`, independent of the
+/// number of samples: the triangle over the `P = 2^{N+1}` columns of `V_{N+1}` (band width
+/// `w = 3p - 2`, right-hand sides, column norms, row lengths), the parts of the threads
+/// before they merge (at most one more triangle), and the solution and FWT vectors.
+pub fn stream_bytes(p: usize, fine: u32, channels: usize) -> f64 {
+    let columns = crate::resources::dimension(fine);
+    let w = (3 * p).saturating_sub(2) as f64;
+    let triangle = columns * (8.0 * (w + channels as f64 + 1.0) + 2.0);
+    2.0 * triangle + columns * 16.0 * channels as f64
 }
 
 fn deficient(rep: &SingleScaleReport) -> StreamError {
