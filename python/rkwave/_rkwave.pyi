@@ -137,3 +137,41 @@ class Plan:
     ) -> "Plan": ...
 
 def set_memory_limit(limit: Union[int, str, None]) -> None: ...
+
+def partial_fit(
+    x: ArrayLike,
+    y: ArrayLike,
+    *,
+    samples: int,
+    domain: Tuple[float, float],
+    start: int = 0,
+    p: int = 3,
+    levels: Union[Literal["auto"], Tuple[int, int], None] = None,
+    family: Optional[Literal["db", "sym"]] = None,
+    rho: float = 2.0,
+    coarse_samples: float = 256.0,
+) -> bytes: ...
+def merge_partials(
+    earlier: bytes,
+    later: bytes,
+    *,
+    samples: int,
+    domain: Tuple[float, float],
+    p: int = 3,
+    levels: Union[Literal["auto"], Tuple[int, int], None] = None,
+    family: Optional[Literal["db", "sym"]] = None,
+    rho: float = 2.0,
+    coarse_samples: float = 256.0,
+) -> bytes: ...
+def finish_partial(
+    partial: bytes,
+    *,
+    samples: int,
+    domain: Tuple[float, float],
+    p: int = 3,
+    levels: Union[Literal["auto"], Tuple[int, int], None] = None,
+    family: Optional[Literal["db", "sym"]] = None,
+    rho: float = 2.0,
+    coarse_samples: float = 256.0,
+    ridge: float = 0.0,
+) -> Fit: ...

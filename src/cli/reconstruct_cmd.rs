@@ -7,7 +7,6 @@ use rkwave::io::output::check_output;
 use rkwave::io::{read_samples, validate_positions, GridWriter};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
-use rkwave::sampling::Domain;
 
 use super::reconstruct_args::ReconstructArgs;
 use super::CliError;
@@ -62,7 +61,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         Some(d) => d,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            domain_of_bounds(a, b)?
+            super::reconstruct_stream::domain_of_bounds(a, b)?
         }
     };
     validate_positions(&set, domain)?;
@@ -104,37 +103,12 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             eprintln!("warning: {}", super::hints::in_flags(w));
         }
         println!(
-            "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
-             residual RMS [{}], {:.3} s; wrote {}",
+            "{} samples x {} channels -> {}; wrote {}",
             report.samples,
             report.channels,
-            report.functions,
-            report.coarse,
-            report.fine,
-            report.oversampling,
-            rec.residual_rms
-                .iter()
-                .map(|r| format!("{r:.3e}"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            report.time_s.total,
+            super::reconstruct_stream::fit_summary(&report, &rec.residual_rms),
             args.output.display()
         );
     }
     Ok(())
-}
-
-/// The domain `[a, b]` of samples spanning `a..b` (no `--domain` given).
-pub(super) fn domain_of_bounds(a: f64, b: f64) -> Result<Domain, CliError> {
-    Domain::new(a, b).map_err(|e| match e {
-        rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
-            "all samples sit at x = {}: give --domain a,b explicitly",
-            rkwave::norms::show(a)
-        )),
-        other => CliError::Invalid(format!(
-            "the samples span [{}, {}], which is no usable domain: {other}",
-            rkwave::norms::show(a),
-            rkwave::norms::show(b)
-        )),
-    })
 }

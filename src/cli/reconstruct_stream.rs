@@ -12,6 +12,7 @@ use rkwave::io::{GridWriter, IoError, SampleSet};
 use rkwave::reconstruct::stream::{fit_streamed, StreamError, StreamReport};
 use rkwave::reconstruct::{FitParams, Method, SingleScaleSolver, SolveReport};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
+use rkwave::sampling::Domain;
 use serde::Serialize;
 
 use super::reconstruct_args::{ReconstructArgs, StreamArg};
@@ -110,7 +111,7 @@ pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Resu
         None => {
             let (a, b) = source.bounds()?;
             passes.push("bounds of the positions (no --domain given)".to_string());
-            super::reconstruct_cmd::domain_of_bounds(a, b)?
+            domain_of_bounds(a, b)?
         }
     };
     let read_s = started.elapsed().as_secs_f64();
@@ -174,23 +175,45 @@ pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Resu
         eprintln!("warning: {}", super::hints::in_flags(w));
     }
     println!(
-        "{} samples x {} channels streamed from .npy in {} passes ({}) -> P = {} functions \
-         (levels {}..{}, oversampling {:.2}), residual RMS [{}], {:.3} s; wrote {}",
+        "{} samples x {} channels streamed from .npy in {} passes ({}) -> {}; wrote {}",
         report.samples,
         report.channels,
         stream.passes.len(),
         stream.passes.join("; "),
+        fit_summary(&report, &rec.residual_rms),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// The fit's line of the text report: functions, levels, oversampling, residual, time.
+pub(super) fn fit_summary(report: &ReconstructReport, residual_rms: &[f64]) -> String {
+    format!(
+        "P = {} functions (levels {}..{}, oversampling {:.2}), residual RMS [{}], {:.3} s",
         report.functions,
         report.coarse,
         report.fine,
         report.oversampling,
-        rec.residual_rms
+        residual_rms
             .iter()
             .map(|r| format!("{r:.3e}"))
             .collect::<Vec<_>>()
             .join(", "),
         report.time_s.total,
-        args.output.display()
-    );
-    Ok(())
+    )
+}
+
+/// The domain `[a, b]` of samples spanning `a..b` (no `--domain` given).
+pub(super) fn domain_of_bounds(a: f64, b: f64) -> Result<Domain, CliError> {
+    Domain::new(a, b).map_err(|e| match e {
+        rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
+            "all samples sit at x = {}: give --domain a,b explicitly",
+            rkwave::norms::show(a)
+        )),
+        other => CliError::Invalid(format!(
+            "the samples span [{}, {}], which is no usable domain: {other}",
+            rkwave::norms::show(a),
+            rkwave::norms::show(b)
+        )),
+    })
 }

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use super::npy::{npy_layout, NpyLayout};
 use super::{IoError, SampleSet};
-use crate::reconstruct::stream::{SampleChunks, StreamError};
+use crate::reconstruct::stream::{ChunkSink, SampleChunks, StreamError};
 
 /// Bytes of a file read to find its header (a `.npy` header is at most a few hundred bytes;
 /// NumPy pads it to 64).
@@ -152,11 +152,7 @@ impl SampleChunks for NpyChunks {
     fn channels(&self) -> usize {
         self.value_channels()
     }
-    fn read(
-        &self,
-        rows: Range<usize>,
-        each: &mut dyn FnMut(&[f64], &[&[f64]]) -> Result<(), StreamError>,
-    ) -> Result<(), StreamError> {
+    fn read(&self, rows: Range<usize>, each: &mut ChunkSink<'_>) -> Result<(), StreamError> {
         let wrap = |e: IoError| StreamError::Source(Box::new(e));
         self.read_rows(rows, |xs, vs| {
             let vs: Vec<&[f64]> = vs.iter().map(Vec::as_slice).collect();

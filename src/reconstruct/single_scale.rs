@@ -453,7 +453,7 @@ pub fn single_scale_qr(
 pub(crate) fn qr_parts(m: usize) -> Vec<std::ops::Range<usize>> {
     let threads = rayon::current_num_threads().max(1);
     if m < 2 * CHUNK || threads == 1 {
-        return vec![0..m];
+        return std::iter::once(0..m).collect();
     }
     let per = m.div_ceil(threads).max(CHUNK);
     (0..m).step_by(per).map(|s| s..(s + per).min(m)).collect()

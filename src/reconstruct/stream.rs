@@ -80,6 +80,17 @@ pub enum StreamError {
     Source(Box<dyn std::error::Error + Send + Sync>),
 }
 
+impl StreamError {
+    /// The kind of this error ([`crate::error`]): that of the fit's error, else the caller's
+    /// input (the samples' order, the partials, the source).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            StreamError::Reconstruct(e) => e.kind(),
+            _ => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
 /// The banded QR triangle of the samples seen so far, at the single-scale level `J = N + 1`
 /// of a basis `Psi(n, N)` (module docs).
 ///
@@ -386,6 +397,9 @@ impl SingleScaleAccumulator {
 /// The tag that starts an accumulator's bytes (format version 1).
 const MAGIC: &[u8; 8] = b"RKWSSQ1\n";
 
+/// What [`SampleChunks::read`] calls with each chunk: positions and values per channel.
+pub type ChunkSink<'a> = dyn FnMut(&[f64], &[&[f64]]) -> Result<(), StreamError> + 'a;
+
 /// Samples read in consecutive chunks of rows (a `.npy` or CSV file, or any other source).
 pub trait SampleChunks: Sync {
     /// Number of samples `m`.
@@ -398,11 +412,7 @@ pub trait SampleChunks: Sync {
     fn channels(&self) -> usize;
     /// Calls `each` with consecutive chunks of the samples `rows` in order: positions and one
     /// slice of values per channel.
-    fn read(
-        &self,
-        rows: Range<usize>,
-        each: &mut dyn FnMut(&[f64], &[&[f64]]) -> Result<(), StreamError>,
-    ) -> Result<(), StreamError>;
+    fn read(&self, rows: Range<usize>, each: &mut ChunkSink<'_>) -> Result<(), StreamError>;
 }
 
 /// What the streamed fit did besides the fit.
@@ -633,11 +643,7 @@ impl SampleChunks for SliceChunks<'_> {
     fn channels(&self) -> usize {
         self.values.len()
     }
-    fn read(
-        &self,
-        rows: Range<usize>,
-        each: &mut dyn FnMut(&[f64], &[&[f64]]) -> Result<(), StreamError>,
-    ) -> Result<(), StreamError> {
+    fn read(&self, rows: Range<usize>, each: &mut ChunkSink<'_>) -> Result<(), StreamError> {
         let step = self.chunk.max(1);
         for s in rows.clone().step_by(step) {
             let r = s..(s + step).min(rows.end);
