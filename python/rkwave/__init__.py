@@ -34,10 +34,7 @@ from rkwave._rkwave import (
     __version__,
     adapt,
     fit,
-    finish_partial,
     local_vs_global,
-    merge_partials,
-    partial_fit,
     reconstruct_image,
     set_memory_limit,
 )
@@ -51,10 +48,7 @@ __all__ = [
     "__version__",
     "adapt",
     "fit",
-    "finish_partial",
     "local_vs_global",
-    "merge_partials",
-    "partial_fit",
     "reconstruct_image",
     "set_memory_limit",
 ]

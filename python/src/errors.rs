@@ -123,7 +123,6 @@ macro_rules! kinded {
 
 kinded!(
     rkwave::reconstruct::ReconstructError,
-    rkwave::reconstruct::stream::StreamError,
     rkwave::basis::BasisError,
     rkwave::sampling::DomainError,
     rkwave::image::ImageError,

@@ -266,7 +266,7 @@ fn sample_domain(xs: &[f64]) -> PyResult<rkwave::sampling::Domain> {
 }
 
 /// Levels as given from Python: `None` / `"auto"` or `(n, N)`.
-pub(crate) fn levels_arg(levels: Option<&Bound<'_, PyAny>>) -> PyResult<Option<(u32, u32)>> {
+fn levels_arg(levels: Option<&Bound<'_, PyAny>>) -> PyResult<Option<(u32, u32)>> {
     let Some(obj) = levels else { return Ok(None) };
     if let Ok(s) = obj.extract::<String>() {
         return if s == "auto" {

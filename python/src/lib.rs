@@ -10,7 +10,6 @@
 //! | `reconstruct_image(xy, values, resolution, ...)` | `image::reconstruct` | `rkwave reconstruct --dim 2` |
 //! | `Plan(...)`, `positions`, `add`, `image`, `save`, `load` | `image::adaptive::protocol::PlanState` | `rkwave plan`, `reconstruct --dim 2 --state` |
 //! | `adapt(f, domain, ...)` | `refine::refine` | `rkwave adapt` |
-//! | `partial_fit`, `merge_partials`, `finish_partial` (`rkwave.dask.fit_chunks`) | `reconstruct::stream` | `rkwave reconstruct --stream` |
 //!
 //! The GIL is released during every computation (`Python::detach`). Errors map by kind
 //! ([`errors`]); conversions of arrays are in [`arrays`]; every parameter struct is built in
@@ -26,7 +25,6 @@ mod image;
 mod params;
 mod plan;
 mod report;
-mod stream;
 
 use pyo3::prelude::*;
 
@@ -64,9 +62,6 @@ fn _rkwave(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(image::reconstruct_image, m)?)?;
     m.add_function(wrap_pyfunction!(adapt::adapt, m)?)?;
     m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
-    m.add_function(wrap_pyfunction!(stream::partial_fit, m)?)?;
-    m.add_function(wrap_pyfunction!(stream::merge_partials, m)?)?;
-    m.add_function(wrap_pyfunction!(stream::finish_partial, m)?)?;
     m.add_class::<fit::PyFit>()?;
     m.add_class::<plan::PyPlan>()?;
     m.add("RkwaveError", py.get_type::<errors::RkwaveError>())?;
