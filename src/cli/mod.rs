@@ -18,6 +18,7 @@ pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
 pub mod reconstruct_args;
 pub mod reconstruct_cmd;
+pub mod reconstruct_stream;
 pub mod report_cmd;
 pub mod scaling_cmd;
 pub mod solve_args;

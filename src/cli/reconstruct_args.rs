@@ -62,4 +62,20 @@ pub struct ReconstructArgs {
     /// `shrunk` do not fit, so `--method` and `--p` are not used.
     #[arg(long, value_name = "fit|fit-clamped|box|shrunk")]
     pub pixels: Option<rkwave::image::UniformEstimate>,
+    /// 1D: read the samples in chunks, never whole (a `.npy` file sorted by x, `--method
+    /// single --factorization qr`; the same coefficients). `auto` streams when reading them
+    /// whole would exceed `--memory-limit`.
+    #[arg(long, value_enum, default_value_t = StreamArg::Auto)]
+    pub stream: StreamArg,
+}
+
+/// `--stream`: whether `rkwave reconstruct --dim 1` reads its samples in chunks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StreamArg {
+    /// When the samples read whole would exceed the memory limit.
+    Auto,
+    /// Always (a `.npy` input).
+    Always,
+    /// Never: the samples are read whole (and sorted if need be).
+    Never,
 }

@@ -7,7 +7,6 @@ use rkwave::io::output::check_output;
 use rkwave::io::{read_samples, validate_positions, GridWriter};
 use rkwave::reconstruct::{fit, FitParams};
 use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTimes};
-use rkwave::sampling::Domain;
 
 use super::reconstruct_args::ReconstructArgs;
 use super::CliError;
@@ -19,6 +18,11 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             "--no-residual turns off the residual correction of an adaptive plan's image: use \
              it with --dim 2 --state DIR"
                 .into(),
+        ));
+    }
+    if args.dim != 1 && args.stream != super::reconstruct_args::StreamArg::Auto {
+        return Err(CliError::Invalid(
+            "--stream reads 1D samples in chunks: use it with --dim 1".into(),
         ));
     }
     match args.dim {
@@ -39,6 +43,15 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             args.grid
         )));
     }
+    let params = FitParams {
+        p: args.filter.p,
+        family: args.filter.family_given(),
+        levels: args.solve.levels()?,
+        method: args.solve.method(args.method)?,
+    };
+    if super::reconstruct_stream::chooses_streaming(args, &params)? {
+        return super::reconstruct_stream::run(args, &params, started);
+    }
     let bar = ProgressBar::new_spinner();
     bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("template"));
     bar.set_message("reading samples");
@@ -48,26 +61,10 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         Some(d) => d,
         None => {
             let (a, b) = set.bounds().ok_or(CliError::Invalid("no samples".into()))?;
-            Domain::new(a, b).map_err(|e| match e {
-                rkwave::sampling::DomainError::NotIncreasing { .. } => CliError::Invalid(format!(
-                    "all samples sit at x = {}: give --domain a,b explicitly",
-                    rkwave::norms::show(a)
-                )),
-                other => CliError::Invalid(format!(
-                    "the samples span [{}, {}], which is no usable domain: {other}",
-                    rkwave::norms::show(a),
-                    rkwave::norms::show(b)
-                )),
-            })?
+            super::reconstruct_stream::domain_of_bounds(a, b)?
         }
     };
     validate_positions(&set, domain)?;
-    let params = FitParams {
-        p: args.filter.p,
-        family: args.filter.family_given(),
-        levels: args.solve.levels()?,
-        method: args.solve.method(args.method)?,
-    };
     bar.set_message("fitting");
     let channels: Vec<&[f64]> = set.values.iter().map(|v| v.as_slice()).collect();
     let fitted = fit(&set.positions, &channels, domain, &params)?;
@@ -106,20 +103,10 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             eprintln!("warning: {w}");
         }
         println!(
-            "{} samples x {} channels -> P = {} functions (levels {}..{}, oversampling {:.2}), \
-             residual RMS [{}], {:.3} s; wrote {}",
+            "{} samples x {} channels -> {}; wrote {}",
             report.samples,
             report.channels,
-            report.functions,
-            report.coarse,
-            report.fine,
-            report.oversampling,
-            rec.residual_rms
-                .iter()
-                .map(|r| format!("{r:.3e}"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            report.time_s.total,
+            super::reconstruct_stream::fit_summary(&report, &rec.residual_rms),
             args.output.display()
         );
     }

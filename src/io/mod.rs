@@ -24,6 +24,7 @@ use thiserror::Error;
 
 use crate::sampling::Domain;
 
+pub mod chunked;
 mod csv;
 mod grid_output;
 pub mod image_file;

@@ -64,143 +64,23 @@ pub(crate) fn parse_npy_named(
     file: &Path,
     names: impl FnOnce(usize) -> Vec<String>,
 ) -> Result<SampleSet, IoError> {
+    let layout = npy_layout(bytes, bytes.len(), file)?;
+    let NpyLayout {
+        m,
+        k,
+        size,
+        data_start,
+        data_len,
+        ..
+    } = layout;
+    let header = layout.header;
+    let data = &bytes[data_start..];
     let truncated = |what: &str, expected: usize| IoError::Truncated {
         file: file.to_path_buf(),
         what: what.to_string(),
         expected,
         found: bytes.len(),
     };
-    if bytes.is_empty() {
-        return Err(IoError::Empty {
-            file: file.to_path_buf(),
-        });
-    }
-    let n = bytes.len().min(MAGIC.len());
-    if bytes[..n] != MAGIC[..n] {
-        return Err(IoError::BadMagic {
-            file: file.to_path_buf(),
-        });
-    }
-    if bytes.len() < MAGIC.len() + 2 {
-        return Err(truncated("magic string and version", MAGIC.len() + 2));
-    }
-    let (major, minor) = (bytes[6], bytes[7]);
-    let header_start = match (major, minor) {
-        (1, 0) => 10,
-        (2 | 3, 0) => 12,
-        _ => {
-            return Err(IoError::UnsupportedVersion {
-                file: file.to_path_buf(),
-                major,
-                minor,
-            })
-        }
-    };
-    let Some(length) = bytes.get(8..header_start) else {
-        return Err(truncated("header length", header_start));
-    };
-    let header_len = length
-        .iter()
-        .rev()
-        .fold(0usize, |len, &b| (len << 8) | usize::from(b));
-    let data_start = header_start + header_len;
-    let Some(header_text) = bytes.get(header_start..data_start) else {
-        return Err(truncated("header", data_start));
-    };
-    let bad_header = |problem: String| IoError::BadNpyHeader {
-        file: file.to_path_buf(),
-        problem,
-    };
-    check_nesting(header_text).map_err(bad_header)?;
-
-    let header = read_header(bytes, major, header_text).map_err(|e| {
-        // npyz's parse errors are multi-line diagnostics; the first line says it.
-        let text = e.to_string();
-        bad_header(shorten(text.lines().next().unwrap_or_default(), 200))
-    })?;
-    let data = &bytes[data_start..];
-
-    let unsupported = |descr: String| IoError::UnsupportedDtype {
-        file: file.to_path_buf(),
-        descr: shorten(&descr, 40),
-    };
-    let (type_str, size) = match header.dtype() {
-        DType::Plain(ty) => {
-            let float = ty.type_char() == TypeChar::Float
-                && ty.endianness() != Endianness::Irrelevant
-                && matches!(ty.size_field(), 4 | 8);
-            if !float {
-                return Err(unsupported(ty.to_string()));
-            }
-            let size = ty.size_field() as usize;
-            (ty, size)
-        }
-        DType::Record(fields) => {
-            return Err(unsupported(format!(
-                "a structured dtype with {} fields",
-                fields.len()
-            )))
-        }
-        DType::Array(..) => return Err(unsupported("a sub-array dtype".to_string())),
-    };
-
-    // Python's tuple syntax: `(4,)`, `(3, 2)`.
-    let shape = header.shape();
-    let shape_text = match shape {
-        [d] => format!("({d},)"),
-        dims => format!(
-            "({})",
-            dims.iter()
-                .map(|d| d.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
-    };
-    let mismatch = |problem: String| IoError::ShapeMismatch {
-        file: file.to_path_buf(),
-        problem,
-    };
-    let &[m, k] = shape else {
-        return Err(mismatch(format!(
-            "the array has shape {shape_text}, which is not 2-D"
-        )));
-    };
-    if k < 2 {
-        return Err(mismatch(format!(
-            "the array has shape {shape_text}: {k} column(s), but it needs x and at least one \
-             value column"
-        )));
-    }
-    let (Ok(m), Ok(k)) = (usize::try_from(m), usize::try_from(k)) else {
-        return Err(mismatch(format!("the shape {shape_text} is too large")));
-    };
-    if m == 0 {
-        return Err(IoError::Empty {
-            file: file.to_path_buf(),
-        });
-    }
-    let Some(data_len) = m
-        .checked_mul(k)
-        .and_then(|n| n.checked_mul(size))
-        .filter(|len| len.checked_add(data_start).is_some())
-    else {
-        return Err(mismatch(format!("the shape {shape_text} is too large")));
-    };
-    if data.len() < data_len {
-        return Err(truncated(
-            &format!("data of shape {shape_text}"),
-            data_start + data_len,
-        ));
-    }
-    if data.len() > data_len {
-        return Err(mismatch(format!(
-            "the file has {} bytes of data, but shape {shape_text} of {type_str} needs \
-             {data_len}; {} bytes are left over",
-            data.len(),
-            data.len() - data_len
-        )));
-    }
-
     // The data in storage order, widened to f64 (exact for float32).
     let decode_err = |e: std::io::Error| truncated(&format!("data ({e})"), data_start + data_len);
     let npy = NpyFile::with_header(header.clone(), data);
@@ -365,4 +245,175 @@ pub fn write_npy(path: impl AsRef<Path>, set: &SampleSet) -> Result<(), IoError>
     let path = path.as_ref();
     let bytes = npy_bytes_for(set, path)?;
     write_bytes(path, &bytes)
+}
+
+/// Where the samples of a `.npy` file lie: `m` rows of `k` columns of `size`-byte floats
+/// from byte `data_start`, in C (row-major) or Fortran order.
+pub(crate) struct NpyLayout {
+    /// Rows.
+    pub m: usize,
+    /// Columns.
+    pub k: usize,
+    /// Bytes per value (4 or 8).
+    pub size: usize,
+    /// Big-endian values.
+    pub big_endian: bool,
+    /// Column-major storage.
+    pub fortran: bool,
+    /// Offset of the data.
+    pub data_start: usize,
+    /// Bytes of data, `m k size`.
+    pub data_len: usize,
+    header: NpyHeader,
+}
+
+/// The checks of [`parse_npy`] that need only the header: `bytes` holds the file's first
+/// bytes (at least its header), `total` is the file's length.
+pub(crate) fn npy_layout(bytes: &[u8], total: usize, file: &Path) -> Result<NpyLayout, IoError> {
+    let truncated = |what: &str, expected: usize| IoError::Truncated {
+        file: file.to_path_buf(),
+        what: what.to_string(),
+        expected,
+        found: total,
+    };
+    if bytes.is_empty() {
+        return Err(IoError::Empty {
+            file: file.to_path_buf(),
+        });
+    }
+    let n = bytes.len().min(MAGIC.len());
+    if bytes[..n] != MAGIC[..n] {
+        return Err(IoError::BadMagic {
+            file: file.to_path_buf(),
+        });
+    }
+    if bytes.len() < MAGIC.len() + 2 {
+        return Err(truncated("magic string and version", MAGIC.len() + 2));
+    }
+    let (major, minor) = (bytes[6], bytes[7]);
+    let header_start = match (major, minor) {
+        (1, 0) => 10,
+        (2 | 3, 0) => 12,
+        _ => {
+            return Err(IoError::UnsupportedVersion {
+                file: file.to_path_buf(),
+                major,
+                minor,
+            })
+        }
+    };
+    let Some(length) = bytes.get(8..header_start) else {
+        return Err(truncated("header length", header_start));
+    };
+    let header_len = length
+        .iter()
+        .rev()
+        .fold(0usize, |len, &b| (len << 8) | usize::from(b));
+    let data_start = header_start + header_len;
+    let Some(header_text) = bytes.get(header_start..data_start) else {
+        return Err(truncated("header", data_start));
+    };
+    let bad_header = |problem: String| IoError::BadNpyHeader {
+        file: file.to_path_buf(),
+        problem,
+    };
+    check_nesting(header_text).map_err(bad_header)?;
+
+    let header = read_header(bytes, major, header_text).map_err(|e| {
+        // npyz's parse errors are multi-line diagnostics; the first line says it.
+        let text = e.to_string();
+        bad_header(shorten(text.lines().next().unwrap_or_default(), 200))
+    })?;
+
+    let unsupported = |descr: String| IoError::UnsupportedDtype {
+        file: file.to_path_buf(),
+        descr: shorten(&descr, 40),
+    };
+    let (type_str, size) = match header.dtype() {
+        DType::Plain(ty) => {
+            let float = ty.type_char() == TypeChar::Float
+                && ty.endianness() != Endianness::Irrelevant
+                && matches!(ty.size_field(), 4 | 8);
+            if !float {
+                return Err(unsupported(ty.to_string()));
+            }
+            let size = ty.size_field() as usize;
+            (ty, size)
+        }
+        DType::Record(fields) => {
+            return Err(unsupported(format!(
+                "a structured dtype with {} fields",
+                fields.len()
+            )))
+        }
+        DType::Array(..) => return Err(unsupported("a sub-array dtype".to_string())),
+    };
+
+    // Python's tuple syntax: `(4,)`, `(3, 2)`.
+    let shape = header.shape();
+    let shape_text = match shape {
+        [d] => format!("({d},)"),
+        dims => format!(
+            "({})",
+            dims.iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    let mismatch = |problem: String| IoError::ShapeMismatch {
+        file: file.to_path_buf(),
+        problem,
+    };
+    let &[m, k] = shape else {
+        return Err(mismatch(format!(
+            "the array has shape {shape_text}, which is not 2-D"
+        )));
+    };
+    if k < 2 {
+        return Err(mismatch(format!(
+            "the array has shape {shape_text}: {k} column(s), but it needs x and at least one \
+             value column"
+        )));
+    }
+    let (Ok(m), Ok(k)) = (usize::try_from(m), usize::try_from(k)) else {
+        return Err(mismatch(format!("the shape {shape_text} is too large")));
+    };
+    if m == 0 {
+        return Err(IoError::Empty {
+            file: file.to_path_buf(),
+        });
+    }
+    let Some(data_len) = m
+        .checked_mul(k)
+        .and_then(|n| n.checked_mul(size))
+        .filter(|len| len.checked_add(data_start).is_some())
+    else {
+        return Err(mismatch(format!("the shape {shape_text} is too large")));
+    };
+    if total - data_start.min(total) < data_len {
+        return Err(truncated(
+            &format!("data of shape {shape_text}"),
+            data_start + data_len,
+        ));
+    }
+    if total - data_start > data_len {
+        return Err(mismatch(format!(
+            "the file has {} bytes of data, but shape {shape_text} of {type_str} needs \
+             {data_len}; {} bytes are left over",
+            total - data_start,
+            total - data_start - data_len
+        )));
+    }
+
+    Ok(NpyLayout {
+        m,
+        k,
+        size,
+        big_endian: type_str.endianness() == Endianness::Big,
+        fortran: header.order() == Order::Fortran,
+        data_start,
+        data_len,
+        header,
+    })
 }

@@ -71,6 +71,77 @@ impl GivensTriangle {
         }
     }
 
+    /// First column and one past the last column of the triangle.
+    pub fn columns(&self) -> std::ops::Range<usize> {
+        self.c0..self.c0 + self.n
+    }
+
+    /// Widens the triangle to cover the columns `c0 .. end` as well (new rows empty): the
+    /// rotations do not depend on the columns covered, so a triangle grown row by row computes
+    /// what one allocated at its final size computes.
+    pub fn cover(&mut self, c0: usize, end: usize) {
+        let (lo, hi) = (c0.min(self.c0), end.max(self.c0 + self.n));
+        let (front, n) = (self.c0 - lo, hi - lo);
+        if n == self.n {
+            return;
+        }
+        let (w, ch) = (self.w, self.channels);
+        let widen = |v: &mut Vec<f64>, per: usize| {
+            if front > 0 {
+                v.splice(0..0, std::iter::repeat_n(0.0, front * per));
+            }
+            v.resize(n * per, 0.0);
+        };
+        widen(&mut self.r, w);
+        widen(&mut self.z, ch);
+        widen(&mut self.colsq, 1);
+        if front > 0 {
+            self.len.splice(0..0, std::iter::repeat_n(0, front));
+        }
+        self.len.resize(n, 0);
+        self.c0 = lo;
+        self.n = n;
+    }
+
+    /// The triangle's state as plain numbers: `[c0, n, w, channels]` and the arrays `r`,
+    /// `len`, `z`, `colsq`, `rss` (see [`GivensTriangle::from_parts`]).
+    pub fn parts(&self) -> ([usize; 4], [&[f64]; 4], &[u16]) {
+        (
+            [self.c0, self.n, self.w, self.channels],
+            [&self.r, &self.z, &self.colsq, &self.rss],
+            &self.len,
+        )
+    }
+
+    /// The triangle of [`GivensTriangle::parts`]; `None` when the array lengths do not match
+    /// the sizes or a stored row is longer than the band or runs past the last column.
+    pub fn from_parts(sizes: [usize; 4], arrays: [Vec<f64>; 4], len: Vec<u16>) -> Option<Self> {
+        let [c0, n, w, channels] = sizes;
+        let [r, z, colsq, rss] = arrays;
+        let fits = r.len() == n.checked_mul(w)?
+            && z.len() == n.checked_mul(channels)?
+            && colsq.len() == n
+            && rss.len() == channels
+            && len.len() == n
+            && len
+                .iter()
+                .enumerate()
+                .all(|(j, &l)| (l as usize) <= w && j + l as usize <= n);
+        fits.then(|| Self {
+            c0,
+            n,
+            w,
+            channels,
+            r,
+            len,
+            z,
+            colsq,
+            rss,
+            buf: Vec::with_capacity(4 * w),
+            y: Vec::with_capacity(channels),
+        })
+    }
+
     /// Adds the observation row `K[i, first + k] = values[k]` with right-hand sides `f[c]`.
     #[inline]
     pub fn add_row(&mut self, first: usize, values: &[f64], f: &[f64]) {

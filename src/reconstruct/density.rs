@@ -54,15 +54,20 @@ pub fn strongly_non_uniform(
     levels: &LevelChoice,
     p: usize,
 ) -> bool {
-    let m = positions.len() as f64;
-    let per_support = m * (2 * p).saturating_sub(1).max(1) as f64 / MEAN_SUPPORT_SAMPLES;
+    inspected_level(positions.len(), levels, p).is_some_and(|level| {
+        check_positions(domain, positions).is_ok()
+            && min_support_samples(positions, domain, level, p) < 2
+    })
+}
+
+/// The level `L` [`strongly_non_uniform`] inspects for `m` samples, `None` without room.
+pub(crate) fn inspected_level(m: usize, levels: &LevelChoice, p: usize) -> Option<u32> {
+    let per_support = m as f64 * (2 * p).saturating_sub(1).max(1) as f64 / MEAN_SUPPORT_SAMPLES;
     if levels.fine <= levels.coarse || per_support < 1.0 {
-        return false;
+        return None;
     }
     let level = (per_support.log2().floor() as u32).min(levels.fine - 1);
-    level >= levels.coarse
-        && check_positions(domain, positions).is_ok()
-        && min_support_samples(positions, domain, level, p) < 2
+    (level >= levels.coarse).then_some(level)
 }
 
 /// Mean samples per support of the level [`strongly_non_uniform`] inspects.

@@ -12,6 +12,7 @@ mod evaluate;
 mod kernel_functions;
 mod outcome;
 mod single_scale;
+pub mod stream;
 mod undersampled;
 
 pub use evaluate::FitEvaluator;
@@ -428,9 +429,19 @@ pub(crate) fn min_support_samples(
     let cells = 1usize << level;
     let mut counts = vec![0usize; cells];
     for &x in positions {
-        let c = (domain.to_unit(x) * cells as f64) as usize;
-        counts[c.min(cells - 1)] += 1;
+        counts[cell_of(domain.to_unit(x), cells)] += 1;
     }
+    min_support_of_counts(&counts, p)
+}
+
+/// The cell `floor(t cells)` of `t` in `[0, 1]` (`t = 1` in the last).
+pub(crate) fn cell_of(t: f64, cells: usize) -> usize {
+    ((t * cells as f64) as usize).min(cells - 1)
+}
+
+/// [`min_support_samples`] from the sample count of each cell of the level.
+pub(crate) fn min_support_of_counts(counts: &[usize], p: usize) -> usize {
+    let cells = counts.len();
     let w = (2 * p - 1).min(cells);
     let mut window: usize = counts[..w].iter().sum();
     let mut least = window;

@@ -424,16 +424,13 @@ pub fn single_scale_qr(
         }
     };
     let mut tri = GivensTriangle::new(0, n, w, channels);
-    let threads = rayon::current_num_threads().max(1);
-    if m < 2 * CHUNK || threads == 1 {
+    let ranges = qr_parts(m);
+    if ranges.len() == 1 {
         fill(&mut tri, 0..m);
     } else {
-        let per = m.div_ceil(threads).max(CHUNK);
-        let starts: Vec<usize> = (0..m).step_by(per).collect();
-        let parts: Vec<GivensTriangle> = starts
-            .par_iter()
-            .map(|&s| {
-                let range = s..(s + per).min(m);
+        let parts: Vec<GivensTriangle> = ranges
+            .into_par_iter()
+            .map(|range| {
                 // Columns of the chunk: from the first row's first to the last row's last.
                 let mut ev = scale.single_level_evaluator();
                 let c0 = ev.row_unit(ts[at(range.start)]).0;
@@ -447,6 +444,30 @@ pub fn single_scale_qr(
             tri.absorb(part);
         }
     }
+    Ok(solve_triangle(basis, tri, ridge, m))
+}
+
+/// The consecutive sample ranges the QR rotates into triangles of their own (one per
+/// thread, at least [`CHUNK`] samples each; a single range for small inputs or one thread)
+/// and then merges in order: the rounding of the result depends on them.
+pub(crate) fn qr_parts(m: usize) -> Vec<std::ops::Range<usize>> {
+    let threads = rayon::current_num_threads().max(1);
+    if m < 2 * CHUNK || threads == 1 {
+        return std::iter::once(0..m).collect();
+    }
+    let per = m.div_ceil(threads).max(CHUNK);
+    (0..m).step_by(per).map(|s| s..(s + per).min(m)).collect()
+}
+
+/// The `Psi(n, N)` coefficients from the triangle of all `m` samples over the columns of
+/// `V_{N+1}`: the ridge rows, back substitution, the residual the rotations left, the FWT.
+pub(crate) fn solve_triangle(
+    basis: &CdvBasis,
+    mut tri: GivensTriangle,
+    ridge: f64,
+    m: usize,
+) -> (Vec<Vec<f64>>, SingleScaleReport) {
+    let b = bandwidth(basis);
     tri.add_ridge(ridge);
     let sol = tri.solve(PIVOT_TOLERANCE);
     let residual_rms = if ridge == 0.0 && m > 0 {
@@ -462,7 +483,7 @@ pub fn single_scale_qr(
         .into_iter()
         .map(|v| fwt::analysis(basis.bank(), basis.coarse(), basis.fine(), &v))
         .collect();
-    Ok((
+    (
         coefficients,
         SingleScaleReport {
             solver: SingleScaleSolver::Qr,
@@ -473,7 +494,7 @@ pub fn single_scale_qr(
             min_pivot: sol.min_pivot,
             residual_rms,
         },
-    ))
+    )
 }
 
 /// The single-scale problem at one level, ready to solve and to lower by one level: the
