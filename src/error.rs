@@ -270,7 +270,8 @@ impl ImageError {
             | ImageError::ChannelCount { .. }
             | ImageError::ChannelLength { .. }
             | ImageError::OutsideImage { .. }
-            | ImageError::NonFiniteValue { .. } => InvalidInput,
+            | ImageError::NonFiniteValue { .. }
+            | ImageError::NonFiniteSamples { .. } => InvalidInput,
         }
     }
 }

@@ -68,6 +68,7 @@ const KEYWORD_SPELLINGS: &[(&str, &str)] = &[
     ("Method::Dense", "method=\"dense\""),
     ("Solver::Qr", "solver=\"qr\""),
     ("Solver::Svd", "solver=\"svd\""),
+    ("NonFinitePolicy::Drop", "drop_nonfinite=True"),
 ];
 
 /// `message` with the library's parameter spellings replaced by keyword arguments.

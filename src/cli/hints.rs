@@ -31,6 +31,7 @@ const FLAG_SPELLINGS: &[(&str, &str)] = &[
     ("Method::Dense", "--method dense"),
     ("Solver::Qr", "--solver qr"),
     ("Solver::Svd", "--solver svd"),
+    ("NonFinitePolicy::Drop", "--drop-nonfinite"),
 ];
 
 /// `message` with every library spelling of [`FLAG_SPELLINGS`] replaced by its flag.

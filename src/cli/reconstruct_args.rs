@@ -62,4 +62,8 @@ pub struct ReconstructArgs {
     /// `shrunk` do not fit, so `--method` and `--p` are not used.
     #[arg(long, value_name = "fit|fit-clamped|box|shrunk")]
     pub pixels: Option<rkwave::image::UniformEstimate>,
+    /// With `--dim 2`: drop the samples whose value is NaN or infinite (counted in the
+    /// report) instead of refusing the file.
+    #[arg(long)]
+    pub drop_nonfinite: bool,
 }
