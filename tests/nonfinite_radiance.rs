@@ -45,7 +45,12 @@ fn with(mut args: Vec<String>, more: &[&str]) -> Vec<String> {
 fn uniform_refuses_then_drops_and_counts() {
     let d = scratch("uniform");
     let clean = samples_npy(&d.join("clean.npy"), 16, 16, 1024, 1);
-    let bad = poisoned(&clean, &[3, 700], &[f64::NAN, f64::INFINITY], &d.join("bad.npy"));
+    let bad = poisoned(
+        &clean,
+        &[3, 700],
+        &[f64::NAN, f64::INFINITY],
+        &d.join("bad.npy"),
+    );
     let out = d.join("o.npy");
     let e = user_error(&reconstruct2d(&bad, &out, "16x16"));
     let first = read_npy(&clean).unwrap();
@@ -56,7 +61,10 @@ fn uniform_refuses_then_drops_and_counts() {
     assert!(e.contains(&format!("{}", first.positions[3])), "{e}");
     assert!(!out.exists(), "a refused file writes no image");
 
-    let text = succeeds(&with(reconstruct2d(&bad, &out, "16x16"), &["--drop-nonfinite"]));
+    let text = succeeds(&with(
+        reconstruct2d(&bad, &out, "16x16"),
+        &["--drop-nonfinite"],
+    ));
     assert!(text.contains("2 samples with a non-finite value"), "{text}");
     let json = succeeds(&with(
         reconstruct2d(&bad, &d.join("o2.npy"), "16x16"),
@@ -135,7 +143,10 @@ fn plan_state_survives_a_refused_round() {
     assert_eq!(std::fs::read(PlanState::path(&d)).unwrap(), state_before);
     assert!(!n1.exists(), "a refused round writes no positions");
 
-    let json = succeeds(&with(plan_round(&d, &bad, &n1), &["--drop-nonfinite", "--json"]));
+    let json = succeeds(&with(
+        plan_round(&d, &bad, &n1),
+        &["--drop-nonfinite", "--json"],
+    ));
     let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["step"]["dropped"]["count"], 1, "{json}");
     assert_ne!(std::fs::read(PlanState::path(&d)).unwrap(), state_before);
@@ -238,7 +249,12 @@ fn library_advance_with_dropped_samples() {
     };
     let (mut state, base) = PlanState::start(plane, &params).unwrap();
     let f = |x: f64, y: f64| 0.3 + 0.01 * x + if x + y < 14.0 { 0.5 } else { 0.0 };
-    let mut v: Vec<f64> = base.xs.iter().zip(&base.ys).map(|(x, y)| f(*x, *y)).collect();
+    let mut v: Vec<f64> = base
+        .xs
+        .iter()
+        .zip(&base.ys)
+        .map(|(x, y)| f(*x, *y))
+        .collect();
     v[7] = f64::NEG_INFINITY;
     let e = split_finite(
         plane,
@@ -248,7 +264,14 @@ fn library_advance_with_dropped_samples() {
         NonFinitePolicy::Refuse,
     )
     .unwrap_err();
-    assert!(matches!(e, ImageError::NonFiniteSamples { count: 1, row: 8, .. }));
+    assert!(matches!(
+        e,
+        ImageError::NonFiniteSamples {
+            count: 1,
+            row: 8,
+            ..
+        }
+    ));
     let before = state.clone();
     let (kept, dropped) = split_finite(
         plane,

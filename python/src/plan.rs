@@ -326,9 +326,18 @@ impl PyPlan {
         let t = Instant::now();
         let state = &self.state;
         let dropped = self.dropped.clone();
-        let done = py
-            .detach(|| state.reconstruct_dropped(samples, dropped, estimate))
-            .map_err(to_py)?;
+        // the stopping round's own reconstruction, when it is the one asked for
+        let stopped = self
+            .steps
+            .last()
+            .and_then(|s| s.reconstruction.as_deref())
+            .filter(|_| estimate == self.state.params.output.pixels);
+        let done = match stopped {
+            Some(done) => done.clone(),
+            None => py
+                .detach(|| state.reconstruct_dropped(samples, dropped, estimate))
+                .map_err(to_py)?,
+        };
         self.time_s.library += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut notes = plan_fit_notes(&done);

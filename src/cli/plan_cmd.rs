@@ -58,6 +58,12 @@ pub struct PlanArgs {
     /// slot (default 0.01; 0: no noise test, every detail is deepened).
     #[arg(long)]
     pub false_alarm: Option<f64>,
+    /// Where to write the final image (`.npy`, `.exr`, `.png` as in `reconstruct --dim 2`)
+    /// when this call stops the plan: the stopping round's fit, so no `reconstruct --dim 2
+    /// --state` call (which would fit the same samples again) is needed. Nothing is written
+    /// while the plan continues.
+    #[arg(long)]
+    pub final_image: Option<PathBuf>,
     /// Least growth per round, as a share of the samples so far (default 0.25): larger
     /// values mean fewer rounds, so fewer fits while the renderer waits, and coarser steps
     /// of the refinement.
@@ -170,6 +176,13 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         .into());
     }
     check_writable(&args.out, args.force)?;
+    if let Some(image) = &args.final_image {
+        rkwave::io::image_file::ImageFormat::from_path(image)
+            .map_err(|e| CliError::flag("--final-image", e))?;
+        let mut inputs = vec![args.out.as_path()];
+        inputs.extend(args.samples.as_deref());
+        rkwave::io::output::check_output(image, args.force, &inputs)?;
+    }
     let state_file = PlanState::path(&args.state);
     let (state, next, step) = match &args.samples {
         None => {
@@ -214,6 +227,16 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     state
         .commit(&args.state, &args.out, &positions_npy(&next), args.force)
         .map_err(protocol)?;
+    let final_image = match (
+        &args.final_image,
+        step.as_ref().and_then(|s| s.reconstruction.as_ref()),
+    ) {
+        (Some(path), Some(done)) => {
+            rkwave::io::image_file::write_image(path, &done.image, args.force)?;
+            Some(path)
+        }
+        _ => None,
+    };
     if args.json {
         let report = PlanCallReport::new(&state, &args.state, &args.out, &next, step);
         println!(
@@ -257,6 +280,12 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             args.state.display()
         ),
     }
+    if let Some(path) = final_image {
+        println!(
+            "wrote the final image to {} (the stopping round's fit)",
+            path.display()
+        );
+    }
     if let Some(s) = &step {
         if let Some(note) = s.dropped.note() {
             println!("note: {note}");
@@ -294,11 +323,8 @@ pub fn reconstruct(
         }
     }
     super::image_memory::check_reading(&args.input)?;
-    let (samples, dropped) = read_image_samples_with(
-        &args.input,
-        state.plane,
-        nonfinite(args.drop_nonfinite),
-    )?;
+    let (samples, dropped) =
+        read_image_samples_with(&args.input, state.plane, nonfinite(args.drop_nonfinite))?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly
     } else {
@@ -310,13 +336,13 @@ pub fn reconstruct(
     rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
     let mut overridden = Vec::new();
     // The plan fixes the basis and the solve: say so when the user asked for others.
-    if args.filter.p != state.params.tree.p {
+    if let Some(p) = args.p.filter(|&p| p != state.params.tree.p) {
         overridden.push(format!(
-            "p = {} from the plan's tree (--p, {} here, is not used with --state)",
-            state.params.tree.p, args.filter.p
+            "p = {} from the plan's tree (--p, {p} here, is not used with --state)",
+            state.params.tree.p
         ));
     }
-    if args.filter.family.is_some() {
+    if args.family.is_some() {
         overridden
             .push("--family is not used: the plan's tree fixes the filter family".to_string());
     }

@@ -52,14 +52,17 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         }
     };
     let wavelet = WaveletParams {
-        p: check_p(args.filter.p)?,
+        p: check_p(args.filter().p)?,
         pixel_filter: None,
         ..WaveletParams::default()
     };
     super::image_memory::check_reading(&args.input)?;
     let bar = spinner("reading samples");
-    let (samples, dropped) =
-        read_image_samples_with(&args.input, plane, super::plan_cmd::nonfinite(args.drop_nonfinite))?;
+    let (samples, dropped) = read_image_samples_with(
+        &args.input,
+        plane,
+        super::plan_cmd::nonfinite(args.drop_nonfinite),
+    )?;
     let read_s = started.elapsed().as_secs_f64();
     // Before the fit: the fit and the output image, from the sizes read.
     let request = super::image_memory::uniform_request(

@@ -186,7 +186,10 @@ mod tests {
                 if x == 1.5 && y == 1.5
         ));
         let text = e.to_string();
-        assert!(text.contains("2 samples") && text.contains("row 2"), "{text}");
+        assert!(
+            text.contains("2 samples") && text.contains("row 2"),
+            "{text}"
+        );
     }
 
     #[test]
@@ -196,7 +199,10 @@ mod tests {
         assert_eq!(s.xs(), &[0.5, 2.5, 0.25]);
         assert_eq!(s.channel(0), &[1.0, 3.0, 5.0]);
         assert_eq!(s.channel(1), &[1.0, 3.0, 5.0]);
-        assert_eq!((d.count, d.xs.clone(), d.ys.clone()), (2, vec![1.5, 3.5], vec![1.5, 3.5]));
+        assert_eq!(
+            (d.count, d.xs.clone(), d.ys.clone()),
+            (2, vec![1.5, 3.5], vec![1.5, 3.5])
+        );
         assert_eq!(d.first.map(|f| (f.row, f.channel)), Some((2, 1)));
         assert!(d.note().unwrap().contains("2 samples"));
     }
@@ -207,7 +213,10 @@ mod tests {
         let v = vec![vec![1.0, 2.0]];
         for policy in [NonFinitePolicy::Refuse, NonFinitePolicy::Drop] {
             let (s, d) = split_finite(plane(), xs.clone(), ys.clone(), v.clone(), policy).unwrap();
-            assert_eq!(s, ImageSamples::new(plane(), xs.clone(), ys.clone(), v.clone()).unwrap());
+            assert_eq!(
+                s,
+                ImageSamples::new(plane(), xs.clone(), ys.clone(), v.clone()).unwrap()
+            );
             assert_eq!(d, DroppedSamples::default());
             assert!(d.note().is_none());
         }

@@ -207,6 +207,13 @@ pub struct PlanStep {
     pub budget: usize,
     /// The samples dropped for a non-finite value (none unless the caller's policy drops).
     pub dropped: DroppedSamples,
+    /// When this round stopped the plan: the final reconstruction from its fit, with the
+    /// plan's output pixels, without fitting the samples again (under the direct solve, the
+    /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
+    /// iterative solve, the stopping round's fit continued to the solver's tolerance);
+    /// `None` otherwise.
+    #[serde(skip)]
+    pub reconstruction: Option<Box<PlanReconstruction>>,
 }
 
 /// A reconstruction on the tree a plan built.
@@ -491,6 +498,34 @@ impl PlanState {
         )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(samples.xs(), samples.ys(), &values)?;
+        // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
+        // output pixels are those `reconstruct` would compute again from the same samples.
+        let reconstruction = match round.decision {
+            Decision::Stop(_) => {
+                let sigma = round.log.noise.as_ref().map_or(0.0, |n| n.sigma);
+                let (fit_image, image, correction) = output_pixels(
+                    plan.tree(),
+                    &round.fit,
+                    samples.xs(),
+                    samples.ys(),
+                    samples.values(),
+                    self.params.output.pixels,
+                    sigma,
+                    self.params.output.residual_z,
+                )?;
+                Some(Box::new(PlanReconstruction {
+                    tree: plan.tree().clone(),
+                    fit: round.fit,
+                    fit_image,
+                    image,
+                    correction,
+                    round: k,
+                    complete: true,
+                    dropped: dropped.clone(),
+                }))
+            }
+            Decision::Sample(_) => None,
+        };
         self.channels = Some(samples.channels());
         let (next, next_round, stop) = match round.decision {
             Decision::Sample(next) => {
@@ -519,6 +554,7 @@ impl PlanState {
             total_positions: self.positions(),
             budget: self.params.stop.budget,
             dropped,
+            reconstruction,
         })
     }
 
