@@ -78,15 +78,12 @@ fn uniform_refuses_then_drops_and_counts() {
 
     // The same image as the file without those two rows.
     let mut kept = first.clone();
-    let keep = |v: &Vec<f64>| -> Vec<f64> {
-        v.iter()
-            .enumerate()
-            .filter(|(i, _)| *i != 3 && *i != 700)
-            .map(|(_, x)| *x)
-            .collect()
-    };
-    kept.positions = keep(&first.positions);
-    kept.values = first.values.iter().map(keep).collect();
+    kept.positions = without_rows(&first.positions, &[3, 700]);
+    kept.values = first
+        .values
+        .iter()
+        .map(|v| without_rows(v, &[3, 700]))
+        .collect();
     let kept_file = d.join("kept.npy");
     rkwave::io::write_npy(&kept_file, &kept).unwrap();
     let expected = d.join("expected.npy");
@@ -95,6 +92,15 @@ fn uniform_refuses_then_drops_and_counts() {
         std::fs::read(&out).unwrap(),
         std::fs::read(&expected).unwrap()
     );
+}
+
+/// `v` without the entries at `rows`.
+fn without_rows(v: &[f64], rows: &[usize]) -> Vec<f64> {
+    v.iter()
+        .enumerate()
+        .filter(|(i, _)| !rows.contains(i))
+        .map(|(_, x)| *x)
+        .collect()
 }
 
 /// CSV too: `nan` and `inf` are read as values and refused with the count.
