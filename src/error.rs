@@ -273,7 +273,8 @@ impl ImageError {
             | ImageError::ChannelCount { .. }
             | ImageError::ChannelLength { .. }
             | ImageError::OutsideImage { .. }
-            | ImageError::NonFiniteValue { .. } => InvalidInput,
+            | ImageError::NonFiniteValue { .. }
+            | ImageError::NonFiniteSamples { .. } => InvalidInput,
         }
     }
 }
@@ -454,11 +455,13 @@ pub enum Fix {
     MethodDense,
     /// Column-pivoted QR for the local blocks.
     SolverQr,
+    /// Drop non-finite samples and count them instead of refusing the set.
+    DropNonfinite,
 }
 
 impl Fix {
     /// Every fix, so a front end can check that it spells each one.
-    pub const ALL: [Fix; 12] = [
+    pub const ALL: [Fix; 13] = [
         Fix::RegularizedAnswer,
         Fix::RegularizeOrLocal,
         Fix::Cutoff,
@@ -471,6 +474,7 @@ impl Fix {
         Fix::MethodGlobal,
         Fix::MethodDense,
         Fix::SolverQr,
+        Fix::DropNonfinite,
     ];
 
     /// The fix in the library's terms: the parameter to set and its value.
@@ -494,6 +498,7 @@ impl Fix {
             Fix::MethodGlobal => "Method::Global",
             Fix::MethodDense => "Method::Dense",
             Fix::SolverQr => "Solver::Qr",
+            Fix::DropNonfinite => "NonFinitePolicy::Drop",
         }
     }
 }

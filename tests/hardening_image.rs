@@ -237,7 +237,8 @@ fn a_plan_round_is_all_or_nothing() {
 }
 
 /// Class "smaller": a NaN in the first value column of a 2D `.npy` file was reported as
-/// `value2`; it is named as the reader of the file sees it (`value`, column 3).
+/// `value2`; it is named as an image sample's channel (0, the first), with its row (issue 28:
+/// non-finite radiance is counted and can be dropped).
 #[test]
 fn a_nan_in_the_first_value_column_is_named_value() {
     let d = scratch("nan_column");
@@ -249,7 +250,7 @@ fn a_nan_in_the_first_value_column_is_named_value() {
     .unwrap();
     write_npy_unchecked(&path, &set);
     let e = user_error(&reconstruct2d(&path, &d.join("o.npy"), "4x4"));
-    assert!(e.contains("row 2, column 3 (`value`)"), "{e}");
+    assert!(e.contains("row 2") && e.contains("channel 0"), "{e}");
     assert!(!e.contains("value2"), "{e}");
     // a NaN position y is named y
     let set = SampleSet::new(vec![1.0, 2.0], vec![vec![f64::NAN, 2.0], vec![0.5, 0.5]]).unwrap();

@@ -84,7 +84,7 @@ fn sweep_values() {
     user_error(&reconstruct2d(&csv, &out, "4x4"));
     std::fs::write(&csv, "x,y,v\n1,1,inf\n").unwrap();
     let e = user_error(&reconstruct2d(&csv, &out, "4x4"));
-    assert!(e.contains("line 2"), "{e}");
+    assert!(e.contains("row 1") && e.contains("--drop-nonfinite"), "{e}");
     assert!(!out.exists());
 }
 

@@ -360,11 +360,14 @@ fn uniform_reconstruction_of_real_samples_is_finite_and_within_the_measured_gap(
 /// of the transform's rounding or of the fit: on cornell (Monte Carlo noise) shrinkage must
 /// keep at least 3 dB, i.e. at least halve the box's squared error; on the noise-free scenes it
 /// must cost at most 0.1 dB (the pooled noise level there is ~1e-4 of the signal); the clamp
-/// must gain at least 1 dB on each scene (it removes the fit's ringing at edges and the emitter).
+/// must gain at least 1 dB on direct and cornell (it removes the fit's ringing at edges and the
+/// emitter). Since the image plane's default p is 2 (issue 28) the fit rings less on the
+/// defocused thinlens image: fit-clamped − fit = +0.02 dB there (28.97 against 28.95), so the
+/// clamp must only not lose more than 0.1 dB.
 const ESTIMATE_GAINS_DB: [(&str, f64, f64); 3] = [
     ("direct", -0.1, 1.0),
     ("cornell", 3.0, 1.0),
-    ("thinlens", -0.1, 1.0),
+    ("thinlens", -0.1, -0.1),
 ];
 
 /// `rkwave reconstruct --dim 2` of a fixture's samples with `extra` flags: the image's shape
@@ -418,7 +421,7 @@ fn shrunk_pixels_gain_on_monte_carlo_noise_and_the_clamp_stays_in_the_samples_ra
         let clamped_db = psnr(&clamped, &f.reference);
         assert!(
             clamped_db >= fit_db + clamp_gain,
-            "{scene}: fit-clamped {clamped_db:.2} dB, fit {fit_db:.2} dB: less than +{clamp_gain}"
+            "{scene}: fit-clamped {clamped_db:.2} dB, fit {fit_db:.2} dB: less than {clamp_gain:+}"
         );
         // Every clamped pixel lies within the range of its own samples.
         for (c, values) in f.rgb.iter().enumerate() {

@@ -45,8 +45,9 @@ class Rkwave:
 
     def adaptive(self, render_positions, width, height, spp, tag, seed=1, max_rounds=64):
         """The `rkwave plan` loop: plan writes positions, the renderer answers, until plan
-        writes 0 rows; then `reconstruct --dim 2 --state`. Returns
-        (image, samples, rkwave seconds, rounds)."""
+        writes 0 rows; the call that stops the plan writes the final image (`--final-image`,
+        the stopping round's fit: no `reconstruct --dim 2 --state`, which would fit every
+        sample again). Returns (image, samples, rkwave seconds, rounds)."""
         state = os.path.join(self.workdir, f"{tag}-plan")
         pos = os.path.join(self.workdir, f"{tag}-positions.npy")
         allp = os.path.join(self.workdir, f"{tag}-all.npy")
@@ -67,9 +68,7 @@ class Rkwave:
                 raise RuntimeError(f"plan did not stop after {max_rounds} rounds")
             samples = np.vstack([samples, render_positions(p, 1000 + rounds)])
             np.save(allp, samples)
-            _, dt = self._run(["plan", "--state", state, "--samples", allp, "--out", pos, "--force"])
+            _, dt = self._run(["plan", "--state", state, "--samples", allp, "--out", pos,
+                               "--final-image", out, "--force"])
             seconds += dt
-        _, dt = self._run(["reconstruct", "--dim", "2", "--state", state, "--input", allp,
-                           "--resolution", res, "--output", out, "--force"])
-        seconds += dt
         return _npy_image(out), samples, seconds, rounds

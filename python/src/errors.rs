@@ -60,6 +60,7 @@ pub fn keyword(fix: Fix) -> &'static str {
         Fix::MethodGlobal => "method=\"global\"",
         Fix::MethodDense => "method=\"dense\"",
         Fix::SolverQr => "solver=\"qr\"",
+        Fix::DropNonfinite => "drop_nonfinite=True",
         _ => fix.in_library(),
     }
 }

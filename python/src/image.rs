@@ -9,7 +9,9 @@ use std::time::Instant;
 use pyo3::prelude::*;
 use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::report::FileReconstructionReport;
-use rkwave::image::{reconstruct, ImagePlane, ImageSamples, Method};
+use rkwave::image::{
+    reconstruct, split_finite, DroppedSamples, ImagePlane, ImageSamples, Method, NonFinitePolicy,
+};
 
 use crate::arrays::{columns, floats, image_out};
 use crate::errors::{invalid, to_py, warn_all};
@@ -43,12 +45,24 @@ pub fn plane_of(resolution: (usize, usize)) -> PyResult<ImagePlane> {
     ImagePlane::new(resolution.0, resolution.1).map_err(to_py)
 }
 
-/// Checked samples on `plane` from `xy` `(m, 2)` and `values` `(m,)` or `(m, channels)`.
+/// The policy of a `drop_nonfinite` keyword.
+pub fn nonfinite(drop: bool) -> NonFinitePolicy {
+    if drop {
+        NonFinitePolicy::Drop
+    } else {
+        NonFinitePolicy::Refuse
+    }
+}
+
+/// Checked samples on `plane` from `xy` `(m, 2)` and `values` `(m,)` or `(m, channels)`,
+/// the samples with a non-finite value handled by `policy`: the finite ones and those
+/// dropped.
 pub fn samples_of(
     plane: ImagePlane,
     xy: &Bound<'_, PyAny>,
     values: &Bound<'_, PyAny>,
-) -> PyResult<ImageSamples> {
+    policy: NonFinitePolicy,
+) -> PyResult<(ImageSamples, DroppedSamples)> {
     let xyd = floats(xy, "xy")?;
     let xyv = xyd.view();
     let pos = columns(&xyv, "xy")?;
@@ -82,11 +96,12 @@ pub fn samples_of(
             xs[i], ys[i]
         )));
     }
-    ImageSamples::new(
+    split_finite(
         plane,
         xs,
         ys,
         vals.into_iter().map(|c| c.into_owned()).collect(),
+        policy,
     )
     .map_err(to_py)
 }
@@ -98,7 +113,9 @@ pub fn samples_of(
 /// `(m,)` or `(m, C)` with 1 to 4 channels. `method` is `"wavelet"` (the least-squares fit,
 /// box-integrated over each pixel), `"local"` (its local inversion), or a film filter;
 /// `filter="gaussian"` (or `box`, `triangle`, `mitchell`, `lanczos`) splats the same samples
-/// through that film filter for comparison.
+/// through that film filter for comparison. A value that is NaN or infinite is refused (the
+/// error names the count and the first sample); `drop_nonfinite=True` drops those samples
+/// and counts them in the report (`nonfinite`) and a warning.
 ///
 /// >>> import numpy as np, rkwave
 /// >>> xy = np.random.default_rng(3).uniform(0, 16, (4 * 16 * 16, 2))
@@ -108,7 +125,9 @@ pub fn samples_of(
 /// >>> rkwave.reconstruct_image(xy, xy[:, 0], resolution=(16, 16), filter="gaussian")[1]["method"]
 /// 'gaussian'
 #[pyfunction]
-#[pyo3(signature = (xy, values, resolution, p=2, method="wavelet", filter=None))]
+#[pyo3(signature = (xy, values, resolution, p=2, method="wavelet", filter=None, *,
+    drop_nonfinite=false))]
+#[allow(clippy::too_many_arguments)]
 pub fn reconstruct_image<'py>(
     py: Python<'py>,
     xy: &Bound<'py, PyAny>,
@@ -117,12 +136,13 @@ pub fn reconstruct_image<'py>(
     p: usize,
     method: &str,
     filter: Option<&str>,
+    drop_nonfinite: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let method = method_of(method, filter)?;
     let wavelet = wavelet_params(p)?;
     let plane = plane_of(resolution)?;
     let t0 = Instant::now();
-    let samples = samples_of(plane, xy, values)?;
+    let (samples, dropped) = samples_of(plane, xy, values, nonfinite(drop_nonfinite))?;
     let convert_s = t0.elapsed().as_secs_f64();
     let done = py
         .detach(|| reconstruct(method, &samples, &wavelet))
@@ -131,9 +151,11 @@ pub fn reconstruct_image<'py>(
     // "read" is checking and converting them.
     let memory = Path::new("<numpy>");
     let total = t0.elapsed().as_secs_f64();
-    let report = FileReconstructionReport::new(
+    let mut report = FileReconstructionReport::new(
         memory, memory, plane, &samples, method, wavelet.p, &done, convert_s, 0.0, total,
     );
+    report.notes.extend(dropped.note());
+    report.nonfinite = dropped;
     warn_all(py, &report.notes)?;
     let image = image_out(py, &done.image.channels, plane.width(), plane.height());
     let report = to_dict(py, &serde_json::to_string(&report).expect("plain data"))?;

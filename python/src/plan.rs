@@ -16,14 +16,14 @@ use pyo3::prelude::*;
 use rkwave::image::adaptive::protocol::{PlanState, PlanStep, ProtocolError};
 use rkwave::image::adaptive::{PixelEstimate, SamplePositions};
 use rkwave::image::report::plan_fit_notes;
-use rkwave::image::{ImagePlane, ImageSamples};
+use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
 use rkwave::io::output::write_new;
 use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
 
 use crate::arrays::{image_out, positions_out};
 use crate::errors::{invalid, to_py, warn_all};
-use crate::image::{plane_of, samples_of};
+use crate::image::{nonfinite, plane_of, samples_of};
 use crate::params::{plan_params, PlanArgs};
 use crate::report::to_dict;
 
@@ -57,8 +57,10 @@ pub struct PyPlan {
     state: PlanState,
     /// Positions handed out for the round in progress (empty once the plan stopped).
     next: SamplePositions,
-    /// Every sample so far, in the order added.
+    /// Every sample so far, in the order added (those with a finite value).
     samples: Option<ImageSamples>,
+    /// The samples dropped for a non-finite value so far (`add(drop_nonfinite=True)`).
+    dropped: DroppedSamples,
     steps: Vec<PlanStep>,
     time_s: PlanSeconds,
 }
@@ -212,6 +214,7 @@ impl PyPlan {
             state,
             next,
             samples: None,
+            dropped: DroppedSamples::default(),
             steps: Vec::new(),
             time_s: PlanSeconds {
                 library: t.elapsed().as_secs_f64(),
@@ -236,18 +239,23 @@ impl PyPlan {
 
     /// Adds the rendered samples of the positions handed out (`xy` `(n, 2)` as returned by
     /// `positions()`, `values` `(n,)` or `(n, channels)`) and plans the next round: the fit
-    /// on every sample so far, then new positions or the stop (`done`).
+    /// on every sample so far, then new positions or the stop (`done`). A value that is NaN
+    /// or infinite is refused (the error names the count and the first sample; the plan is
+    /// unchanged and the round can be added again); `drop_nonfinite=True` drops those
+    /// samples, counts them in the round's report and fits the rest.
     ///
     /// >>> import rkwave
     /// >>> plan = rkwave.Plan(resolution=(16, 16), spp=4)
     /// >>> xy = plan.positions(); plan.add(xy, xy[:, 0] / 16)
     /// >>> plan.round
     /// 1
+    #[pyo3(signature = (xy, values, *, drop_nonfinite=false))]
     fn add(
         &mut self,
         py: Python<'_>,
         xy: &Bound<'_, PyAny>,
         values: &Bound<'_, PyAny>,
+        drop_nonfinite: bool,
     ) -> PyResult<()> {
         if self.state.stop.is_some() {
             return Err(invalid(
@@ -255,11 +263,19 @@ impl PyPlan {
             ));
         }
         let t = Instant::now();
-        let new = samples_of(self.state.plane, xy, values)?;
+        let (new, dropped) = samples_of(self.state.plane, xy, values, nonfinite(drop_nonfinite))?;
+        let rows = self.samples.as_ref().map_or(0, ImageSamples::len) + self.dropped.count;
         let all = appended(self.samples.as_ref(), new)?;
+        let mut all_dropped = self.dropped.clone();
+        all_dropped.extend(dropped, rows);
         let t_lib = Instant::now();
         let state = &mut self.state;
-        let step = py.detach(|| state.advance(&all)).map_err(to_py)?;
+        let so_far = all_dropped.clone();
+        let step = py
+            .detach(|| state.advance_dropped(&all, so_far))
+            .map_err(to_py)?;
+        self.dropped = all_dropped;
+        warn_all(py, &step.dropped.note().into_iter().collect::<Vec<_>>())?;
         let library = t_lib.elapsed().as_secs_f64();
         self.next = step.next.clone();
         self.samples = Some(all);
@@ -309,12 +325,24 @@ impl PyPlan {
         };
         let t = Instant::now();
         let state = &self.state;
-        let done = py
-            .detach(|| state.reconstruct_as(samples, estimate))
-            .map_err(to_py)?;
+        let dropped = self.dropped.clone();
+        // the stopping round's own reconstruction, when it is the one asked for
+        let stopped = self
+            .steps
+            .last()
+            .and_then(|s| s.reconstruction.as_deref())
+            .filter(|_| estimate == self.state.params.output.pixels);
+        let done = match stopped {
+            Some(done) => done.clone(),
+            None => py
+                .detach(|| state.reconstruct_dropped(samples, dropped, estimate))
+                .map_err(to_py)?,
+        };
         self.time_s.library += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        warn_all(py, &plan_fit_notes(&done))?;
+        let mut notes = plan_fit_notes(&done);
+        notes.extend(done.dropped.note());
+        warn_all(py, &notes)?;
         let plane = self.state.plane;
         let out = image_out(py, &done.image.channels, plane.width(), plane.height());
         self.time_s.glue += t.elapsed().as_secs_f64();
@@ -441,6 +469,7 @@ impl PyPlan {
             state,
             next,
             samples,
+            dropped: DroppedSamples::default(),
             steps: Vec::new(),
             time_s: PlanSeconds::default(),
         })

@@ -23,6 +23,7 @@ pub fn flag(fix: Fix) -> &'static str {
         Fix::MethodGlobal => "--method global",
         Fix::MethodDense => "--method dense",
         Fix::SolverQr => "--solver qr",
+        Fix::DropNonfinite => "--drop-nonfinite",
         _ => fix.in_library(),
     }
 }

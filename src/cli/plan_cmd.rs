@@ -9,13 +9,15 @@ use clap::Args;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, SamplePositions};
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
-use rkwave::image::ImagePlane;
+use rkwave::image::{ImagePlane, NonFinitePolicy};
 use rkwave::io::output::{same_file, OutputError};
-use rkwave::io::{npy_bytes, read_image_samples, SampleSet};
+use rkwave::io::{npy_bytes, read_image_samples_with, SampleSet};
 
 use super::image_args::{check_p, parse_resolution};
 use super::{check_writable, CliError};
-use rkwave::image::adaptive::{ImageSampling, NoiseParams, QuadTreeParams, StopParams, TreeParams};
+use rkwave::image::adaptive::{
+    GrowthParams, ImageSampling, NoiseParams, QuadTreeParams, StopParams, TreeParams,
+};
 
 /// `rkwave plan`.
 #[derive(Args, Debug)]
@@ -56,12 +58,36 @@ pub struct PlanArgs {
     /// slot (default 0.01; 0: no noise test, every detail is deepened).
     #[arg(long)]
     pub false_alarm: Option<f64>,
+    /// Where to write the final image (`.npy`, `.exr`, `.png` as in `reconstruct --dim 2`)
+    /// when this call stops the plan: the stopping round's fit, so no `reconstruct --dim 2
+    /// --state` call (which would fit the same samples again) is needed. Nothing is written
+    /// while the plan continues.
+    #[arg(long)]
+    pub final_image: Option<PathBuf>,
+    /// Least growth per round, as a share of the samples so far (default 0.25): larger
+    /// values mean fewer rounds, so fewer fits while the renderer waits, and coarser steps
+    /// of the refinement.
+    #[arg(long)]
+    pub min_growth: Option<f64>,
     /// Overwrite the positions file; without `--samples`, also replace an existing plan.
     #[arg(long)]
     pub force: bool,
+    /// Drop the samples whose value is NaN or infinite (counted in the report) instead of
+    /// refusing the round; the round is recognised by all its positions either way.
+    #[arg(long)]
+    pub drop_nonfinite: bool,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The policy for non-finite sample values of a `--drop-nonfinite` flag.
+pub fn nonfinite(drop: bool) -> NonFinitePolicy {
+    if drop {
+        NonFinitePolicy::Drop
+    } else {
+        NonFinitePolicy::Refuse
+    }
 }
 
 /// The parameters of this call: the flags given, the rest from `base` (the state's on later
@@ -96,6 +122,10 @@ fn params(
         stop: StopParams {
             budget,
             ..base.stop
+        },
+        growth: GrowthParams {
+            min_growth: args.min_growth.unwrap_or(base.growth.min_growth),
+            ..base.growth
         },
         ..*base
     })
@@ -146,6 +176,13 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         .into());
     }
     check_writable(&args.out, args.force)?;
+    if let Some(image) = &args.final_image {
+        rkwave::io::image_file::ImageFormat::from_path(image)
+            .map_err(|e| CliError::flag("--final-image", e))?;
+        let mut inputs = vec![args.out.as_path()];
+        inputs.extend(args.samples.as_deref());
+        rkwave::io::output::check_output(image, args.force, &inputs)?;
+    }
     let state_file = PlanState::path(&args.state);
     let (state, next, step) = match &args.samples {
         None => {
@@ -179,8 +216,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             let params = params(args, plane, &state.params)?;
             state.check_params(plane, &params).map_err(protocol)?;
             super::image_memory::check_reading(path)?;
-            let samples = read_image_samples(path, state.plane)?;
-            let step = state.advance(&samples).map_err(protocol)?;
+            let (samples, dropped) =
+                read_image_samples_with(path, state.plane, nonfinite(args.drop_nonfinite))?;
+            let step = state.advance_dropped(&samples, dropped).map_err(protocol)?;
             let next = step.next.clone();
             (state, next, Some(step))
         }
@@ -189,6 +227,16 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     state
         .commit(&args.state, &args.out, &positions_npy(&next), args.force)
         .map_err(protocol)?;
+    let final_image = match (
+        &args.final_image,
+        step.as_ref().and_then(|s| s.reconstruction.as_ref()),
+    ) {
+        (Some(path), Some(done)) => {
+            rkwave::io::image_file::write_image(path, &done.image, args.force)?;
+            Some(path)
+        }
+        _ => None,
+    };
     if args.json {
         let report = PlanCallReport::new(&state, &args.state, &args.out, &next, step);
         println!(
@@ -232,7 +280,16 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             args.state.display()
         ),
     }
+    if let Some(path) = final_image {
+        println!(
+            "wrote the final image to {} (the stopping round's fit)",
+            path.display()
+        );
+    }
     if let Some(s) = &step {
+        if let Some(note) = s.dropped.note() {
+            println!("note: {note}");
+        }
         if s.log.fit.ridge > 0.0 {
             println!(
                 "note: the normal matrix was numerically singular: a relative ridge {:.0e} was \
@@ -266,23 +323,26 @@ pub fn reconstruct(
         }
     }
     super::image_memory::check_reading(&args.input)?;
-    let samples = read_image_samples(&args.input, state.plane)?;
+    let (samples, dropped) =
+        read_image_samples_with(&args.input, state.plane, nonfinite(args.drop_nonfinite))?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly
     } else {
         state.params.output.pixels
     };
-    let done = state.reconstruct_as(&samples, estimate).map_err(protocol)?;
+    let done = state
+        .reconstruct_dropped(&samples, dropped, estimate)
+        .map_err(protocol)?;
     rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
     let mut overridden = Vec::new();
     // The plan fixes the basis and the solve: say so when the user asked for others.
-    if args.filter.p != state.params.tree.p {
+    if let Some(p) = args.p.filter(|&p| p != state.params.tree.p) {
         overridden.push(format!(
-            "p = {} from the plan's tree (--p, {} here, is not used with --state)",
-            state.params.tree.p, args.filter.p
+            "p = {} from the plan's tree (--p, {p} here, is not used with --state)",
+            state.params.tree.p
         ));
     }
-    if args.filter.family.is_some() {
+    if args.family.is_some() {
         overridden
             .push("--family is not used: the plan's tree fixes the filter family".to_string());
     }

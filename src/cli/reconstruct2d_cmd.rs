@@ -9,7 +9,7 @@ use rkwave::image::report::FileReconstructionReport;
 use rkwave::image::{reconstruct_estimated, Method, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::io::output::check_output;
-use rkwave::io::read_image_samples;
+use rkwave::io::read_image_samples_with;
 
 use super::image_args::{check_p, parse_resolution, spinner};
 use super::reconstruct_args::ReconstructArgs;
@@ -52,13 +52,17 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         }
     };
     let wavelet = WaveletParams {
-        p: check_p(args.filter.p)?,
+        p: check_p(args.filter().p)?,
         pixel_filter: None,
         ..WaveletParams::default()
     };
     super::image_memory::check_reading(&args.input)?;
     let bar = spinner("reading samples");
-    let samples = read_image_samples(&args.input, plane)?;
+    let (samples, dropped) = read_image_samples_with(
+        &args.input,
+        plane,
+        super::plan_cmd::nonfinite(args.drop_nonfinite),
+    )?;
     let read_s = started.elapsed().as_secs_f64();
     // Before the fit: the fit and the output image, from the sizes read.
     let request = super::image_memory::uniform_request(
@@ -117,6 +121,8 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         started.elapsed().as_secs_f64(),
     );
     report.pixels = Some(estimated);
+    report.notes.extend(dropped.note());
+    report.nonfinite = dropped;
     if args.json {
         println!(
             "{}",

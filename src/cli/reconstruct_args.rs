@@ -7,7 +7,7 @@ use clap::Args;
 use rkwave::sampling::Domain;
 
 use super::solve_args::{MethodArg, SolveArgs};
-use super::FilterSpec;
+use super::{FamilyArg, FilterSpec};
 
 /// `rkwave reconstruct`.
 #[derive(Args, Debug)]
@@ -18,9 +18,14 @@ pub struct ReconstructArgs {
     /// Domain `a,b` (default: the smallest and largest sample position).
     #[arg(long, allow_hyphen_values = true)]
     pub domain: Option<Domain>,
-    /// Filter bank.
-    #[command(flatten)]
-    pub filter: FilterSpec,
+    /// Vanishing moments p (1 = Haar, up to 10); default 3 in 1D and 2 on the image plane
+    /// (`--dim 2`, as `rkwave image` and the plan: chosen by measurement on real renders,
+    /// docs/measurements.md).
+    #[arg(long)]
+    pub p: Option<usize>,
+    /// Interior filter family; default CDV's choice (db for p <= 3, sym for p >= 4).
+    #[arg(long, value_enum)]
+    pub family: Option<FamilyArg>,
     /// Solve method.
     #[arg(long, value_enum, default_value_t = MethodArg::Single)]
     pub method: MethodArg,
@@ -67,6 +72,27 @@ pub struct ReconstructArgs {
     /// whole would exceed `--memory-limit`.
     #[arg(long, value_enum, default_value_t = StreamArg::Auto)]
     pub stream: StreamArg,
+    /// With `--dim 2`: drop the samples whose value is NaN or infinite (counted in the
+    /// report) instead of refusing the file.
+    #[arg(long)]
+    pub drop_nonfinite: bool,
+}
+
+/// `p` of the image plane when `--p` is not given (`rkwave image`'s and the plan's).
+pub const IMAGE_P: usize = 2;
+/// `p` of the 1D path when `--p` is not given.
+pub const LINE_P: usize = 3;
+
+impl ReconstructArgs {
+    /// The filter bank: `--p` and `--family`, `p` by default [`LINE_P`] in 1D and
+    /// [`IMAGE_P`] on the image plane.
+    pub fn filter(&self) -> FilterSpec {
+        let default = if self.dim == 2 { IMAGE_P } else { LINE_P };
+        FilterSpec {
+            p: self.p.unwrap_or(default),
+            family: self.family,
+        }
+    }
 }
 
 /// `--stream`: whether `rkwave reconstruct --dim 1` reads its samples in chunks.

@@ -44,8 +44,8 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         )));
     }
     let params = FitParams {
-        p: args.filter.p,
-        family: args.filter.family_given(),
+        p: args.filter().p,
+        family: args.filter().family_given(),
         levels: args.solve.levels()?,
         method: args.solve.method(args.method)?,
     };

@@ -6,7 +6,8 @@
 //! RGB scenes have 3).
 //!
 //! * [`ImagePlane`] is a validated resolution `W x H`.
-//! * [`ImageSamples`] are validated scattered samples on a plane, stored per channel.
+//! * [`ImageSamples`] are validated scattered samples on a plane, stored per channel;
+//!   [`nonfinite`]: a renderer's NaN or infinite values refused or dropped and counted.
 //! * [`pixels`]: pixel values of a reconstruction as exact integrals against a pixel filter;
 //!   [`equivalent_filter`]: the weight of each sample in one pixel's value.
 //! * [`PixelImage`] is a grid of pixel values, per channel, row-major (`Y * W + X`).
@@ -28,6 +29,7 @@ pub mod equivalent_filter;
 pub mod estimate;
 pub mod fit;
 pub mod method;
+pub mod nonfinite;
 pub mod pixels;
 
 pub use estimate::{reconstruct_estimated, EstimateReport, UniformEstimate};
@@ -35,6 +37,7 @@ pub use fit::{
     fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
 };
 pub use method::{reconstruct, sample_weights, ImageReconstruction, Method, StageTimes};
+pub use nonfinite::{split_finite, DroppedSamples, NonFinitePolicy};
 pub use wavelet::{CoefficientSolve, WaveletError, WaveletParams};
 
 use serde::{Deserialize, Serialize};
@@ -157,6 +160,28 @@ pub enum ImageError {
         /// The channel at fault.
         channel: usize,
         /// The value as given.
+        value: f64,
+    },
+    /// Samples whose value is NaN or infinite in some channel, refused as a whole
+    /// ([`nonfinite::NonFinitePolicy::Refuse`]).
+    #[error(
+        "{count} samples have a value that is not finite (NaN or Inf); the first is row {row} \
+         at (x, y) = ({x}, {y}), channel {channel}: {value}; fix the renderer, or drop \
+         and count them with {fix}",
+        fix = crate::error::Fix::DropNonfinite
+    )]
+    NonFiniteSamples {
+        /// How many samples are non-finite.
+        count: usize,
+        /// The first one's 1-based row.
+        row: usize,
+        /// Its x position.
+        x: f64,
+        /// Its y position.
+        y: f64,
+        /// Its first non-finite channel (from 0).
+        channel: usize,
+        /// That value.
         value: f64,
     },
 }

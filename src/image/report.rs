@@ -67,6 +67,8 @@ pub struct FileReconstructionReport {
     /// The pixel estimate, its noise level and thresholds (set by the caller; `None` when
     /// none was chosen).
     pub pixels: Option<super::estimate::EstimateReport>,
+    /// The samples dropped for a non-finite value (set by the caller; none by default).
+    pub nonfinite: super::DroppedSamples,
 }
 
 impl FileReconstructionReport {
@@ -106,6 +108,7 @@ impl FileReconstructionReport {
             peak_mb: peak_memory_mb(),
             notes: done.notes.clone(),
             pixels: None,
+            nonfinite: super::DroppedSamples::default(),
         }
     }
 }
@@ -191,6 +194,8 @@ pub struct PlanReconstructionReport {
     /// Every fallback, the parameters the plan overrides and the output's correction, in
     /// words.
     pub notes: Vec<String>,
+    /// The samples dropped for a non-finite value.
+    pub nonfinite: super::DroppedSamples,
 }
 
 impl PlanReconstructionReport {
@@ -212,6 +217,7 @@ impl PlanReconstructionReport {
         let mut notes = overridden;
         notes.extend(plan_fit_notes(done));
         notes.push(done.correction.note());
+        notes.extend(done.dropped.note());
         Self {
             input: input.to_path_buf(),
             output: output.to_path_buf(),
@@ -228,6 +234,7 @@ impl PlanReconstructionReport {
             pixels: done.correction.clone(),
             time_s,
             notes,
+            nonfinite: done.dropped.clone(),
         }
     }
 }

@@ -29,7 +29,16 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
 
 /// Parses CSV bytes; `file` only names the source in errors.
 pub fn parse_csv(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoError> {
-    let file = file.as_ref();
+    parse_csv_cells(bytes, file.as_ref(), usize::MAX)
+}
+
+/// [`parse_csv`] where only the first `finite_columns` columns must be finite: the others
+/// may hold NaN or infinities, kept as read (a renderer's radiance, split by the caller).
+pub(crate) fn parse_csv_cells(
+    bytes: &[u8],
+    file: &Path,
+    finite_columns: usize,
+) -> Result<SampleSet, IoError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     // Line ends `\n`, `\r\n` and a lone `\r` (old Mac) all end a line.
     let unified;
@@ -85,7 +94,7 @@ pub fn parse_csv(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
                 name: name(),
                 field: shorten(field, QUOTE_MAX),
             })?;
-            if !value.is_finite() {
+            if !value.is_finite() && j < finite_columns {
                 return Err(IoError::NonFinite {
                     file: file.to_path_buf(),
                     line: Some(line),

@@ -54,15 +54,17 @@ pub fn read_npy(path: impl AsRef<Path>) -> Result<SampleSet, IoError> {
 /// # Ok::<(), IoError>(())
 /// ```
 pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoError> {
-    parse_npy_named(bytes, file.as_ref(), SampleSet::default_names)
+    parse_npy_named(bytes, file.as_ref(), SampleSet::default_names, usize::MAX)
 }
 
 /// [`parse_npy`] with the names of columns `1..k` given by `names(k - 1)` (errors name a
-/// column by them: an image-plane file's column 1 is `y`, not a value channel).
+/// column by them: an image-plane file's column 1 is `y`, not a value channel), where only
+/// the first `finite_columns` columns must be finite (the others are kept as read).
 pub(crate) fn parse_npy_named(
     bytes: &[u8],
     file: &Path,
     names: impl FnOnce(usize) -> Vec<String>,
+    finite_columns: usize,
 ) -> Result<SampleSet, IoError> {
     let layout = npy_layout(bytes, bytes.len(), file)?;
     let NpyLayout {
@@ -101,7 +103,7 @@ pub(crate) fn parse_npy_named(
     for i in 0..m {
         for j in 0..k {
             let value = stored[if fortran { j * m + i } else { i * k + j }];
-            if !value.is_finite() {
+            if !value.is_finite() && j < finite_columns {
                 return Err(IoError::non_finite_cell(file, i, j, &names, value));
             }
             if j == 0 {

@@ -24,6 +24,13 @@
 //! positions rounded on the way (`float32`) do not match and are refused, naming the round
 //! the plan expects; the samples of an earlier round are recognised as such.
 //!
+//! *Non-finite radiance.* Samples whose value is NaN or infinite are split off before a call
+//! ([`crate::image::nonfinite`]); under the drop policy their positions still count in the
+//! fingerprint (the sum over kept and dropped positions is the sum over all), so the round is
+//! recognised and fitted on the finite samples, and the drop is reported
+//! ([`PlanStep::dropped`]). A refused round changes nothing: the state is only written when a
+//! call succeeds, so the same round can be answered again.
+//!
 //! The state is JSON with a format name and version ([`STATE_FORMAT`], [`STATE_VERSION`]);
 //! a state of another format or version, or one whose history does not fit its own
 //! parameters, is refused.
@@ -41,7 +48,7 @@ use super::refiner::{
 use super::AdaptiveError;
 use crate::adaptive::QuadTree;
 use crate::adaptive::StopReason;
-use crate::image::{ImagePlane, ImageSamples, PixelImage};
+use crate::image::{DroppedSamples, ImagePlane, ImageSamples, PixelImage};
 use crate::io::output::{persist, temporary, write_new, OutputError};
 
 /// The `format` field of a plan state.
@@ -198,6 +205,15 @@ pub struct PlanStep {
     pub total_positions: usize,
     /// The budget.
     pub budget: usize,
+    /// The samples dropped for a non-finite value (none unless the caller's policy drops).
+    pub dropped: DroppedSamples,
+    /// When this round stopped the plan: the final reconstruction from its fit, with the
+    /// plan's output pixels, without fitting the samples again (under the direct solve, the
+    /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
+    /// iterative solve, the stopping round's fit continued to the solver's tolerance);
+    /// `None` otherwise.
+    #[serde(skip)]
+    pub reconstruction: Option<Box<PlanReconstruction>>,
 }
 
 /// A reconstruction on the tree a plan built.
@@ -218,6 +234,8 @@ pub struct PlanReconstruction {
     pub round: usize,
     /// Whether the plan has stopped at that round (the samples are the final set).
     pub complete: bool,
+    /// The samples dropped for a non-finite value (none unless the caller's policy drops).
+    pub dropped: DroppedSamples,
 }
 
 /// 64-bit mix (SplitMix64's finaliser).
@@ -305,8 +323,13 @@ impl PlanState {
         self.issued.last().map_or(0, |r| r.total)
     }
 
-    /// The index into [`PlanState::issued`] whose positions `samples` are exactly.
-    fn matching_round(&self, samples: &ImageSamples) -> Result<usize, ProtocolError> {
+    /// The index into [`PlanState::issued`] whose positions are exactly those of `samples`
+    /// and `dropped` together.
+    fn matching_round(
+        &self,
+        samples: &ImageSamples,
+        dropped: &DroppedSamples,
+    ) -> Result<usize, ProtocolError> {
         if samples.plane() != self.plane {
             return Err(ProtocolError::Plane {
                 state: self.plane,
@@ -321,16 +344,21 @@ impl PlanState {
                 });
             }
         }
-        let f = format!("{:016x}", fingerprint(0, samples.xs(), samples.ys()));
+        let f = fingerprint(
+            fingerprint(0, samples.xs(), samples.ys()),
+            &dropped.xs,
+            &dropped.ys,
+        );
+        let given = samples.len() + dropped.xs.len();
         let found = self
             .issued
             .iter()
-            .position(|r| r.total == samples.len() && parse_hex(&r.fingerprint) == parse_hex(&f));
+            .position(|r| r.total == given && parse_hex(&r.fingerprint) == Some(f));
         let last = self.issued.len() - 1;
         match found {
             Some(k) => Ok(k),
             None => Err(ProtocolError::Mismatch {
-                given: samples.len(),
+                given,
                 expected: self.positions(),
                 round: last,
             }),
@@ -441,11 +469,22 @@ impl PlanState {
     /// One round on every sample so far: the fit on the tree, then the next positions (recorded
     /// as handed out) or the stop. The samples must be the positions handed out so far.
     pub fn advance(&mut self, samples: &ImageSamples) -> Result<PlanStep, ProtocolError> {
-        let k = self.matching_round(samples)?;
+        self.advance_dropped(samples, DroppedSamples::default())
+    }
+
+    /// [`PlanState::advance`] on the finite `samples` of a round whose non-finite samples
+    /// were `dropped` (their positions complete the round; module docs). On an error the
+    /// state is unchanged.
+    pub fn advance_dropped(
+        &mut self,
+        samples: &ImageSamples,
+        dropped: DroppedSamples,
+    ) -> Result<PlanStep, ProtocolError> {
+        let k = self.matching_round(samples, &dropped)?;
         let last = self.issued.len() - 1;
         if k < last {
             return Err(ProtocolError::AlreadyPlanned {
-                given: samples.len(),
+                given: samples.len() + dropped.xs.len(),
                 matched: k,
                 round: last,
                 expected: self.positions(),
@@ -459,6 +498,34 @@ impl PlanState {
         )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(samples.xs(), samples.ys(), &values)?;
+        // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
+        // output pixels are those `reconstruct` would compute again from the same samples.
+        let reconstruction = match round.decision {
+            Decision::Stop(_) => {
+                let sigma = round.log.noise.as_ref().map_or(0.0, |n| n.sigma);
+                let (fit_image, image, correction) = output_pixels(
+                    plan.tree(),
+                    &round.fit,
+                    samples.xs(),
+                    samples.ys(),
+                    samples.values(),
+                    self.params.output.pixels,
+                    sigma,
+                    self.params.output.residual_z,
+                )?;
+                Some(Box::new(PlanReconstruction {
+                    tree: plan.tree().clone(),
+                    fit: round.fit,
+                    fit_image,
+                    image,
+                    correction,
+                    round: k,
+                    complete: true,
+                    dropped: dropped.clone(),
+                }))
+            }
+            Decision::Sample(_) => None,
+        };
         self.channels = Some(samples.channels());
         let (next, next_round, stop) = match round.decision {
             Decision::Sample(next) => {
@@ -486,6 +553,8 @@ impl PlanState {
             stop,
             total_positions: self.positions(),
             budget: self.params.stop.budget,
+            dropped,
+            reconstruction,
         })
     }
 
@@ -504,7 +573,18 @@ impl PlanState {
         samples: &ImageSamples,
         estimate: PixelEstimate,
     ) -> Result<PlanReconstruction, ProtocolError> {
-        let k = self.matching_round(samples)?;
+        self.reconstruct_dropped(samples, DroppedSamples::default(), estimate)
+    }
+
+    /// [`PlanState::reconstruct_as`] on the finite `samples` of rounds whose non-finite
+    /// samples were `dropped` (module docs).
+    pub fn reconstruct_dropped(
+        &self,
+        samples: &ImageSamples,
+        dropped: DroppedSamples,
+        estimate: PixelEstimate,
+    ) -> Result<PlanReconstruction, ProtocolError> {
+        let k = self.matching_round(samples, &dropped)?;
         let plan = self.plan_at(k)?;
         self.check_memory(&plan, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
@@ -529,6 +609,7 @@ impl PlanState {
             correction,
             round: k,
             complete: self.stop.is_some() && k + 1 == self.issued.len(),
+            dropped,
         })
     }
 

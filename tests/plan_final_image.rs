@@ -1,0 +1,66 @@
+//! The plan loop without its last refit (issue 28, item 5): the call of `plan` that stops the
+//! plan fits every sample on the final tree already, so `plan --final-image` writes the image
+//! `reconstruct --dim 2 --state` would compute from the same samples, bit for bit (the
+//! default direct solve), and the loop saves one fit of every sample.
+
+mod common;
+
+use common::image_cli::{arg, plan_round, plan_start, render};
+use common::{succeeds, user_error, Scratch};
+
+fn scratch(name: &str) -> Scratch {
+    common::scratch("plan-final-image", name)
+}
+
+#[test]
+fn final_image_is_the_reconstruction_bit_for_bit() {
+    let d = scratch("loop");
+    let n0 = d.join("n0.npy");
+    succeeds(&plan_start("24x20", "4", &d, &n0));
+    let fin = d.join("final.npy");
+    let (mut samples, mut next) = (None, n0);
+    for k in 0.. {
+        assert!(k < 64, "the plan stops");
+        let s = d.join(format!("s{k}.npy"));
+        render(samples.as_deref(), &next, &s);
+        let n = d.join(format!("n{}.npy", k + 1));
+        let mut args = plan_round(&d, &s, &n);
+        args.extend(["--final-image".to_string(), arg(&fin).to_string()]);
+        let text = succeeds(&args);
+        samples = Some(s);
+        next = n;
+        if rkwave::io::read_npy(&next).is_err() || text.contains("stopped") {
+            assert!(text.contains("wrote the final image"), "{text}");
+            break;
+        }
+        assert!(!fin.exists(), "no image while the plan continues");
+    }
+    let samples = samples.unwrap();
+    let out = d.join("reconstructed.npy");
+    succeeds(&[
+        "reconstruct",
+        "--dim",
+        "2",
+        "--state",
+        arg(&d),
+        "--input",
+        arg(&samples),
+        "--output",
+        arg(&out),
+    ]);
+    assert_eq!(std::fs::read(&fin).unwrap(), std::fs::read(&out).unwrap());
+}
+
+#[test]
+fn final_image_is_checked_before_the_round() {
+    let d = scratch("checked");
+    let n0 = d.join("n0.npy");
+    succeeds(&plan_start("16x16", "4", &d, &n0));
+    let s0 = d.join("s0.npy");
+    render(None, &n0, &s0);
+    let mut args = plan_round(&d, &s0, &d.join("n1.npy"));
+    args.extend(["--final-image".into(), arg(&d.join("image.txt")).into()]);
+    let e = user_error(&args);
+    assert!(e.contains("--final-image"), "{e}");
+    assert!(!d.join("n1.npy").exists(), "a refused call writes nothing");
+}
