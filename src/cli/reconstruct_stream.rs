@@ -172,7 +172,7 @@ pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Resu
         return Ok(());
     }
     for w in &report.warnings {
-        eprintln!("warning: {}", super::hints::in_flags(w));
+        eprintln!("warning: {w}");
     }
     println!(
         "{} samples x {} channels streamed from .npy in {} passes ({}) -> {}; wrote {}",
