@@ -24,6 +24,7 @@ use thiserror::Error;
 
 use crate::sampling::Domain;
 
+pub mod chunks;
 mod csv;
 mod grid_output;
 pub mod image_file;
@@ -33,7 +34,7 @@ pub mod output;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
 pub use self::grid_output::{GridFormat, GridWriter};
-pub use self::image_samples::{image_samples, read_image_samples};
+pub use self::image_samples::{image_column_names, image_samples, read_image_samples};
 pub use self::npy::{npy_bytes, parse_npy, read_npy, write_npy};
 
 #[cfg(test)]

@@ -57,20 +57,33 @@ pub fn parse_npy(bytes: &[u8], file: impl AsRef<Path>) -> Result<SampleSet, IoEr
     parse_npy_named(bytes, file.as_ref(), SampleSet::default_names)
 }
 
-/// [`parse_npy`] with the names of columns `1..k` given by `names(k - 1)` (errors name a
-/// column by them: an image-plane file's column 1 is `y`, not a value channel).
-pub(crate) fn parse_npy_named(
-    bytes: &[u8],
-    file: &Path,
-    names: impl FnOnce(usize) -> Vec<String>,
-) -> Result<SampleSet, IoError> {
+/// Where the data of a `.npy` file lie and how: its header, parsed and checked.
+pub(crate) struct NpyLayout {
+    /// The parsed header.
+    pub header: NpyHeader,
+    /// Offset of the first data byte.
+    pub data_start: usize,
+    /// Rows `m`.
+    pub rows: usize,
+    /// Columns `k >= 2`.
+    pub columns: usize,
+    /// Bytes per value (4 or 8).
+    pub size: usize,
+    /// Column-major storage.
+    pub fortran: bool,
+}
+
+/// Parses and checks the header of a `.npy` file of `total` bytes from its first bytes
+/// `bytes` (at least the header; the whole file for [`parse_npy`]): magic, version,
+/// nesting, dtype, shape, and that the data fill the rest of the file exactly.
+pub(crate) fn npy_layout(bytes: &[u8], total: usize, file: &Path) -> Result<NpyLayout, IoError> {
     let truncated = |what: &str, expected: usize| IoError::Truncated {
         file: file.to_path_buf(),
         what: what.to_string(),
         expected,
-        found: bytes.len(),
+        found: total,
     };
-    if bytes.is_empty() {
+    if total == 0 {
         return Err(IoError::Empty {
             file: file.to_path_buf(),
         });
@@ -118,7 +131,7 @@ pub(crate) fn parse_npy_named(
         let text = e.to_string();
         bad_header(shorten(text.lines().next().unwrap_or_default(), 200))
     })?;
-    let data = &bytes[data_start..];
+    let data_bytes = total.saturating_sub(data_start);
 
     let unsupported = |descr: String| IoError::UnsupportedDtype {
         file: file.to_path_buf(),
@@ -186,24 +199,57 @@ pub(crate) fn parse_npy_named(
     else {
         return Err(mismatch(format!("the shape {shape_text} is too large")));
     };
-    if data.len() < data_len {
+    if data_bytes < data_len {
         return Err(truncated(
             &format!("data of shape {shape_text}"),
             data_start + data_len,
         ));
     }
-    if data.len() > data_len {
+    if data_bytes > data_len {
         return Err(mismatch(format!(
             "the file has {} bytes of data, but shape {shape_text} of {type_str} needs \
              {data_len}; {} bytes are left over",
-            data.len(),
-            data.len() - data_len
+            data_bytes,
+            data_bytes - data_len
         )));
     }
 
+    Ok(NpyLayout {
+        fortran: header.order() == Order::Fortran,
+        header,
+        data_start,
+        rows: m,
+        columns: k,
+        size,
+    })
+}
+
+/// [`parse_npy`] with the names of columns `1..k` given by `names(k - 1)` (errors name a
+/// column by them: an image-plane file's column 1 is `y`, not a value channel).
+pub(crate) fn parse_npy_named(
+    bytes: &[u8],
+    file: &Path,
+    names: impl FnOnce(usize) -> Vec<String>,
+) -> Result<SampleSet, IoError> {
+    let NpyLayout {
+        header,
+        data_start,
+        rows: m,
+        columns: k,
+        size,
+        fortran,
+    } = npy_layout(bytes, bytes.len(), file)?;
+    let data_len = m * k * size;
+    let truncated = |what: &str, expected: usize| IoError::Truncated {
+        file: file.to_path_buf(),
+        what: what.to_string(),
+        expected,
+        found: bytes.len(),
+    };
+    let data = &bytes[data_start..];
     // The data in storage order, widened to f64 (exact for float32).
     let decode_err = |e: std::io::Error| truncated(&format!("data ({e})"), data_start + data_len);
-    let npy = NpyFile::with_header(header.clone(), data);
+    let npy = NpyFile::with_header(header, data);
     let stored: Vec<f64> = if size == 8 {
         npy.into_vec::<f64>().map_err(decode_err)?
     } else {
@@ -213,7 +259,6 @@ pub(crate) fn parse_npy_named(
             .map(f64::from)
             .collect()
     };
-    let fortran = header.order() == Order::Fortran;
 
     let names = names(k - 1);
     let mut positions = Vec::with_capacity(m);
