@@ -18,6 +18,7 @@ pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
 pub mod reconstruct_args;
 pub mod reconstruct_cmd;
+pub mod reconstruct_tiles_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
 pub mod solve_args;
@@ -262,6 +263,9 @@ pub enum CliError {
     /// An image file.
     #[error(transparent)]
     ImageFile(#[from] rkwave::io::image_file::ImageFileError),
+    /// The tiled image fit (`reconstruct --dim 2 --tile`).
+    #[error(transparent)]
+    Tiled(#[from] rkwave::image::tiles::TiledError),
     /// A file operation failed.
     #[error("cannot write {path}: {source}")]
     Write {
@@ -340,6 +344,7 @@ impl CliError {
             CliError::AdaptiveRun(e) => e.kind(),
             CliError::Protocol(e) => e.kind(),
             CliError::ImageFile(e) => e.kind(),
+            CliError::Tiled(e) => e.kind(),
             CliError::Write { .. } => ErrorKind::WriteFailed,
             CliError::WouldOverwrite { .. } => ErrorKind::OutputRefused,
             CliError::Output(e) => e.kind(),

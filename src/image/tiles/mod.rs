@@ -37,3 +37,43 @@ pub use tiled::{
     reconstruct_tiled, tiled_estimate, TiledError, TiledInput, TiledOutput, TiledParams,
     TiledReport,
 };
+
+use crate::error::ErrorKind;
+
+/// The halo of `reconstruct --dim 2 --tile` when none is given, in pixels: the smallest
+/// halo of the halo study (docs/measurements.md) whose tiled image is within `1e-6` of the
+/// value range of the untiled one.
+pub const DEFAULT_HALO: usize = 12;
+
+impl TileGeometryError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> ErrorKind {
+        ErrorKind::InvalidInput
+    }
+}
+
+impl TileError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            TileError::Geometry(e) => e.kind(),
+            TileError::Basis(e) => e.kind(),
+            TileError::Pixels(e) => e.kind(),
+            TileError::Unsolvable { .. } => ErrorKind::Numerical,
+            TileError::Thread { .. } => ErrorKind::ResourceLimit,
+            _ => ErrorKind::InvalidInput,
+        }
+    }
+}
+
+impl TiledError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            TiledError::Io(e) => e.kind(),
+            TiledError::Tile(e) => e.kind(),
+            TiledError::Resources(e) => e.kind(),
+            _ => ErrorKind::InvalidInput,
+        }
+    }
+}

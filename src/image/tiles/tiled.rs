@@ -20,10 +20,11 @@ use thiserror::Error;
 
 use super::fit::{TileBasis, TileError, TileParams, TileReport};
 use super::geometry::TileGeometry;
+use crate::image::wavelet::WaveletParams;
 use crate::image::{ImageSamples, PixelImage};
 use crate::io::chunks::SampleChunkReader;
 use crate::io::IoError;
-use crate::resources::{ImageEstimate, ImageRequest, ImageSolve};
+use crate::resources::{format_bytes, ImageEstimate, ImageRequest, ImageSolve, ResourceError};
 
 /// Where the samples of a tiled fit come from.
 #[derive(Clone, Copy, Debug)]
@@ -92,6 +93,10 @@ pub enum TiledError {
     /// No samples at all.
     #[error("the input holds no samples: give at least one sample inside the image")]
     Empty,
+    /// The tiled fit would need more memory than the limit (checked after the counting
+    /// pass, before any band is read or any tile fitted).
+    #[error(transparent)]
+    Resources(#[from] ResourceError),
 }
 
 /// What the tiled fit did.
@@ -197,15 +202,18 @@ fn count(
 }
 
 /// The memory of a tiled fit of `samples` samples of `channels` channels (module docs):
-/// one band of windows' samples, `workers` tile fits (a uniform fit of a window's functions
-/// and samples each) and the output image with its encoded copy.
+/// one band of windows' samples and a chunk of rows being read, `workers` tile fits (a
+/// uniform fit of a window's functions and samples each) and the output image with its
+/// encoded copy.
 pub fn tiled_estimate(
     geometry: &TileGeometry,
     params: &TileParams,
     channels: usize,
     samples: f64,
-    workers: usize,
+    tiled: &TiledParams,
 ) -> ImageEstimate {
+    let workers = tiled.workers;
+    let chunk = 3.0 * 8.0 * (2.0 + channels as f64) * tiled.chunk_rows as f64;
     let (w, h) = (
         geometry.plane.width() as f64,
         geometry.plane.height() as f64,
@@ -234,7 +242,7 @@ pub fn tiled_estimate(
     .estimate();
     let k = workers.max(1) as f64;
     ImageEstimate {
-        samples: 8.0 * (2.0 + channels as f64) * band_samples + k * tile.samples,
+        samples: 8.0 * (2.0 + channels as f64) * band_samples + k * tile.samples + chunk,
         normal_matrix: k * tile.normal_matrix,
         factor: k * tile.factor,
         scratch: k * tile.scratch,
@@ -243,20 +251,37 @@ pub fn tiled_estimate(
     }
 }
 
-/// The tiled fit of `input` (module docs): `params` are the untiled fit's ([`TileParams`]
-/// from [`crate::image::WaveletParams`] and the sample count through `tile_params`),
+/// The tiled fit of `input` (module docs) with the untiled fit's `wavelet` parameters (its
+/// levels from the whole image's sample count, [`TileParams::for_image`]); refused above
+/// the memory limit ([`tiled_estimate`]) after the counting pass, before any tile;
 /// `progress` is called after each tile.
 pub fn reconstruct_tiled(
     input: TiledInput,
     geometry: &TileGeometry,
-    tile_params: impl FnOnce(usize) -> Result<TileParams, TileError>,
+    wavelet: &WaveletParams,
     tiled: &TiledParams,
     progress: &(dyn Fn(&TileReport) + Sync),
 ) -> Result<TiledOutput, TiledError> {
     geometry.validate().map_err(TileError::from)?;
+    TileParams::for_image(wavelet, geometry.plane, 1)?;
     let t0 = Instant::now();
     let (m, channels) = count(&input, geometry, tiled.chunk_rows)?;
-    let params = tile_params(m)?;
+    let params = TileParams::for_image(wavelet, geometry.plane, m)?;
+    tiled_estimate(geometry, &params, channels, m as f64, tiled).check(
+        || {
+            format!(
+                "the tiled fit of {m} samples on {} pixels in tiles of {} (halo {}, {} workers, \
+                 chunks of {} rows)",
+                geometry.plane, geometry.tile, geometry.halo, tiled.workers, tiled.chunk_rows
+            )
+        },
+        || {
+            format!(
+                "smaller --tile or fewer --workers (the limit is {})",
+                format_bytes(crate::resources::memory_limit() as f64)
+            )
+        },
+    )?;
     let basis = TileBasis::new(geometry, &params)?;
     let mut read_s = t0.elapsed().as_secs_f64();
     let mut fit_s = 0.0;
