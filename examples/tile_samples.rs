@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     out.write_all(&(header.len() as u16).to_le_bytes())?;
     out.write_all(header.as_bytes())?;
     let mut rng = Pcg64::seed_from_u64(7);
-    let mut normal = |rng: &mut Pcg64| {
+    let normal = |rng: &mut Pcg64| {
         let u1: f64 = 1.0 - rng.random::<f64>();
         let u2: f64 = rng.random();
         (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
