@@ -19,6 +19,7 @@ pub mod reconstruct2d_cmd;
 pub mod reconstruct_args;
 pub mod reconstruct_cmd;
 pub mod reconstruct_stream;
+pub mod reconstruct_tiles_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
 pub mod solve_args;
@@ -275,6 +276,9 @@ pub enum CliError {
         /// What the command line says.
         message: String,
     },
+    /// The tiled image fit (`reconstruct --dim 2 --tile`).
+    #[error(transparent)]
+    Tiled(#[from] rkwave::image::tiles::TiledError),
     /// A file operation failed.
     #[error("cannot write {path}: {source}")]
     Write {
@@ -355,6 +359,7 @@ impl CliError {
             CliError::ImageFile(e) => e.kind(),
             CliError::Estimate(e) => e.kind(),
             CliError::Library { kind, .. } => *kind,
+            CliError::Tiled(e) => e.kind(),
             CliError::Write { .. } => ErrorKind::WriteFailed,
             CliError::WouldOverwrite { .. } => ErrorKind::OutputRefused,
             CliError::Output(e) => e.kind(),

@@ -16,6 +16,38 @@ use super::reconstruct_args::ReconstructArgs;
 use super::solve_args::MethodArg;
 use super::CliError;
 
+/// The wavelet parameters of `--p`, `--rho`, `--ridge` and `--smoothing` (each flag not
+/// given keeps the image fit's default: rho 4, ridge 1e-9, smoothing 0).
+fn wavelet_params(args: &ReconstructArgs) -> Result<WaveletParams, CliError> {
+    let defaults = WaveletParams::default();
+    let rho = args.solve.rho.unwrap_or(defaults.rho);
+    if !(rho.is_finite() && rho > 0.0) {
+        return Err(CliError::Invalid(format!(
+            "--rho {rho} must be a positive number of samples per tensor function (the image \
+             fit's default is 4)"
+        )));
+    }
+    let ridge = args.solve.ridge.unwrap_or(defaults.ridge);
+    if !(ridge.is_finite() && (0.0..1.0).contains(&ridge)) {
+        return Err(CliError::Invalid(format!(
+            "--ridge {ridge} must be in [0, 1) (the image fit's default is 1e-9)"
+        )));
+    }
+    let smoothing = args.smoothing.unwrap_or(defaults.smoothing);
+    if !(smoothing.is_finite() && smoothing >= 0.0) {
+        return Err(CliError::Invalid(format!(
+            "--smoothing {smoothing} must be a finite weight >= 0 (0: the least-squares fit)"
+        )));
+    }
+    Ok(WaveletParams {
+        p: check_p(args.filter().p)?,
+        pixel_filter: None,
+        rho,
+        ridge,
+        smoothing,
+    })
+}
+
 /// Runs the 2D path of `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
@@ -25,6 +57,27 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             "--pixels {pixels} is for the uniform path: with --state the plan's own output is \
              written (see --no-residual); drop --pixels or --state"
         )));
+    }
+    if args.state.is_some() {
+        let given = [
+            ("--rho", args.solve.rho.is_some()),
+            ("--ridge", args.solve.ridge.is_some()),
+            ("--smoothing", args.smoothing.is_some()),
+            ("--tile", args.tile.is_some()),
+            ("--halo", args.halo.is_some()),
+            ("--workers", args.workers.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
+            return Err(CliError::Invalid(format!(
+                "{flag} is for the uniform fit: with --state the plan's tree and its own \
+                 parameters are used; drop {flag} or --state"
+            )));
+        }
+    }
+    if args.tile.is_none() && (args.halo.is_some() || args.workers.is_some()) {
+        return Err(CliError::Invalid(
+            "--halo and --workers are for the tiled fit: give --tile T too, or drop them".into(),
+        ));
     }
     // Before any work: the output is new (or --force), its folder exists and takes a file,
     // and it is none of the inputs (the samples, the plan's state), after links and spellings.
@@ -51,11 +104,10 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             ))
         }
     };
-    let wavelet = WaveletParams {
-        p: check_p(args.filter().p)?,
-        pixel_filter: None,
-        ..WaveletParams::default()
-    };
+    let wavelet = wavelet_params(args)?;
+    if let Some(tile) = args.tile {
+        return super::reconstruct_tiles_cmd::run(args, plane, method, tile, &wavelet, started);
+    }
     super::image_memory::check_reading(&args.input)?;
     let bar = spinner("reading samples");
     let (samples, dropped) = read_image_samples_with(

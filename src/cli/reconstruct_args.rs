@@ -76,6 +76,23 @@ pub struct ReconstructArgs {
     /// report) instead of refusing the file.
     #[arg(long)]
     pub drop_nonfinite: bool,
+    // --- The image plane's fit knobs and tiles (`reconstruct2d_cmd`) ---
+    /// With `--dim 2`: relative weight of a first-difference penalty on neighbouring
+    /// coefficients (default 0, the least-squares fit; not with --tile).
+    #[arg(long)]
+    pub smoothing: Option<f64>,
+    /// With `--dim 2`: fit the image tile by tile, tiles of T x T pixels, each on its tile and
+    /// a halo of --halo pixels, in memory bounded by the tile size and --workers, not by the
+    /// image (the input is read in chunks, once per row of tiles).
+    #[arg(long, value_name = "T")]
+    pub tile: Option<usize>,
+    /// With `--tile`: the halo in pixels around each tile [default: 12, from the halo study
+    /// in docs/measurements.md].
+    #[arg(long, value_name = "H")]
+    pub halo: Option<usize>,
+    /// With `--tile`: tiles fitted at once [default: the number of cores].
+    #[arg(long, value_name = "N")]
+    pub workers: Option<usize>,
 }
 
 /// `p` of the image plane when `--p` is not given (`rkwave image`'s and the plan's).
@@ -91,6 +108,23 @@ impl ReconstructArgs {
         FilterSpec {
             p: self.p.unwrap_or(default),
             family: self.family,
+        }
+    }
+
+    /// Refuses the image plane's flags with `--dim 1`.
+    pub fn check_image_flags(&self) -> Result<(), super::CliError> {
+        let given = [
+            ("--smoothing", self.smoothing.is_some()),
+            ("--tile", self.tile.is_some()),
+            ("--halo", self.halo.is_some()),
+            ("--workers", self.workers.is_some()),
+            ("--drop-nonfinite", self.drop_nonfinite),
+        ];
+        match given.iter().find(|(_, g)| *g) {
+            Some((flag, _)) if self.dim != 2 => Err(super::CliError::Invalid(format!(
+                "{flag} is for the image plane: use it with --dim 2 --resolution WxH, or drop it"
+            ))),
+            _ => Ok(()),
         }
     }
 }

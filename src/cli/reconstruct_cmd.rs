@@ -13,6 +13,7 @@ use super::CliError;
 
 /// Runs `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
+    args.check_image_flags()?;
     if args.no_residual && (args.dim != 2 || args.state.is_none()) {
         return Err(CliError::Invalid(
             "--no-residual turns off the residual correction of an adaptive plan's image: use \

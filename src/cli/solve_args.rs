@@ -65,9 +65,10 @@ pub struct SolveArgs {
     /// Levels: `auto` (from the samples and --rho) or `n..N`.
     #[arg(long, default_value = "auto")]
     pub levels: String,
-    /// Oversampling target m / P for automatic levels.
-    #[arg(long, default_value_t = 2.0)]
-    pub rho: f64,
+    /// Oversampling target m / P for automatic levels [default: 2; with --dim 2, samples per
+    /// tensor function, default 4].
+    #[arg(long)]
+    pub rho: Option<f64>,
     /// Samples a coarse scaling function may cover (automatic levels).
     #[arg(long, default_value_t = 256.0)]
     pub coarse_samples: f64,
@@ -81,9 +82,10 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 1e-12)]
     pub cutoff: f64,
     /// Relative ridge of the single-scale normal equations (it moves the solution by about
-    /// ridge x cond(K)^2; undetermined directions are handled without it).
-    #[arg(long, default_value_t = 0.0)]
-    pub ridge: f64,
+    /// ridge x cond(K)^2; undetermined directions are handled without it) [default: 0; with
+    /// --dim 2, on the equilibrated image normal equations, default 1e-9].
+    #[arg(long)]
+    pub ridge: Option<f64>,
     /// Factorization of the single-scale least squares (`--method single`).
     #[arg(long, value_enum, default_value_t = FactorizationArg::Qr)]
     pub factorization: FactorizationArg,
@@ -103,10 +105,10 @@ pub fn check_cutoff(cutoff: f64) -> Result<(), CliError> {
 impl SolveArgs {
     /// The level choice.
     pub fn levels(&self) -> Result<Levels, CliError> {
-        if !(self.rho.is_finite() && self.rho > 0.0) {
+        let rho = self.rho.unwrap_or(2.0);
+        if !(rho.is_finite() && rho > 0.0) {
             return Err(CliError::Invalid(format!(
-                "--rho {} must be a positive oversampling rate such as 2",
-                self.rho
+                "--rho {rho} must be a positive oversampling rate such as 2"
             )));
         }
         if !(self.coarse_samples.is_finite() && self.coarse_samples >= 1.0) {
@@ -117,7 +119,7 @@ impl SolveArgs {
         }
         if self.levels == "auto" {
             return Ok(Levels::Auto(LevelParams {
-                rho: self.rho,
+                rho,
                 coarse_samples: self.coarse_samples,
             }));
         }
@@ -136,15 +138,15 @@ impl SolveArgs {
     /// The method.
     pub fn method(&self, which: MethodArg) -> Result<Method, CliError> {
         check_cutoff(self.cutoff)?;
-        if !(self.ridge.is_finite() && (0.0..1.0).contains(&self.ridge)) {
+        let ridge = self.ridge.unwrap_or(0.0);
+        if !(ridge.is_finite() && (0.0..1.0).contains(&ridge)) {
             return Err(CliError::Invalid(format!(
-                "--ridge {} must be in [0, 1), e.g. 1e-16",
-                self.ridge
+                "--ridge {ridge} must be in [0, 1), e.g. 1e-16"
             )));
         }
         Ok(match which {
             MethodArg::Single => Method::SingleScale {
-                ridge: self.ridge,
+                ridge,
                 solver: self.factorization.into(),
             },
             MethodArg::Local => Method::Local(self.local()),

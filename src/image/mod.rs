@@ -49,6 +49,7 @@ pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod splat;
+pub mod tiles;
 pub mod truth;
 pub mod wavelet;
 

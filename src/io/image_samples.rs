@@ -51,7 +51,7 @@ pub fn image_samples_with(
 /// The names of the columns after `x` of an image-plane array file: `y`, then the channels
 /// (`value` for one, `value1`, `value2`, ... otherwise), so an error names the column a user
 /// wrote, not the generic reader's `value2` for the first channel.
-fn image_column_names(columns: usize) -> Vec<String> {
+pub fn image_column_names(columns: usize) -> Vec<String> {
     let mut names = vec!["y".to_string()];
     names.extend(SampleSet::default_names(columns.saturating_sub(1)));
     names.truncate(columns);

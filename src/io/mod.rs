@@ -25,6 +25,7 @@ use thiserror::Error;
 use crate::sampling::Domain;
 
 pub mod chunked;
+pub mod chunks;
 mod csv;
 mod grid_output;
 pub mod image_file;
@@ -35,7 +36,8 @@ pub mod output;
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};
 pub use self::grid_output::{GridFormat, GridWriter};
 pub use self::image_samples::{
-    image_samples, image_samples_with, read_image_samples, read_image_samples_with,
+    image_column_names, image_samples, image_samples_with, read_image_samples,
+    read_image_samples_with,
 };
 pub use self::npy::{npy_bytes, parse_npy, read_npy, write_npy};
 

@@ -17,6 +17,7 @@
 pub mod adaptive;
 pub mod experiment;
 pub mod figure;
+pub mod halo_study;
 pub mod refine;
 pub mod refine_figures;
 pub mod table;

@@ -62,9 +62,13 @@ pub struct StencilPattern {
 impl StencilPattern {
     /// The pattern of `G` for the basis.
     pub fn new(basis: &TensorBasis) -> Self {
-        let (nx, ny) = basis.dims();
-        let rx = Ranges::of(basis.scale_x());
-        let ry = Ranges::of(basis.scale_y());
+        Self::from_ranges(Ranges::of(basis.scale_x()), Ranges::of(basis.scale_y()))
+    }
+
+    /// The pattern of the `nx x ny` grid of functions with the 1D structural ranges `rx`
+    /// and `ry` (`nx = rx.lo.len()`): also a window of a larger basis (image tiles).
+    pub(crate) fn from_ranges(rx: Ranges, ry: Ranges) -> Self {
+        let (nx, ny) = (rx.lo.len(), ry.lo.len());
         let mut col_ptr = Vec::with_capacity(nx * ny + 1);
         col_ptr.push(0);
         let mut total = 0;
@@ -208,6 +212,50 @@ pub struct NormalEquations2d {
     pub support_samples: Vec<u32>,
 }
 
+impl NormalEquations2d {
+    /// Adds sample `i` (values `values[c][i]`) with the 1D factors `fx`, `fy` of its tensor
+    /// row (ascending indices in the layout of `pattern`); `prod` is scratch.
+    pub(crate) fn add_sample(
+        &mut self,
+        pattern: &StencilPattern,
+        fx: &[crate::basis::BasisValue],
+        fy: &[crate::basis::BasisValue],
+        values: &[&[f64]],
+        i: usize,
+        prod: &mut Vec<f64>,
+    ) {
+        let wx = fx.len();
+        prod.clear();
+        for vy in fy {
+            for vx in fx {
+                prod.push(vy.value * vx.value);
+            }
+        }
+        for (b_y, vyb) in fy.iter().enumerate() {
+            for (b_x, vxb) in fx.iter().enumerate() {
+                let vb = prod[b_y * wx + b_x];
+                let col = vyb.index * pattern.nx + vxb.index;
+                self.support_samples[col] += 1;
+                for (c, f) in values.iter().enumerate() {
+                    self.rhs[c][col] += vb * f[i];
+                }
+                // same y row: kx2 >= kx
+                let base = pattern.offset(vyb.index, vxb.index, vyb.index, vxb.index);
+                for (a_x, vxa) in fx.iter().enumerate().skip(b_x) {
+                    self.values[base + (vxa.index - vxb.index)] += prod[b_y * wx + a_x] * vb;
+                }
+                // rows above in y: every kx2
+                for (a_y, vya) in fy.iter().enumerate().skip(b_y + 1) {
+                    let row = pattern.offset(vyb.index, vxb.index, vya.index, fx[0].index);
+                    for a_x in 0..wx {
+                        self.values[row + a_x] += prod[a_y * wx + a_x] * vb;
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Accumulates the normal equations; positions must already be checked to lie in the image.
 pub fn accumulate(
     basis: &TensorBasis,
@@ -236,35 +284,7 @@ pub fn accumulate(
             let mut prod: Vec<f64> = Vec::with_capacity(64);
             for i in start..end {
                 let (fx, fy) = ev.factors_unchecked(xs[i], ys[i]);
-                let wx = fx.len();
-                prod.clear();
-                for vy in fy {
-                    for vx in fx {
-                        prod.push(vy.value * vx.value);
-                    }
-                }
-                for (b_y, vyb) in fy.iter().enumerate() {
-                    for (b_x, vxb) in fx.iter().enumerate() {
-                        let vb = prod[b_y * wx + b_x];
-                        let col = vyb.index * pattern.nx + vxb.index;
-                        acc.support_samples[col] += 1;
-                        for (c, f) in values.iter().enumerate() {
-                            acc.rhs[c][col] += vb * f[i];
-                        }
-                        // same y row: kx2 >= kx
-                        let base = pattern.offset(vyb.index, vxb.index, vyb.index, vxb.index);
-                        for (a_x, vxa) in fx.iter().enumerate().skip(b_x) {
-                            acc.values[base + (vxa.index - vxb.index)] += prod[b_y * wx + a_x] * vb;
-                        }
-                        // rows above in y: every kx2
-                        for (a_y, vya) in fy.iter().enumerate().skip(b_y + 1) {
-                            let row = pattern.offset(vyb.index, vxb.index, vya.index, fx[0].index);
-                            for a_x in 0..wx {
-                                acc.values[row + a_x] += prod[a_y * wx + a_x] * vb;
-                            }
-                        }
-                    }
-                }
+                acc.add_sample(pattern, fx, fy, values, i, &mut prod);
             }
             acc
         })
