@@ -169,7 +169,7 @@ pub enum ImageError {
         "{count} samples have a value that is not finite (NaN or Inf); the first is row {row} \
          at (x, y) = ({x}, {y}), channel {channel}: {value}; fix the renderer, or drop \
          and count them with {fix}",
-        fix = crate::error::Fix::DropNonfinite
+        fix = nonfinite::DROP_FIX
     )]
     NonFiniteSamples {
         /// How many samples are non-finite.

@@ -9,7 +9,6 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-
 use super::{IoError, SampleSet};
 
 /// A sample file opened for reading in chunks.
