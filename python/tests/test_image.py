@@ -83,7 +83,7 @@ def test_film_filters_by_name():
     [
         (np.ones((10, 3)), np.ones(10), {}, "xy must have shape (m, 2)"),
         (np.ones((10, 2)), np.ones(9), {}, "values has shape (9,)"),
-        (np.ones((10, 2)), np.r_[np.ones(9), np.nan], {}, "values must be finite"),
+        (np.ones((10, 2)), np.r_[np.ones(9), np.nan], {}, "drop_nonfinite=True"),
         (np.r_[np.ones((9, 2)), [[np.nan, 1]]], np.ones(10), {}, "sample 9: position (NaN, 1) is not finite"),
         (np.r_[np.ones((9, 2)), [[40.0, 1]]], np.ones(10), {}, "outside"),
         (np.ones((10, 2)), np.ones((10, 5)), {}, "channels"),

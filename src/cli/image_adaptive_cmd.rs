@@ -183,7 +183,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         value["depth_map"] = serde_json::json!(depth_path);
         value["sample_positions"] = serde_json::json!(samples_path);
         value["figure"] = serde_json::json!(figure);
-        println!("{}", serde_json::to_string_pretty(&value).expect("json"));
+        super::print_json(&value);
         return Ok(());
     }
     let r = &c.adaptive;

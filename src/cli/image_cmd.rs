@@ -133,7 +133,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         if let Some((path, n)) = &filter_file {
             value["filter_file"] = serde_json::json!({"path": path, "samples": n});
         }
-        println!("{}", serde_json::to_string_pretty(&value).expect("json"));
+        super::print_json(&value);
     } else {
         println!(
             "{} {} {} spp {} noise {}: {} samples -> {}",

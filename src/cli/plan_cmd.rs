@@ -239,10 +239,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     };
     if args.json {
         let report = PlanCallReport::new(&state, &args.state, &args.out, &next, step);
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
         return Ok(());
     }
     match (&step, state.stop) {
@@ -362,10 +359,7 @@ pub fn reconstruct(
         started.elapsed().as_secs_f64(),
     );
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
     } else {
         println!(
             "{} samples x {} channels (rounds 0..={}) -> {} pixels on the plan's tree ({} \

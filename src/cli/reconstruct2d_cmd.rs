@@ -176,10 +176,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     report.notes.extend(dropped.note());
     report.nonfinite = dropped;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
     } else {
         println!(
             "{} samples x {} channels -> {plane} pixels by {method}{}, {:.3} s; wrote {}",

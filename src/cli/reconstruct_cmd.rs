@@ -95,10 +95,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         },
     );
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
     } else {
         for w in &report.warnings {
             eprintln!("warning: {w}");

@@ -165,10 +165,7 @@ pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Resu
             report: &report,
             stream: &stream,
         };
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&out).expect("plain data")
-        );
+        super::print_json(&out);
         return Ok(());
     }
     for w in &report.warnings {

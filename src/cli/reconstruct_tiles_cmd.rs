@@ -158,10 +158,7 @@ pub fn run(
         notes,
     };
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data")
-        );
+        super::print_json(&report);
     } else {
         println!(
             "{} samples x {} channels -> {plane} pixels by tiles of {} (halo {}, {} x {} tiles, \
