@@ -3,7 +3,9 @@
 mod common;
 
 use rkwave::image::sampler::Sampler;
-use rkwave::image::tiles::{fit_tile, window_samples, TileGeometry, TileParams};
+use rkwave::image::tiles::{
+    fit_tile, reconstruct_tiled, window_samples, TileGeometry, TileParams, TiledInput, TiledParams,
+};
 use rkwave::image::wavelet::{wavelet_image, CoefficientSolve, WaveletParams};
 use rkwave::image::{ImagePlane, ImageSamples, PixelImage};
 
@@ -101,4 +103,49 @@ fn a_tile_is_the_same_bits_in_any_pool() {
         .unwrap();
     let other = pool.install(|| fit_tile(&s, &g, 5, &tp).unwrap());
     assert_eq!(one.channels, other.channels);
+}
+
+/// The three ways to the tiled image give the same bits: tile by tile from the window's
+/// samples, the band scans of samples in memory, and a sample file spilled into band files
+/// (bands of tile rows whose halos overlap: samples go to two or three bands) with two
+/// workers and small chunks; the scratch folder is gone afterwards.
+#[test]
+fn spilled_bands_give_the_tiles_the_same_samples() {
+    let samples = scene_samples(40, 56, 4, 11);
+    let params = WaveletParams::default();
+    let g = TileGeometry::new(samples.plane(), 8, 6).unwrap();
+    let by_tile = tiled(&samples, &g, &params);
+    let dir = common::scratch("tiles", "spill");
+    let file = dir.join("s.npy");
+    let set = rkwave::io::SampleSet::new(
+        samples.xs().to_vec(),
+        std::iter::once(samples.ys().to_vec())
+            .chain(samples.values().iter().cloned())
+            .collect(),
+    )
+    .unwrap();
+    rkwave::io::write_npy(&file, &set).unwrap();
+    let scratch = dir.join("scratch");
+    std::fs::create_dir(&scratch).unwrap();
+    let tp = TiledParams {
+        workers: 2,
+        chunk_rows: 777,
+        scratch: Some(scratch.clone()),
+    };
+    let none = |_: &rkwave::image::tiles::TileReport| {};
+    let scanned =
+        reconstruct_tiled(TiledInput::Samples(&samples), &g, &params, &tp, &none).unwrap();
+    let spilled = reconstruct_tiled(TiledInput::File(&file), &g, &params, &tp, &none).unwrap();
+    assert_eq!(scanned.image.channels, by_tile.channels);
+    assert_eq!(spilled.image.channels, by_tile.channels);
+    let spill = spilled.report.spill.expect("a file is spilled");
+    assert_eq!(spill.bands, 7);
+    assert!(spill.rows > samples.len(), "halo rows go to two bands");
+    assert_eq!(spilled.report.passes, 2);
+    assert!(scanned.report.spill.is_none());
+    assert_eq!(
+        std::fs::read_dir(&scratch).unwrap().count(),
+        0,
+        "scratch left behind"
+    );
 }

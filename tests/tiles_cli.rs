@@ -48,6 +48,13 @@ fn tiled_matches_untiled_and_ignores_the_worker_count() {
     let n = 64 * 48 * 2;
     let (u, a, b) = (pixels(&untiled, n), pixels(&one, n), pixels(&three, n));
     assert_eq!(a, b, "the worker count changed the image");
+    assert_eq!(json["tiled"]["passes"], 2, "a file is read twice");
+    let left: Vec<_> = std::fs::read_dir(&*dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with(".rkwave-tiles"))
+        .collect();
+    assert!(left.is_empty(), "band files left behind: {left:?}");
     let (lo, hi) = u
         .iter()
         .fold((f64::MAX, f64::MIN), |(l, h), &v| (l.min(v), h.max(v)));

@@ -83,7 +83,8 @@ pub struct ReconstructArgs {
     pub smoothing: Option<f64>,
     /// With `--dim 2`: fit the image tile by tile, tiles of T x T pixels, each on its tile and
     /// a halo of --halo pixels, in memory bounded by the tile size and --workers, not by the
-    /// image (the input is read in chunks, once per row of tiles).
+    /// image (the input is read in chunks twice and spilled into one scratch file per row of
+    /// tiles, see --scratch).
     #[arg(long, value_name = "T")]
     pub tile: Option<usize>,
     /// With `--tile`: the halo in pixels around each tile [default: 12, from the halo study
@@ -93,6 +94,10 @@ pub struct ReconstructArgs {
     /// With `--tile`: tiles fitted at once [default: the number of cores].
     #[arg(long, value_name = "N")]
     pub workers: Option<usize>,
+    /// With `--tile`: the folder for the band files (about the input's size at 8 bytes a
+    /// value, removed after the fit) [default: the output's folder].
+    #[arg(long, value_name = "DIR")]
+    pub scratch: Option<std::path::PathBuf>,
 }
 
 /// `p` of the image plane when `--p` is not given (`rkwave image`'s and the plan's).
@@ -118,6 +123,7 @@ impl ReconstructArgs {
             ("--tile", self.tile.is_some()),
             ("--halo", self.halo.is_some()),
             ("--workers", self.workers.is_some()),
+            ("--scratch", self.scratch.is_some()),
             ("--drop-nonfinite", self.drop_nonfinite),
         ];
         match given.iter().find(|(_, g)| *g) {
@@ -132,9 +138,9 @@ impl ReconstructArgs {
 /// `--stream`: whether `rkwave reconstruct --dim 1` reads its samples in chunks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum StreamArg {
-    /// When the samples read whole would exceed the memory limit.
+    /// When a `.npy` input read whole would exceed the memory limit (a CSV input is read whole).
     Auto,
-    /// Always (a `.npy` input).
+    /// Always (a `.npy` or CSV input sorted by position).
     Always,
     /// Never: the samples are read whole (and sorted if need be).
     Never,

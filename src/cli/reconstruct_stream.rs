@@ -1,5 +1,5 @@
-//! `rkwave reconstruct --dim 1` out of core: a `.npy` input read in chunks
-//! ([`rkwave::io::chunked::NpyChunks`]) into the streamed single-scale QR
+//! `rkwave reconstruct --dim 1` out of core: a `.npy` or CSV input read in chunks
+//! ([`rkwave::io::chunks::CountedChunks`]) into the streamed single-scale QR
 //! ([`rkwave::reconstruct::stream::fit_streamed`]), the same coefficients as the in-memory
 //! path; the passes over the file are listed in the text report and in `--json`
 //! (`stream.passes`).
@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use rkwave::io::chunked::NpyChunks;
+use rkwave::io::chunks::{CountedChunks, SampleChunkReader};
 use rkwave::io::{GridWriter, IoError, SampleSet};
 use rkwave::reconstruct::stream::{fit_streamed, StreamError, StreamReport};
 use rkwave::reconstruct::{FitParams, Method, SingleScaleSolver, SolveReport};
@@ -19,8 +19,8 @@ use super::reconstruct_args::{ReconstructArgs, StreamArg};
 use super::CliError;
 
 /// The fix named when samples too large to read whole meet a method that needs them whole.
-const STREAMING_FIX: &str = "--method single --factorization qr reads a .npy file sorted by x \
-                             in chunks (--stream always), or raise --memory-limit";
+const STREAMING_FIX: &str = "--method single --factorization qr reads a file sorted by x in \
+                             chunks (--stream always), or raise --memory-limit";
 
 /// Bytes of reading `m` samples of `channels` values whole from a file of `file_bytes`: the
 /// file's bytes, the sample set, and the QR's unit positions and sort order.
@@ -49,11 +49,6 @@ pub fn chooses_streaming(args: &ReconstructArgs, params: &FitParams) -> Result<b
     let npy = is_npy(&args.input);
     match args.stream {
         StreamArg::Never => Ok(false),
-        StreamArg::Always if !npy => Err(CliError::Invalid(format!(
-            "--stream always reads a .npy file in chunks; `{}` is not one: convert it (numpy: \
-             np.save) or leave out --stream",
-            args.input.display()
-        ))),
         StreamArg::Always if !streams(params) => Err(CliError::Invalid(
             "--stream streams the single-scale QR only: use --method single --factorization qr"
                 .into(),
@@ -61,7 +56,7 @@ pub fn chooses_streaming(args: &ReconstructArgs, params: &FitParams) -> Result<b
         StreamArg::Always => Ok(true),
         StreamArg::Auto if !npy => Ok(false),
         StreamArg::Auto => {
-            let source = NpyChunks::open(&args.input)?;
+            let source = SampleChunkReader::open(&args.input)?.counted()?;
             let file_bytes = std::fs::metadata(&args.input).map_or(0, |m| m.len());
             let needed = in_memory_bytes(file_bytes, source.rows(), source.value_channels());
             if needed <= rkwave::resources::memory_limit() as f64 {
@@ -102,15 +97,20 @@ fn from_stream(e: StreamError) -> CliError {
 
 /// Runs the streamed `rkwave reconstruct --dim 1`.
 pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Result<(), CliError> {
-    let source = NpyChunks::open(&args.input)?;
+    let source: CountedChunks = SampleChunkReader::open(&args.input)?.counted()?;
     let m = source.rows();
     let names = source.names().to_vec();
     let mut passes = Vec::new();
+    if !source.reader().is_npy() {
+        passes.push("rows, channels and bounds of the CSV file (every row parsed)".to_string());
+    }
     let domain = match args.domain {
         Some(d) => d,
         None => {
+            if !source.knows_bounds() {
+                passes.push("bounds of the positions (no --domain given)".to_string());
+            }
             let (a, b) = source.bounds()?;
-            passes.push("bounds of the positions (no --domain given)".to_string());
             domain_of_bounds(a, b)?
         }
     };
@@ -172,9 +172,14 @@ pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Resu
         eprintln!("warning: {w}");
     }
     println!(
-        "{} samples x {} channels streamed from .npy in {} passes ({}) -> {}; wrote {}",
+        "{} samples x {} channels streamed from {} in {} passes ({}) -> {}; wrote {}",
         report.samples,
         report.channels,
+        if source.reader().is_npy() {
+            ".npy"
+        } else {
+            "CSV"
+        },
         stream.passes.len(),
         stream.passes.join("; "),
         fit_summary(&report, &rec.residual_rms),

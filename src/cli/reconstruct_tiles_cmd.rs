@@ -92,8 +92,23 @@ pub fn run(
         Some(n) => n,
         None => TiledParams::default().workers,
     };
+    let scratch = match &args.scratch {
+        Some(dir) => dir.clone(),
+        None => match args.output.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        },
+    };
+    if !scratch.is_dir() {
+        return Err(CliError::Invalid(format!(
+            "--scratch `{}` is not a folder: give an existing folder with room for about the \
+             input's size",
+            scratch.display()
+        )));
+    }
     let tiled = TiledParams {
         workers,
+        scratch: Some(scratch),
         ..TiledParams::default()
     };
     let bar = if std::io::stderr().is_terminal() {
@@ -129,18 +144,17 @@ pub fn run(
              most one tile)"
         ));
     }
-    notes.extend(
-        r.tiles
-            .iter()
-            .filter(|t| t.unsampled > 0 || t.replaced_pivots > 0)
-            .map(|t| {
-                format!(
-                    "tile {} (pixels {}): {} functions without samples pinned to 0, {} Cholesky \
-                 pivots replaced",
-                    t.tile, t.interior, t.unsampled, t.replaced_pivots
-                )
-            }),
-    );
+    notes.extend(pinned_note(&r.tiles));
+    if let Some(spill) = &r.spill {
+        notes.push(format!(
+            "spilled {} sample rows ({}) into {} band files in {} ({:.3} s), removed after the fit",
+            spill.rows,
+            rkwave::resources::format_bytes(spill.bytes as f64),
+            spill.bands,
+            spill.folder.display(),
+            spill.seconds
+        ));
+    }
     let report = TiledFileReport {
         input: args.input.display().to_string(),
         output: args.output.display().to_string(),
@@ -179,4 +193,36 @@ pub fn run(
         }
     }
     Ok(())
+}
+
+/// One line for the tiles with functions pinned to 0 or pivots replaced: how many, the totals
+/// and the three tiles with the most (a 4096² image has a thousand tiles).
+fn pinned_note(tiles: &[rkwave::image::tiles::TileReport]) -> Option<String> {
+    let mut hit: Vec<_> = tiles
+        .iter()
+        .filter(|t| t.unsampled > 0 || t.replaced_pivots > 0)
+        .collect();
+    if hit.is_empty() {
+        return None;
+    }
+    let unsampled: usize = hit.iter().map(|t| t.unsampled).sum();
+    let replaced: usize = hit.iter().map(|t| t.replaced_pivots).sum();
+    hit.sort_by_key(|t| std::cmp::Reverse(t.unsampled + t.replaced_pivots));
+    let most: Vec<String> = hit
+        .iter()
+        .take(3)
+        .map(|t| {
+            format!(
+                "tile {} (pixels {}): {} + {}",
+                t.tile, t.interior, t.unsampled, t.replaced_pivots
+            )
+        })
+        .collect();
+    Some(format!(
+        "{} of {} tiles have functions without samples pinned to 0 ({unsampled} in all) or \
+         Cholesky pivots replaced ({replaced} in all); the most (pinned + replaced): {}",
+        hit.len(),
+        tiles.len(),
+        most.join(", ")
+    ))
 }

@@ -4,12 +4,23 @@
 //! cut at line ends into blocks parsed by the whole-file parser ([`super::csv::parse_csv`])
 //! with the header line in front, its errors' line and row numbers moved to the file's.
 //! Every value is checked finite, with the same typed errors as the whole-file readers.
+//!
+//! One reader serves both streamed paths: the tiled image plane reads the whole file in
+//! order ([`SampleChunkReader::for_each_chunk`]); the streamed 1D fit reads ranges of rows
+//! ([`SampleChunkReader::read_rows`]: a `.npy` range starts with one seek, a CSV range after
+//! the rows before it are skipped unparsed) through [`CountedChunks`], its
+//! [`SampleChunks`] view.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use super::{IoError, SampleSet};
+use crate::reconstruct::stream::{ChunkSink, SampleChunks, StreamError};
+
+/// Rows per chunk of the streamed paths: 64 Ki rows of a few columns is a few MB.
+pub const CHUNK_ROWS: usize = 1 << 16;
 
 /// A sample file opened for reading in chunks.
 #[derive(Debug)]
@@ -96,13 +107,24 @@ impl SampleChunkReader {
         &self,
         chunk_rows: usize,
         names: impl Fn(usize) -> Vec<String>,
+        each: impl FnMut(usize, SampleSet) -> Result<(), E>,
+    ) -> Result<(), E> {
+        self.read_rows(0..usize::MAX, chunk_rows, names, each)
+    }
+
+    /// [`Self::for_each_chunk`] on the rows `rows` alone (cut at the end of the file).
+    pub fn read_rows<E: From<IoError>>(
+        &self,
+        rows: Range<usize>,
+        chunk_rows: usize,
+        names: impl Fn(usize) -> Vec<String>,
         mut each: impl FnMut(usize, SampleSet) -> Result<(), E>,
     ) -> Result<(), E> {
         let chunk_rows = chunk_rows.max(1);
         match self.kind {
             Kind::Npy {
                 data_start,
-                rows,
+                rows: rows_in_file,
                 columns,
                 size,
                 big_endian,
@@ -121,13 +143,15 @@ impl SampleChunkReader {
                     }
                 };
                 let mut buf = Vec::new();
-                for r0 in (0..rows).step_by(chunk_rows) {
-                    let n = chunk_rows.min(rows - r0);
+                let range = rows.start.min(rows_in_file)..rows.end.min(rows_in_file);
+                let first = range.start;
+                for r0 in range.clone().step_by(chunk_rows) {
+                    let n = chunk_rows.min(range.end - r0);
                     let mut cols = vec![Vec::with_capacity(n); columns];
                     if fortran {
                         buf.resize(n * size, 0);
                         for (j, col) in cols.iter_mut().enumerate() {
-                            let at = data_start + ((j * rows + r0) * size) as u64;
+                            let at = data_start + ((j * rows_in_file + r0) * size) as u64;
                             f.seek(SeekFrom::Start(at))
                                 .and_then(|_| f.read_exact(&mut buf))
                                 .map_err(|e| read_error(path, e))?;
@@ -135,8 +159,9 @@ impl SampleChunkReader {
                         }
                     } else {
                         buf.resize(n * columns * size, 0);
-                        if r0 == 0 {
-                            f.seek(SeekFrom::Start(data_start))
+                        if r0 == first {
+                            let at = data_start + (first * columns * size) as u64;
+                            f.seek(SeekFrom::Start(at))
                                 .map_err(|e| read_error(path, e))?;
                         }
                         f.read_exact(&mut buf).map_err(|e| read_error(path, e))?;
@@ -160,14 +185,15 @@ impl SampleChunkReader {
                 }
                 Ok(())
             }
-            Kind::Csv => self.csv_chunks(chunk_rows, each),
+            Kind::Csv => self.csv_chunks(rows, chunk_rows, each),
         }
     }
 
-    /// CSV: blocks of `chunk_rows` lines after the header, each parsed with the header in
-    /// front.
+    /// CSV: the rows before `rows` skipped unparsed, then blocks of `chunk_rows` rows, each
+    /// parsed with the header in front.
     fn csv_chunks<E: From<IoError>>(
         &self,
+        rows: Range<usize>,
         chunk_rows: usize,
         mut each: impl FnMut(usize, SampleSet) -> Result<(), E>,
     ) -> Result<(), E> {
@@ -194,16 +220,26 @@ impl SampleChunkReader {
             .into());
         }
         let (mut line, mut row) = (header_line, 0usize);
+        while row < rows.start {
+            let Some(raw) = lines.next() else { break };
+            let raw = raw.map_err(|e| read_error(path, e))?;
+            line += 1;
+            if is_data_line(&raw) {
+                row += 1;
+            }
+        }
         loop {
             let mut block = header.clone();
             let mut count = 0;
             let mut rows_in = 0;
+            let chunk_rows = chunk_rows.min(rows.end.saturating_sub(row));
+            if chunk_rows == 0 {
+                return Ok(());
+            }
             for raw in lines.by_ref() {
                 let raw = raw.map_err(|e| read_error(path, e))?;
                 count += 1;
-                let t = String::from_utf8_lossy(&raw);
-                let t = t.trim();
-                if !t.is_empty() && !t.starts_with('#') {
+                if is_data_line(&raw) {
                     rows_in += 1;
                 }
                 block.push(b'\n');
@@ -229,6 +265,148 @@ impl SampleChunkReader {
             row += rows_in;
         }
     }
+}
+
+impl SampleChunkReader {
+    /// Whether the file is a `.npy` file (else CSV).
+    pub fn is_npy(&self) -> bool {
+        matches!(self.kind, Kind::Npy { .. })
+    }
+
+    /// The reader with its rows, channel names and (for CSV) position bounds known: a `.npy`
+    /// file's from its header; a CSV file's from one validating pass over it.
+    pub fn counted(self) -> Result<CountedChunks, IoError> {
+        if let Kind::Npy { rows, columns, .. } = self.kind {
+            return Ok(CountedChunks {
+                names: SampleSet::default_names(columns - 1),
+                rows,
+                bounds: None,
+                reader: self,
+            });
+        }
+        let (mut rows, mut names, mut bounds) = (0, Vec::new(), (f64::INFINITY, f64::NEG_INFINITY));
+        self.for_each_chunk(CHUNK_ROWS, SampleSet::default_names, |_, set| {
+            rows += set.len();
+            names = set.names;
+            bounds = extend_bounds(bounds, &set.positions);
+            Ok::<(), IoError>(())
+        })?;
+        Ok(CountedChunks {
+            reader: self,
+            rows,
+            names,
+            bounds: Some(bounds),
+        })
+    }
+}
+
+/// `(lo, hi)` widened by the positions `xs`.
+fn extend_bounds((lo, hi): (f64, f64), xs: &[f64]) -> (f64, f64) {
+    xs.iter()
+        .fold((lo, hi), |(lo, hi), &x| (lo.min(x), hi.max(x)))
+}
+
+/// A sample file whose rows and channels are known, read in ranges of rows: the
+/// [`SampleChunks`] of the streamed 1D fit ([`crate::reconstruct::stream::fit_streamed`]).
+#[derive(Debug)]
+pub struct CountedChunks {
+    reader: SampleChunkReader,
+    rows: usize,
+    names: Vec<String>,
+    bounds: Option<(f64, f64)>,
+}
+
+impl CountedChunks {
+    /// Samples `m`.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Value channels.
+    pub fn value_channels(&self) -> usize {
+        self.names.len()
+    }
+
+    /// Names of the value channels (a CSV header's, or the defaults of
+    /// [`SampleSet::default_names`]).
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// The file read.
+    pub fn reader(&self) -> &SampleChunkReader {
+        &self.reader
+    }
+
+    /// Whether the bounds of the positions are known without a pass (a CSV file's, from the
+    /// counting pass).
+    pub fn knows_bounds(&self) -> bool {
+        self.bounds.is_some()
+    }
+
+    /// The smallest and the largest position (a pass over a `.npy` file; a CSV file's from
+    /// its counting pass).
+    pub fn bounds(&self) -> Result<(f64, f64), IoError> {
+        if let Some(b) = self.bounds {
+            return Ok(b);
+        }
+        let mut bounds = (f64::INFINITY, f64::NEG_INFINITY);
+        self.read_rows(0..self.rows, |xs, _| {
+            bounds = extend_bounds(bounds, xs);
+            Ok::<(), IoError>(())
+        })?;
+        Ok(bounds)
+    }
+
+    /// Calls `each(positions, values per channel)` on consecutive chunks of the rows `rows`.
+    pub fn read_rows<E: From<IoError>>(
+        &self,
+        rows: Range<usize>,
+        mut each: impl FnMut(&[f64], &[Vec<f64>]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let names = |_| self.names.clone();
+        self.reader.read_rows(rows, CHUNK_ROWS, names, |_, set| {
+            each(&set.positions, &set.values)
+        })
+    }
+}
+
+impl SampleChunks for CountedChunks {
+    fn len(&self) -> usize {
+        self.rows
+    }
+    fn channels(&self) -> usize {
+        self.value_channels()
+    }
+    fn read(&self, rows: Range<usize>, each: &mut ChunkSink<'_>) -> Result<(), StreamError> {
+        let out = self.read_rows(rows, |xs, vs| {
+            let vs: Vec<&[f64]> = vs.iter().map(Vec::as_slice).collect();
+            each(xs, &vs).map_err(ChunkError::Stream)
+        });
+        out.map_err(|e| match e {
+            ChunkError::Io(e) => StreamError::Source(Box::new(e)),
+            ChunkError::Stream(e) => e,
+        })
+    }
+}
+
+/// A read failure or the consumer's error.
+enum ChunkError {
+    Io(IoError),
+    Stream(StreamError),
+}
+
+impl From<IoError> for ChunkError {
+    fn from(e: IoError) -> Self {
+        Self::Io(e)
+    }
+}
+
+/// Whether a CSV line holds a row (not blank, not a `#` comment).
+fn is_data_line(raw: &[u8]) -> bool {
+    let t = String::from_utf8_lossy(raw);
+    let t = t.trim();
+    !t.is_empty() && !t.starts_with('#')
 }
 
 /// A block's error with its line and row numbers moved by `lines` and `rows`.

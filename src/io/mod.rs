@@ -24,7 +24,6 @@ use thiserror::Error;
 
 use crate::sampling::Domain;
 
-pub mod chunked;
 pub mod chunks;
 mod csv;
 mod grid_output;

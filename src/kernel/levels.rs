@@ -52,6 +52,13 @@ pub struct LevelChoice {
 }
 
 impl LevelChoice {
+    /// The finest level one lower: `N - 1`, with the oversampling doubled (half the
+    /// functions for the same samples). The caller keeps `N > n`.
+    pub fn lower_finest(&mut self) {
+        self.fine -= 1;
+        self.oversampling *= 2.0;
+    }
+
     /// Levels for `m` samples with `p` vanishing moments.
     pub fn auto(m: usize, p: usize, params: LevelParams) -> Self {
         let jmin = minimum_level(p);

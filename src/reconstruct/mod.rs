@@ -315,8 +315,7 @@ pub fn fit(
             && levels.fine > levels.coarse
             && min_support_samples(positions, domain, levels.fine + 1, params.p) < 2
         {
-            levels.fine -= 1;
-            levels.oversampling *= 2.0;
+            levels.lower_finest();
             dropped += 1;
         }
         let first = params.basis(levels.coarse, levels.fine, domain)?;
@@ -327,24 +326,13 @@ pub fn fit(
                 let basis = params.basis(levels.coarse, levels.fine, domain)?;
                 let (c, rep) = ne.solve(&basis, ridge)?;
                 if rep.deficient == 0 {
-                    return Ok(Fit {
-                        active: ActiveSet::uniform(basis),
-                        coefficients: c,
-                        levels,
-                        timings: Timings {
-                            kernel_s: 0.0,
-                            solve_s: t0.elapsed().as_secs_f64(),
-                        },
-                        solve: SolveReport::SingleScale(rep),
-                        fallbacks: lowered(dropped),
-                    });
+                    return Ok(single_scale_fit(basis, c, levels, t0, rep, dropped));
                 }
                 if levels.fine == levels.coarse {
                     break;
                 }
                 ne = ne.coarsen(basis.bank());
-                levels.fine -= 1;
-                levels.oversampling *= 2.0;
+                levels.lower_finest();
                 dropped += 1;
             }
         }
@@ -363,6 +351,30 @@ pub fn fit(
     let mut fitted = fit_active(active, positions, values, params.method, levels)?;
     fitted.fallbacks.splice(0..0, lowered(dropped));
     Ok(fitted)
+}
+
+/// The fit of a single-scale solve on `basis` that determined every direction, begun at
+/// `t0`, after `dropped` lowered finest levels: shared by [`fit`] and the streamed fit
+/// ([`stream::fit_streamed`]).
+fn single_scale_fit(
+    basis: CdvBasis,
+    coefficients: Vec<Vec<f64>>,
+    levels: LevelChoice,
+    t0: Instant,
+    rep: SingleScaleReport,
+    dropped: u32,
+) -> Fit {
+    Fit {
+        active: ActiveSet::uniform(basis),
+        coefficients,
+        levels,
+        timings: Timings {
+            kernel_s: 0.0,
+            solve_s: t0.elapsed().as_secs_f64(),
+        },
+        solve: SolveReport::SingleScale(rep),
+        fallbacks: lowered(dropped),
+    }
 }
 
 /// The fallback record of `dropped` lowered levels (none if zero).

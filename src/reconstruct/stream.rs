@@ -27,12 +27,12 @@ use thiserror::Error;
 use super::banded_qr::GivensTriangle;
 use super::single_scale::{qr_parts, solve_triangle};
 use super::{
-    cell_of, check_values, choose_levels, density, guard_uniform, lowered, min_support_of_counts,
-    undersampled, Fit, FitParams, Levels, Method, ReconstructError, SingleScaleReport,
-    SingleScaleSolver, SolveReport, Timings,
+    cell_of, check_values, choose_levels, density, guard_uniform, min_support_of_counts,
+    single_scale_fit, undersampled, Fit, FitParams, Levels, Method, ReconstructError,
+    SingleScaleReport, SingleScaleSolver,
 };
 use crate::basis::CdvBasis;
-use crate::kernel::{check_positions, ActiveSet, KernelError};
+use crate::kernel::{check_positions, KernelError};
 use crate::sampling::Domain;
 
 /// Errors of the streamed single-scale fit.
@@ -522,8 +522,7 @@ pub fn fit_streamed(
             && levels.fine > levels.coarse
             && min_support(levels.fine + 1).is_some_and(|s| s < 2)
         {
-            levels.fine -= 1;
-            levels.oversampling *= 2.0;
+            levels.lower_finest();
             dropped += 1;
         }
     }
@@ -553,24 +552,13 @@ pub fn fit_streamed(
         ));
         let (coefficients, rep) = acc.finish(&basis, ridge)?;
         if rep.deficient == 0 {
-            let fit = Fit {
-                active: ActiveSet::uniform(basis),
-                coefficients,
-                levels,
-                timings: Timings {
-                    kernel_s: 0.0,
-                    solve_s: t0.elapsed().as_secs_f64(),
-                },
-                solve: SolveReport::SingleScale(rep),
-                fallbacks: lowered(dropped),
-            };
+            let fit = single_scale_fit(basis, coefficients, levels, t0, rep, dropped);
             return Ok((fit, report));
         }
         if !auto || levels.fine == levels.coarse {
             return Err(deficient(&rep));
         }
-        levels.fine -= 1;
-        levels.oversampling *= 2.0;
+        levels.lower_finest();
         dropped += 1;
     }
     Err(StreamError::NotStreamable {

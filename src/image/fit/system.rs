@@ -98,6 +98,9 @@ pub struct NormalSystem {
     factor: Option<SparseCholesky>,
     /// Stored entries of the Cholesky factor.
     factor_nnz: usize,
+    /// How the factorization, the solve and the equilibration run: on the rayon pool
+    /// (`Par::rayon(0)`, the default) or on the calling thread ([`Self::sequential`]).
+    par: Par,
 }
 
 /// What the Cholesky factorization found.
@@ -160,7 +163,16 @@ impl NormalSystem {
             ridge,
             factor: None,
             factor_nnz: 0,
+            par: Par::rayon(0),
         }
+    }
+
+    /// The same system worked on the calling thread alone: for callers that already run one
+    /// system per worker (the tiles of [`crate::image::tiles`]). The arithmetic is that of a
+    /// one-thread pool, so the bits do not depend on the pool the caller runs in.
+    pub fn sequential(mut self) -> Self {
+        self.par = Par::Seq;
+        self
     }
 
     /// Factors `A = D G D + lambda I`: symbolic (the given fill-reducing ordering), then
@@ -175,7 +187,7 @@ impl NormalSystem {
         };
         let (col_ptr, row_idx) = (&self.pattern.col_ptr, &self.pattern.row_idx);
         let mut cholesky = SparseCholesky::analyze(WHAT, col_ptr, row_idx, fwd.as_deref())?;
-        let par = Par::rayon(0);
+        let par = self.par;
         let pivots = Pivots::ReplaceBelow {
             epsilon: PIVOT_TOLERANCE,
         };
@@ -224,24 +236,26 @@ impl NormalSystem {
     fn equilibrated(&self, ridge: f64) -> Vec<f64> {
         let p = &self.pattern;
         let mut a = vec![0.0; self.g.len()];
-        a.par_chunks_mut(1 << 14)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                let start = chunk << 14;
-                // column of the first entry: binary search in col_ptr
-                let mut j = p.col_ptr.partition_point(|&c| c <= start) - 1;
-                for (t, v) in out.iter_mut().enumerate() {
-                    let s = start + t;
-                    while p.col_ptr[j + 1] <= s {
-                        j += 1;
-                    }
-                    let i = p.row_idx[s];
-                    *v = self.d[i] * self.g[s] * self.d[j];
-                    if i == j {
-                        *v = if self.d[j] == 0.0 { 1.0 } else { *v + ridge };
-                    }
+        let fill = |(chunk, out): (usize, &mut [f64])| {
+            let start = chunk << 14;
+            // column of the first entry: binary search in col_ptr
+            let mut j = p.col_ptr.partition_point(|&c| c <= start) - 1;
+            for (t, v) in out.iter_mut().enumerate() {
+                let s = start + t;
+                while p.col_ptr[j + 1] <= s {
+                    j += 1;
                 }
-            });
+                let i = p.row_idx[s];
+                *v = self.d[i] * self.g[s] * self.d[j];
+                if i == j {
+                    *v = if self.d[j] == 0.0 { 1.0 } else { *v + ridge };
+                }
+            }
+        };
+        match self.par {
+            Par::Seq => a.chunks_mut(1 << 14).enumerate().for_each(fill),
+            _ => a.par_chunks_mut(1 << 14).enumerate().for_each(fill),
+        }
         a
     }
 
@@ -270,11 +284,7 @@ impl NormalSystem {
         let cholesky = self.factor.as_ref().expect("solve_factored needs a factor");
         let n = self.pattern.len();
         let mut b = Mat::<f64>::from_fn(n, rhs.len(), |i, c| self.d[i] * rhs[c][i]);
-        let par = if rhs.len() > 1 {
-            Par::rayon(0)
-        } else {
-            Par::Seq
-        };
+        let par = if rhs.len() > 1 { self.par } else { Par::Seq };
         cholesky.solve_in_place(b.as_mut(), par);
         (0..rhs.len())
             .map(|c| (0..n).map(|i| self.d[i] * b[(i, c)]).collect())

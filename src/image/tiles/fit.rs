@@ -262,7 +262,7 @@ impl TileBasis {
 
     /// Fits tile `tile` from the samples of its window (module docs); pure: the same
     /// samples in the same order give the same bits, whatever thread pool calls it (the fit
-    /// runs on a one-thread pool of its own).
+    /// runs on the calling thread: [`NormalSystem::sequential`]).
     pub fn fit(&self, samples: &ImageSamples, tile: usize) -> Result<TileImage, TileError> {
         self.geometry.check_index(tile)?;
         if samples.plane() != self.geometry.plane {
@@ -282,14 +282,7 @@ impl TileBasis {
                 window,
             });
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .map_err(|e| TileError::Thread {
-                tile,
-                reason: e.to_string(),
-            })?;
-        pool.install(|| self.fit_window(samples, tile, window))
+        self.fit_window(samples, tile, window)
     }
 
     fn fit_window(
@@ -328,7 +321,7 @@ impl TileBasis {
             interior,
             reason,
         };
-        let mut system = NormalSystem::new(pattern, ne.values, self.params.ridge);
+        let mut system = NormalSystem::new(pattern, ne.values, self.params.ridge).sequential();
         let factor = system
             .factor(FillOrdering::default())
             .map_err(|e: CholeskyError| unsolvable(e.to_string()))?;

@@ -23,11 +23,12 @@
 //! whole image is the untiled fit (up to summation order).
 //!
 //! **Purity.** [`fit_tile`] reads nothing but its arguments and sums samples in the order
-//! given, on a one-thread pool of its own: the same samples give the same bits whatever the
-//! worker count or the order tiles run in.
+//! given, on the calling thread: the same samples give the same bits whatever the worker
+//! count or the order tiles run in.
 
 pub mod fit;
 pub mod geometry;
+pub mod spill;
 
 pub use fit::{fit_tile, window_samples, TileBasis, TileError, TileImage, TileParams, TileReport};
 pub use geometry::{PixelRect, TileGeometry, TileGeometryError};
@@ -73,6 +74,7 @@ impl TiledError {
             TiledError::Io(e) => e.kind(),
             TiledError::Tile(e) => e.kind(),
             TiledError::Resources(e) => e.kind(),
+            TiledError::Scratch { .. } => ErrorKind::WriteFailed,
             _ => ErrorKind::InvalidInput,
         }
     }

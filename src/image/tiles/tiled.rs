@@ -1,17 +1,18 @@
 //! The tiled image: every tile of a [`TileGeometry`] fitted on its window
 //! ([`super::fit::TileBasis::fit`]) and its interior kept, the samples never held whole.
 //!
-//! The samples are read in **bands**: band `ty` is the tile row `ty` with its halo, the rows
+//! The samples are taken in **bands**: band `ty` is the tile row `ty` with its halo, the rows
 //! `[ty T - H_a, (ty + 1) T + H_a]`. First one validating pass counts the samples `m` (the
 //! levels come from the whole image's `m`) and checks every position lies in the image;
-//! then one pass per band keeps the samples of that band's windows, bucketed by tile in file
-//! order, and fits its tiles, at most `workers` at once. Memory holds one band's samples
-//! (`W (T + 2 H_a)` pixels' worth), `workers` tile fits and the output image; the price is
-//! `1 + ceil(H / T)` reads of the input (a file read again comes from the page cache when it
-//! fits there). Each tile sees its samples in file order whatever the worker count, so the
-//! image is the same bits for every `workers`.
+//! then a sample file is spilled in one more pass into one scratch file per band
+//! ([`super::spill`]: two reads of the input and one write and read of about its size,
+//! whatever the image height), while samples in memory are scanned once per band. Each band's
+//! samples are bucketed by tile in input order and its tiles fitted, at most `workers` at
+//! once. Memory holds one band's samples (`W (T + 2 H_a)` pixels' worth), `workers` tile fits
+//! and the output image. Each tile sees its samples in input order whatever the worker count
+//! or the path, so the image is the same bits for every `workers`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -20,6 +21,7 @@ use thiserror::Error;
 
 use super::fit::{TileBasis, TileError, TileParams, TileReport};
 use super::geometry::TileGeometry;
+use super::spill::{BandSpill, SpillReport};
 use crate::image::wavelet::WaveletParams;
 use crate::image::{ImageSamples, PixelImage};
 use crate::io::chunks::SampleChunkReader;
@@ -36,13 +38,17 @@ pub enum TiledInput<'a> {
 }
 
 /// Parameters of the tiled fit besides the tile's.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct TiledParams {
     /// Tiles fitted at once (each holds its samples and its factor): more is faster on more
     /// cores and costs one tile's memory each.
     pub workers: usize,
     /// Rows read per chunk of a sample file: larger reads fewer times and holds more.
     pub chunk_rows: usize,
+    /// Where a sample file's band files are written (a fresh folder inside it, removed after
+    /// the fit); `None`: the system's temporary folder. About the input's size at 8 bytes a
+    /// value is written there.
+    pub scratch: Option<PathBuf>,
 }
 
 impl Default for TiledParams {
@@ -50,6 +56,7 @@ impl Default for TiledParams {
         Self {
             workers: rayon::current_num_threads().max(1),
             chunk_rows: 1 << 16,
+            scratch: None,
         }
     }
 }
@@ -97,6 +104,20 @@ pub enum TiledError {
     /// pass, before any band is read or any tile fitted).
     #[error(transparent)]
     Resources(#[from] ResourceError),
+    /// Writing or reading the band files of a sample file.
+    #[error(
+        "the band files in `{}` (about {needed} bytes): {source}; free space there or choose \
+         another scratch folder (--scratch DIR)",
+        .folder.display()
+    )]
+    Scratch {
+        /// The scratch folder.
+        folder: PathBuf,
+        /// Bytes the band files need (0 when reading).
+        needed: u64,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
 }
 
 /// What the tiled fit did.
@@ -116,8 +137,11 @@ pub struct TiledReport {
     pub params: TileParams,
     /// Tiles fitted at once.
     pub workers: usize,
-    /// Passes over the input (one validating pass, one per band).
+    /// Passes over the input: the validating pass, then one spill pass (a file) or one pass
+    /// per band (samples in memory).
     pub passes: usize,
+    /// The band files of a sample file.
+    pub spill: Option<SpillReport>,
     /// Seconds reading and bucketing (all passes).
     pub read_s: f64,
     /// Seconds fitting (wall clock, all bands).
@@ -145,7 +169,7 @@ struct Bucket {
 
 impl TiledInput<'_> {
     /// Calls `each(first_row, xs, ys, channels)` on consecutive chunks of the input.
-    fn pass(
+    pub(super) fn pass(
         &self,
         chunk_rows: usize,
         mut each: impl FnMut(usize, &[f64], &[f64], &[&[f64]]) -> Result<(), TiledError>,
@@ -283,6 +307,16 @@ pub fn reconstruct_tiled(
         },
     )?;
     let basis = TileBasis::new(geometry, &params)?;
+    let spill = match input {
+        TiledInput::File(_) => {
+            let parent = tiled.scratch.clone().unwrap_or_else(std::env::temp_dir);
+            let chunk = tiled.chunk_rows;
+            Some(BandSpill::write(
+                &input, geometry, channels, m, chunk, &parent,
+            )?)
+        }
+        TiledInput::Samples(_) => None,
+    };
     let mut read_s = t0.elapsed().as_secs_f64();
     let mut fit_s = 0.0;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -305,7 +339,7 @@ pub fn reconstruct_tiled(
             })
             .collect();
         let band = geometry.window(ty * nx);
-        input.pass(tiled.chunk_rows, |_, xs, ys, values| {
+        let mut take = |xs: &[f64], ys: &[f64], values: &[&[f64]]| {
             for i in 0..xs.len() {
                 if !(band.y0 as f64..=band.y1 as f64).contains(&ys[i]) {
                     continue;
@@ -327,7 +361,11 @@ pub fn reconstruct_tiled(
                 }
             }
             Ok(())
-        })?;
+        };
+        match &spill {
+            Some((files, _)) => files.read_band(ty, tiled.chunk_rows, take)?,
+            None => input.pass(tiled.chunk_rows, |_, xs, ys, values| take(xs, ys, values))?,
+        }
         read_s += t_read.elapsed().as_secs_f64();
         let t_fit = Instant::now();
         let results: Vec<Result<super::TileImage, TileError>> = pool.install(|| {
@@ -369,7 +407,8 @@ pub fn reconstruct_tiled(
             channels,
             params,
             workers: tiled.workers.max(1),
-            passes: 1 + ny,
+            passes: if spill.is_some() { 2 } else { 1 + ny },
+            spill: spill.map(|(_, report)| report),
             read_s,
             fit_s,
             tiles: reports,
