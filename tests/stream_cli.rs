@@ -25,18 +25,23 @@ fn sorted_samples(m: usize) -> SampleSet {
     SampleSet::new(positions, vec![a, b]).unwrap()
 }
 
-fn run(input: &Path, output: &Path, stream: &str) -> String {
-    succeeds(&[
+/// `reconstruct --input INPUT --output OUTPUT --stream STREAM` and `extra`.
+fn args<'a>(input: &'a Path, output: &'a Path, stream: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec![
         "reconstruct",
         "--input",
         input.to_str().unwrap(),
         "--output",
         output.to_str().unwrap(),
-        "--domain",
-        "0,2",
         "--stream",
         stream,
-    ])
+    ];
+    a.extend_from_slice(extra);
+    a
+}
+
+fn run(input: &Path, output: &Path, stream: &str) -> String {
+    succeeds(&args(input, output, stream, &["--domain", "0,2"]))
 }
 
 /// The same grid file, byte for byte, streamed (`always`) and read whole (`never`), for a
@@ -135,27 +140,9 @@ fn streams_that_cannot_work_are_refused() {
     let csv = dir.join("unsorted.csv");
     write_csv(&csv, &set).unwrap();
     let out = dir.join("out.csv");
-    let said = user_error(&[
-        "reconstruct",
-        "--input",
-        csv.to_str().unwrap(),
-        "--output",
-        out.to_str().unwrap(),
-        "--stream",
-        "always",
-    ]);
+    let said = user_error(&args(&csv, &out, "always", &[]));
     assert!(said.contains("sort"), "{said}");
     assert!(!out.exists());
-    let said = user_error(&[
-        "reconstruct",
-        "--input",
-        csv.to_str().unwrap(),
-        "--output",
-        out.to_str().unwrap(),
-        "--stream",
-        "always",
-        "--method",
-        "local",
-    ]);
+    let said = user_error(&args(&csv, &out, "always", &["--method", "local"]));
     assert!(said.contains("--method single"), "{said}");
 }
