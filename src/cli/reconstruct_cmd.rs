@@ -87,12 +87,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         &set,
         &params.method,
         &rec,
-        ReconstructTimes {
-            read: read_s,
-            write: finish_s,
-            total: started.elapsed().as_secs_f64(),
-            ..ReconstructTimes::default()
-        },
+        ReconstructTimes::of_command(read_s, finish_s, started),
     );
     if args.json {
         super::print_json(&report);

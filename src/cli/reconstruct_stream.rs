@@ -151,12 +151,7 @@ pub fn run(args: &ReconstructArgs, params: &FitParams, started: Instant) -> Resu
         &held,
         &params.method,
         &rec,
-        ReconstructTimes {
-            read: read_s,
-            write: finish_s,
-            total: started.elapsed().as_secs_f64(),
-            ..ReconstructTimes::default()
-        },
+        ReconstructTimes::of_command(read_s, finish_s, started),
     );
     report.samples = m;
     let stream = StreamReport { passes };

@@ -144,6 +144,19 @@ pub struct ReconstructTimes {
     pub total: f64,
 }
 
+impl ReconstructTimes {
+    /// The times of a command that read for `read` seconds and wrote for `write`, begun at
+    /// `started` (the fit's own stages are in its report).
+    pub fn of_command(read: f64, write: f64, started: std::time::Instant) -> Self {
+        Self {
+            read,
+            write,
+            total: started.elapsed().as_secs_f64(),
+            ..Self::default()
+        }
+    }
+}
+
 /// Local inversion statistics of a fit.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct LocalSummary {

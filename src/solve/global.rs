@@ -192,18 +192,7 @@ pub fn global_ls(
         });
     }
     if values.is_empty() || p == 0 || m == 0 {
-        return Ok(GlobalLs {
-            coefficients: vec![vec![0.0; p]; values.len()],
-            report: GlobalReport {
-                method: params.method,
-                iterations: vec![],
-                residuals: vec![],
-                ridge: 0.0,
-                min_pivot: 0.0,
-                normal_nnz: 0,
-                factor_nnz: 0,
-            },
-        });
+        return Ok(GlobalLs::empty(p, values.len(), params.method));
     }
     match params.method {
         GlobalMethod::Cholesky => cholesky_ls(k, values, params),

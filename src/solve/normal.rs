@@ -305,18 +305,7 @@ fn normal_ls_with(
     }
     let ch = rhs.len();
     if ch == 0 || p == 0 {
-        return Ok(GlobalLs {
-            coefficients: vec![vec![0.0; p]; ch],
-            report: GlobalReport {
-                method: GlobalMethod::Cholesky,
-                iterations: vec![],
-                residuals: vec![],
-                ridge: 0.0,
-                min_pivot: 0.0,
-                normal_nnz: 0,
-                factor_nnz: 0,
-            },
-        });
+        return Ok(GlobalLs::empty(p, ch, GlobalMethod::Cholesky));
     }
     let mut ktf = vec![0.0; p * ch];
     for (c, r) in rhs.iter().enumerate() {

@@ -35,3 +35,22 @@ pub struct GlobalLs {
     /// Report.
     pub report: GlobalReport,
 }
+
+impl GlobalLs {
+    /// The answer of an empty problem (no channel, no function or no sample): zero
+    /// coefficients, nothing solved.
+    pub fn empty(functions: usize, channels: usize, method: GlobalMethod) -> Self {
+        Self {
+            coefficients: vec![vec![0.0; functions]; channels],
+            report: GlobalReport {
+                method,
+                iterations: vec![],
+                residuals: vec![],
+                ridge: 0.0,
+                min_pivot: 0.0,
+                normal_nnz: 0,
+                factor_nnz: 0,
+            },
+        }
+    }
+}

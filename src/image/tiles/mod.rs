@@ -74,7 +74,7 @@ impl TiledError {
             TiledError::Io(e) => e.kind(),
             TiledError::Tile(e) => e.kind(),
             TiledError::Resources(e) => e.kind(),
-            TiledError::Scratch { .. } => ErrorKind::WriteFailed,
+            TiledError::Scratch(_) => ErrorKind::WriteFailed,
             _ => ErrorKind::InvalidInput,
         }
     }

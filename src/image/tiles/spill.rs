@@ -15,9 +15,29 @@ use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
+use thiserror::Error;
 
 use super::geometry::TileGeometry;
-use super::tiled::{TiledError, TiledInput};
+
+/// Writing or reading the band files failed.
+#[derive(Debug, Error)]
+#[error(
+    "the band files in `{}` (about {needed} bytes): {source}; free space there or choose \
+     another scratch folder (--scratch DIR)",
+    .folder.display()
+)]
+pub struct ScratchError {
+    /// The scratch folder.
+    pub folder: PathBuf,
+    /// Bytes the band files need (0 when reading).
+    pub needed: u64,
+    /// The operating system's error.
+    pub source: std::io::Error,
+}
+
+/// What [`BandSpill::write`]'s source calls with each chunk: positions `x`, `y` and the
+/// values per channel.
+pub type BandSink<'a, E> = dyn FnMut(&[f64], &[f64], &[&[f64]]) -> Result<(), E> + 'a;
 
 /// What the spill wrote.
 #[derive(Clone, Debug, Serialize)]
@@ -48,8 +68,8 @@ impl Drop for BandSpill {
 }
 
 /// A failure writing or reading the scratch files, naming the folder and the way out.
-fn scratch_error(folder: &Path, needed: u64, source: std::io::Error) -> TiledError {
-    TiledError::Scratch {
+fn scratch_error(folder: &Path, needed: u64, source: std::io::Error) -> ScratchError {
+    ScratchError {
         folder: folder.to_path_buf(),
         needed,
         source,
@@ -57,16 +77,16 @@ fn scratch_error(folder: &Path, needed: u64, source: std::io::Error) -> TiledErr
 }
 
 impl BandSpill {
-    /// Writes the samples of `input` (a file, `channels` channels, `m` rows validated by the
-    /// counting pass) into one file per band in a fresh folder under `parent`.
-    pub fn write(
-        input: &TiledInput,
+    /// Writes the samples that `source` hands its sink, chunk by chunk (`channels` channels,
+    /// `m` rows validated by the counting pass), into one file per band in a fresh folder
+    /// under `parent`.
+    pub fn write<E: From<ScratchError>>(
         geometry: &TileGeometry,
         channels: usize,
         m: usize,
-        chunk_rows: usize,
         parent: &Path,
-    ) -> Result<(Self, SpillReport), TiledError> {
+        source: impl FnOnce(&mut BandSink<'_, E>) -> Result<(), E>,
+    ) -> Result<(Self, SpillReport), E> {
         let t0 = std::time::Instant::now();
         let (_, ny) = geometry.grid();
         let columns = 2 + channels;
@@ -91,7 +111,7 @@ impl BandSpill {
         let mut row = Vec::with_capacity(columns * 8);
         let folder = spill.folder.clone();
         let rows = &mut spill.rows;
-        input.pass(chunk_rows, |_, xs, ys, values| {
+        source(&mut |xs, ys, values| {
             for i in 0..xs.len() {
                 row.clear();
                 row.extend_from_slice(&xs[i].to_le_bytes());
@@ -132,12 +152,12 @@ impl BandSpill {
 
     /// Calls `each(xs, ys, values)` on chunks of at most `chunk_rows` samples of band `ty`,
     /// in input order.
-    pub fn read_band(
+    pub fn read_band<E: From<ScratchError>>(
         &self,
         ty: usize,
         chunk_rows: usize,
-        mut each: impl FnMut(&[f64], &[f64], &[&[f64]]) -> Result<(), TiledError>,
-    ) -> Result<(), TiledError> {
+        mut each: impl FnMut(&[f64], &[f64], &[&[f64]]) -> Result<(), E>,
+    ) -> Result<(), E> {
         let path = self.band_path(ty);
         let file = File::open(&path).map_err(|e| scratch_error(&self.folder, 0, e))?;
         let mut file = BufReader::with_capacity(1 << 20, file);

@@ -21,7 +21,7 @@ use thiserror::Error;
 
 use super::fit::{TileBasis, TileError, TileParams, TileReport};
 use super::geometry::TileGeometry;
-use super::spill::{BandSpill, SpillReport};
+use super::spill::{BandSpill, ScratchError, SpillReport};
 use crate::image::wavelet::WaveletParams;
 use crate::image::{ImageSamples, PixelImage};
 use crate::io::chunks::SampleChunkReader;
@@ -105,19 +105,8 @@ pub enum TiledError {
     #[error(transparent)]
     Resources(#[from] ResourceError),
     /// Writing or reading the band files of a sample file.
-    #[error(
-        "the band files in `{}` (about {needed} bytes): {source}; free space there or choose \
-         another scratch folder (--scratch DIR)",
-        .folder.display()
-    )]
-    Scratch {
-        /// The scratch folder.
-        folder: PathBuf,
-        /// Bytes the band files need (0 when reading).
-        needed: u64,
-        /// The operating system's error.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Scratch(#[from] ScratchError),
 }
 
 /// What the tiled fit did.
@@ -169,7 +158,7 @@ struct Bucket {
 
 impl TiledInput<'_> {
     /// Calls `each(first_row, xs, ys, channels)` on consecutive chunks of the input.
-    pub(super) fn pass(
+    fn pass(
         &self,
         chunk_rows: usize,
         mut each: impl FnMut(usize, &[f64], &[f64], &[&[f64]]) -> Result<(), TiledError>,
@@ -311,9 +300,9 @@ pub fn reconstruct_tiled(
         TiledInput::File(_) => {
             let parent = tiled.scratch.clone().unwrap_or_else(std::env::temp_dir);
             let chunk = tiled.chunk_rows;
-            Some(BandSpill::write(
-                &input, geometry, channels, m, chunk, &parent,
-            )?)
+            Some(BandSpill::write(geometry, channels, m, &parent, |sink| {
+                input.pass(chunk, |_, xs, ys, values| sink(xs, ys, values))
+            })?)
         }
         TiledInput::Samples(_) => None,
     };
