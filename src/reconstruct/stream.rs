@@ -32,7 +32,7 @@ use super::{
     SingleScaleSolver, SolveReport, Timings,
 };
 use crate::basis::CdvBasis;
-use crate::kernel::{check_positions, ActiveSet, KernelError};
+use crate::kernel::{check_positions, ActiveSet, KernelError, LevelChoice};
 use crate::sampling::Domain;
 
 /// Errors of the streamed single-scale fit.
@@ -113,6 +113,7 @@ impl StreamError {
 /// assert!(err < 1e-12);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+#[derive(Clone)]
 pub struct SingleScaleAccumulator {
     scale: CdvBasis,
     channels: usize,
@@ -305,6 +306,33 @@ impl SingleScaleAccumulator {
             .unwrap_or_else(|| GivensTriangle::new(0, n, w, channels));
         tri.cover(0, n);
         Ok(solve_triangle(basis, tri, ridge, self.samples))
+    }
+
+    /// The [`Fit`] of the samples accumulated, on `basis = Psi(n, N)` (the one of
+    /// [`Self::new`]) with the relative `ridge`: [`Self::finish`], refused with
+    /// [`StreamError::NotStreamable`] when the samples leave single-scale directions
+    /// undetermined (the in-memory fit would lower the level or invert locally, both of
+    /// which need the samples again). The fit's levels are `(n, N)` with the oversampling
+    /// `m / 2^{N+1}` of the samples accumulated.
+    pub fn finish_fit(self, basis: &CdvBasis, ridge: f64) -> Result<Fit, StreamError> {
+        let t0 = Instant::now();
+        let m = self.samples;
+        let (coefficients, rep) = self.finish(basis, ridge)?;
+        if rep.deficient > 0 {
+            return Err(deficient(&rep));
+        }
+        let levels = LevelChoice {
+            coarse: basis.coarse(),
+            fine: basis.fine(),
+            oversampling: m as f64 / 2f64.powi(basis.fine() as i32 + 1),
+        };
+        Ok(fit_of(
+            basis.clone(),
+            coefficients,
+            rep,
+            levels,
+            t0.elapsed().as_secs_f64(),
+        ))
     }
 
     /// The accumulator as bytes (little-endian), to move between processes;
@@ -553,17 +581,8 @@ pub fn fit_streamed(
         ));
         let (coefficients, rep) = acc.finish(&basis, ridge)?;
         if rep.deficient == 0 {
-            let fit = Fit {
-                active: ActiveSet::uniform(basis),
-                coefficients,
-                levels,
-                timings: Timings {
-                    kernel_s: 0.0,
-                    solve_s: t0.elapsed().as_secs_f64(),
-                },
-                solve: SolveReport::SingleScale(rep),
-                fallbacks: lowered(dropped),
-            };
+            let mut fit = fit_of(basis, coefficients, rep, levels, t0.elapsed().as_secs_f64());
+            fit.fallbacks = lowered(dropped);
             return Ok((fit, report));
         }
         if !auto || levels.fine == levels.coarse {
@@ -577,6 +596,27 @@ pub fn fit_streamed(
         reason: "the samples leave directions undetermined at every level tried".into(),
         fix: "fit them in memory (local inversion decides them) or give fixed, lower levels".into(),
     })
+}
+
+/// The single-scale [`Fit`] of `coefficients` on `basis` (no fallback).
+fn fit_of(
+    basis: CdvBasis,
+    coefficients: Vec<Vec<f64>>,
+    rep: SingleScaleReport,
+    levels: LevelChoice,
+    solve_s: f64,
+) -> Fit {
+    Fit {
+        active: ActiveSet::uniform(basis),
+        coefficients,
+        levels,
+        timings: Timings {
+            kernel_s: 0.0,
+            solve_s,
+        },
+        solve: SolveReport::SingleScale(rep),
+        fallbacks: Vec::new(),
+    }
 }
 
 /// Peak bytes of [`fit_streamed`] on levels `..=fine` with `channels`, independent of the
