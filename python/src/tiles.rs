@@ -11,9 +11,11 @@
 //! as `rkwave reconstruct --dim 2 --tile T --halo H_a` (which gives each tile its window's
 //! samples in file order).
 
+use std::sync::{Arc, Mutex};
+
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use rkwave::image::tiles::{fit_tile as fit_one_tile, PixelRect, TileGeometry, TileParams};
+use rkwave::image::tiles::{PixelRect, TileBasis, TileError, TileGeometry, TileParams};
 use rkwave::image::NonFinitePolicy;
 
 use crate::arrays::image_out;
@@ -21,6 +23,25 @@ use crate::errors::{invalid, to_py};
 use crate::image::{plane_of, samples_of};
 use crate::params::image_p;
 use crate::report::to_dict;
+
+/// The last grid's whole-image basis and pixel matrices, kept by this process: a worker that
+/// fits many tiles of one image builds them once, as the one-process tiled fit does (the same
+/// deterministic construction, so the pixels are the same bits).
+static LAST_BASIS: Mutex<Option<Arc<TileBasis>>> = Mutex::new(None);
+
+/// The [`TileBasis`] of `geometry` and `params`: the kept one if it matches, else built
+/// (and kept in place of the last).
+fn tile_basis(geometry: &TileGeometry, params: &TileParams) -> Result<Arc<TileBasis>, TileError> {
+    let mut last = LAST_BASIS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(b) = last.as_ref() {
+        if b.geometry() == geometry && b.params() == params {
+            return Ok(Arc::clone(b));
+        }
+    }
+    let built = Arc::new(TileBasis::new(geometry, params)?);
+    *last = Some(Arc::clone(&built));
+    Ok(built)
+}
 
 /// The rectangle as `(x0, x1, y0, y1)`: columns `x0..x1`, rows `y0..y1`.
 fn rect(r: PixelRect) -> (usize, usize, usize, usize) {
@@ -121,6 +142,9 @@ impl PyTileGeometry {
 /// pixels `(h, w, C)` (the rows `y0..y1` and columns `x0..x1` of `geometry.interior(tile)`)
 /// and the tile's report dict.
 ///
+/// The whole image's basis and pixel matrices are built on the first tile of a grid and
+/// kept for the next tiles of the same grid and parameters in this process.
+///
 /// `xy` `(k, 2)` and `values` `(k,)` or `(k, C)` are the samples in the tile's window
 /// (`geometry.window(tile)`, closed), in the order of the whole sample set; `total_samples`
 /// is the whole image's sample count `m`, which sets the levels of every tile. `p`, `rho`
@@ -188,7 +212,7 @@ pub fn fit_tile<'py>(
     }
     let params = TileParams::for_image(&wavelet, g.plane, total_samples).map_err(to_py)?;
     let out = py
-        .detach(|| fit_one_tile(&samples, &g, tile, &params))
+        .detach(|| tile_basis(&g, &params)?.fit(&samples, tile))
         .map_err(to_py)?;
     let r = out.interior;
     let pixels = image_out(py, &out.channels, r.width(), r.height());
