@@ -18,7 +18,8 @@ the per-round ratios dask / CLI minus one; the spread is their min and max.
 
 1D: ``m1`` sorted samples of ``sin 6x + 0.3 |x - 0.4|`` with noise, ``rkwave.fit`` in this
 process against ``rkwave.dask.fit_chunks`` on ``chunks`` files on the same cluster, at the
-levels ``rkwave.fit`` chose: the largest coefficient difference and the time ratio.
+levels ``rkwave.fit`` chose (``--rho1``): the largest coefficient difference and the time
+ratio.
 """
 
 import argparse
@@ -65,6 +66,7 @@ def main():
     ap.add_argument("--halo", type=int, default=12)
     ap.add_argument("--m1", type=int, default=10_000_000)
     ap.add_argument("--chunks", type=int, default=8)
+    ap.add_argument("--rho1", type=float, default=2.0, help="rkwave.fit's rho (1D levels)")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--skip-image", action="store_true")
     ap.add_argument("--skip-1d", action="store_true")
@@ -134,14 +136,14 @@ def main():
         mem_s, dask_s, diff = [], [], []
         for _ in range(args.rounds):
             t = time.perf_counter()
-            f = rkwave.fit(x, y, domain=(0, 1), p=3)
+            f = rkwave.fit(x, y, domain=(0, 1), p=3, rho=args.rho1)
             mem_s.append(time.perf_counter() - t)
             t = time.perf_counter()
             g = rd.fit_chunks(paths, (0, 1), 3, f.levels, client=client)
             dask_s.append(time.perf_counter() - t)
             diff.append(float(np.abs(f.coefficients - g.coefficients).max()))
         out["1d"] = {
-            "samples": m, "chunks": args.chunks, "levels": f.levels,
+            "samples": m, "chunks": args.chunks, "rho": args.rho1, "levels": f.levels,
             "functions": len(f.coefficients),
             "max_abs_coefficient": float(np.abs(f.coefficients).max()),
             "max_abs_difference": max(diff),
