@@ -254,10 +254,14 @@ def _window_rows(paths, bands, window):
         a = np.load(path, mmap_mode="r")
         for s in range(0, a.shape[0], CHECK_ROWS):
             block = a[s : s + CHECK_ROWS]
-            x, y = block[:, 0], block[:, 1]
-            keep = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
-            if keep.any():
-                parts.append(np.asarray(block[keep], dtype=np.float64))
+            y = block[:, 1]
+            # Rows in the window's band first (few in a neighbouring band's file), then
+            # their x: the same rows, in the same order, as the closed-rectangle test.
+            rows = np.flatnonzero((y >= y0) & (y <= y1))
+            x = block[rows, 0]
+            rows = rows[(x >= x0) & (x <= x1)]
+            if len(rows):
+                parts.append(np.asarray(block[rows], dtype=np.float64))
     if not parts:
         return None
     return np.concatenate(parts)
