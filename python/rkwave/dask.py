@@ -96,6 +96,16 @@ def _open(path):
     return a
 
 
+def _same_columns(counts, what):
+    """The one column count of all the inputs, else refused."""
+    if len(set(counts)) != 1:
+        raise _refuse(
+            f"the {what} have {sorted(set(counts))} columns: give every one the same columns "
+            "(the positions, then one column per channel)"
+        )
+    return counts[0]
+
+
 def _scan(path, a, each):
     """Calls ``each(first_row, block)`` on consecutive blocks of rows of ``a`` (float64)."""
     for s in range(0, a.shape[0], CHECK_ROWS):
@@ -172,13 +182,7 @@ def fit_chunks(
     client = _client(client)
     chunks = _chunks_of(paths_or_dask_array)
     m = sum(c[2] for c in chunks)
-    widths = {c[3] for c in chunks}
-    if len(widths) != 1:
-        raise _refuse(
-            f"the chunks have {sorted(widths)} columns: give every chunk the same columns "
-            "(x, then one column per channel)"
-        )
-    (width,) = widths
+    width = _same_columns([c[3] for c in chunks], "chunks")
     if width < 2:
         raise _refuse(
             f"the chunks have {width} column: give x and at least one value column"
@@ -374,13 +378,7 @@ def reconstruct_image_tiles(
         raise _refuse("no sample files given: give a list of .npy files")
     checked = [_check_image_file(q, geometry.resolution) for q in paths]
     total = sum(c[0] for c in checked)
-    columns = {c[1] for c in checked}
-    if len(columns) != 1:
-        raise _refuse(
-            f"the sample files have {sorted(columns)} columns: give every file the same "
-            "channels"
-        )
-    (columns,) = columns
+    columns = _same_columns([c[1] for c in checked], "sample files")
     if total == 0:
         raise _refuse("the input holds no samples: give at least one sample inside the image")
     bands = [c[2] for c in checked]

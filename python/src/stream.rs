@@ -18,7 +18,7 @@ use rkwave::sampling::Domain;
 
 use crate::arrays::{check_finite, columns, floats, vector};
 use crate::errors::{invalid, to_py, warn_all};
-use crate::fit::{unix_now, FitReport, FitSeconds, PyFit};
+use crate::fit::{check_values_shape, unix_now, FitReport, FitSeconds, PyFit};
 use crate::params::{domain as domain_of, family};
 
 /// What a partial fit was built for: enough to rebuild its basis in another process.
@@ -33,6 +33,25 @@ struct Spec {
 }
 
 impl Spec {
+    /// The spec of these arguments and its basis.
+    fn checked(
+        p: usize,
+        family: Option<String>,
+        levels: (u32, u32),
+        domain: (f64, f64),
+        flat: bool,
+    ) -> PyResult<(Self, CdvBasis)> {
+        let spec = Self {
+            p,
+            family,
+            levels,
+            domain,
+            flat,
+        };
+        let (basis, _) = spec.basis()?;
+        Ok((spec, basis))
+    }
+
     /// The basis `Psi(n, N)` on the domain (checked as `rkwave.fit` checks it).
     fn basis(&self) -> PyResult<(CdvBasis, Domain)> {
         let domain = domain_of(self.domain)?;
@@ -192,14 +211,7 @@ pub fn _partial_from_state(
     flat: bool,
     bytes: &[u8],
 ) -> PyResult<PyPartialFits> {
-    let spec = Spec {
-        p,
-        family,
-        levels,
-        domain,
-        flat,
-    };
-    let (basis, _) = spec.basis()?;
+    let (spec, basis) = Spec::checked(p, family, levels, domain, flat)?;
     let acc = py
         .detach(|| SingleScaleAccumulator::from_bytes(bytes, &basis))
         .map_err(to_py)?;
@@ -237,22 +249,8 @@ pub fn partial(
     let yv = yd.view();
     let flat = yv.ndim() == 1;
     let ys = columns(&yv, "y")?;
-    if ys.first().is_some_and(|c| c.len() != xs.len()) || ys.is_empty() {
-        return Err(invalid(format!(
-            "y has shape {} but x has {} samples: give y as (m,) or (m, channels) with m = {}",
-            crate::arrays::shape(yv.shape()),
-            xs.len(),
-            xs.len()
-        )));
-    }
-    let spec = Spec {
-        p,
-        family,
-        levels,
-        domain,
-        flat,
-    };
-    let (basis, _) = spec.basis()?;
+    check_values_shape(&ys, yv.shape(), xs.len())?;
+    let (spec, basis) = Spec::checked(p, family, levels, domain, flat)?;
     let channels: Vec<&[f64]> = ys.iter().map(|c| c.as_ref()).collect();
     let acc = py
         .detach(|| {
