@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import os
 import tempfile
-import threading
 
 import numpy as np
 
@@ -247,30 +246,6 @@ def _chunks_of(source):
 # 2D: reconstruct_image_tiles
 
 
-#: Files whose positions a worker process keeps (the tiles of one band of tile rows read
-#: the same three files: their band's and both neighbours').
-KEPT_FILES = 3
-_kept = {}
-_kept_lock = threading.Lock()
-
-
-def _positions(path, a):
-    """The x and y columns of the sample file ``path`` (memory-mapped as ``a``) as
-    contiguous float64 arrays, kept for the next tiles (at most :data:`KEPT_FILES` files,
-    keyed by path, size and modification time)."""
-    st = os.stat(path)
-    key = (path, st.st_size, st.st_mtime_ns)
-    with _kept_lock:
-        if key not in _kept:
-            while len(_kept) >= KEPT_FILES:
-                _kept.pop(next(iter(_kept)))
-            _kept[key] = (
-                np.ascontiguousarray(a[:, 0], dtype=np.float64),
-                np.ascontiguousarray(a[:, 1], dtype=np.float64),
-            )
-        return _kept[key]
-
-
 def _window_rows(paths, bands, window):
     """The samples of the closed window ``(x0, x1, y0, y1)`` from every file whose rows'
     y-range ``bands[i]`` meets it, in file order (the order the one-process tiled fit gives
@@ -281,13 +256,16 @@ def _window_rows(paths, bands, window):
         if hi < y0 or lo > y1:
             continue
         a = np.load(path, mmap_mode="r")
-        x, y = _positions(path, a)
-        # Rows in the window's band first (few in a neighbouring band's file), then their
-        # x: the same rows, in the same order, as the closed-rectangle test.
-        rows = np.flatnonzero((y >= y0) & (y <= y1))
-        rows = rows[(x[rows] >= x0) & (x[rows] <= x1)]
-        if len(rows):
-            parts.append(np.asarray(a[rows], dtype=np.float64))
+        for s in range(0, a.shape[0], CHECK_ROWS):
+            block = a[s : s + CHECK_ROWS]
+            y = block[:, 1]
+            # Rows in the window's band first (few in a neighbouring band's file), then
+            # their x: the same rows, in the same order, as the closed-rectangle test.
+            rows = np.flatnonzero((y >= y0) & (y <= y1))
+            x = block[rows, 0]
+            rows = rows[(x >= x0) & (x <= x1)]
+            if len(rows):
+                parts.append(np.asarray(block[rows], dtype=np.float64))
     if not parts:
         return None
     return np.concatenate(parts)
