@@ -148,3 +148,47 @@ fn bad_streams_are_refused_with_the_fix() {
     let other = FitParams::default().basis(4, 7, domain).unwrap();
     assert!(SingleScaleAccumulator::from_bytes(&bytes, &other).is_err());
 }
+
+/// `finish_fit`: the `Fit` of the accumulated samples, its coefficients those of `finish`
+/// and of the in-memory `fit` at the same fixed levels (one accumulator over all samples
+/// in order is the in-memory QR's rotations when it runs as one part; the comparison is
+/// within the rounding bound of the test above in case it runs as several), the levels and
+/// the oversampling `m / 2^{N+1}`; undetermined directions are refused with the fix.
+#[test]
+fn finish_fit_gives_the_fit_and_refuses_undetermined_directions() {
+    let domain = Domain::new(0.0, 2.0).unwrap();
+    let (xs, vals) = samples(20_000, 11);
+    let refs: Vec<&[f64]> = vals.iter().map(|v| v.as_slice()).collect();
+    let basis = FitParams::default().basis(4, 11, domain).unwrap();
+    let mut acc = SingleScaleAccumulator::new(&basis, 2);
+    acc.add_chunk(&xs, &refs).unwrap();
+    let (direct, _) = acc.clone().finish(&basis, 0.0).unwrap();
+    let fitted = acc.finish_fit(&basis, 0.0).unwrap();
+    assert_eq!(bits(&fitted.coefficients), bits(&direct));
+    assert_eq!((fitted.levels.coarse, fitted.levels.fine), (4, 11));
+    assert_eq!(fitted.levels.oversampling, 20_000.0 / 4096.0);
+    assert!(fitted.fallbacks.is_empty());
+    let params = FitParams {
+        levels: Levels::Fixed {
+            coarse: 4,
+            fine: 11,
+        },
+        ..FitParams::default()
+    };
+    let whole = fit(&xs, &refs, domain, &params).unwrap();
+    for (t, w) in fitted.coefficients.iter().zip(&whole.coefficients) {
+        let scale = w.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let err = t
+            .iter()
+            .zip(w)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        assert!(err <= 1e-11 * scale, "{err} vs {scale}");
+    }
+    // The first tenth of the samples leaves most single-scale functions unsampled.
+    let mut part = SingleScaleAccumulator::new(&basis, 2);
+    let vs: Vec<&[f64]> = refs.iter().map(|v| &v[..2_000]).collect();
+    part.add_chunk(&xs[..2_000], &vs).unwrap();
+    let err = part.finish_fit(&basis, 0.0).unwrap_err();
+    assert!(matches!(err, StreamError::NotStreamable { .. }), "{err}");
+    assert!(err.to_string().contains("lower the fine level"), "{err}");
+}

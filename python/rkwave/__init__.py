@@ -17,7 +17,9 @@ The image plane (positions in pixel units, ``(H, W, C)`` out)::
     (32, 32, 1)
 
 Adaptive sampling driven by a renderer: ``rkwave.Plan``; in 1D with a Python oracle:
-``rkwave.adapt``. Errors are ``rkwave.RkwaveError`` (a ``ValueError``) with the command
+``rkwave.adapt``. Samples too many for one process: ``rkwave.partial`` (1D, chunk by chunk)
+and ``rkwave.fit_tile`` (one image tile), which ``rkwave.dask`` runs on a Dask cluster
+(``pip install dask[distributed]``). Errors are ``rkwave.RkwaveError`` (a ``ValueError``) with the command
 line's message, ``rkwave.ResourceLimitError`` (a ``MemoryError``) for refused allocations;
 fallbacks are ``rkwave.RkwaveWarning`` warnings.
 
@@ -27,28 +29,38 @@ into float64) is converted to float64 once; contiguous float64 data is read in p
 
 from rkwave._rkwave import (
     Fit,
+    PartialFits,
     Plan,
     ResourceLimitError,
     RkwaveError,
     RkwaveWarning,
+    TileGeometry,
     __version__,
     adapt,
+    auto_levels,
     fit,
+    fit_tile,
     local_vs_global,
+    partial,
     reconstruct_image,
     set_memory_limit,
 )
 
 __all__ = [
     "Fit",
+    "PartialFits",
     "Plan",
     "ResourceLimitError",
     "RkwaveError",
     "RkwaveWarning",
+    "TileGeometry",
     "__version__",
     "adapt",
+    "auto_levels",
     "fit",
+    "fit_tile",
     "local_vs_global",
+    "partial",
     "reconstruct_image",
     "set_memory_limit",
 ]

@@ -119,6 +119,9 @@ kinded!(
     rkwave::io::output::OutputError,
     rkwave::refine::RefineError,
     rkwave::resources::ResourceError,
+    rkwave::reconstruct::stream::StreamError,
+    rkwave::image::tiles::TileError,
+    rkwave::image::tiles::TileGeometryError,
 );
 
 /// The Python exception of a library error.

@@ -240,6 +240,18 @@ impl PyFit {
     }
 }
 
+/// Checks that the columns `ys` of `y` (shape `shape`) hold one value per position of the
+/// `m` in `x`.
+pub fn check_values_shape(ys: &[Cow<'_, [f64]>], shape: &[usize], m: usize) -> PyResult<()> {
+    if ys.first().is_some_and(|c| c.len() != m) || ys.is_empty() {
+        return Err(invalid(format!(
+            "y has shape {} but x has {m} samples: give y as (m,) or (m, channels) with m = {m}",
+            crate::arrays::shape(shape),
+        )));
+    }
+    Ok(())
+}
+
 /// The domain of the samples when none is given: `[min x, max x]`, as `rkwave reconstruct`.
 fn sample_domain(xs: &[f64]) -> PyResult<rkwave::sampling::Domain> {
     let (a, b) = xs
@@ -340,14 +352,7 @@ pub fn fit<'py>(
     let yv = yd.view();
     let flat = yv.ndim() == 1;
     let ys = columns(&yv, "y")?;
-    if ys.first().is_some_and(|c| c.len() != xs.len()) || ys.is_empty() {
-        return Err(invalid(format!(
-            "y has shape {} but x has {} samples: give y as (m,) or (m, channels) with m = {}",
-            crate::arrays::shape(yv.shape()),
-            xs.len(),
-            xs.len()
-        )));
-    }
+    check_values_shape(&ys, yv.shape(), xs.len())?;
     let domain = match domain {
         Some(ab) => domain_of(ab)?,
         None => sample_domain(&xs)?,

@@ -10,6 +10,8 @@
 //! | `reconstruct_image(xy, values, resolution, ...)` | `image::reconstruct` | `rkwave reconstruct --dim 2` |
 //! | `Plan(...)`, `positions`, `add`, `image`, `save`, `load` | `image::adaptive::protocol::PlanState` | `rkwave plan`, `reconstruct --dim 2 --state` |
 //! | `adapt(f, domain, ...)` | `refine::refine` | `rkwave adapt` |
+//! | `partial(...)` → `PartialFits` (`merge`, `finish`), `auto_levels` | `reconstruct::stream::SingleScaleAccumulator` | `rkwave reconstruct --stream` |
+//! | `TileGeometry(...)`, `fit_tile(...)` | `image::tiles::fit_tile` | `rkwave reconstruct --dim 2 --tile` |
 //!
 //! The GIL is released during every computation (`Python::detach`). Errors map by kind
 //! ([`errors`]); conversions of arrays are in [`arrays`]; every parameter struct is built in
@@ -25,6 +27,8 @@ mod image;
 mod params;
 mod plan;
 mod report;
+mod stream;
+mod tiles;
 
 use pyo3::prelude::*;
 
@@ -62,6 +66,12 @@ fn _rkwave(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(image::reconstruct_image, m)?)?;
     m.add_function(wrap_pyfunction!(adapt::adapt, m)?)?;
     m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(stream::partial, m)?)?;
+    m.add_function(wrap_pyfunction!(stream::auto_levels, m)?)?;
+    m.add_function(wrap_pyfunction!(stream::_partial_from_state, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::fit_tile, m)?)?;
+    m.add_class::<stream::PyPartialFits>()?;
+    m.add_class::<tiles::PyTileGeometry>()?;
     m.add_class::<fit::PyFit>()?;
     m.add_class::<plan::PyPlan>()?;
     m.add("RkwaveError", py.get_type::<errors::RkwaveError>())?;

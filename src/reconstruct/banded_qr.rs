@@ -17,6 +17,7 @@
 const NEGLIGIBLE: f64 = 1e-20;
 
 /// Upper-triangular band `R` and `z = Q^T f` over the columns `c0 .. c0 + n`.
+#[derive(Clone)]
 pub(crate) struct GivensTriangle {
     c0: usize,
     n: usize,

@@ -32,7 +32,7 @@ use super::{
     SingleScaleReport, SingleScaleSolver,
 };
 use crate::basis::CdvBasis;
-use crate::kernel::{check_positions, KernelError};
+use crate::kernel::{check_positions, KernelError, LevelChoice};
 use crate::sampling::Domain;
 
 /// Errors of the streamed single-scale fit.
@@ -113,6 +113,7 @@ impl StreamError {
 /// assert!(err < 1e-12);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+#[derive(Clone)]
 pub struct SingleScaleAccumulator {
     scale: CdvBasis,
     channels: usize,
@@ -305,6 +306,34 @@ impl SingleScaleAccumulator {
             .unwrap_or_else(|| GivensTriangle::new(0, n, w, channels));
         tri.cover(0, n);
         Ok(solve_triangle(basis, tri, ridge, self.samples))
+    }
+
+    /// The [`Fit`] of the samples accumulated, on `basis = Psi(n, N)` (the one of
+    /// [`Self::new`]) with the relative `ridge`: [`Self::finish`], refused with
+    /// [`StreamError::NotStreamable`] when the samples leave single-scale directions
+    /// undetermined (the in-memory fit would lower the level or invert locally, both of
+    /// which need the samples again). The fit's levels are `(n, N)` with the oversampling
+    /// `m / 2^{N+1}` of the samples accumulated.
+    pub fn finish_fit(self, basis: &CdvBasis, ridge: f64) -> Result<Fit, StreamError> {
+        let t0 = Instant::now();
+        let m = self.samples;
+        let (coefficients, rep) = self.finish(basis, ridge)?;
+        if rep.deficient > 0 {
+            return Err(deficient(&rep));
+        }
+        let levels = LevelChoice {
+            coarse: basis.coarse(),
+            fine: basis.fine(),
+            oversampling: m as f64 / 2f64.powi(basis.fine() as i32 + 1),
+        };
+        Ok(single_scale_fit(
+            basis.clone(),
+            coefficients,
+            levels,
+            t0,
+            rep,
+            0,
+        ))
     }
 
     /// The accumulator as bytes (little-endian), to move between processes;
