@@ -81,6 +81,8 @@ def run_scene(name, w, h, spp, args, rk, ref):
             seed=args.seed)
         rows.append(row(name, spp, "rkwave adaptive (plan)", img, ref, ren.seconds, dt, len(s_all),
                         {"rounds": rounds}))
+    if args.no_cycles:
+        return rows
     # Cycles-style adaptive sampler at the same total samples, box film.
     ren = Renderer(scene)
     t0 = time.perf_counter()
@@ -154,6 +156,7 @@ def main():
     ap.add_argument("--json", help="write every row to this JSON file")
     ap.add_argument("--quick", action="store_true", help="32x32, 4 spp, 256-spp references")
     ap.add_argument("--no-adaptive", action="store_true", help="skip the plan loop")
+    ap.add_argument("--no-cycles", action="store_true", help="skip the Cycles-style sampler")
     ap.add_argument("--fixtures", help="write the fixtures (samples + references) into this folder")
     args = ap.parse_args()
     if args.quick:
