@@ -69,8 +69,12 @@ def run_scene(name, w, h, spp, args, rk, ref):
     ren = Renderer(scene)
     samples = ren.render_pixels(np.full((h, w), spp), args.seed)
     tag = f"{name}-{w}x{h}-{spp}"
-    img, dt = rk.uniform(samples, w, h, tag)
-    rows.append(row(name, spp, "rkwave uniform", img, ref, ren.seconds, dt, len(samples)))
+    img, dt, used = rk.uniform(samples, w, h, tag)
+    rows.append(row(name, spp, "rkwave uniform", img, ref, ren.seconds, dt, len(samples),
+                    {"estimate": used}))
+    img, dt, used = rk.uniform(samples, w, h, tag, pixels="fit")
+    rows.append(row(name, spp, "rkwave fit (old uniform)", img, ref, ren.seconds, dt, len(samples),
+                    {"estimate": used}))
     box = metrics.box_film(samples[:, 0], samples[:, 1], samples[:, 2:], w, h)
     rows.append(row(name, spp, "box of the same samples", box, ref, ren.seconds, 0.0, len(samples)))
     # rkwave adaptive: the plan loop, the renderer answering each round.
@@ -176,9 +180,10 @@ def main():
         for spp in args.spp:
             new = run_scene(name, w, h, spp, args, rk, ref)
             for r in new:
+                used = f" (--pixels {r['estimate']})" if "estimate" in r else ""
                 print(f"{r['scene']:9s} {r['spp']:3d} {r['method']:26s} {r['psnr']:7.2f} dB "
                       f"relMSE {r['relmse']:.3g} SSIM {r['ssim']:.4f} render {r['render_s']:.2f} s "
-                      f"rkwave {r['rkwave_s']:.2f} s", flush=True)
+                      f"rkwave {r['rkwave_s']:.2f} s{used}", flush=True)
             rows.extend(new)
             if args.json:
                 with open(args.json, "w") as fh:
