@@ -13,6 +13,7 @@ use serde::Serialize;
 
 use super::noise::PixelNoise;
 use super::shrink::{shrink_channel, universal_threshold, ShrinkParams};
+use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
 use super::EstimateReport;
 use crate::image::filters::FilmFilterKind;
@@ -136,11 +137,7 @@ pub fn estimate(
     let output_noise: Vec<f64> = choice
         .variance
         .iter()
-        .map(|v| {
-            let mut v = v.clone();
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2].max(0.0).sqrt()
-        })
+        .map(|v| median(&mut v.clone()).max(0.0).sqrt())
         .collect();
     let threshold: Vec<f64> = output_noise
         .iter()

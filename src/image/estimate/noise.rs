@@ -31,6 +31,7 @@
 //! `q_3 = 0.7887`, `q_4 = 0.8392` (the chi-square medians), Wilson–Hilferty
 //! `(1 - 2 / (9K))³` beyond.
 
+use super::statistics::median;
 use crate::image::splat::PixelBins;
 use crate::image::{ImagePlane, ImageSamples};
 
@@ -136,11 +137,18 @@ impl PixelNoise {
             return None;
         }
         let typical_blocks = mode(with_blocks.iter().map(|&p| blocks[p]));
-        let typical_count = median(&mut with_blocks.iter().map(|&p| count[p] as f64).collect());
+        let typical_count = median(
+            &mut with_blocks
+                .iter()
+                .map(|&p| count[p] as f64)
+                .collect::<Vec<_>>(),
+        );
         let q = chi_square_median_ratio(typical_blocks);
         let sigma: Vec<f64> = mean_variance
             .iter()
-            .map(|mv| (median(&mut with_blocks.iter().map(|&p| mv[p]).collect()) / q).sqrt())
+            .map(|mv| {
+                (median(&mut with_blocks.iter().map(|&p| mv[p]).collect::<Vec<_>>()) / q).sqrt()
+            })
             .collect();
         let sample_sigma = sigma.iter().map(|s| s * typical_count.sqrt()).collect();
         Some(Self {
@@ -190,17 +198,6 @@ fn mode(values: impl Iterator<Item = usize>) -> usize {
         .map_or(0, |(v, _)| v)
 }
 
-/// The median of a non-empty list (middle pair averaged).
-fn median(values: &mut Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        0.5 * (values[n / 2 - 1] + values[n / 2])
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -217,8 +214,9 @@ mod tests {
 
     #[test]
     fn chi_square_medians_continue_smoothly() {
-        // Wilson–Hilferty at K = 4 is within 1e-3 of the exact median.
-        assert!((chi_square_median_ratio(4) - (1.0 - 2.0 / 36.0f64).powi(3)).abs() < 1e-3);
+        // Wilson–Hilferty at K = 4 (0.8424) is within 0.4 % of the exact median (0.8392), and
+        // its error falls as K grows, so the switch at K = 5 costs less than that.
+        assert!((chi_square_median_ratio(4) - (1.0 - 2.0 / 36.0f64).powi(3)).abs() < 4e-3);
         assert!(chi_square_median_ratio(5) > chi_square_median_ratio(4));
     }
 

@@ -295,9 +295,10 @@ pub fn choose_films(
     let mut image = PixelImage::zeros(plane, channels);
     let mut variance = vec![vec![0.0; plane.pixels()]; channels];
     for (p, &k) in choice.iter().enumerate() {
-        for c in 0..channels {
-            image.channels[c][p] = candidates[k].image.channels[c][p];
-            variance[c][p] = candidates[k].variance[c][p];
+        let chosen = &candidates[k];
+        for (c, (out, var)) in image.channels.iter_mut().zip(&mut variance).enumerate() {
+            out[p] = chosen.image.channels[c][p];
+            var[p] = chosen.variance[c][p];
         }
     }
     let n = plane.pixels() as f64;
