@@ -419,7 +419,8 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
         let res = format!("{r}x{r}");
         let s = samples_npy(&d.join(format!("u{r}.npy")), r, r, 4 * r * r, 3);
         let mut args = reconstruct2d(&s, &d.join(format!("u{r}.npy.out.npy")), &res);
-        args.push("--force".into());
+        // The estimate is the fit's (the default `--pixels auto` fits nothing and stays below).
+        args.extend(["--force", "--pixels", "fit"].map(String::from));
         let limit = format!("{}", 3 * std::fs::metadata(&s).unwrap().len() + (1 << 20));
         ratios.push(measure(format!("uniform {res}"), args, &limit, &d));
         let image = |extra: &[&str], out: &str| {

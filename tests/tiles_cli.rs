@@ -31,7 +31,11 @@ fn tiled_matches_untiled_and_ignores_the_worker_count() {
     let dir = scratch("tiles", "match");
     let input = samples_npy(&dir.join("s.npy"), 64, 48, 4 * 64 * 48, 2);
     let untiled = dir.join("untiled.npy");
-    succeeds(&reconstruct2d(&input, &untiled, "64x48"));
+    // The untiled least-squares fit (not the default `--pixels auto`), which the tiles reproduce.
+    succeeds(&with(
+        reconstruct2d(&input, &untiled, "64x48"),
+        &["--pixels", "fit"],
+    ));
     let one = dir.join("one.npy");
     let three = dir.join("three.npy");
     succeeds(&with(
@@ -134,7 +138,7 @@ fn the_fit_flags_reach_the_image_plane() {
         succeeds(&with(reconstruct2d(&input, &out, "32x24"), extra));
         pixels(&out, n)
     };
-    let default = run("default.npy", &[]);
+    let default = run("default.npy", &["--pixels", "fit"]);
     assert_eq!(default, run("rho4.npy", &["--rho", "4", "--ridge", "1e-9"]));
     assert_ne!(default, run("rho1.npy", &["--rho", "1"]));
     assert_ne!(default, run("ridge.npy", &["--ridge", "1e-3"]));

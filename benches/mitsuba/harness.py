@@ -69,8 +69,12 @@ def run_scene(name, w, h, spp, args, rk, ref):
     ren = Renderer(scene)
     samples = ren.render_pixels(np.full((h, w), spp), args.seed)
     tag = f"{name}-{w}x{h}-{spp}"
-    img, dt = rk.uniform(samples, w, h, tag)
-    rows.append(row(name, spp, "rkwave uniform", img, ref, ren.seconds, dt, len(samples)))
+    img, dt, used = rk.uniform(samples, w, h, tag)
+    rows.append(row(name, spp, "rkwave uniform", img, ref, ren.seconds, dt, len(samples),
+                    {"estimate": used}))
+    img, dt, used = rk.uniform(samples, w, h, tag, pixels="fit")
+    rows.append(row(name, spp, "rkwave fit (old uniform)", img, ref, ren.seconds, dt, len(samples),
+                    {"estimate": used}))
     box = metrics.box_film(samples[:, 0], samples[:, 1], samples[:, 2:], w, h)
     rows.append(row(name, spp, "box of the same samples", box, ref, ren.seconds, 0.0, len(samples)))
     # rkwave adaptive: the plan loop, the renderer answering each round.
@@ -81,6 +85,8 @@ def run_scene(name, w, h, spp, args, rk, ref):
             seed=args.seed)
         rows.append(row(name, spp, "rkwave adaptive (plan)", img, ref, ren.seconds, dt, len(s_all),
                         {"rounds": rounds}))
+    if args.no_cycles:
+        return rows
     # Cycles-style adaptive sampler at the same total samples, box film.
     ren = Renderer(scene)
     t0 = time.perf_counter()
@@ -154,6 +160,7 @@ def main():
     ap.add_argument("--json", help="write every row to this JSON file")
     ap.add_argument("--quick", action="store_true", help="32x32, 4 spp, 256-spp references")
     ap.add_argument("--no-adaptive", action="store_true", help="skip the plan loop")
+    ap.add_argument("--no-cycles", action="store_true", help="skip the Cycles-style sampler")
     ap.add_argument("--fixtures", help="write the fixtures (samples + references) into this folder")
     args = ap.parse_args()
     if args.quick:
@@ -173,9 +180,10 @@ def main():
         for spp in args.spp:
             new = run_scene(name, w, h, spp, args, rk, ref)
             for r in new:
+                used = f" (--pixels {r['estimate']})" if "estimate" in r else ""
                 print(f"{r['scene']:9s} {r['spp']:3d} {r['method']:26s} {r['psnr']:7.2f} dB "
                       f"relMSE {r['relmse']:.3g} SSIM {r['ssim']:.4f} render {r['render_s']:.2f} s "
-                      f"rkwave {r['rkwave_s']:.2f} s", flush=True)
+                      f"rkwave {r['rkwave_s']:.2f} s{used}", flush=True)
             rows.extend(new)
             if args.json:
                 with open(args.json, "w") as fh:

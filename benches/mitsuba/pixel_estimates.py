@@ -29,7 +29,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "prototypes"))
 from metrics import all_metrics, psnr  # noqa: E402
 
-ESTIMATES = ["fit", "fit-clamped", "box", "shrunk"]
+ESTIMATES = ["auto", "fit", "fit-clamped", "box", "shrunk"]
 FILMS = ["box", "tent", "gaussian", "mitchell", "lanczos"]
 
 

@@ -4,6 +4,7 @@ Each call's wall time (process start, reading and writing files included) is sum
 `seconds`; the renderer's time is kept apart by the caller.
 """
 
+import json
 import os
 import subprocess
 import time
@@ -32,16 +33,19 @@ class Rkwave:
             raise RuntimeError(f"rkwave {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr}")
         return proc.stdout, dt
 
-    def uniform(self, samples, width, height, tag):
-        """`rkwave reconstruct --dim 2` of an `m x 5` sample array; (image, seconds)."""
+    def uniform(self, samples, width, height, tag, pixels=None):
+        """`rkwave reconstruct --dim 2` of an `m x 5` sample array (the default pixel estimate,
+        or `--pixels PIXELS`); (image, seconds, the estimate used as the report names it)."""
         inp = os.path.join(self.workdir, f"{tag}-samples.npy")
-        out = os.path.join(self.workdir, f"{tag}-uniform.npy")
+        out = os.path.join(self.workdir, f"{tag}-uniform-{pixels or 'default'}.npy")
         np.save(inp, np.ascontiguousarray(samples, dtype=np.float64))
-        _, dt = self._run(
+        extra = ["--pixels", pixels] if pixels else []
+        stdout, dt = self._run(
             ["reconstruct", "--dim", "2", "--input", inp, "--resolution", f"{width}x{height}",
-             "--output", out, "--force"]
+             "--output", out, "--force", "--json"] + extra
         )
-        return _npy_image(out), dt
+        used = (json.loads(stdout).get("pixels") or {}).get("estimate", "fit")
+        return _npy_image(out), dt, used
 
     def adaptive(self, render_positions, width, height, spp, tag, seed=1, max_rounds=64):
         """The `rkwave plan` loop: plan writes positions, the renderer answers, until plan

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use rkwave::image::estimate::{EstimateError, ShrinkParams};
 use rkwave::image::report::FileReconstructionReport;
-use rkwave::image::{reconstruct_estimated, Method, WaveletParams};
+use rkwave::image::{reconstruct_estimated, Method, UniformEstimate, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::io::output::check_output;
 use rkwave::io::read_image_samples_with;
@@ -46,6 +46,44 @@ fn wavelet_params(args: &ReconstructArgs) -> Result<WaveletParams, CliError> {
         ridge,
         smoothing,
     })
+}
+
+/// The flags given that only the least-squares fit reads (`--p`, `--family`, `--method` other
+/// than the default, `--levels` other than auto, `--rho`, `--ridge`, `--smoothing`).
+fn fit_flags(args: &ReconstructArgs) -> Vec<&'static str> {
+    [
+        ("--p", args.p.is_some()),
+        ("--family", args.family.is_some()),
+        ("--method", args.method != MethodArg::Single),
+        ("--levels", args.solve.levels != "auto"),
+        ("--rho", args.solve.rho.is_some()),
+        ("--ridge", args.solve.ridge.is_some()),
+        ("--smoothing", args.smoothing.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect()
+}
+
+/// The pixel estimate: `--pixels`, or `auto` unless fit-only flags ask for the fit (then
+/// `fit`, with a note saying so).
+fn choose_estimate(args: &ReconstructArgs) -> (UniformEstimate, Option<String>) {
+    if let Some(e) = args.pixels {
+        return (e, None);
+    }
+    let given = fit_flags(args);
+    if given.is_empty() {
+        return (UniformEstimate::Auto, None);
+    }
+    (
+        UniformEstimate::Fit,
+        Some(format!(
+            "pixels: the least-squares fit, because {} (read by the fit only) was given without \
+             --pixels; the default without them is --pixels auto (films chosen per pixel by \
+             SURE), which uses no fit",
+            given.join(", ")
+        )),
+    )
 }
 
 /// Runs the 2D path of `rkwave reconstruct`.
@@ -138,7 +176,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         return Err(e);
     }
     bar.set_message("reconstructing");
-    let estimate = args.pixels.unwrap_or_default();
+    let (estimate, kept_fit) = choose_estimate(args);
     let (done, estimated) = reconstruct_estimated(
         estimate,
         method,
@@ -150,7 +188,8 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         EstimateError::Wavelet(e) => CliError::Wavelet(e),
         other => CliError::Estimate(other),
     })?;
-    let method = if estimate.uses_fit() {
+    let used = estimated.estimate;
+    let method = if used.uses_fit() {
         method
     } else {
         Method::Film(rkwave::image::filters::FilmFilterKind::Box)
@@ -173,13 +212,19 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         started.elapsed().as_secs_f64(),
     );
     report.pixels = Some(estimated);
+    report.notes.extend(kept_fit);
     report.notes.extend(dropped.note());
     report.nonfinite = dropped;
     if args.json {
         super::print_json(&report);
     } else {
+        let by = if used == UniformEstimate::Auto {
+            "auto (a film per pixel by SURE)".to_string()
+        } else {
+            method.to_string()
+        };
         println!(
-            "{} samples x {} channels -> {plane} pixels by {method}{}, {:.3} s; wrote {}",
+            "{} samples x {} channels -> {plane} pixels by {by}{}, {:.3} s; wrote {}",
             report.samples,
             report.channels,
             report

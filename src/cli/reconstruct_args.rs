@@ -60,12 +60,16 @@ pub struct ReconstructArgs {
     /// of the samples in the pixel's 3x3 neighbourhood (the plan's `pixels` parameter).
     #[arg(long)]
     pub no_residual: bool,
-    /// With `--dim 2` (no `--state`): the pixel estimate. `fit` (default) the least-squares
-    /// fit's box pixels; `fit-clamped` the fit clamped to the range of each pixel's samples;
+    /// With `--dim 2` (no `--state`): the pixel estimate. `auto` (default) the film filter
+    /// (box, tent, Gaussian, Mitchell, Lanczos) of least SURE per pixel at the samples' own
+    /// noise, then Haar shrinkage of what noise is left (falls back to `fit`, with a note,
+    /// when a pixel has no sample or most have one; the default is `fit` when a flag only the
+    /// fit reads is given: --p, --family, --method, --levels, --rho, --ridge, --smoothing);
+    /// `fit` the least-squares fit's box pixels; `fit-clamped` the fit clamped to the range of each pixel's samples;
     /// `box` the mean of each pixel's samples; `shrunk` the box pixels, wavelet-shrunk at the
     /// noise level of the samples' own spread (printed; for Monte Carlo noise). `box` and
     /// `shrunk` do not fit, so `--method` and `--p` are not used.
-    #[arg(long, value_name = "fit|fit-clamped|box|shrunk")]
+    #[arg(long, value_name = "auto|fit|fit-clamped|box|shrunk")]
     pub pixels: Option<rkwave::image::UniformEstimate>,
     /// 1D: read the samples in chunks, never whole (a `.npy` file sorted by x, `--method
     /// single --factorization qr`; the same coefficients). `auto` streams when reading them

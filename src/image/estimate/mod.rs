@@ -1,8 +1,16 @@
 //! Noise-aware pixel estimates on the uniform path: what a pixel's
 //! value is, given the samples in it and the noise they carry.
 //!
+//! * [`UniformEstimate::Auto`] (the default): per pixel, the film filter (box, tent, Gaussian,
+//!   Mitchell, Lanczos at their standard radii) of least risk by Stein's unbiased risk estimate
+//!   over the 17 x 17 window around it ([`sure`]), with the noise of each pixel's mean estimated
+//!   from second differences of its stratified samples ([`noise`]); then the result shrunk in
+//!   cycle-spun Haar at the universal threshold of the chosen films' median noise ([`shrink`];
+//!   where the noise is negligible the threshold is too and nothing changes). Where the samples
+//!   do not permit it (a pixel without samples, or fewer than half the pixels with two), the fit
+//!   instead, with the reason in the report.
 //! * [`UniformEstimate::Fit`]: the least-squares fit's box pixels ([`crate::image::reconstruct`]),
-//!   unchanged — the default.
+//!   unchanged.
 //! * [`UniformEstimate::FitClamped`]: the fit, each pixel clamped to the range of its own samples
 //!   `[min_i v_i, max_i v_i]` ([`clamp`]): the projection that removes the fit's ringing beside a
 //!   bright edge (an emitter in view) and moves no pixel already in its range.
@@ -19,10 +27,13 @@
 //! after it measured in Rust; `docs/design.md` has the section "Noise-aware pixel estimates".
 //! The noise level and the thresholds used are in the [`EstimateReport`] (text and `--json`).
 
+pub mod auto;
 pub mod clamp;
 pub mod haar;
+pub mod noise;
 pub mod shrink;
 pub mod statistics;
+pub mod sure;
 
 use std::fmt;
 use std::str::FromStr;
@@ -31,10 +42,13 @@ use std::time::Instant;
 use serde::Serialize;
 use thiserror::Error;
 
+pub use auto::{AutoReport, FilmCount};
 pub use clamp::clamp_to_sample_range;
 pub use haar::{Haar2d, HaarCoefficients};
+pub use noise::PixelNoise;
 pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
 pub use statistics::PixelStatistics;
+pub use sure::{choose_films, FilmChoice, FilmRisks};
 
 use super::method::{reconstruct, ImageReconstruction, Method, StageTimes};
 use super::wavelet::{WaveletError, WaveletParams};
@@ -45,8 +59,10 @@ use super::{ImageSamples, PixelImage};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(into = "String")]
 pub enum UniformEstimate {
-    /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).
+    /// The film filter of least SURE per pixel, then Haar shrinkage at the remaining noise.
     #[default]
+    Auto,
+    /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).
     Fit,
     /// The fit clamped per pixel to the range of the pixel's samples.
     FitClamped,
@@ -59,16 +75,18 @@ pub enum UniformEstimate {
 
 impl UniformEstimate {
     /// Every estimate, the default first.
-    pub const ALL: [UniformEstimate; 4] = [
+    pub const ALL: [UniformEstimate; 5] = [
+        UniformEstimate::Auto,
         UniformEstimate::Fit,
         UniformEstimate::FitClamped,
         UniformEstimate::Box,
         UniformEstimate::Shrunk,
     ];
 
-    /// The name on the command line (`fit`, `fit-clamped`, `box`, `shrunk`).
+    /// The name on the command line (`auto`, `fit`, `fit-clamped`, `box`, `shrunk`).
     pub fn name(self) -> &'static str {
         match self {
+            UniformEstimate::Auto => "auto",
             UniformEstimate::Fit => "fit",
             UniformEstimate::FitClamped => "fit-clamped",
             UniformEstimate::Box => "box",
@@ -96,7 +114,7 @@ impl fmt::Display for UniformEstimate {
 
 /// A pixel-estimate name that is not one of [`UniformEstimate::ALL`].
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("unknown pixel estimate `{name}`: expected fit, fit-clamped, box or shrunk")]
+#[error("unknown pixel estimate `{name}`: expected auto, fit, fit-clamped, box or shrunk")]
 pub struct ParseUniformEstimateError {
     /// The name as given.
     pub name: String,
@@ -149,15 +167,29 @@ pub enum EstimateError {
 /// What a pixel estimate did: the noise level and the thresholds used, the clamped values.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EstimateReport {
-    /// The estimate.
+    /// The estimate asked for.
+    pub requested: UniformEstimate,
+    /// The estimate made (`fit` where `auto` fell back).
     pub estimate: UniformEstimate,
+    /// Why `auto` fell back to `fit` (`None` when it did not).
+    pub fallback: Option<String>,
+    /// Pixels per film chosen by SURE (`auto` only).
+    pub films: Option<Vec<FilmCount>>,
+    /// The SURE window's side in pixels (`auto` only).
+    pub window: Option<usize>,
+    /// Estimated risk per pixel of the choice and of each film alone (`auto` only).
+    pub risk: Option<FilmRisks>,
+    /// Noise level of the chosen films' pixels per channel, the shrinkage's `sigma` (`auto`
+    /// only).
+    pub output_noise: Option<Vec<f64>>,
     /// Pooled noise level `sigma_c` per channel (`None` for `fit`, which does not need it).
     pub noise_level: Option<Vec<f64>>,
-    /// Pixels with at least two samples, over which the noise level's median is taken.
+    /// Pixels whose noise is estimated (two samples or more; for `auto`, a block of strata),
+    /// over which the noise level's median is taken.
     pub pixels_with_spread: Option<usize>,
-    /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` only).
+    /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,
-    /// The shrinkage's parameters (`shrunk` only).
+    /// The shrinkage's parameters (`shrunk` and `auto`).
     pub shrink: Option<ShrinkParams>,
     /// Values (pixels x channels) the clamp moved (`fit-clamped` only).
     pub clamped_values: Option<usize>,
@@ -182,7 +214,13 @@ pub fn reconstruct_estimated(
 ) -> Result<(ImageReconstruction, EstimateReport), EstimateError> {
     let start = Instant::now();
     let mut report = EstimateReport {
+        requested: estimate,
         estimate,
+        fallback: None,
+        films: None,
+        window: None,
+        risk: None,
+        output_noise: None,
         noise_level: None,
         pixels_with_spread: None,
         threshold: None,
@@ -192,9 +230,44 @@ pub fn reconstruct_estimated(
         seconds: 0.0,
         description: String::new(),
     };
-    if estimate == UniformEstimate::Fit {
+    if estimate == UniformEstimate::Auto {
+        let t_estimate = Instant::now();
+        match auto::estimate(samples, shrink) {
+            Ok((image, auto_report)) => {
+                auto_report.fill(&mut report);
+                report.seconds = t_estimate.elapsed().as_secs_f64();
+                let total = start.elapsed().as_secs_f64();
+                let done = ImageReconstruction {
+                    image,
+                    time_s: StageTimes {
+                        fit: 0.0,
+                        pixels: total,
+                        total,
+                    },
+                    functions: None,
+                    splat: None,
+                    solve: None,
+                    notes: vec![report.description.clone()],
+                };
+                return Ok((done, report));
+            }
+            Err(reason) => {
+                report.estimate = UniformEstimate::Fit;
+                report.fallback = Some(reason);
+            }
+        }
+    }
+    if report.estimate == UniformEstimate::Fit {
+        let mut done = reconstruct(method, samples, wavelet)?;
         report.description = "pixels: the least-squares fit's box pixels, unchanged".into();
-        return Ok((reconstruct(method, samples, wavelet)?, report));
+        if let Some(reason) = &report.fallback {
+            report.description = format!(
+                "pixels: the least-squares fit's box pixels (--pixels auto fell back to fit: \
+                 {reason})"
+            );
+            done.notes.push(report.description.clone());
+        }
+        return Ok((done, report));
     }
     let fitted = match estimate {
         UniformEstimate::FitClamped => Some(reconstruct(method, samples, wavelet)?),

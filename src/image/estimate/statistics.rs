@@ -122,7 +122,7 @@ impl PixelStatistics {
 
 /// The median of a non-empty list (the mean of the two middle values for an even count, as
 /// numpy's `median`).
-fn median(values: &mut [f64]) -> f64 {
+pub(super) fn median(values: &mut [f64]) -> f64 {
     values.sort_by(f64::total_cmp);
     let n = values.len();
     if n % 2 == 1 {

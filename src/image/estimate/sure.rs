@@ -1,0 +1,350 @@
+//! The film filter chosen per pixel by Stein's unbiased risk estimate (SURE).
+//!
+//! **Model.** Sample `i` of pixel `Q` has value `v_i` with mean depending on the scene and
+//! variance `s²_Q` (Monte Carlo noise and the stratified position's jitter; [`super::noise`]
+//! estimates it). The box estimate `m_P = (1 / n_P) sum_{i in P} v_i` has mean `mu_P` (the
+//! pixel integral) and variance `sigma²_P = s²_P / n_P`. A film filter `w` is linear in the
+//! values:
+//!
+//! `F_P = sum_i a_{P,i} v_i`, `a_{P,i} = w(x_i - c_P) / sum_j w(x_j - c_P)`
+//!
+//! ([`crate::image::splat`], the weights fixed by the positions).
+//!
+//! **SURE.** With `m_P` as the noisy observation of `mu_P`,
+//! `E (F_P - mu_P)² = E (F_P - m_P)² - sigma²_P + 2 Cov(F_P, m_P)`, and the covariance comes
+//! from the pixel's own samples only: `Cov(F_P, m_P) = sum_{i in P} a_{P,i} s²_P / n_P =
+//! A_P sigma²_P`, with `A_P = sum_{i in P} a_{P,i}` the filter weight of the pixel's own
+//! samples (the divergence `d F_P / d m_P` of the linear film). So
+//!
+//! `SURE_P = (F_P - m_P)² + sigma²_P (2 A_P - 1)`
+//!
+//! is an unbiased estimate of the film's risk at `P` (summed over channels). One pixel's SURE is
+//! noisy; the risk of a film over the `(2h + 1)²` window around `P` is the sum of the SUREs in
+//! it, and each pixel takes the film of least window risk. The box film (`F = m`, `A = 1`) has
+//! `SURE = sigma²_P`: a smoother film is chosen where its bias `(F - m)²` costs less than the
+//! noise it removes, `sigma² (1 - 2A)`.
+//!
+//! The output's noise, `Var F_P = sum_i a²_{P,i} s²_{Q(i)}`, is kept for the shrinkage after
+//! the choice ([`super::shrink`], by the median of that variance per channel).
+//!
+//! Filters with negative lobes can nearly cancel their weights (`|sum w| <= 1e-3 sum |w|`); such
+//! a pixel is averaged with `|w|` as [`crate::image::splat`] does, and its `A_P` is the `|w|`
+//! share of its own samples.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::noise::PixelNoise;
+use crate::image::filters::{FilmFilter, FilmFilterKind};
+use crate::image::splat::{PixelBins, CANCELLATION_RATIO};
+use crate::image::{ImageSamples, PixelImage};
+
+/// One film's image with what SURE needs.
+#[derive(Debug, Clone)]
+pub struct FilmCandidate {
+    /// The film.
+    pub film: FilmFilterKind,
+    /// `F_P` per channel.
+    pub image: PixelImage,
+    /// `A_P`: the weight of the pixel's own samples.
+    pub own_weight: Vec<f64>,
+    /// `Var F_P` per channel.
+    pub variance: Vec<Vec<f64>>,
+}
+
+/// The film `film` of `samples` (binned by `bins`) with its own weights and output variance
+/// under `noise`.
+pub fn film_candidate(
+    samples: &ImageSamples,
+    bins: &PixelBins,
+    noise: &PixelNoise,
+    film: FilmFilterKind,
+) -> FilmCandidate {
+    let filter = film.build();
+    let filter: &dyn FilmFilter = filter.as_ref();
+    let plane = samples.plane();
+    let (w, h) = (plane.width(), plane.height());
+    let channels = samples.channels();
+    let r = filter.radius();
+    let reach = (r + 0.5).floor() as isize;
+    // Per row: interleaved (value, variance) per pixel and channel, and A per pixel.
+    let rows: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = (0..h)
+        .into_par_iter()
+        .map(|py| {
+            let mut values = vec![0.0; w * channels];
+            let mut variances = vec![0.0; w * channels];
+            let mut own = vec![0.0; w];
+            let mut acc = Accumulator::new(channels);
+            for px in 0..w {
+                let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
+                acc.clear();
+                let y_range =
+                    (py as isize - reach).max(0)..=(py as isize + reach).min(h as isize - 1);
+                for qy in y_range {
+                    let x_range =
+                        (px as isize - reach).max(0)..=(px as isize + reach).min(w as isize - 1);
+                    for qx in x_range {
+                        let q = qy as usize * w + qx as usize;
+                        let mine = qx as usize == px && qy as usize == py;
+                        for &i in bins.in_pixel(q) {
+                            let (dx, dy) = (samples.xs()[i] - cx, samples.ys()[i] - cy);
+                            if dx.abs() > r || dy.abs() > r {
+                                continue;
+                            }
+                            acc.add(filter.eval_2d(dx, dy), i, q, mine, samples, noise);
+                        }
+                    }
+                }
+                let (a, out) = acc.finish();
+                own[px] = a;
+                for (c, (v, var)) in out.into_iter().enumerate() {
+                    values[px * channels + c] = v;
+                    variances[px * channels + c] = var;
+                }
+            }
+            (values, variances, own)
+        })
+        .collect();
+    let mut image = PixelImage::zeros(plane, channels);
+    let mut variance = vec![vec![0.0; plane.pixels()]; channels];
+    let mut own_weight = vec![0.0; plane.pixels()];
+    for (py, (vals, vars, own)) in rows.into_iter().enumerate() {
+        for px in 0..w {
+            own_weight[py * w + px] = own[px];
+            for c in 0..channels {
+                image.channels[c][py * w + px] = vals[px * channels + c];
+                variance[c][py * w + px] = vars[px * channels + c];
+            }
+        }
+    }
+    FilmCandidate {
+        film,
+        image,
+        own_weight,
+        variance,
+    }
+}
+
+/// Sums of one pixel's weighted samples, with signed and with absolute weights.
+struct Accumulator {
+    den: [f64; 2],
+    own: [f64; 2],
+    num: [Vec<f64>; 2],
+    var: [Vec<f64>; 2],
+}
+
+impl Accumulator {
+    fn new(channels: usize) -> Self {
+        Self {
+            den: [0.0; 2],
+            own: [0.0; 2],
+            num: [vec![0.0; channels], vec![0.0; channels]],
+            var: [vec![0.0; channels], vec![0.0; channels]],
+        }
+    }
+
+    fn clear(&mut self) {
+        self.den = [0.0; 2];
+        self.own = [0.0; 2];
+        for k in 0..2 {
+            self.num[k].iter_mut().for_each(|v| *v = 0.0);
+            self.var[k].iter_mut().for_each(|v| *v = 0.0);
+        }
+    }
+
+    fn add(
+        &mut self,
+        wt: f64,
+        i: usize,
+        q: usize,
+        mine: bool,
+        samples: &ImageSamples,
+        noise: &PixelNoise,
+    ) {
+        for (k, wk) in [wt, wt.abs()].into_iter().enumerate() {
+            self.den[k] += wk;
+            if mine {
+                self.own[k] += wk;
+            }
+            for (c, values) in samples.values().iter().enumerate() {
+                self.num[k][c] += wk * values[i];
+                self.var[k][c] += wk * wk * noise.sample_variance(c, q);
+            }
+        }
+    }
+
+    /// `(A_P, [(F_P, Var F_P) per channel])`, with `|w|` where the signed weights cancel.
+    fn finish(&self) -> (f64, Vec<(f64, f64)>) {
+        let k = if self.den[0].abs() <= CANCELLATION_RATIO * self.den[1] {
+            1
+        } else {
+            0
+        };
+        let den = self.den[k];
+        let out = self.num[k]
+            .iter()
+            .zip(&self.var[k])
+            .map(|(n, v)| (n / den, v / (den * den)))
+            .collect();
+        (self.own[k] / den, out)
+    }
+}
+
+/// `SURE_P = sum_c (F_{P,c} - m_{P,c})² + sigma²_{P,c} (2 A_P - 1)` of one candidate, with the
+/// box pixels `mean` (per channel).
+pub fn sure(candidate: &FilmCandidate, mean: &[Vec<f64>], noise: &PixelNoise) -> Vec<f64> {
+    let pixels = candidate.own_weight.len();
+    (0..pixels)
+        .map(|p| {
+            let a = candidate.own_weight[p];
+            (0..mean.len())
+                .map(|c| {
+                    let d = candidate.image.channels[c][p] - mean[c][p];
+                    d * d + noise.pixel_variance(c, p) * (2.0 * a - 1.0)
+                })
+                .sum()
+        })
+        .collect()
+}
+
+/// The sums of `values` (`width x height`, row-major) over the `(2 half + 1)²` window around each
+/// pixel, clipped at the borders (a summed-area table).
+pub fn window_sum(values: &[f64], width: usize, height: usize, half: usize) -> Vec<f64> {
+    let mut table = vec![0.0; (width + 1) * (height + 1)];
+    for y in 0..height {
+        let mut row = 0.0;
+        for x in 0..width {
+            row += values[y * width + x];
+            table[(y + 1) * (width + 1) + x + 1] = table[y * (width + 1) + x + 1] + row;
+        }
+    }
+    let at = |x: usize, y: usize| table[y * (width + 1) + x];
+    let mut out = vec![0.0; width * height];
+    for y in 0..height {
+        let (y0, y1) = (y.saturating_sub(half), (y + half + 1).min(height));
+        for x in 0..width {
+            let (x0, x1) = (x.saturating_sub(half), (x + half + 1).min(width));
+            out[y * width + x] = at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0);
+        }
+    }
+    out
+}
+
+/// The films chosen per pixel and the image they make.
+#[derive(Debug, Clone)]
+pub struct FilmChoice {
+    /// The pixels, each from its chosen film.
+    pub image: PixelImage,
+    /// The index into `films` of each pixel's film.
+    pub choice: Vec<usize>,
+    /// The candidate films.
+    pub films: Vec<FilmFilterKind>,
+    /// `Var` of each output pixel per channel (the chosen film's).
+    pub variance: Vec<Vec<f64>>,
+    /// The estimated risk (window-averaged SURE per pixel, summed over channels) of the choice
+    /// and of each film alone, per pixel averaged over the image.
+    pub risk: FilmRisks,
+}
+
+/// The mean estimated risk per pixel of the choice and of each film alone.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FilmRisks {
+    /// The choice.
+    pub chosen: f64,
+    /// Each film alone, in the order of the films.
+    pub films: Vec<(FilmFilterKind, f64)>,
+}
+
+impl FilmChoice {
+    /// Pixels per film, in the order of `films`.
+    pub fn counts(&self) -> Vec<(FilmFilterKind, usize)> {
+        self.films
+            .iter()
+            .enumerate()
+            .map(|(k, &f)| (f, self.choice.iter().filter(|&&c| c == k).count()))
+            .collect()
+    }
+}
+
+/// Each pixel's film among `films` by the least SURE over its `(2 half + 1)²` window; `mean`
+/// is the box pixels per channel (every pixel with a sample).
+pub fn choose_films(
+    samples: &ImageSamples,
+    bins: &PixelBins,
+    noise: &PixelNoise,
+    mean: &[Vec<f64>],
+    films: &[FilmFilterKind],
+    half: usize,
+) -> FilmChoice {
+    let plane = samples.plane();
+    let (w, h) = (plane.width(), plane.height());
+    let candidates: Vec<FilmCandidate> = films
+        .iter()
+        .map(|&f| film_candidate(samples, bins, noise, f))
+        .collect();
+    let sures: Vec<Vec<f64>> = candidates.iter().map(|c| sure(c, mean, noise)).collect();
+    let windows: Vec<Vec<f64>> = sures.iter().map(|s| window_sum(s, w, h, half)).collect();
+    let choice: Vec<usize> = (0..plane.pixels())
+        .map(|p| {
+            (0..films.len())
+                .min_by(|&a, &b| windows[a][p].total_cmp(&windows[b][p]))
+                .unwrap_or(0)
+        })
+        .collect();
+    let channels = samples.channels();
+    let mut image = PixelImage::zeros(plane, channels);
+    let mut variance = vec![vec![0.0; plane.pixels()]; channels];
+    for (p, &k) in choice.iter().enumerate() {
+        let chosen = &candidates[k];
+        for (c, (out, var)) in image.channels.iter_mut().zip(&mut variance).enumerate() {
+            out[p] = chosen.image.channels[c][p];
+            var[p] = chosen.variance[c][p];
+        }
+    }
+    let n = plane.pixels() as f64;
+    let chosen = choice
+        .iter()
+        .enumerate()
+        .map(|(p, &k)| sures[k][p])
+        .sum::<f64>()
+        / n;
+    let risk = FilmRisks {
+        chosen,
+        films: films
+            .iter()
+            .zip(&sures)
+            .map(|(&f, s)| (f, s.iter().sum::<f64>() / n))
+            .collect(),
+    };
+    FilmChoice {
+        image,
+        choice,
+        films: films.to_vec(),
+        variance,
+        risk,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn window_sums_match_the_direct_sum() {
+        let (w, h) = (7, 5);
+        let v: Vec<f64> = (0..w * h).map(|i| ((i * 37) % 11) as f64 - 3.0).collect();
+        let s = window_sum(&v, w, h, 2);
+        for y in 0..h {
+            for x in 0..w {
+                let mut direct = 0.0;
+                for yy in y.saturating_sub(2)..(y + 3).min(h) {
+                    for xx in x.saturating_sub(2)..(x + 3).min(w) {
+                        direct += v[yy * w + xx];
+                    }
+                }
+                // Sums of small integers: exact.
+                assert_eq!(s[y * w + x], direct);
+            }
+        }
+    }
+}
