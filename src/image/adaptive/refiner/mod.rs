@@ -56,6 +56,6 @@ pub use params::{
     OutputParams, QuadTreeParams,
 };
 pub use plan::{Decision, ImagePlan, PlanProgress, Round};
-pub use positions::SamplePositions;
+pub use positions::{slot_sobol, ParsePatternError, PositionPattern, SamplePositions};
 pub use report::{AdaptiveImage, AdaptiveReport, AdaptiveTimes, ImageRound, RebuildCost};
 pub use run::refine_image;

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::super::correction::{PixelEstimate, RESIDUAL_Z};
 use super::super::pcg::TreeSolver;
 use super::super::AdaptiveError;
+use super::positions::PositionPattern;
 use crate::adaptive::marking::SpreadRule;
 use crate::adaptive::{MarkingParams, StopParams, TreeParams};
 
@@ -70,6 +71,9 @@ pub struct ImageSampling {
     pub rho_limit: f64,
     /// Seed of the sample positions.
     pub seed: u64,
+    /// Where a slot's positions go (module `positions`): the continued per-slot Sobol
+    /// sequence or per-batch jittered strata.
+    pub pattern: PositionPattern,
 }
 
 /// The indicator of the image refiner.
@@ -157,12 +161,13 @@ impl Default for AdaptiveParams {
             sampling: ImageSampling {
                 rho_limit: 2.0,
                 seed: 1,
+                pattern: PositionPattern::Sobol,
             },
             marking: MarkingParams { theta: 0.5 },
             indicator: IndicatorParams { max_ratio: 0.5 },
             growth: GrowthParams {
                 min_growth: 0.25,
-                spread: SpreadRule::Indicator,
+                spread: SpreadRule::Uncertainty,
                 spread_share: 0.0,
             },
             stop: StopParams {
