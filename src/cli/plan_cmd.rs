@@ -75,17 +75,18 @@ pub struct PlanArgs {
     /// its next points) or `stratified` (jittered strata per round).
     #[arg(long)]
     pub pattern: Option<PositionPattern>,
-    /// Where a round's spare samples go: `uncertainty` (default: by the uncertainty of each
-    /// slot's mean, area x spread of its samples; a tree deep wherever its detail is
-    /// significant keeps densifying until the budget is spent), `indicator` (by the
-    /// predicted detail) or `uniform`.
+    /// Where a round's spare samples go: `indicator` (default: by the predicted detail),
+    /// `uncertainty` (where detail does not decay, by the uncertainty of each slot's mean,
+    /// sqrt(area) x spread of its residuals; a tree deep wherever its detail is significant
+    /// keeps densifying until the budget is spent) or `uniform`.
     #[arg(long)]
     pub spread: Option<SpreadRule>,
     /// The final image's pixels (recorded in the state; the rounds do not depend on it):
     /// `residual_clamped` (the fit plus the significant mean residual, clamped to the local
     /// sample range), `residual_corrected`, `fit_only`, `shrunk` (residual_clamped, then
     /// wavelet-shrunk at the noise level of the samples' own spread) or `box_shrunk` (the
-    /// box pixels, shrunk likewise). Default: the plan's own (see `rkwave plan --help`).
+    /// box pixels, shrunk likewise). Default for a new plan: `shrunk`; later calls keep the
+    /// state's.
     #[arg(long)]
     pub output_pixels: Option<PixelEstimate>,
     /// Overwrite the positions file; without `--samples`, also replace an existing plan.
@@ -154,6 +155,21 @@ fn params(
         },
         ..*base
     })
+}
+
+/// The parameters of a new plan before its flags: the engine's defaults, with the final
+/// image shrunk at the samples' noise level ([`PixelEstimate::Shrunk`]): a renderer's samples
+/// carry Monte Carlo noise, and where they carry none the shrinkage keeps the image
+/// (docs/measurements.md, "Placement that follows the pixel integral").
+fn new_plan_defaults() -> AdaptiveParams {
+    let d = AdaptiveParams::default();
+    AdaptiveParams {
+        output: OutputParams {
+            pixels: PixelEstimate::Shrunk,
+            ..d.output
+        },
+        ..d
+    }
 }
 
 fn protocol(e: ProtocolError) -> CliError {
@@ -228,7 +244,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                     "a new plan needs --budget B (total samples) or --spp S".into(),
                 ));
             }
-            let params = params(args, plane, &AdaptiveParams::default())?;
+            let params = params(args, plane, &new_plan_defaults())?;
             let (state, base) = PlanState::start(plane, &params).map_err(protocol)?;
             (state, base, None)
         }

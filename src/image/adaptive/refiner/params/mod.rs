@@ -167,7 +167,7 @@ impl Default for AdaptiveParams {
             indicator: IndicatorParams { max_ratio: 0.5 },
             growth: GrowthParams {
                 min_growth: 0.25,
-                spread: SpreadRule::Uncertainty,
+                spread: SpreadRule::Indicator,
                 spread_share: 0.0,
             },
             stop: StopParams {
