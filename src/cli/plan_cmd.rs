@@ -157,21 +157,6 @@ fn params(
     })
 }
 
-/// The parameters of a new plan before its flags: the engine's defaults, with the final
-/// image shrunk at the samples' noise level ([`PixelEstimate::Shrunk`]): a renderer's samples
-/// carry Monte Carlo noise, and where they carry none the shrinkage keeps the image
-/// (docs/measurements.md, "Placement that follows the pixel integral").
-fn new_plan_defaults() -> AdaptiveParams {
-    let d = AdaptiveParams::default();
-    AdaptiveParams {
-        output: OutputParams {
-            pixels: PixelEstimate::Shrunk,
-            ..d.output
-        },
-        ..d
-    }
-}
-
 fn protocol(e: ProtocolError) -> CliError {
     match e {
         ProtocolError::Write(e) => CliError::Output(e),
@@ -244,7 +229,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                     "a new plan needs --budget B (total samples) or --spp S".into(),
                 ));
             }
-            let params = params(args, plane, &new_plan_defaults())?;
+            let params = params(args, plane, &AdaptiveParams::renderer_plan())?;
             let (state, base) = PlanState::start(plane, &params).map_err(protocol)?;
             (state, base, None)
         }

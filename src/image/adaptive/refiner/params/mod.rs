@@ -216,6 +216,22 @@ fn check(
 }
 
 impl AdaptiveParams {
+    /// The parameters of a new plan a renderer drives (`rkwave plan`, Python's `Plan`): the
+    /// defaults, with the final image shrunk at the samples' noise level
+    /// ([`PixelEstimate::Shrunk`]): a renderer's samples carry Monte Carlo noise, and where
+    /// they carry none the shrinkage keeps the image (docs/measurements.md, "Placement that
+    /// follows the pixel integral").
+    pub fn renderer_plan() -> Self {
+        let d = Self::default();
+        Self {
+            output: OutputParams {
+                pixels: PixelEstimate::Shrunk,
+                ..d.output
+            },
+            ..d
+        }
+    }
+
     /// Checks every parameter's range, group by group (the budget last but the solver's:
     /// the default budget, 0, is the one value a caller always sets).
     pub fn validate(&self) -> Result<(), AdaptiveError> {
