@@ -377,7 +377,7 @@ fn every_round_grows_by_the_least_growth_or_spends_the_budget() {
         ("edge and chirp", &edge_and_chirp),
     ];
     for (name, scene) in scenes {
-        for spread in [SpreadRule::Uniform, SpreadRule::Indicator] {
+        for spread in SpreadRule::ALL {
             for budget in [4 * 1024, 8 * 1024 + 3] {
                 let p = AdaptiveParams {
                     growth: GrowthParams {

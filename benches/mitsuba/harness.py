@@ -82,7 +82,7 @@ def run_scene(name, w, h, spp, args, rk, ref):
         ren = Renderer(scene)
         img, s_all, dt, rounds = rk.adaptive(
             lambda p, seed: ren.render_positions(p, args.seed * 7919 + seed, spp), w, h, spp, tag,
-            seed=args.seed)
+            seed=args.seed, extra=args.plan_args.split())
         rows.append(row(name, spp, "rkwave adaptive (plan)", img, ref, ren.seconds, dt, len(s_all),
                         {"rounds": rounds}))
     if args.no_cycles:
@@ -161,6 +161,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="32x32, 4 spp, 256-spp references")
     ap.add_argument("--no-adaptive", action="store_true", help="skip the plan loop")
     ap.add_argument("--no-cycles", action="store_true", help="skip the Cycles-style sampler")
+    ap.add_argument("--plan-args", default="",
+                    help="extra flags for the plan's first call, e.g. '--spread indicator'")
     ap.add_argument("--fixtures", help="write the fixtures (samples + references) into this folder")
     args = ap.parse_args()
     if args.quick:

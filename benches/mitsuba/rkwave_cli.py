@@ -47,11 +47,13 @@ class Rkwave:
         used = (json.loads(stdout).get("pixels") or {}).get("estimate", "fit")
         return _npy_image(out), dt, used
 
-    def adaptive(self, render_positions, width, height, spp, tag, seed=1, max_rounds=64):
+    def adaptive(self, render_positions, width, height, spp, tag, seed=1, max_rounds=64,
+                 extra=()):
         """The `rkwave plan` loop: plan writes positions, the renderer answers, until plan
         writes 0 rows; the call that stops the plan writes the final image (`--final-image`,
         the stopping round's fit: no `reconstruct --dim 2 --state`, which would fit every
-        sample again). Returns (image, samples, rkwave seconds, rounds)."""
+        sample again). `extra`: more flags for the first call (the plan's parameters).
+        Returns (image, samples, rkwave seconds, rounds)."""
         state = os.path.join(self.workdir, f"{tag}-plan")
         pos = os.path.join(self.workdir, f"{tag}-positions.npy")
         allp = os.path.join(self.workdir, f"{tag}-all.npy")
@@ -59,7 +61,7 @@ class Rkwave:
         res = f"{width}x{height}"
         seconds = 0.0
         _, dt = self._run(["plan", "--state", state, "--resolution", res, "--spp", str(spp),
-                           "--seed", str(seed), "--out", pos, "--force"])
+                           "--seed", str(seed), "--out", pos, "--force", *extra])
         seconds += dt
         samples = np.zeros((0, 5))
         rounds = 0

@@ -253,9 +253,9 @@ pub struct PlanArgs {
 }
 
 /// The plan's parameters for a new plan on `plane`: the arguments given, the library's
-/// defaults for the rest (as `rkwave plan` on its first call).
+/// defaults of a renderer's plan for the rest (as `rkwave plan` on its first call).
 pub fn plan_params(plane: ImagePlane, a: &PlanArgs) -> PyResult<AdaptiveParams> {
-    let base = AdaptiveParams::default();
+    let base = AdaptiveParams::renderer_plan();
     let budget = match (a.budget, a.spp) {
         (Some(_), Some(_)) => {
             return Err(invalid(

@@ -59,6 +59,45 @@ pub enum SpreadRule {
     /// a given `sum n_i`, are `n_i ~ eta_i`.
     #[default]
     Indicator,
+    /// The image refiner's rule (`image::adaptive`): a slot whose detail can still be
+    /// deepened by its indicator `eta`; a slot whose detail does not decay (at the depth
+    /// limit, or within the noise) by the uncertainty of its mean, `sqrt(A_i) s_i` (area in
+    /// pixels, spread of its samples' residuals from the fit): Neyman's allocation for `sum A_i s_i^2 / n_i`, so
+    /// samples go where the estimate is uncertain (noise, texture past the depth limit) and
+    /// none to a constant slot.
+    Uncertainty,
+}
+
+impl SpreadRule {
+    /// Every rule.
+    pub const ALL: [SpreadRule; 3] = [
+        SpreadRule::Uniform,
+        SpreadRule::Indicator,
+        SpreadRule::Uncertainty,
+    ];
+
+    /// The name on the command line, in reports and in state files.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpreadRule::Uniform => "uniform",
+            SpreadRule::Indicator => "indicator",
+            SpreadRule::Uncertainty => "uncertainty",
+        }
+    }
+}
+
+impl std::str::FromStr for SpreadRule {
+    type Err = String;
+    /// A rule by [`SpreadRule::name`]; the error names the choices.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let t = s.trim().to_ascii_lowercase();
+        SpreadRule::ALL
+            .into_iter()
+            .find(|r| r.name() == t)
+            .ok_or_else(|| {
+                format!("unknown spread rule `{s}`: expected uniform, indicator or uncertainty")
+            })
+    }
 }
 
 /// Spreads `extra` samples over slots holding `counts[i]` samples with weights `w[i] >= 0`:

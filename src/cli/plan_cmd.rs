@@ -6,8 +6,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, SamplePositions};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, PositionPattern, SamplePositions};
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::{ImagePlane, NonFinitePolicy};
 use rkwave::io::output::{same_file, OutputError};
@@ -16,7 +17,7 @@ use rkwave::io::{npy_bytes, read_image_samples_with, SampleSet};
 use super::image_args::{check_p, parse_resolution};
 use super::{check_writable, CliError};
 use rkwave::image::adaptive::{
-    GrowthParams, ImageSampling, NoiseParams, QuadTreeParams, StopParams, TreeParams,
+    GrowthParams, ImageSampling, NoiseParams, OutputParams, QuadTreeParams, StopParams, TreeParams,
 };
 
 /// `rkwave plan`.
@@ -69,6 +70,25 @@ pub struct PlanArgs {
     /// of the refinement.
     #[arg(long)]
     pub min_growth: Option<f64>,
+    /// Where a slot's positions go (recorded in the state, continued by later calls):
+    /// `sobol` (default: per slot an Owen-scrambled Sobol (0, 2)-sequence, each round taking
+    /// its next points) or `stratified` (jittered strata per round).
+    #[arg(long)]
+    pub pattern: Option<PositionPattern>,
+    /// Where a round's spare samples go: `indicator` (default: by the predicted detail),
+    /// `uncertainty` (where detail does not decay, by the uncertainty of each slot's mean,
+    /// sqrt(area) x spread of its residuals; a tree deep wherever its detail is significant
+    /// keeps densifying until the budget is spent) or `uniform`.
+    #[arg(long)]
+    pub spread: Option<SpreadRule>,
+    /// The final image's pixels (recorded in the state; the rounds do not depend on it):
+    /// `residual_clamped` (the fit plus the significant mean residual, clamped to the local
+    /// sample range), `residual_corrected`, `fit_only`, `shrunk` (residual_clamped, then
+    /// wavelet-shrunk at the noise level of the samples' own spread) or `box_shrunk` (the
+    /// box pixels, shrunk likewise). Default for a new plan: `shrunk`; later calls keep the
+    /// state's.
+    #[arg(long)]
+    pub output_pixels: Option<PixelEstimate>,
     /// Overwrite the positions file; without `--samples`, also replace an existing plan.
     #[arg(long)]
     pub force: bool,
@@ -113,6 +133,7 @@ fn params(
         },
         sampling: ImageSampling {
             seed: args.seed.unwrap_or(base.sampling.seed),
+            pattern: args.pattern.unwrap_or(base.sampling.pattern),
             ..base.sampling
         },
         noise: NoiseParams {
@@ -125,7 +146,12 @@ fn params(
         },
         growth: GrowthParams {
             min_growth: args.min_growth.unwrap_or(base.growth.min_growth),
+            spread: args.spread.unwrap_or(base.growth.spread),
             ..base.growth
+        },
+        output: OutputParams {
+            pixels: args.output_pixels.unwrap_or(base.output.pixels),
+            ..base.output
         },
         ..*base
     })
@@ -203,7 +229,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                     "a new plan needs --budget B (total samples) or --spp S".into(),
                 ));
             }
-            let params = params(args, plane, &AdaptiveParams::default())?;
+            let params = params(args, plane, &AdaptiveParams::renderer_plan())?;
             let (state, base) = PlanState::start(plane, &params).map_err(protocol)?;
             (state, base, None)
         }

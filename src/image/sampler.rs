@@ -82,10 +82,9 @@ impl Sampler {
                 for k in 0..m as u32 {
                     // Shuffle the index (Burley's index scrambling) so prefixes stay random.
                     let i = nested_uniform_scramble(k, seeds[0]);
-                    let u = nested_uniform_scramble(i.reverse_bits(), seeds[1]);
-                    let v = nested_uniform_scramble(sobol_second(i), seeds[2]);
-                    xs.push(to_unit(u) * w);
-                    ys.push(to_unit(v) * h);
+                    let (u, v) = owen_sobol_02(i, [seeds[1], seeds[2]]);
+                    xs.push(u * w);
+                    ys.push(v * h);
                 }
             }
         }
@@ -102,6 +101,18 @@ pub fn strata(spp: usize) -> (usize, usize) {
     }
     let sx = sx.max(1);
     (sx, spp / sx)
+}
+
+/// Point `i` of the Sobol (0, 2)-sequence in the unit square (van der Corput and its
+/// Pascal-matrix companion), each coordinate Owen-scrambled (nested uniform scramble) with
+/// its own seed of `seeds`. Every aligned block `[a 2^m, (a + 1) 2^m)` of indices is a
+/// `(0, m, 2)`-net: one point in each elementary interval `2^-j x 2^-(m - j)`, and Owen
+/// scrambling keeps nets.
+pub fn owen_sobol_02(i: u32, seeds: [u32; 2]) -> (f64, f64) {
+    (
+        to_unit(nested_uniform_scramble(i.reverse_bits(), seeds[0])),
+        to_unit(nested_uniform_scramble(sobol_second(i), seeds[1])),
+    )
 }
 
 /// A 32-bit fraction `a / 2^32` as a float in `[0, 1)`.

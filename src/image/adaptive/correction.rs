@@ -34,6 +34,17 @@
 //! kept. Its gain on the analytic scenes, with and without noise: docs/measurements.md,
 //! "Adaptive image sampling: quality".
 //!
+//! *Shrinkage* ([`PixelEstimate::Shrunk`], [`PixelEstimate::BoxShrunk`]). Under Monte Carlo
+//! noise the corrected pixels keep the noise of the samples where the correction is
+//! significant, and the fit's own noise elsewhere. These two estimates denoise the image as
+//! the uniform path's `shrunk` does ([`crate::image::estimate`]): soft shrinkage in the
+//! orthonormal Haar basis, cycle-spun over 16 shifts, at the universal threshold
+//! `t_c = sigma_c sqrt(2 ln N)` of the noise level of a pixel's mean from the samples' own
+//! spread, `sigma_c = sqrt(median_P s²_{P,c} / n_P)` ([`PixelStatistics::noise_level`]).
+//! Where the samples carry no pixel-scale noise `sigma_c` is near zero and the image is kept.
+//! `Shrunk` shrinks the clamped corrected pixels; `BoxShrunk` shrinks the box pixels (the
+//! mean of each pixel's samples; the clamped corrected pixel where a pixel has none).
+//!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop ([`super::refine_image`]) and the file protocol
@@ -48,6 +59,7 @@ use super::fit::TreeFit;
 use super::significance::residuals;
 use super::AdaptiveError;
 use crate::adaptive::QuadTree;
+use crate::image::estimate::{shrink_channel, universal_threshold, PixelStatistics, ShrinkParams};
 use crate::image::{ImagePlane, PixelImage};
 
 /// Standard errors of the residual mean beyond which a pixel is corrected (the default of
@@ -75,6 +87,57 @@ pub enum PixelEstimate {
     /// Box pixels of the fit alone (smoother under noise where the correction is not
     /// significant anyway; loses what the fit cannot represent below the depth limit).
     FitOnly,
+    /// [`PixelEstimate::ResidualClamped`], then shrunk at the samples' noise level (module
+    /// docs, *Shrinkage*).
+    Shrunk,
+    /// The box pixels (the clamped corrected pixel where a pixel holds no sample), shrunk at
+    /// the samples' noise level (module docs, *Shrinkage*).
+    BoxShrunk,
+}
+
+impl PixelEstimate {
+    /// Every estimate.
+    pub const ALL: [PixelEstimate; 5] = [
+        PixelEstimate::ResidualClamped,
+        PixelEstimate::ResidualCorrected,
+        PixelEstimate::FitOnly,
+        PixelEstimate::Shrunk,
+        PixelEstimate::BoxShrunk,
+    ];
+
+    /// The name on the command line and in state files.
+    pub fn name(self) -> &'static str {
+        match self {
+            PixelEstimate::ResidualClamped => "residual_clamped",
+            PixelEstimate::ResidualCorrected => "residual_corrected",
+            PixelEstimate::FitOnly => "fit_only",
+            PixelEstimate::Shrunk => "shrunk",
+            PixelEstimate::BoxShrunk => "box_shrunk",
+        }
+    }
+
+    /// Whether the estimate shrinks at the samples' noise level.
+    pub fn shrinks(self) -> bool {
+        matches!(self, PixelEstimate::Shrunk | PixelEstimate::BoxShrunk)
+    }
+}
+
+impl std::str::FromStr for PixelEstimate {
+    type Err = String;
+    /// An estimate by [`PixelEstimate::name`] (`-` for `_` accepted); the error names the
+    /// choices.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let t = s.trim().to_ascii_lowercase().replace('-', "_");
+        PixelEstimate::ALL
+            .into_iter()
+            .find(|e| e.name() == t)
+            .ok_or_else(|| {
+                format!(
+                    "unknown output pixels `{s}`: expected residual_clamped, residual_corrected, \
+                     fit_only, shrunk or box_shrunk"
+                )
+            })
+    }
 }
 
 /// What the residual correction did: every pixel corrected is counted.
@@ -97,6 +160,13 @@ pub struct ResidualCorrection {
     pub clamped: usize,
     /// Largest move of the range clamp (0 without the clamp).
     pub largest_clamp: f64,
+    /// The shrinkage's noise level per channel, `sigma_c` (shrinking estimates only; `None`
+    /// there too when no pixel holds two samples: nothing is shrunk).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shrink_sigma: Option<Vec<f64>>,
+    /// The shrinkage's threshold per channel, `t_c` (as `shrink_sigma`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shrink_threshold: Option<Vec<f64>>,
 }
 
 impl ResidualCorrection {
@@ -105,6 +175,32 @@ impl ResidualCorrection {
         match self.estimate {
             PixelEstimate::FitOnly => {
                 "output pixels: the fit's box pixels only (no residual correction)".to_string()
+            }
+            PixelEstimate::Shrunk | PixelEstimate::BoxShrunk => {
+                let what = if self.estimate == PixelEstimate::Shrunk {
+                    format!(
+                        "the fit's box pixels plus the significant mean residual ({} of {} \
+                         sampled pixels), clamped to the local sample range ({} pixels)",
+                        self.corrected, self.sampled, self.clamped
+                    )
+                } else {
+                    "the box pixels (the mean of each pixel's samples; the clamped corrected \
+                     pixel where none)"
+                        .to_string()
+                };
+                match (&self.shrink_sigma, &self.shrink_threshold) {
+                    (Some(sigma), Some(t)) => format!(
+                        "output pixels: {what}, shrunk (soft, orthonormal Haar, 16 shifts) at \
+                         the universal threshold {} for the noise level {} per channel (median \
+                         variance of a pixel's mean)",
+                        fmt_list(t),
+                        fmt_list(sigma)
+                    ),
+                    _ => format!(
+                        "output pixels: {what}, not shrunk: no pixel holds two samples, so the \
+                         samples give no noise level"
+                    ),
+                }
             }
             PixelEstimate::ResidualCorrected | PixelEstimate::ResidualClamped => {
                 let mut s = format!(
@@ -261,12 +357,48 @@ pub fn output_pixels(
         report.corrected = corrected;
         report.largest = largest;
     }
-    if estimate == PixelEstimate::ResidualClamped {
+    if matches!(
+        estimate,
+        PixelEstimate::ResidualClamped | PixelEstimate::Shrunk | PixelEstimate::BoxShrunk
+    ) {
         let (clamped, largest) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
         report.clamped = clamped;
         report.largest_clamp = largest;
     }
+    if estimate.shrinks() {
+        let stats = PixelStatistics::of(plane, xs, ys, values);
+        if estimate == PixelEstimate::BoxShrunk {
+            for (channel, mean) in image.channels.iter_mut().zip(&stats.mean) {
+                for ((v, &m), &n) in channel.iter_mut().zip(mean).zip(&stats.count) {
+                    if n > 0 {
+                        *v = m;
+                    }
+                }
+            }
+        }
+        if let Some(sigma) = stats.noise_level() {
+            let shrink = ShrinkParams::default();
+            let t: Vec<f64> = sigma
+                .iter()
+                .map(|&s| universal_threshold(s, plane.pixels(), shrink.threshold_factor))
+                .collect();
+            for (channel, &tc) in image.channels.iter_mut().zip(&t) {
+                *channel =
+                    shrink_channel(channel, plane.width(), plane.height(), tc, shrink.shifts);
+            }
+            report.shrink_sigma = Some(sigma);
+            report.shrink_threshold = Some(t);
+        }
+    }
     Ok((fit_image, image, report))
+}
+
+/// Values in short scientific notation, comma-separated.
+fn fmt_list(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:.3e}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[cfg(test)]

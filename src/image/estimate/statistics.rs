@@ -41,20 +41,30 @@ pub struct PixelStatistics {
 impl PixelStatistics {
     /// The statistics of `samples`, in one pass over them.
     pub fn new(samples: &ImageSamples) -> Self {
-        let plane = samples.plane();
-        let (pixels, channels) = (plane.pixels(), samples.channels());
+        Self::of(
+            samples.plane(),
+            samples.xs(),
+            samples.ys(),
+            samples.values(),
+        )
+    }
+
+    /// The statistics of the samples at `(xs[i], ys[i])` with `values[c][i]` on `plane`
+    /// (positions in the plane, values finite: as [`ImageSamples`] checks them).
+    pub fn of(plane: ImagePlane, xs: &[f64], ys: &[f64], values: &[Vec<f64>]) -> Self {
+        let (pixels, channels) = (plane.pixels(), values.len());
         let mut count = vec![0usize; pixels];
         let mut mean = vec![vec![0.0; pixels]; channels];
         let mut m2 = vec![vec![0.0; pixels]; channels];
         let mut min = vec![vec![f64::INFINITY; pixels]; channels];
         let mut max = vec![vec![f64::NEG_INFINITY; pixels]; channels];
-        for (i, (&x, &y)) in samples.xs().iter().zip(samples.ys()).enumerate() {
+        for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
             let (px, py) = plane.pixel_of(x, y);
             let p = py * plane.width() + px;
             count[p] += 1;
             let k = count[p] as f64;
             for c in 0..channels {
-                let v = samples.values()[c][i];
+                let v = values[c][i];
                 let delta = v - mean[c][p];
                 mean[c][p] += delta / k;
                 m2[c][p] += delta * (v - mean[c][p]);

@@ -6,21 +6,43 @@
 use std::collections::{HashMap, HashSet};
 use std::time::Instant;
 
+use super::super::fit::TreeFit;
 use super::super::indicator::Indication;
-use super::positions::{round_rng, spread_samples};
+use super::super::significance::residuals;
+use super::positions::spread_samples;
 use super::{ImagePlan, ImageRound, SamplePositions};
 use crate::adaptive::marking::{dorfler, within_budget, SpreadRule};
 use crate::adaptive::Cell;
+use crate::adaptive::QuadTree;
 
 impl ImagePlan {
     /// The slots' samples, the oversampling so far, the round's least growth and the
     /// indicator of every slot (the weights of the spare samples).
-    pub(super) fn tally(&self, xs: &[f64], ys: &[f64], ind: &Indication) -> Tally {
+    pub(super) fn tally(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        values: &[&[f64]],
+        fit: &TreeFit,
+        ind: &Indication,
+    ) -> Tally {
         let params = &self.params;
         let left = params.stop.budget.saturating_sub(xs.len());
+        // the slots' moments: of the fit's residuals under the uncertainty rule (the output
+        // is the fit plus the mean residual, whose variance is the residuals' spread over n)
+        let residuals = (params.growth.spread == SpreadRule::Uncertainty).then(|| {
+            let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
+            residuals(&self.tree, &coef, xs, ys, values)
+        });
+        let of: Vec<&[f64]> = match &residuals {
+            Some(r) => r.iter().map(|c| c.as_slice()).collect(),
+            None => values.to_vec(),
+        };
+        let moments = SlotMoments::new(&self.tree, xs, ys, &of);
         // the oversampling so far: ceil(rho), or more after densifying rounds
-        let counts = self.tree.leaf_counts(xs, ys);
+        let counts: HashMap<Cell, usize> = moments.0.iter().map(|(c, m)| (*c, m.n)).collect();
         let slots = self.tree.leaves();
+        let uncertainty = moments.uncertainty(&self.tree, &slots);
         let target = slots
             .iter()
             .map(|s| counts.get(s).copied().unwrap_or(0))
@@ -36,6 +58,7 @@ impl ImagePlan {
             .chain(&ind.at_limit)
             .copied()
             .collect();
+        let decaying: HashSet<Cell> = ind.units.iter().map(|u| u.0).collect();
         Tally {
             slots,
             counts,
@@ -43,12 +66,15 @@ impl ImagePlan {
             left,
             goal,
             eta,
+            decaying,
+            uncertainty,
         }
     }
 
     /// Densify (nothing significant left to deepen): up to double the samples per slot, at
-    /// least the least growth, spread evenly. `None` when the budget is spent; else the
-    /// positions and the seconds they took.
+    /// least the least growth, spread evenly (by the uncertainty of the slots' means under
+    /// [`SpreadRule::Uncertainty`]). `None` when the budget is spent; else the positions and
+    /// the seconds they took.
     pub(super) fn densify(
         &mut self,
         round: usize,
@@ -66,17 +92,20 @@ impl ImagePlan {
             return None;
         }
         let t = Instant::now();
-        let mut rng = round_rng(self.params.sampling.seed, round + 1);
+        let mut placer = self.placer(round + 1);
         let mut next = SamplePositions::default();
+        let rule = match self.params.growth.spread {
+            SpreadRule::Uncertainty => SpreadRule::Uncertainty,
+            _ => SpreadRule::Uniform,
+        };
         let (_, to) = spread_samples(
             &self.tree,
             &tally.slots,
             &tally.counts,
-            &tally.eta,
-            SpreadRule::Uniform,
+            &tally.weights(rule, &tally.slots),
             extra,
             &mut next,
-            &mut rng,
+            &mut placer,
         );
         log.densified_to = Some(to);
         self.progress.marked.push(Vec::new());
@@ -160,14 +189,14 @@ impl ImagePlan {
         log: &mut ImageRound,
     ) -> SamplePositions {
         let k = marking.k;
-        let mut rng = round_rng(self.params.sampling.seed, round + 1);
+        let mut placer = self.placer(round + 1);
         let mut next = SamplePositions::default();
         for (cell, counts) in marking.marked[..k].iter().zip(&marking.child_counts) {
             let per_slot = marking.per_child.of(cell);
             self.tree.deepen(*cell);
             for (q, child) in cell.children().into_iter().enumerate() {
                 let need = per_slot.saturating_sub(counts[q]);
-                next.stratified(self.tree.rect(child), need, &mut rng);
+                placer.place(&mut next, child, self.tree.rect(child), counts[q], need);
             }
         }
         if marking.extra > 0 {
@@ -183,11 +212,10 @@ impl ImagePlan {
                 &self.tree,
                 &stay,
                 &tally.counts,
-                &tally.eta,
-                self.params.growth.spread,
+                &tally.weights(self.params.growth.spread, &stay),
                 marking.extra,
                 &mut next,
-                &mut rng,
+                &mut placer,
             );
             log.spread = added;
         }
@@ -211,6 +239,95 @@ pub(super) struct Tally {
     goal: usize,
     /// The indicator of every slot (the weights of the spare samples).
     eta: HashMap<Cell, f64>,
+    /// The slots whose detail is significant and below the depth limit (the markable ones).
+    decaying: HashSet<Cell>,
+    /// The uncertainty `sqrt(A) s` of every slot's mean, `s` the spread of the fit's
+    /// residuals in the slot ([`SlotMoments::uncertainty`]).
+    uncertainty: HashMap<Cell, f64>,
+}
+
+impl Tally {
+    /// The weights of `slots` for spreading by `rule` ([`SpreadRule`]): under
+    /// [`SpreadRule::Uncertainty`], a slot whose detail is significant and can still be
+    /// deepened keeps its indicator `eta` (the detail decays: deepening will resolve it); a
+    /// slot at the depth limit or within the noise (detail that does not decay: texture past
+    /// the depth limit, noise) takes the uncertainty of its mean, `sqrt(A) s`. Both are norms
+    /// of an error over the slot, so they weigh against each other.
+    fn weights(&self, rule: SpreadRule, slots: &[Cell]) -> Vec<f64> {
+        let of = |m: &HashMap<Cell, f64>, s: &Cell| m.get(s).copied().unwrap_or(0.0);
+        match rule {
+            SpreadRule::Uniform => vec![1.0; slots.len()],
+            SpreadRule::Indicator => slots.iter().map(|s| of(&self.eta, s)).collect(),
+            SpreadRule::Uncertainty => slots
+                .iter()
+                .map(|s| {
+                    if self.decaying.contains(s) {
+                        of(&self.eta, s)
+                    } else {
+                        of(&self.uncertainty, s)
+                    }
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Count, mean and sum of squared deviations (Welford) of one slot's samples per channel.
+#[derive(Clone, Default)]
+struct Moments {
+    n: usize,
+    mean: Vec<f64>,
+    m2: Vec<f64>,
+}
+
+/// The samples' moments in every slot that holds one.
+struct SlotMoments(HashMap<Cell, Moments>);
+
+impl SlotMoments {
+    fn new(tree: &QuadTree, xs: &[f64], ys: &[f64], values: &[&[f64]]) -> Self {
+        let ch = values.len();
+        let mut slots: HashMap<Cell, Moments> = HashMap::new();
+        for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
+            let m = slots.entry(tree.leaf_at(x, y)).or_insert_with(|| Moments {
+                n: 0,
+                mean: vec![0.0; ch],
+                m2: vec![0.0; ch],
+            });
+            m.n += 1;
+            for (c, v) in values.iter().enumerate() {
+                let d = v[i] - m.mean[c];
+                m.mean[c] += d / m.n as f64;
+                m.m2[c] += d * (v[i] - m.mean[c]);
+            }
+        }
+        Self(slots)
+    }
+
+    /// The uncertainty of each slot's mean as a spreading weight: `sqrt(A_i) s_i`, the square
+    /// root of the slot's area in pixels times the spread of its samples' residuals
+    /// `s_i = sqrt(sum_c s_{i,c}^2)` (unbiased sample variances). An error `e_i` of the
+    /// slot's mean costs `A_i e_i^2` in the image's squared error, and `E e_i^2 = s_i^2 / n_i`,
+    /// so Neyman's allocation `n_i ~ sqrt(A_i) s_i` minimises `sum_i A_i s_i^2 / n_i` for the
+    /// samples spent. A slot with fewer than two samples takes the mean spread of the slots
+    /// with two or more.
+    fn uncertainty(&self, tree: &QuadTree, slots: &[Cell]) -> HashMap<Cell, f64> {
+        let spread = |m: &Moments| (m.m2.iter().sum::<f64>() / (m.n - 1) as f64).sqrt();
+        let known: Vec<f64> = self.0.values().filter(|m| m.n >= 2).map(spread).collect();
+        let pooled = known.iter().sum::<f64>() / known.len().max(1) as f64;
+        slots
+            .iter()
+            .map(|&s| {
+                let r = tree.rect(s);
+                let area = (r[1] - r[0]) * (r[3] - r[2]);
+                let side = area.sqrt();
+                let sd = match self.0.get(&s) {
+                    Some(m) if m.n >= 2 => spread(m),
+                    _ => pooled,
+                };
+                (s, side * sd)
+            })
+            .collect()
+    }
 }
 
 /// Samples each child of a marked slot is topped up to: the oversampling so far, at least

@@ -1,7 +1,9 @@
 //! The adaptive rounds on the image plane (the 2D analogue of [`crate::refine`]).
 //!
 //! 1. Base: the tree full up to the base step `s0` (slots of `V_{cx+s0} (x) V_{cy+s0}`),
-//!    `ceil(rho)` jittered-stratified samples in every slot.
+//!    `ceil(rho)` samples in every slot, placed by the plan's pattern ([`positions`]: by
+//!    default each slot's own Owen-scrambled Sobol (0, 2)-sequence, continued by every later
+//!    batch in the slot).
 //! 2. Round: fit on the tree ([`super::fit_tree`]); indicate ([`super::indicator`]); stop if the
 //!    estimated RMS error `sqrt(sum eta^2 / (W H))` is at most the tolerance, if nothing below
 //!    the depth limit can be marked, or at the round limit; otherwise mark by Dörfler
@@ -19,7 +21,12 @@
 //!    Noise ([`super::significance`]): slots whose parent's detail is within the noise are
 //!    not markable; when nothing significant is left, a *densifying* round (no cell marked)
 //!    raises the samples of every slot instead (up to double, at least the least growth),
-//!    and later children are topped up to the raised count.
+//!    and later children are topped up to the raised count. Under
+//!    [`crate::adaptive::marking::SpreadRule::Uncertainty`] the spare and densifying samples
+//!    go where detail does not decay (slots at the depth limit or within the noise) by the
+//!    uncertainty of the slot's mean, `sqrt(A) s` (`s` the spread of the fit's residuals in
+//!    the slot), and a tree deep wherever its detail is significant densifies instead of
+//!    stopping while budget remains.
 //!
 //! One round is [`ImagePlan::step`]: given the tree and every sample so far, it fits and either
 //! stops or deepens the tree and returns the next positions. [`refine_image`] is a loop over
@@ -56,6 +63,6 @@ pub use params::{
     OutputParams, QuadTreeParams,
 };
 pub use plan::{Decision, ImagePlan, PlanProgress, Round};
-pub use positions::SamplePositions;
+pub use positions::{slot_sobol, ParsePatternError, PositionPattern, SamplePositions};
 pub use report::{AdaptiveImage, AdaptiveReport, AdaptiveTimes, ImageRound, RebuildCost};
 pub use run::refine_image;

@@ -8,7 +8,7 @@ use super::super::fit::{fit_tree_updating, FitState, TreeFit};
 use super::super::pcg::{SingleScaleRows, TreeSolver};
 use super::super::significance::{probe_values, Significance};
 use super::super::AdaptiveError;
-use super::positions::round_rng;
+use super::positions::Placer;
 use super::report::{fit_notes, noise_notes};
 use super::{AdaptiveParams, AdaptiveReport, AdaptiveTimes, ImageRound, SamplePositions};
 use crate::adaptive::StopReason;
@@ -218,16 +218,22 @@ impl ImagePlan {
         self.progress.marked.len()
     }
 
-    /// The base positions: `ceil(rho)` jittered-stratified positions in every base slot, from
-    /// the seed's round-0 stream (the same for every call).
+    /// The base positions: `ceil(rho)` positions in every base slot by the plan's pattern
+    /// (module `positions`), the same for every call.
     pub fn base_positions(&self) -> SamplePositions {
         let base = QuadTree::uniform(self.tree.basis().clone(), self.base_steps);
-        let mut rng = round_rng(self.params.sampling.seed, 0);
+        let mut placer = self.placer(0);
         let mut out = SamplePositions::default();
         for slot in base.leaves() {
-            out.stratified(base.rect(slot), self.per_slot, &mut rng);
+            placer.place(&mut out, slot, base.rect(slot), 0, self.per_slot);
         }
         out
+    }
+
+    /// The placer of round `round`'s positions (0: the base) by the plan's pattern.
+    pub(super) fn placer(&self, round: usize) -> Placer {
+        let s = &self.params.sampling;
+        Placer::new(s.pattern, s.seed, round)
     }
 
     /// The round's fit on the tree as it stands, and with the noise test on, the test (the
@@ -314,9 +320,9 @@ impl ImagePlan {
         if !spread.is_empty() {
             notes.push(format!(
                 "the marked slots cost less than the least growth ({} x the samples, or the rest \
-                 of the budget): spare samples spread over the other slots by {:?} ({})",
+                 of the budget): spare samples spread over the other slots by {} ({})",
                 self.params.growth.min_growth,
-                self.params.growth.spread,
+                self.params.growth.spread.name(),
                 spread.join(", ")
             ));
         }

@@ -10,6 +10,7 @@ use super::super::pcg::TreeSolver;
 use super::super::significance::Significance;
 use super::super::AdaptiveError;
 use super::{Decision, ImagePlan, ImageRound, RebuildCost, Round};
+use crate::adaptive::marking::SpreadRule;
 use crate::adaptive::Cell;
 use crate::adaptive::StopReason;
 
@@ -74,10 +75,11 @@ impl ImagePlan {
         let ind = self.indicate(&fit, significance.as_ref());
         let mut log = self.round_log(round, xs.len(), &fit, &ind, significance, rebuild);
         let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
-        if let Some(stop) = self.stop_reason(&ind, log.estimate_rms, nothing_significant, round) {
+        let stop = self.stop_reason(&ind, log.estimate_rms, nothing_significant, round, xs.len());
+        if let Some(stop) = stop {
             return Ok(stopped(log, fit, stop, fit_s, t.elapsed().as_secs_f64()));
         }
-        let tally = self.tally(xs, ys, &ind);
+        let tally = self.tally(xs, ys, values, &fit, &ind);
         if nothing_significant {
             let refine_s = t.elapsed().as_secs_f64();
             return Ok(match self.densify(round, xs.len(), &tally, &mut log) {
@@ -199,17 +201,22 @@ impl ImagePlan {
     }
 
     /// Stop: at the tolerance, when nothing below the depth limit is left to deepen or
-    /// densify, or at the round limit.
+    /// densify, or at the round limit. Under [`SpreadRule::Uncertainty`] a tree that is deep
+    /// everywhere its detail is significant is not a reason to stop while the budget lasts:
+    /// the next rounds densify where the slots' means are uncertain.
     fn stop_reason(
         &self,
         ind: &Indication,
         estimate_rms: f64,
         nothing_significant: bool,
         round: usize,
+        samples: usize,
     ) -> Option<StopReason> {
+        let densify_at_limit = self.params.growth.spread == SpreadRule::Uncertainty
+            && samples < self.params.stop.budget;
         if estimate_rms <= self.params.stop.tolerance {
             Some(StopReason::Tolerance)
-        } else if nothing_significant && ind.insignificant.is_empty() {
+        } else if nothing_significant && ind.insignificant.is_empty() && !densify_at_limit {
             Some(StopReason::DepthLimit)
         } else if round >= self.params.stop.max_rounds {
             Some(StopReason::MaxRounds)

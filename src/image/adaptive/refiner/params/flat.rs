@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::super::super::correction::{PixelEstimate, RESIDUAL_Z};
 use super::super::super::pcg::TreeSolver;
+use super::super::positions::PositionPattern;
 use super::{
     AdaptiveParams, FitParams, GrowthParams, ImageSampling, IndicatorParams, NoiseParams,
     OutputParams, QuadTreeParams,
@@ -25,7 +26,8 @@ pub(super) struct FlatParams {
     theta: f64,
     max_ratio: f64,
     min_growth: f64,
-    #[serde(default)]
+    /// Older files lack it: they spread by the indicator, as they were written.
+    #[serde(default = "spread_of_old_files")]
     spread: SpreadRule,
     #[serde(default)]
     spread_share: f64,
@@ -49,6 +51,17 @@ pub(super) struct FlatParams {
     residual_z: f64,
     #[serde(default)]
     measure_rebuild: bool,
+    /// Older files lack it: they continue with jittered strata, as they were written.
+    #[serde(default = "pattern_of_old_files")]
+    pattern: PositionPattern,
+}
+
+fn spread_of_old_files() -> SpreadRule {
+    SpreadRule::Indicator
+}
+
+fn pattern_of_old_files() -> PositionPattern {
+    PositionPattern::Stratified
 }
 
 fn default_residual_z() -> f64 {
@@ -100,6 +113,7 @@ impl From<AdaptiveParams> for FlatParams {
             pixels: a.output.pixels,
             residual_z: a.output.residual_z,
             measure_rebuild: a.fit.measure_rebuild,
+            pattern: a.sampling.pattern,
         }
     }
 }
@@ -116,6 +130,7 @@ impl From<FlatParams> for AdaptiveParams {
             sampling: ImageSampling {
                 rho_limit: f.rho_limit,
                 seed: f.seed,
+                pattern: f.pattern,
             },
             marking: MarkingParams { theta: f.theta },
             indicator: IndicatorParams {

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::super::correction::{PixelEstimate, RESIDUAL_Z};
 use super::super::pcg::TreeSolver;
 use super::super::AdaptiveError;
+use super::positions::PositionPattern;
 use crate::adaptive::marking::SpreadRule;
 use crate::adaptive::{MarkingParams, StopParams, TreeParams};
 
@@ -70,6 +71,9 @@ pub struct ImageSampling {
     pub rho_limit: f64,
     /// Seed of the sample positions.
     pub seed: u64,
+    /// Where a slot's positions go (module `positions`): the continued per-slot Sobol
+    /// sequence or per-batch jittered strata.
+    pub pattern: PositionPattern,
 }
 
 /// The indicator of the image refiner.
@@ -157,6 +161,7 @@ impl Default for AdaptiveParams {
             sampling: ImageSampling {
                 rho_limit: 2.0,
                 seed: 1,
+                pattern: PositionPattern::Sobol,
             },
             marking: MarkingParams { theta: 0.5 },
             indicator: IndicatorParams { max_ratio: 0.5 },
@@ -211,6 +216,22 @@ fn check(
 }
 
 impl AdaptiveParams {
+    /// The parameters of a new plan a renderer drives (`rkwave plan`, Python's `Plan`): the
+    /// defaults, with the final image shrunk at the samples' noise level
+    /// ([`PixelEstimate::Shrunk`]): a renderer's samples carry Monte Carlo noise, and where
+    /// they carry none the shrinkage keeps the image (docs/measurements.md, "Placement that
+    /// follows the pixel integral").
+    pub fn renderer_plan() -> Self {
+        let d = Self::default();
+        Self {
+            output: OutputParams {
+                pixels: PixelEstimate::Shrunk,
+                ..d.output
+            },
+            ..d
+        }
+    }
+
     /// Checks every parameter's range, group by group (the budget last but the solver's:
     /// the default budget, 0, is the one value a caller always sets).
     pub fn validate(&self) -> Result<(), AdaptiveError> {
