@@ -32,6 +32,7 @@
 
 use sprs::CsMat;
 
+use super::mix64;
 use crate::solve::{csr_by_rows, csr_raw as raw, RowAccumulator};
 
 /// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
@@ -53,6 +54,140 @@ impl TreeGram {
             (2 * self.upper.nnz()).saturating_sub(self.functions.len()),
             self.functions.len(),
         )
+    }
+}
+
+/// The first bytes of [`TreeGram::to_bytes`]: the layout's name and version.
+const GRAM_MAGIC: &[u8; 8] = b"RKWGRAM1";
+
+/// Why bytes are not a [`TreeGram`] for the caller's plan (the caller assembles afresh).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum GramBytesError {
+    /// Not this layout or version.
+    #[error("not a normal matrix of this build's layout ({GRAM_MAGIC:?})")]
+    Layout,
+    /// Written for another plan (its tag differs).
+    #[error("written for another plan (tag {found:016x}, this plan's {expected:016x})")]
+    OtherPlan {
+        /// This plan's tag.
+        expected: u64,
+        /// The tag in the bytes.
+        found: u64,
+    },
+    /// Cut short, or a checksum or size that does not add up.
+    #[error("damaged: {0}")]
+    Damaged(&'static str),
+}
+
+/// Checksum of 8-byte words: `sum_t mix(w_t + t)`, order-dependent, so a moved, cut or
+/// flipped word changes it.
+fn checksum(words: &[u8]) -> u64 {
+    words.chunks_exact(8).enumerate().fold(0u64, |acc, (t, c)| {
+        let w = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+        acc.wrapping_add(mix64(w.wrapping_add(t as u64)))
+    })
+}
+
+impl TreeGram {
+    /// The matrix as bytes (little-endian 64-bit words): [`GRAM_MAGIC`], the caller's `tag`
+    /// (naming the plan it belongs to), the sizes, the functions, the samples' positions,
+    /// the upper triangle's CSR arrays, and a checksum of all that.
+    pub fn to_bytes(&self, tag: u64) -> Vec<u8> {
+        let (indptr, indices, data) = raw(&self.upper);
+        let words = 5 + self.functions.len() + 2 * self.xs.len() + indptr.len() + 2 * data.len();
+        let mut out = Vec::with_capacity(8 * (words + 1) + GRAM_MAGIC.len());
+        out.extend_from_slice(GRAM_MAGIC);
+        let mut word = |v: u64| out.extend_from_slice(&v.to_le_bytes());
+        word(tag);
+        word(self.functions.len() as u64);
+        word(self.xs.len() as u64);
+        word(self.upper.nnz() as u64);
+        self.functions.iter().for_each(|&f| word(f as u64));
+        self.xs
+            .iter()
+            .chain(&self.ys)
+            .for_each(|v| word(v.to_bits()));
+        indptr.iter().chain(indices).for_each(|&i| word(i as u64));
+        data.iter().for_each(|v| word(v.to_bits()));
+        let sum = checksum(&out[GRAM_MAGIC.len()..]);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// The matrix of [`TreeGram::to_bytes`], if the bytes are whole and carry `tag`. The
+    /// structure is checked as well (ascending functions, a CSR of the upper triangle), so
+    /// that what is read is a valid start for [`assemble`], which then checks that its
+    /// samples and functions fit the fit's.
+    pub fn from_bytes(bytes: &[u8], tag: u64) -> Result<Self, GramBytesError> {
+        let body = bytes
+            .strip_prefix(GRAM_MAGIC)
+            .ok_or(GramBytesError::Layout)?;
+        if body.len() % 8 != 0 || body.len() < 48 {
+            return Err(GramBytesError::Damaged("not a whole number of words"));
+        }
+        let (payload, sum) = body.split_at(body.len() - 8);
+        if checksum(payload) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+            return Err(GramBytesError::Damaged("the checksum does not match"));
+        }
+        let mut words = payload
+            .chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")));
+        let mut next = || words.next().ok_or(GramBytesError::Damaged("cut short"));
+        let found = next()?;
+        if found != tag {
+            return Err(GramBytesError::OtherPlan {
+                expected: tag,
+                found,
+            });
+        }
+        let (p, m, nnz) = (next()? as usize, next()? as usize, next()? as usize);
+        if payload.len() != 8 * (4 + p + 2 * m + (p + 1) + 2 * nnz) {
+            return Err(GramBytesError::Damaged("the sizes do not add up"));
+        }
+        let mut take = |n: usize| (0..n).map(|_| next()).collect::<Result<Vec<u64>, _>>();
+        let functions: Vec<usize> = take(p)?.into_iter().map(|v| v as usize).collect();
+        let xs: Vec<f64> = take(m)?.into_iter().map(f64::from_bits).collect();
+        let ys: Vec<f64> = take(m)?.into_iter().map(f64::from_bits).collect();
+        let indptr: Vec<usize> = take(p + 1)?.into_iter().map(|v| v as usize).collect();
+        let indices: Vec<usize> = take(nnz)?.into_iter().map(|v| v as usize).collect();
+        let data: Vec<f64> = take(nnz)?.into_iter().map(f64::from_bits).collect();
+        let ascending = functions.windows(2).all(|w| w[0] < w[1]);
+        let upper_csr = indptr[0] == 0
+            && indptr[p] == nnz
+            && indptr.windows(2).all(|w| w[0] <= w[1])
+            && (0..p).all(|a| {
+                let row = &indices[indptr[a]..indptr[a + 1]];
+                row.first().is_none_or(|&b| b >= a)
+                    && row.windows(2).all(|w| w[0] < w[1])
+                    && row.last().is_none_or(|&b| b < p)
+            });
+        if !ascending || !upper_csr {
+            return Err(GramBytesError::Damaged("not an upper triangle in CSR"));
+        }
+        Ok(Self {
+            functions,
+            xs,
+            ys,
+            upper: CsMat::new((p, p), indptr, indices, data),
+        })
+    }
+
+    /// Samples the matrix was summed over.
+    pub fn samples(&self) -> usize {
+        self.xs.len()
+    }
+}
+
+impl PartialEq for TreeGram {
+    /// The same functions, samples (by bits) and upper triangle (by bits).
+    fn eq(&self, other: &Self) -> bool {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        self.functions == other.functions
+            && bits(&self.xs) == bits(&other.xs)
+            && bits(&self.ys) == bits(&other.ys)
+            && self.upper.indptr() == other.upper.indptr()
+            && self.upper.indices() == other.upper.indices()
+            && bits(self.upper.data()) == bits(other.upper.data())
     }
 }
 

@@ -34,6 +34,16 @@
 //! The state is JSON with a format name and version ([`STATE_FORMAT`], [`STATE_VERSION`]);
 //! a state of another format or version, or one whose history does not fit its own
 //! parameters, is refused.
+//!
+//! *Work carried between calls.* Beside the state, `gram.bin` ([`GRAM_FILE`]) holds the
+//! normal matrix `G = K_T^T K_T` of the last round's fit ([`TreeGram::to_bytes`]), so the next
+//! call continues it with the new samples' rows instead of summing every sample again
+//! ([`super::gram`]: the continued matrix is the rebuilt one bit for bit, so the rounds are
+//! the same with or without it). It is a cache: tagged with the plan ([`PlanState::tag`]:
+//! plane and parameters) and checksummed; a missing file is assembled afresh silently (the
+//! first fit), a damaged one, one of another plan, or one whose samples are not the first of
+//! the call's is assembled afresh with a note ([`PlanStep::gram_note`]). A process that keeps
+//! the state in memory (Python's `Plan`) carries the matrix without the file.
 
 use std::path::{Path, PathBuf};
 
@@ -42,6 +52,8 @@ use thiserror::Error;
 
 use super::correction::{output_pixels, PixelEstimate, ResidualCorrection};
 use super::fit::TreeFit;
+use super::gram::TreeGram;
+use super::mix64;
 use super::refiner::{
     AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
 };
@@ -57,6 +69,8 @@ pub const STATE_FORMAT: &str = "rkwave-image-plan";
 pub const STATE_VERSION: u32 = 1;
 /// The state's file name inside its directory.
 pub const STATE_FILE: &str = "state.json";
+/// The carried normal matrix's file name inside the state's directory (module docs).
+pub const GRAM_FILE: &str = "gram.bin";
 
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
@@ -185,6 +199,27 @@ pub struct PlanState {
     pub issued: Vec<IssuedRound>,
     /// Why the plan stopped (`None` while it runs).
     pub stop: Option<StopReason>,
+    /// The last fit's normal matrix, continued by the next round (module docs; kept in
+    /// [`GRAM_FILE`], not in the JSON).
+    #[serde(skip)]
+    pub carried: CarriedGram,
+}
+
+/// The normal matrix a plan carries from one round to the next, and why the last one read
+/// could not be used. Solver state only: two states that differ in it are equal.
+#[derive(Clone, Debug, Default)]
+pub struct CarriedGram {
+    /// The matrix (`None`: the next fit assembles afresh).
+    pub gram: Option<TreeGram>,
+    /// Why the matrix read from [`GRAM_FILE`] was set aside (`None`: it was used, or there
+    /// was none).
+    pub note: Option<String>,
+}
+
+impl PartialEq for CarriedGram {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// What one call of [`PlanState::advance`] did.
@@ -207,6 +242,9 @@ pub struct PlanStep {
     pub budget: usize,
     /// The samples dropped for a non-finite value (none unless the caller's policy drops).
     pub dropped: DroppedSamples,
+    /// Why the normal matrix carried from the last call was not continued and the round's was
+    /// assembled afresh (`None`: continued, or the first fit).
+    pub gram_note: Option<String>,
     /// When this round stopped the plan: the final reconstruction from its fit, with the
     /// plan's output pixels, without fitting the samples again (under the direct solve, the
     /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
@@ -238,17 +276,10 @@ pub struct PlanReconstruction {
     pub dropped: DroppedSamples,
 }
 
-/// 64-bit mix (SplitMix64's finaliser).
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.
 fn fingerprint(start: u64, xs: &[f64], ys: &[f64]) -> u64 {
     xs.iter().zip(ys).fold(start, |acc, (x, y)| {
-        acc.wrapping_add(mix(x.to_bits() ^ mix(y.to_bits()).rotate_left(17)))
+        acc.wrapping_add(mix64(x.to_bits() ^ mix64(y.to_bits()).rotate_left(17)))
     })
 }
 
@@ -278,6 +309,7 @@ impl PlanState {
                 fingerprint: format!("{:016x}", fingerprint(0, &base.xs, &base.ys)),
             }],
             stop: None,
+            carried: CarriedGram::default(),
         };
         Ok((state, base))
     }
@@ -497,7 +529,20 @@ impl PlanState {
             self.params.stop.budget.saturating_sub(self.positions()),
         )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        let round = plan.step(samples.xs(), samples.ys(), &values)?;
+        let carried = self.carried.gram.take();
+        let mut gram_note = self.carried.note.take();
+        let offered = carried.as_ref().map(TreeGram::samples);
+        plan.fit_state_mut().gram = carried;
+        let stepped = plan.step(samples.xs(), samples.ys(), &values);
+        self.carried.gram = plan.fit_state_mut().gram.take();
+        let round = stepped?;
+        if let Some(m) = offered.filter(|_| round.log.fit.normal_kept_samples == 0) {
+            gram_note.get_or_insert(format!(
+                "the carried normal matrix ({m} samples) was not continued: the samples do not \
+                 start with its samples in the same order, or the tree lost functions; \
+                 assembled afresh"
+            ));
+        }
         // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
         // output pixels are those `reconstruct` would compute again from the same samples.
         let reconstruction = match round.decision {
@@ -554,6 +599,7 @@ impl PlanState {
             total_positions: self.positions(),
             budget: self.params.stop.budget,
             dropped,
+            gram_note,
             reconstruction,
         })
     }
@@ -644,27 +690,79 @@ impl PlanState {
         dir.join(STATE_FILE)
     }
 
-    /// Reads the state in `dir`.
+    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`] when it is
+    /// there and whole (module docs; otherwise a note says why it is not used).
     pub fn load(dir: &Path) -> Result<Self, ProtocolError> {
         let file = Self::path(dir);
         let text = std::fs::read_to_string(&file).map_err(|source| ProtocolError::Read {
             file: file.clone(),
             source,
         })?;
-        Self::from_json(&text, &file)
+        let mut state = Self::from_json(&text, &file)?;
+        state.carried = state.read_gram(dir);
+        Ok(state)
+    }
+
+    /// The tag of this plan's carried normal matrix: a hash of the state's version, plane
+    /// and parameters (a matrix of another plan is not continued).
+    pub fn tag(&self) -> u64 {
+        let params = serde_json::to_string(&self.params).expect("parameters serialise");
+        format!("{}/{}/{params}", STATE_VERSION, self.plane)
+            .bytes()
+            .fold(0u64, |h, b| mix64(h ^ u64::from(b)))
+    }
+
+    /// The normal matrix in `dir`'s [`GRAM_FILE`], or why it is set aside.
+    fn read_gram(&self, dir: &Path) -> CarriedGram {
+        let file = dir.join(GRAM_FILE);
+        let set_aside = |why: String| CarriedGram {
+            gram: None,
+            note: Some(format!(
+                "{}: {why}; the normal matrix is assembled afresh (the same result, more time)",
+                file.display()
+            )),
+        };
+        match std::fs::read(&file) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => CarriedGram::default(),
+            Err(e) => set_aside(format!("cannot be read ({e})")),
+            Ok(bytes) => match TreeGram::from_bytes(&bytes, self.tag()) {
+                Ok(gram) => CarriedGram {
+                    gram: Some(gram),
+                    note: None,
+                },
+                Err(e) => set_aside(e.to_string()),
+            },
+        }
+    }
+
+    /// Writes the carried matrix to `dir`'s [`GRAM_FILE`] (through a temporary file), or
+    /// removes a stale one when there is none. A cache: when it cannot be written, the file
+    /// is removed and the next call assembles afresh.
+    fn write_gram(&self, dir: &Path) {
+        let file = dir.join(GRAM_FILE);
+        let written = self
+            .carried
+            .gram
+            .as_ref()
+            .is_some_and(|g| write_new(&file, &g.to_bytes(self.tag()), true).is_ok());
+        if !written {
+            let _ = std::fs::remove_file(&file);
+        }
     }
 
     /// Writes the state into `dir` (created if missing), replacing the previous state
-    /// atomically.
+    /// atomically, and the carried normal matrix beside it.
     pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
         let file = Self::path(dir);
         create_folder(dir, &file)?;
         write_new(&file, self.to_json().as_bytes(), true)?;
+        self.write_gram(dir);
         Ok(())
     }
 
     /// Commits a round as one step: the state into `dir` and the positions `bytes` to
-    /// `positions` (replacing an existing file only with `overwrite`), both or neither.
+    /// `positions` (replacing an existing file only with `overwrite`), both or neither; then
+    /// the carried normal matrix (a cache, [`PlanState::save`]).
     ///
     /// Both are written to temporary files beside their targets first; then the positions
     /// are moved into place (refused if the file appeared meanwhile), then the state (a
@@ -699,6 +797,7 @@ impl PlanState {
             let _ = std::fs::remove_file(positions);
             return Err(e.into());
         }
+        self.write_gram(dir);
         Ok(())
     }
 }
