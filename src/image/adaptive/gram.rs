@@ -423,6 +423,40 @@ mod tests {
         assert_eq!(g.data(), reference.data());
     }
 
+    /// The bytes give back the same matrix; a flipped bit, a cut, another layout or another
+    /// plan's tag are each refused with their reason.
+    #[test]
+    fn bytes_round_trip_and_damage() {
+        let k = random(120, 30, 5);
+        let kt: CsMat<f64> = k.transpose_view().to_csr();
+        let xs: Vec<f64> = (0..120).map(|i| i as f64 * 0.3).collect();
+        let functions: Vec<usize> = (0..30).map(|a| 2 * a).collect();
+        let (_, gram, _) = assemble(&k, &kt, &functions, &xs, &xs, None);
+        let bytes = gram.to_bytes(42);
+        assert_eq!(TreeGram::from_bytes(&bytes, 42), Ok(gram.clone()));
+        assert_eq!(
+            TreeGram::from_bytes(&bytes, 43),
+            Err(GramBytesError::OtherPlan {
+                expected: 43,
+                found: 42
+            })
+        );
+        let mut flipped = bytes.clone();
+        flipped[100] ^= 1;
+        assert!(matches!(
+            TreeGram::from_bytes(&flipped, 42),
+            Err(GramBytesError::Damaged(_))
+        ));
+        assert!(matches!(
+            TreeGram::from_bytes(&bytes[..bytes.len() - 8], 42),
+            Err(GramBytesError::Damaged(_))
+        ));
+        assert_eq!(
+            TreeGram::from_bytes(b"RKWGRAM0", 42),
+            Err(GramBytesError::Layout)
+        );
+    }
+
     /// Updating with appended samples and inserted functions equals rebuilding, bit for bit.
     #[test]
     fn update_equals_rebuild() {
