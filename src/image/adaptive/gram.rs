@@ -33,7 +33,7 @@
 use sprs::CsMat;
 
 use super::mix64;
-use crate::solve::{csr_by_rows, csr_raw as raw, RowAccumulator};
+use crate::solve::{csr_by_rows, csr_raw as raw};
 
 /// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
 #[derive(Clone)]
@@ -214,12 +214,15 @@ pub(crate) struct GramUpdate {
 /// depend on the split: each row is summed on its own).
 const MIN_ROWS_PER_TASK: usize = 256;
 
-/// `G = K^T K` (both triangles, CSR, sorted) from `K` (`m x P` CSR, sorted rows) and `K^T`
-/// (`P x m` CSR, sorted rows), updating `previous` when it applies (its functions a subset of
+/// `G = K^T K` (both triangles, CSR, sorted) from `K` (`m x P` CSR, sorted rows), `K^T`
+/// (`P x m` CSR, sorted rows) and the positions of `K^T`'s entries in `K`'s rows
+/// ([`crate::solve::transpose_with_positions`]: row `j` is read from column `a` on without a
+/// search), updating `previous` when it applies (its functions a subset of
 /// `functions`, its samples a prefix of `(xs, ys)`), and the upper triangle to keep.
 pub(crate) fn assemble(
     k: &CsMat<f64>,
     kt: &CsMat<f64>,
+    positions_in_rows: &[usize],
     functions: &[usize],
     xs: &[f64],
     ys: &[f64],
@@ -297,17 +300,17 @@ pub(crate) fn assemble(
                     // Old sample: only its entries on new functions are new.
                     let row = &ni[np[j]..np[j + 1]];
                     let from = np[j] + row.partition_point(|&b| b < a);
-                    for s in from..np[j + 1] {
-                        acc.add(ni[s], kja * nd[s]);
-                    }
+                    acc.add_scaled(kja, &ni[from..np[j + 1]], &nd[from..np[j + 1]]);
                 } else {
-                    upper_row(acc, a, j, kja, (kp, ki, kd));
+                    let s = positions_in_rows[t];
+                    acc.add_scaled(kja, &ki[s..kp[j + 1]], &kd[s..kp[j + 1]]);
                 }
             }
         }
         _ => {
             for t in tp[a]..tp[a + 1] {
-                upper_row(acc, a, ti[t], td[t], (kp, ki, kd));
+                let (j, s) = (ti[t], positions_in_rows[t]);
+                acc.add_scaled(td[t], &ki[s..kp[j + 1]], &kd[s..kp[j + 1]]);
             }
         }
     });
@@ -325,21 +328,6 @@ pub(crate) fn assemble(
         upper,
     };
     (full, kept, update)
-}
-
-/// Adds `k_ja K[j, b]` for the entries `b >= a` of row `j` of `K` (CSR arrays).
-fn upper_row(
-    acc: &mut RowAccumulator,
-    a: usize,
-    j: usize,
-    kja: f64,
-    (kp, ki, kd): (&[usize], &[usize], &[f64]),
-) {
-    let row = &ki[kp[j]..kp[j + 1]];
-    let from = kp[j] + row.partition_point(|&b| b < a);
-    for s in from..kp[j + 1] {
-        acc.add(ki[s], kja * kd[s]);
-    }
 }
 
 /// Both triangles from the upper one: row `a` is `(b, G[b, a])` for `b < a` (the upper rows'
@@ -387,6 +375,7 @@ fn mirror(upper: &CsMat<f64>) -> CsMat<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solve::transpose_with_positions;
 
     /// A random sparse `m x p` matrix with sorted rows.
     fn random(m: usize, p: usize, seed: u64) -> CsMat<f64> {
@@ -412,11 +401,12 @@ mod tests {
     #[test]
     fn equals_sprs_product() {
         let k = random(300, 40, 7);
-        let kt: CsMat<f64> = k.transpose_view().to_csr();
+        let (kt, at) = transpose_with_positions(&k);
+        assert_eq!(kt, k.transpose_view().to_csr::<usize>());
         let reference: CsMat<f64> = &kt * &k;
         let xs: Vec<f64> = (0..300).map(|i| i as f64).collect();
         let functions: Vec<usize> = (0..40).collect();
-        let (g, _, update) = assemble(&k, &kt, &functions, &xs, &xs, None);
+        let (g, _, update) = assemble(&k, &kt, &at, &functions, &xs, &xs, None);
         assert_eq!(update, GramUpdate::default());
         assert_eq!(g.indptr(), reference.indptr());
         assert_eq!(g.indices(), reference.indices());
@@ -428,10 +418,10 @@ mod tests {
     #[test]
     fn bytes_round_trip_and_damage() {
         let k = random(120, 30, 5);
-        let kt: CsMat<f64> = k.transpose_view().to_csr();
+        let (kt, at) = transpose_with_positions(&k);
         let xs: Vec<f64> = (0..120).map(|i| i as f64 * 0.3).collect();
         let functions: Vec<usize> = (0..30).map(|a| 2 * a).collect();
-        let (_, gram, _) = assemble(&k, &kt, &functions, &xs, &xs, None);
+        let (_, gram, _) = assemble(&k, &kt, &at, &functions, &xs, &xs, None);
         let bytes = gram.to_bytes(42);
         assert_eq!(TreeGram::from_bytes(&bytes, 42), Ok(gram.clone()));
         assert_eq!(
@@ -479,13 +469,20 @@ mod tests {
             }
             tri.to_csr::<usize>()
         };
-        let kt_old: CsMat<f64> = k_old.transpose_view().to_csr();
+        let (kt_old, at_old) = transpose_with_positions(&k_old);
         let old_functions: Vec<usize> = kept.iter().map(|&a| functions[a]).collect();
-        let (_, previous, _) =
-            assemble(&k_old, &kt_old, &old_functions, &xs[..mo], &ys[..mo], None);
-        let kt: CsMat<f64> = k.transpose_view().to_csr();
-        let (rebuilt, _, _) = assemble(&k, &kt, &functions, &xs, &ys, None);
-        let (updated, _, update) = assemble(&k, &kt, &functions, &xs, &ys, Some(&previous));
+        let (_, previous, _) = assemble(
+            &k_old,
+            &kt_old,
+            &at_old,
+            &old_functions,
+            &xs[..mo],
+            &ys[..mo],
+            None,
+        );
+        let (kt, at) = transpose_with_positions(&k);
+        let (rebuilt, _, _) = assemble(&k, &kt, &at, &functions, &xs, &ys, None);
+        let (updated, _, update) = assemble(&k, &kt, &at, &functions, &xs, &ys, Some(&previous));
         assert_eq!(update.kept_functions, kept.len());
         assert_eq!(update.kept_samples, mo);
         assert_eq!(updated.indptr(), rebuilt.indptr());
@@ -494,7 +491,7 @@ mod tests {
         // Other samples: not continued.
         let mut moved = xs.clone();
         moved[3] += 1.0;
-        let (_, _, update) = assemble(&k, &kt, &functions, &moved, &ys, Some(&previous));
+        let (_, _, update) = assemble(&k, &kt, &at, &functions, &moved, &ys, Some(&previous));
         assert_eq!(update, GramUpdate::default());
     }
 }

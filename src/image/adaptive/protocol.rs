@@ -51,7 +51,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::correction::{output_pixels, PixelEstimate, ResidualCorrection};
-use super::fit::TreeFit;
+use super::fit::{FitState, TreeFit};
 use super::gram::TreeGram;
 use super::mix64;
 use super::refiner::{
@@ -634,7 +634,19 @@ impl PlanState {
         let plan = self.plan_at(k)?;
         self.check_memory(&plan, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        let (fit, significance) = plan.fit(samples.xs(), samples.ys(), &values)?;
+        // the carried normal matrix, continued (the same bits as assembled afresh)
+        let mut carried = FitState {
+            gram: self.carried.gram.clone(),
+            ..FitState::default()
+        };
+        let (fit, significance) = plan.fit_updating(
+            samples.xs(),
+            samples.ys(),
+            &values,
+            self.params.fit.solver,
+            None,
+            &mut carried,
+        )?;
         // the noise estimate of this fit, as the in-process loop's last round
         let sigma = significance.map_or(0.0, |s| s.level.sigma);
         let (fit_image, image, correction) = output_pixels(

@@ -259,7 +259,7 @@ impl ImagePlan {
     /// [`ImagePlan::fit`] continuing the solver state `state` ([`FitState`]),
     /// PCG starting from `start` (per image channel, then per probe channel; channels
     /// without one start from 0).
-    pub(super) fn fit_updating(
+    pub fn fit_updating(
         &self,
         xs: &[f64],
         ys: &[f64],
