@@ -21,6 +21,7 @@ import argparse
 import hashlib
 import json
 import os
+import resource
 import subprocess
 import tempfile
 import time
@@ -59,17 +60,29 @@ def sha(path):
         return hashlib.sha256(f.read()).hexdigest()[:16]
 
 
+CPU = [0.0]
+
+
+def cpu_children():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def run(cmd):
+    """Runs `cmd`; its wall seconds (and its CPU seconds, user + system, added to CPU[0])."""
+    c0 = cpu_children()
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     dt = time.perf_counter() - t0
+    CPU[0] += cpu_children() - c0
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}")
     return proc.stdout, dt
 
 
 def loop(binary, args, reference, work):
-    """One whole loop; returns (total seconds, per-call rows, hashes)."""
+    """One whole loop; returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
+    cpu0 = CPU[0]
     state = os.path.join(work, "state")
     pos = os.path.join(work, "next.npy")
     allp = os.path.join(work, "all.npy")
@@ -103,7 +116,7 @@ def loop(binary, args, reference, work):
                                 allp, "--output", final, "--force", "--json"])
         rows.append(("reconstruct --state (0 positions, no stop)", len(samples), 0, dt, None))
     hashes.append(sha(final))
-    return sum(r[3] for r in rows), rows, hashes
+    return sum(r[3] for r in rows), CPU[0] - cpu0, rows, hashes
 
 
 def main():
@@ -124,16 +137,18 @@ def main():
         args.size = reference.shape[1]
     print(f"# {args.size}x{args.size}, {args.spp} spp, load {os.getloadavg()[0]:.2f}")
     totals = {b: [] for b in args.bin}
+    cpus = {b: [] for b in args.bin}
     hashes = {}
     for rep in range(args.repeat):
         for b in args.bin:
             if args.keep:
                 os.makedirs(args.keep, exist_ok=True)
-                total, rows, h = loop(b, args, reference, args.keep)
+                total, cpu, rows, h = loop(b, args, reference, args.keep)
             else:
                 with tempfile.TemporaryDirectory() as work:
-                    total, rows, h = loop(b, args, reference, work)
+                    total, cpu, rows, h = loop(b, args, reference, work)
             totals[b].append(total)
+            cpus[b].append(cpu)
             hashes.setdefault(b, h)
             if args.quiet:
                 continue
@@ -149,10 +164,12 @@ def main():
                 else:
                     print(f"| {name} | | | {dt:.2f} | | | | |")
             print(f"| **total** | | | **{total:.2f}** | | | | |")
+            print(f"CPU seconds (user + system, all threads): {cpu:.2f}")
     print(f"# load {os.getloadavg()[0]:.2f}")
     for b in args.bin:
         ts = totals[b]
-        print(f"total {b}: " + ", ".join(f"{t:.2f}" for t in ts) + f" s (min {min(ts):.2f})")
+        print(f"total {b}: wall " + ", ".join(f"{t:.2f}" for t in ts) + f" s (min {min(ts):.2f}); "
+              "CPU " + ", ".join(f"{t:.2f}" for t in cpus[b]) + " s")
     if len(args.bin) > 1:
         first = hashes[args.bin[0]]
         for b in args.bin[1:]:

@@ -56,6 +56,9 @@ fn setup() -> (ImagePlane, AdaptiveParams) {
     (plane, params)
 }
 
+/// An edit of `gram.bin` between two calls.
+type Damage<'a> = &'a dyn Fn(&std::path::Path);
+
 /// Drives a plan to its stop. With `dir`, every call loads the state (and `gram.bin`) from
 /// `dir` and saves it back, `damage` editing `gram.bin` before round `round` when given;
 /// without, the state goes through its JSON only (no carried matrix). Returns the
@@ -63,7 +66,7 @@ fn setup() -> (ImagePlane, AdaptiveParams) {
 #[allow(clippy::type_complexity)]
 fn drive(
     dir: Option<&std::path::Path>,
-    damage: Option<(usize, &dyn Fn(&std::path::Path))>,
+    damage: Option<(usize, Damage<'_>)>,
 ) -> (Vec<SamplePositions>, Vec<Vec<f64>>, Vec<Option<String>>) {
     let (plane, params) = setup();
     let (state, base) = PlanState::start(plane, &params).unwrap();
@@ -210,7 +213,7 @@ fn damaged_or_foreign_matrix_is_rebuilt_with_a_note() {
         let gram = TreeGram::from_bytes(&std::fs::read(f).unwrap(), state.tag()).unwrap();
         std::fs::write(f, gram.to_bytes(state.tag() ^ 1)).unwrap();
     };
-    let cases: [(&str, &dyn Fn(&std::path::Path), &str); 4] = [
+    let cases: [(&str, Damage<'_>, &str); 4] = [
         ("flip", &flip, "checksum"),
         ("cut", &cut, "damaged"),
         ("junk", &junk, "layout"),

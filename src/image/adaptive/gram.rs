@@ -402,7 +402,8 @@ mod tests {
     fn equals_sprs_product() {
         let k = random(300, 40, 7);
         let (kt, at) = transpose_with_positions(&k);
-        assert_eq!(kt, k.transpose_view().to_csr::<usize>());
+        let by_sprs: CsMat<f64> = k.transpose_view().to_csr();
+        assert_eq!(kt, by_sprs);
         let reference: CsMat<f64> = &kt * &k;
         let xs: Vec<f64> = (0..300).map(|i| i as f64).collect();
         let functions: Vec<usize> = (0..40).collect();
