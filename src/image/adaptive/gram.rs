@@ -178,6 +178,63 @@ impl TreeGram {
     }
 }
 
+/// The normal matrix a plan carries from one call to the next (the file protocol's
+/// `gram.bin`), and why the one read was set aside. Solver state only: two plan states that
+/// differ in it are equal.
+#[derive(Clone, Debug, Default)]
+pub struct CarriedGram {
+    /// The matrix (`None`: the next fit assembles afresh).
+    pub gram: Option<TreeGram>,
+    /// Why the matrix read from the file was set aside (`None`: it was used, or there was
+    /// none).
+    pub note: Option<String>,
+}
+
+impl PartialEq for CarriedGram {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl CarriedGram {
+    /// The matrix in `file` for the plan tagged `tag`; none, silently, when there is no file;
+    /// none, with a note naming the file and the fault, when it cannot be read or is not a
+    /// whole matrix of this plan ([`TreeGram::from_bytes`]).
+    pub fn read(file: &std::path::Path, tag: u64) -> Self {
+        let set_aside = |why: String| Self {
+            gram: None,
+            note: Some(format!(
+                "{}: {why}; the normal matrix is assembled afresh (the same result, more time)",
+                file.display()
+            )),
+        };
+        match std::fs::read(file) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Self::default(),
+            Err(e) => set_aside(format!("cannot be read ({e})")),
+            Ok(bytes) => match TreeGram::from_bytes(&bytes, tag) {
+                Ok(gram) => Self {
+                    gram: Some(gram),
+                    note: None,
+                },
+                Err(e) => set_aside(e.to_string()),
+            },
+        }
+    }
+
+    /// Writes the matrix to `file` (through a temporary file), or removes a stale file when
+    /// there is no matrix. A cache: when it cannot be written, the file is removed and the
+    /// next call assembles afresh.
+    pub fn write(&self, file: &std::path::Path, tag: u64) {
+        let written = self
+            .gram
+            .as_ref()
+            .is_some_and(|g| crate::io::output::write_new(file, &g.to_bytes(tag), true).is_ok());
+        if !written {
+            let _ = std::fs::remove_file(file);
+        }
+    }
+}
+
 impl PartialEq for TreeGram {
     /// The same functions, samples (by bits) and upper triangle (by bits).
     fn eq(&self, other: &Self) -> bool {

@@ -72,6 +72,8 @@ pub const STATE_FILE: &str = "state.json";
 /// The carried normal matrix's file name inside the state's directory (module docs).
 pub const GRAM_FILE: &str = "gram.bin";
 
+pub use super::gram::CarriedGram;
+
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -203,23 +205,6 @@ pub struct PlanState {
     /// [`GRAM_FILE`], not in the JSON).
     #[serde(skip)]
     pub carried: CarriedGram,
-}
-
-/// The normal matrix a plan carries from one round to the next, and why the last one read
-/// could not be used. Solver state only: two states that differ in it are equal.
-#[derive(Clone, Debug, Default)]
-pub struct CarriedGram {
-    /// The matrix (`None`: the next fit assembles afresh).
-    pub gram: Option<TreeGram>,
-    /// Why the matrix read from [`GRAM_FILE`] was set aside (`None`: it was used, or there
-    /// was none).
-    pub note: Option<String>,
-}
-
-impl PartialEq for CarriedGram {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
 }
 
 /// What one call of [`PlanState::advance`] did.
@@ -711,7 +696,7 @@ impl PlanState {
             source,
         })?;
         let mut state = Self::from_json(&text, &file)?;
-        state.carried = state.read_gram(dir);
+        state.carried = CarriedGram::read(&dir.join(GRAM_FILE), state.tag());
         Ok(state)
     }
 
@@ -724,51 +709,13 @@ impl PlanState {
             .fold(0u64, |h, b| mix64(h ^ u64::from(b)))
     }
 
-    /// The normal matrix in `dir`'s [`GRAM_FILE`], or why it is set aside.
-    fn read_gram(&self, dir: &Path) -> CarriedGram {
-        let file = dir.join(GRAM_FILE);
-        let set_aside = |why: String| CarriedGram {
-            gram: None,
-            note: Some(format!(
-                "{}: {why}; the normal matrix is assembled afresh (the same result, more time)",
-                file.display()
-            )),
-        };
-        match std::fs::read(&file) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => CarriedGram::default(),
-            Err(e) => set_aside(format!("cannot be read ({e})")),
-            Ok(bytes) => match TreeGram::from_bytes(&bytes, self.tag()) {
-                Ok(gram) => CarriedGram {
-                    gram: Some(gram),
-                    note: None,
-                },
-                Err(e) => set_aside(e.to_string()),
-            },
-        }
-    }
-
-    /// Writes the carried matrix to `dir`'s [`GRAM_FILE`] (through a temporary file), or
-    /// removes a stale one when there is none. A cache: when it cannot be written, the file
-    /// is removed and the next call assembles afresh.
-    fn write_gram(&self, dir: &Path) {
-        let file = dir.join(GRAM_FILE);
-        let written = self
-            .carried
-            .gram
-            .as_ref()
-            .is_some_and(|g| write_new(&file, &g.to_bytes(self.tag()), true).is_ok());
-        if !written {
-            let _ = std::fs::remove_file(&file);
-        }
-    }
-
     /// Writes the state into `dir` (created if missing), replacing the previous state
     /// atomically, and the carried normal matrix beside it.
     pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
         let file = Self::path(dir);
         create_folder(dir, &file)?;
         write_new(&file, self.to_json().as_bytes(), true)?;
-        self.write_gram(dir);
+        self.carried.write(&dir.join(GRAM_FILE), self.tag());
         Ok(())
     }
 
@@ -809,7 +756,7 @@ impl PlanState {
             let _ = std::fs::remove_file(positions);
             return Err(e.into());
         }
-        self.write_gram(dir);
+        self.carried.write(&dir.join(GRAM_FILE), self.tag());
         Ok(())
     }
 }
