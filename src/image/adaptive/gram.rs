@@ -64,7 +64,7 @@ const GRAM_MAGIC: &[u8; 8] = b"RKWGRAM1";
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum GramBytesError {
     /// Not this layout or version.
-    #[error("not a normal matrix of this build's layout ({GRAM_MAGIC:?})")]
+    #[error("not a normal matrix of this build's layout (its first bytes are not `RKWGRAM1`)")]
     Layout,
     /// Written for another plan (its tag differs).
     #[error("written for another plan (tag {found:016x}, this plan's {expected:016x})")]
