@@ -4,7 +4,11 @@
 //! the tree the samples were planned for); this class keeps every sample so far in memory
 //! and the positions it handed out for the next round.
 //!
-//! `save(dir)` writes the state in the format of `rkwave plan --state DIR` (`state.json`),
+//! The state in memory carries the last round's normal matrix to the next round
+//! ([`PlanState::carried`]), as `rkwave plan` does through `gram.bin`.
+//!
+//! `save(dir)` writes the state in the format of `rkwave plan --state DIR` (`state.json`,
+//! and `gram.bin`),
 //! every sample so far as `samples.npy` (`m x (2 + channels)`, what `--samples` and
 //! `reconstruct --dim 2 --state` read) and the pending positions as `next.npy` (`n x 2`, what
 //! `--out` writes), so a loop can move between the command line and Python either way.
@@ -275,7 +279,13 @@ impl PyPlan {
             .detach(|| state.advance_dropped(&all, so_far))
             .map_err(to_py)?;
         self.dropped = all_dropped;
-        warn_all(py, &step.dropped.note().into_iter().collect::<Vec<_>>())?;
+        let notes: Vec<String> = step
+            .dropped
+            .note()
+            .into_iter()
+            .chain(step.gram_note.clone())
+            .collect();
+        warn_all(py, &notes)?;
         let library = t_lib.elapsed().as_secs_f64();
         self.next = step.next.clone();
         self.samples = Some(all);

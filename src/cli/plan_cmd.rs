@@ -313,6 +313,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         if let Some(note) = s.dropped.note() {
             println!("note: {note}");
         }
+        if let Some(note) = &s.gram_note {
+            println!("note: {note}");
+        }
         if s.log.fit.ridge > 0.0 {
             println!(
                 "note: the normal matrix was numerically singular: a relative ridge {:.0e} was \

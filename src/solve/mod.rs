@@ -32,7 +32,7 @@ mod outcome;
 mod params;
 mod sparse;
 pub mod vectors;
-pub(crate) use sparse::{csr_by_rows, raw as csr_raw, RowAccumulator};
+pub(crate) use sparse::{csr_by_rows, raw as csr_raw, transpose_with_positions};
 #[cfg(test)]
 mod tests;
 

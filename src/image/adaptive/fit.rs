@@ -40,6 +40,7 @@ use crate::basis::tensor::TensorValue;
 use crate::image::fit::ImageFitError;
 use crate::image::pixels::{filter_image, PixelIntegrals};
 use crate::solve::cg::CgReport;
+use crate::solve::transpose_with_positions;
 use crate::solve::{normal_ls, GlobalLsParams, RankPolicy};
 
 /// What the tree solve did.
@@ -338,8 +339,17 @@ fn fit_direct(
     let k = tree_kernel(tree, &functions, xs, ys);
     let kernel_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
-    let kt: CsMat<f64> = k.transpose_view().to_csr();
-    let (g, kept, update) = assemble(&k, &kt, &functions, xs, ys, gram.as_ref());
+    let (kt, positions_in_rows) = transpose_with_positions(&k);
+    let (g, kept, update) = assemble(
+        &k,
+        &kt,
+        &positions_in_rows,
+        &functions,
+        xs,
+        ys,
+        gram.as_ref(),
+    );
+    drop(positions_in_rows);
     *gram = Some(kept);
     let rhs: Vec<Vec<f64>> = values
         .iter()

@@ -32,7 +32,8 @@
 
 use sprs::CsMat;
 
-use crate::solve::{csr_by_rows, csr_raw as raw, RowAccumulator};
+use super::mix64;
+use crate::solve::{csr_by_rows, csr_raw as raw};
 
 /// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
 #[derive(Clone)]
@@ -53,6 +54,197 @@ impl TreeGram {
             (2 * self.upper.nnz()).saturating_sub(self.functions.len()),
             self.functions.len(),
         )
+    }
+}
+
+/// The first bytes of [`TreeGram::to_bytes`]: the layout's name and version.
+const GRAM_MAGIC: &[u8; 8] = b"RKWGRAM1";
+
+/// Why bytes are not a [`TreeGram`] for the caller's plan (the caller assembles afresh).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum GramBytesError {
+    /// Not this layout or version.
+    #[error("not a normal matrix of this build's layout (its first bytes are not `RKWGRAM1`)")]
+    Layout,
+    /// Written for another plan (its tag differs).
+    #[error("written for another plan (tag {found:016x}, this plan's {expected:016x})")]
+    OtherPlan {
+        /// This plan's tag.
+        expected: u64,
+        /// The tag in the bytes.
+        found: u64,
+    },
+    /// Cut short, or a checksum or size that does not add up.
+    #[error("damaged: {0}")]
+    Damaged(&'static str),
+}
+
+/// Checksum of 8-byte words: `sum_t mix(w_t + t)`, order-dependent, so a moved, cut or
+/// flipped word changes it.
+fn checksum(words: &[u8]) -> u64 {
+    words.chunks_exact(8).enumerate().fold(0u64, |acc, (t, c)| {
+        let w = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+        acc.wrapping_add(mix64(w.wrapping_add(t as u64)))
+    })
+}
+
+impl TreeGram {
+    /// The matrix as bytes (little-endian 64-bit words): [`GRAM_MAGIC`], the caller's `tag`
+    /// (naming the plan it belongs to), the sizes, the functions, the samples' positions,
+    /// the upper triangle's CSR arrays, and a checksum of all that.
+    pub fn to_bytes(&self, tag: u64) -> Vec<u8> {
+        let (indptr, indices, data) = raw(&self.upper);
+        let words = 5 + self.functions.len() + 2 * self.xs.len() + indptr.len() + 2 * data.len();
+        let mut out = Vec::with_capacity(8 * (words + 1) + GRAM_MAGIC.len());
+        out.extend_from_slice(GRAM_MAGIC);
+        let mut word = |v: u64| out.extend_from_slice(&v.to_le_bytes());
+        word(tag);
+        word(self.functions.len() as u64);
+        word(self.xs.len() as u64);
+        word(self.upper.nnz() as u64);
+        self.functions.iter().for_each(|&f| word(f as u64));
+        self.xs
+            .iter()
+            .chain(&self.ys)
+            .for_each(|v| word(v.to_bits()));
+        indptr.iter().chain(indices).for_each(|&i| word(i as u64));
+        data.iter().for_each(|v| word(v.to_bits()));
+        let sum = checksum(&out[GRAM_MAGIC.len()..]);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// The matrix of [`TreeGram::to_bytes`], if the bytes are whole and carry `tag`. The
+    /// structure is checked as well (ascending functions, a CSR of the upper triangle), so
+    /// that what is read is a valid start for [`assemble`], which then checks that its
+    /// samples and functions fit the fit's.
+    pub fn from_bytes(bytes: &[u8], tag: u64) -> Result<Self, GramBytesError> {
+        let body = bytes
+            .strip_prefix(GRAM_MAGIC)
+            .ok_or(GramBytesError::Layout)?;
+        if body.len() % 8 != 0 || body.len() < 48 {
+            return Err(GramBytesError::Damaged("not a whole number of words"));
+        }
+        let (payload, sum) = body.split_at(body.len() - 8);
+        if checksum(payload) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+            return Err(GramBytesError::Damaged("the checksum does not match"));
+        }
+        let mut words = payload
+            .chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")));
+        let mut next = || words.next().ok_or(GramBytesError::Damaged("cut short"));
+        let found = next()?;
+        if found != tag {
+            return Err(GramBytesError::OtherPlan {
+                expected: tag,
+                found,
+            });
+        }
+        let (p, m, nnz) = (next()? as usize, next()? as usize, next()? as usize);
+        if payload.len() != 8 * (4 + p + 2 * m + (p + 1) + 2 * nnz) {
+            return Err(GramBytesError::Damaged("the sizes do not add up"));
+        }
+        let mut take = |n: usize| (0..n).map(|_| next()).collect::<Result<Vec<u64>, _>>();
+        let functions: Vec<usize> = take(p)?.into_iter().map(|v| v as usize).collect();
+        let xs: Vec<f64> = take(m)?.into_iter().map(f64::from_bits).collect();
+        let ys: Vec<f64> = take(m)?.into_iter().map(f64::from_bits).collect();
+        let indptr: Vec<usize> = take(p + 1)?.into_iter().map(|v| v as usize).collect();
+        let indices: Vec<usize> = take(nnz)?.into_iter().map(|v| v as usize).collect();
+        let data: Vec<f64> = take(nnz)?.into_iter().map(f64::from_bits).collect();
+        let ascending = functions.windows(2).all(|w| w[0] < w[1]);
+        let upper_csr = indptr[0] == 0
+            && indptr[p] == nnz
+            && indptr.windows(2).all(|w| w[0] <= w[1])
+            && (0..p).all(|a| {
+                let row = &indices[indptr[a]..indptr[a + 1]];
+                row.first().is_none_or(|&b| b >= a)
+                    && row.windows(2).all(|w| w[0] < w[1])
+                    && row.last().is_none_or(|&b| b < p)
+            });
+        if !ascending || !upper_csr {
+            return Err(GramBytesError::Damaged("not an upper triangle in CSR"));
+        }
+        Ok(Self {
+            functions,
+            xs,
+            ys,
+            upper: CsMat::new((p, p), indptr, indices, data),
+        })
+    }
+
+    /// Samples the matrix was summed over.
+    pub fn samples(&self) -> usize {
+        self.xs.len()
+    }
+}
+
+/// The normal matrix a plan carries from one call to the next (the file protocol's
+/// `gram.bin`), and why the one read was set aside. Solver state only: two plan states that
+/// differ in it are equal.
+#[derive(Clone, Debug, Default)]
+pub struct CarriedGram {
+    /// The matrix (`None`: the next fit assembles afresh).
+    pub gram: Option<TreeGram>,
+    /// Why the matrix read from the file was set aside (`None`: it was used, or there was
+    /// none).
+    pub note: Option<String>,
+}
+
+impl PartialEq for CarriedGram {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl CarriedGram {
+    /// The matrix in `file` for the plan tagged `tag`; none, silently, when there is no file;
+    /// none, with a note naming the file and the fault, when it cannot be read or is not a
+    /// whole matrix of this plan ([`TreeGram::from_bytes`]).
+    pub fn read(file: &std::path::Path, tag: u64) -> Self {
+        let set_aside = |why: String| Self {
+            gram: None,
+            note: Some(format!(
+                "{}: {why}; the normal matrix is assembled afresh (the same result, more time)",
+                file.display()
+            )),
+        };
+        match std::fs::read(file) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Self::default(),
+            Err(e) => set_aside(format!("cannot be read ({e})")),
+            Ok(bytes) => match TreeGram::from_bytes(&bytes, tag) {
+                Ok(gram) => Self {
+                    gram: Some(gram),
+                    note: None,
+                },
+                Err(e) => set_aside(e.to_string()),
+            },
+        }
+    }
+
+    /// Writes the matrix to `file` (through a temporary file), or removes a stale file when
+    /// there is no matrix. A cache: when it cannot be written, the file is removed and the
+    /// next call assembles afresh.
+    pub fn write(&self, file: &std::path::Path, tag: u64) {
+        let written = self
+            .gram
+            .as_ref()
+            .is_some_and(|g| crate::io::output::write_new(file, &g.to_bytes(tag), true).is_ok());
+        if !written {
+            let _ = std::fs::remove_file(file);
+        }
+    }
+}
+
+impl PartialEq for TreeGram {
+    /// The same functions, samples (by bits) and upper triangle (by bits).
+    fn eq(&self, other: &Self) -> bool {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        self.functions == other.functions
+            && bits(&self.xs) == bits(&other.xs)
+            && bits(&self.ys) == bits(&other.ys)
+            && self.upper.indptr() == other.upper.indptr()
+            && self.upper.indices() == other.upper.indices()
+            && bits(self.upper.data()) == bits(other.upper.data())
     }
 }
 
@@ -79,12 +271,15 @@ pub(crate) struct GramUpdate {
 /// depend on the split: each row is summed on its own).
 const MIN_ROWS_PER_TASK: usize = 256;
 
-/// `G = K^T K` (both triangles, CSR, sorted) from `K` (`m x P` CSR, sorted rows) and `K^T`
-/// (`P x m` CSR, sorted rows), updating `previous` when it applies (its functions a subset of
+/// `G = K^T K` (both triangles, CSR, sorted) from `K` (`m x P` CSR, sorted rows), `K^T`
+/// (`P x m` CSR, sorted rows) and the positions of `K^T`'s entries in `K`'s rows
+/// ([`crate::solve::transpose_with_positions`]: row `j` is read from column `a` on without a
+/// search), updating `previous` when it applies (its functions a subset of
 /// `functions`, its samples a prefix of `(xs, ys)`), and the upper triangle to keep.
 pub(crate) fn assemble(
     k: &CsMat<f64>,
     kt: &CsMat<f64>,
+    positions_in_rows: &[usize],
     functions: &[usize],
     xs: &[f64],
     ys: &[f64],
@@ -162,17 +357,17 @@ pub(crate) fn assemble(
                     // Old sample: only its entries on new functions are new.
                     let row = &ni[np[j]..np[j + 1]];
                     let from = np[j] + row.partition_point(|&b| b < a);
-                    for s in from..np[j + 1] {
-                        acc.add(ni[s], kja * nd[s]);
-                    }
+                    acc.add_scaled(kja, &ni[from..np[j + 1]], &nd[from..np[j + 1]]);
                 } else {
-                    upper_row(acc, a, j, kja, (kp, ki, kd));
+                    let s = positions_in_rows[t];
+                    acc.add_scaled(kja, &ki[s..kp[j + 1]], &kd[s..kp[j + 1]]);
                 }
             }
         }
         _ => {
             for t in tp[a]..tp[a + 1] {
-                upper_row(acc, a, ti[t], td[t], (kp, ki, kd));
+                let (j, s) = (ti[t], positions_in_rows[t]);
+                acc.add_scaled(td[t], &ki[s..kp[j + 1]], &kd[s..kp[j + 1]]);
             }
         }
     });
@@ -190,21 +385,6 @@ pub(crate) fn assemble(
         upper,
     };
     (full, kept, update)
-}
-
-/// Adds `k_ja K[j, b]` for the entries `b >= a` of row `j` of `K` (CSR arrays).
-fn upper_row(
-    acc: &mut RowAccumulator,
-    a: usize,
-    j: usize,
-    kja: f64,
-    (kp, ki, kd): (&[usize], &[usize], &[f64]),
-) {
-    let row = &ki[kp[j]..kp[j + 1]];
-    let from = kp[j] + row.partition_point(|&b| b < a);
-    for s in from..kp[j + 1] {
-        acc.add(ki[s], kja * kd[s]);
-    }
 }
 
 /// Both triangles from the upper one: row `a` is `(b, G[b, a])` for `b < a` (the upper rows'
@@ -252,6 +432,7 @@ fn mirror(upper: &CsMat<f64>) -> CsMat<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solve::transpose_with_positions;
 
     /// A random sparse `m x p` matrix with sorted rows.
     fn random(m: usize, p: usize, seed: u64) -> CsMat<f64> {
@@ -277,15 +458,51 @@ mod tests {
     #[test]
     fn equals_sprs_product() {
         let k = random(300, 40, 7);
-        let kt: CsMat<f64> = k.transpose_view().to_csr();
+        let (kt, at) = transpose_with_positions(&k);
+        let by_sprs: CsMat<f64> = k.transpose_view().to_csr();
+        assert_eq!(kt, by_sprs);
         let reference: CsMat<f64> = &kt * &k;
         let xs: Vec<f64> = (0..300).map(|i| i as f64).collect();
         let functions: Vec<usize> = (0..40).collect();
-        let (g, _, update) = assemble(&k, &kt, &functions, &xs, &xs, None);
+        let (g, _, update) = assemble(&k, &kt, &at, &functions, &xs, &xs, None);
         assert_eq!(update, GramUpdate::default());
         assert_eq!(g.indptr(), reference.indptr());
         assert_eq!(g.indices(), reference.indices());
         assert_eq!(g.data(), reference.data());
+    }
+
+    /// The bytes give back the same matrix; a flipped bit, a cut, another layout or another
+    /// plan's tag are each refused with their reason.
+    #[test]
+    fn bytes_round_trip_and_damage() {
+        let k = random(120, 30, 5);
+        let (kt, at) = transpose_with_positions(&k);
+        let xs: Vec<f64> = (0..120).map(|i| i as f64 * 0.3).collect();
+        let functions: Vec<usize> = (0..30).map(|a| 2 * a).collect();
+        let (_, gram, _) = assemble(&k, &kt, &at, &functions, &xs, &xs, None);
+        let bytes = gram.to_bytes(42);
+        assert_eq!(TreeGram::from_bytes(&bytes, 42), Ok(gram.clone()));
+        assert_eq!(
+            TreeGram::from_bytes(&bytes, 43),
+            Err(GramBytesError::OtherPlan {
+                expected: 43,
+                found: 42
+            })
+        );
+        let mut flipped = bytes.clone();
+        flipped[100] ^= 1;
+        assert!(matches!(
+            TreeGram::from_bytes(&flipped, 42),
+            Err(GramBytesError::Damaged(_))
+        ));
+        assert!(matches!(
+            TreeGram::from_bytes(&bytes[..bytes.len() - 8], 42),
+            Err(GramBytesError::Damaged(_))
+        ));
+        assert_eq!(
+            TreeGram::from_bytes(b"RKWGRAM0", 42),
+            Err(GramBytesError::Layout)
+        );
     }
 
     /// Updating with appended samples and inserted functions equals rebuilding, bit for bit.
@@ -310,13 +527,20 @@ mod tests {
             }
             tri.to_csr::<usize>()
         };
-        let kt_old: CsMat<f64> = k_old.transpose_view().to_csr();
+        let (kt_old, at_old) = transpose_with_positions(&k_old);
         let old_functions: Vec<usize> = kept.iter().map(|&a| functions[a]).collect();
-        let (_, previous, _) =
-            assemble(&k_old, &kt_old, &old_functions, &xs[..mo], &ys[..mo], None);
-        let kt: CsMat<f64> = k.transpose_view().to_csr();
-        let (rebuilt, _, _) = assemble(&k, &kt, &functions, &xs, &ys, None);
-        let (updated, _, update) = assemble(&k, &kt, &functions, &xs, &ys, Some(&previous));
+        let (_, previous, _) = assemble(
+            &k_old,
+            &kt_old,
+            &at_old,
+            &old_functions,
+            &xs[..mo],
+            &ys[..mo],
+            None,
+        );
+        let (kt, at) = transpose_with_positions(&k);
+        let (rebuilt, _, _) = assemble(&k, &kt, &at, &functions, &xs, &ys, None);
+        let (updated, _, update) = assemble(&k, &kt, &at, &functions, &xs, &ys, Some(&previous));
         assert_eq!(update.kept_functions, kept.len());
         assert_eq!(update.kept_samples, mo);
         assert_eq!(updated.indptr(), rebuilt.indptr());
@@ -325,7 +549,7 @@ mod tests {
         // Other samples: not continued.
         let mut moved = xs.clone();
         moved[3] += 1.0;
-        let (_, _, update) = assemble(&k, &kt, &functions, &moved, &ys, Some(&previous));
+        let (_, _, update) = assemble(&k, &kt, &at, &functions, &moved, &ys, Some(&previous));
         assert_eq!(update, GramUpdate::default());
     }
 }

@@ -34,6 +34,16 @@
 //! The state is JSON with a format name and version ([`STATE_FORMAT`], [`STATE_VERSION`]);
 //! a state of another format or version, or one whose history does not fit its own
 //! parameters, is refused.
+//!
+//! *Work carried between calls.* Beside the state, `gram.bin` ([`GRAM_FILE`]) holds the
+//! normal matrix `G = K_T^T K_T` of the last round's fit ([`TreeGram::to_bytes`]), so the next
+//! call continues it with the new samples' rows instead of summing every sample again
+//! ([`super::gram`]: the continued matrix is the rebuilt one bit for bit, so the rounds are
+//! the same with or without it). It is a cache: tagged with the plan ([`PlanState::tag`]:
+//! plane and parameters) and checksummed; a missing file is assembled afresh silently (the
+//! first fit), a damaged one, one of another plan, or one whose samples are not the first of
+//! the call's is assembled afresh with a note ([`PlanStep::gram_note`]). A process that keeps
+//! the state in memory (Python's `Plan`) carries the matrix without the file.
 
 use std::path::{Path, PathBuf};
 
@@ -41,7 +51,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::correction::{output_pixels, PixelEstimate, ResidualCorrection};
-use super::fit::TreeFit;
+use super::fit::{FitState, TreeFit};
+use super::gram::TreeGram;
+use super::mix64;
 use super::refiner::{
     AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
 };
@@ -57,6 +69,10 @@ pub const STATE_FORMAT: &str = "rkwave-image-plan";
 pub const STATE_VERSION: u32 = 1;
 /// The state's file name inside its directory.
 pub const STATE_FILE: &str = "state.json";
+/// The carried normal matrix's file name inside the state's directory (module docs).
+pub const GRAM_FILE: &str = "gram.bin";
+
+pub use super::gram::CarriedGram;
 
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
@@ -185,6 +201,10 @@ pub struct PlanState {
     pub issued: Vec<IssuedRound>,
     /// Why the plan stopped (`None` while it runs).
     pub stop: Option<StopReason>,
+    /// The last fit's normal matrix, continued by the next round (module docs; kept in
+    /// [`GRAM_FILE`], not in the JSON).
+    #[serde(skip)]
+    pub carried: CarriedGram,
 }
 
 /// What one call of [`PlanState::advance`] did.
@@ -207,6 +227,9 @@ pub struct PlanStep {
     pub budget: usize,
     /// The samples dropped for a non-finite value (none unless the caller's policy drops).
     pub dropped: DroppedSamples,
+    /// Why the normal matrix carried from the last call was not continued and the round's was
+    /// assembled afresh (`None`: continued, or the first fit).
+    pub gram_note: Option<String>,
     /// When this round stopped the plan: the final reconstruction from its fit, with the
     /// plan's output pixels, without fitting the samples again (under the direct solve, the
     /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
@@ -238,17 +261,10 @@ pub struct PlanReconstruction {
     pub dropped: DroppedSamples,
 }
 
-/// 64-bit mix (SplitMix64's finaliser).
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.
 fn fingerprint(start: u64, xs: &[f64], ys: &[f64]) -> u64 {
     xs.iter().zip(ys).fold(start, |acc, (x, y)| {
-        acc.wrapping_add(mix(x.to_bits() ^ mix(y.to_bits()).rotate_left(17)))
+        acc.wrapping_add(mix64(x.to_bits() ^ mix64(y.to_bits()).rotate_left(17)))
     })
 }
 
@@ -278,6 +294,7 @@ impl PlanState {
                 fingerprint: format!("{:016x}", fingerprint(0, &base.xs, &base.ys)),
             }],
             stop: None,
+            carried: CarriedGram::default(),
         };
         Ok((state, base))
     }
@@ -497,7 +514,20 @@ impl PlanState {
             self.params.stop.budget.saturating_sub(self.positions()),
         )?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        let round = plan.step(samples.xs(), samples.ys(), &values)?;
+        let carried = self.carried.gram.take();
+        let mut gram_note = self.carried.note.take();
+        let offered = carried.as_ref().map(TreeGram::samples);
+        plan.fit_state_mut().gram = carried;
+        let stepped = plan.step(samples.xs(), samples.ys(), &values);
+        self.carried.gram = plan.fit_state_mut().gram.take();
+        let round = stepped?;
+        if let Some(m) = offered.filter(|_| round.log.fit.normal_kept_samples == 0) {
+            gram_note.get_or_insert(format!(
+                "the carried normal matrix ({m} samples) was not continued: the samples do not \
+                 start with its samples in the same order, or the tree lost functions; \
+                 assembled afresh"
+            ));
+        }
         // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
         // output pixels are those `reconstruct` would compute again from the same samples.
         let reconstruction = match round.decision {
@@ -554,6 +584,7 @@ impl PlanState {
             total_positions: self.positions(),
             budget: self.params.stop.budget,
             dropped,
+            gram_note,
             reconstruction,
         })
     }
@@ -588,7 +619,19 @@ impl PlanState {
         let plan = self.plan_at(k)?;
         self.check_memory(&plan, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        let (fit, significance) = plan.fit(samples.xs(), samples.ys(), &values)?;
+        // the carried normal matrix, continued (the same bits as assembled afresh)
+        let mut carried = FitState {
+            gram: self.carried.gram.clone(),
+            ..FitState::default()
+        };
+        let (fit, significance) = plan.fit_updating(
+            samples.xs(),
+            samples.ys(),
+            &values,
+            self.params.fit.solver,
+            None,
+            &mut carried,
+        )?;
         // the noise estimate of this fit, as the in-process loop's last round
         let sigma = significance.map_or(0.0, |s| s.level.sigma);
         let (fit_image, image, correction) = output_pixels(
@@ -644,27 +687,41 @@ impl PlanState {
         dir.join(STATE_FILE)
     }
 
-    /// Reads the state in `dir`.
+    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`] when it is
+    /// there and whole (module docs; otherwise a note says why it is not used).
     pub fn load(dir: &Path) -> Result<Self, ProtocolError> {
         let file = Self::path(dir);
         let text = std::fs::read_to_string(&file).map_err(|source| ProtocolError::Read {
             file: file.clone(),
             source,
         })?;
-        Self::from_json(&text, &file)
+        let mut state = Self::from_json(&text, &file)?;
+        state.carried = CarriedGram::read(&dir.join(GRAM_FILE), state.tag());
+        Ok(state)
+    }
+
+    /// The tag of this plan's carried normal matrix: a hash of the state's version, plane
+    /// and parameters (a matrix of another plan is not continued).
+    pub fn tag(&self) -> u64 {
+        let params = serde_json::to_string(&self.params).expect("parameters serialise");
+        format!("{}/{}/{params}", STATE_VERSION, self.plane)
+            .bytes()
+            .fold(0u64, |h, b| mix64(h ^ u64::from(b)))
     }
 
     /// Writes the state into `dir` (created if missing), replacing the previous state
-    /// atomically.
+    /// atomically, and the carried normal matrix beside it.
     pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
         let file = Self::path(dir);
         create_folder(dir, &file)?;
         write_new(&file, self.to_json().as_bytes(), true)?;
+        self.carried.write(&dir.join(GRAM_FILE), self.tag());
         Ok(())
     }
 
     /// Commits a round as one step: the state into `dir` and the positions `bytes` to
-    /// `positions` (replacing an existing file only with `overwrite`), both or neither.
+    /// `positions` (replacing an existing file only with `overwrite`), both or neither; then
+    /// the carried normal matrix (a cache, [`PlanState::save`]).
     ///
     /// Both are written to temporary files beside their targets first; then the positions
     /// are moved into place (refused if the file appeared meanwhile), then the state (a
@@ -699,6 +756,7 @@ impl PlanState {
             let _ = std::fs::remove_file(positions);
             return Err(e.into());
         }
+        self.carried.write(&dir.join(GRAM_FILE), self.tag());
         Ok(())
     }
 }

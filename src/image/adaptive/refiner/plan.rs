@@ -256,10 +256,16 @@ impl ImagePlan {
         )
     }
 
+    /// The solver state the next round's fit continues ([`FitState`]): a caller that keeps it
+    /// between processes (the file protocol's carried normal matrix) puts it back here.
+    pub fn fit_state_mut(&mut self) -> &mut FitState {
+        &mut self.state
+    }
+
     /// [`ImagePlan::fit`] continuing the solver state `state` ([`FitState`]),
     /// PCG starting from `start` (per image channel, then per probe channel; channels
     /// without one start from 0).
-    pub(super) fn fit_updating(
+    pub fn fit_updating(
         &self,
         xs: &[f64],
         ys: &[f64],

@@ -1,0 +1,182 @@
+"""Replay driver of the renderer loop: `rkwave plan` answered by a scene in this process.
+
+No renderer: each round's positions are answered by an analytic scene (a smooth gradient,
+two discs with sharp edges and a thin line, three channels, plus Gaussian noise) or by a
+stored image (`--reference H x W x C .npy`: the value of the pixel a position falls in, plus
+noise). The noise of round `r` is drawn from a generator seeded by `r`, so two binaries that
+hand out the same positions get the same answers.
+
+Per call it prints the wall time (process start and files included) and, from the call's
+`--json` report, the fit's stages: kernel rows, normal matrix (assembly or update) with the
+functions/samples carried over, factor + solve; then the total of the loop (every `plan`
+call, the stopping one writing the final image with `--final-image`), the renderer's time
+excluded. With several `--bin`, the binaries run back to back (alternating over `--repeat`)
+and the SHA-256 of every positions file and of the final image are compared between them.
+
+    python benches/plan_loop.py --bin target/release/rkwave --size 128 --spp 8
+    python benches/plan_loop.py --bin /tmp/old/rkwave --bin target/release/rkwave --size 128
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import resource
+import subprocess
+import tempfile
+import time
+
+import numpy as np
+
+
+def analytic(xs, ys, width, height):
+    """Three channels of a scene with smooth parts, edges and a thin feature."""
+    u, v = xs / width, ys / height
+    smooth = 0.3 + 0.2 * np.sin(3.0 * u) * np.cos(2.0 * v)
+    disc1 = ((u - 0.35) ** 2 + (v - 0.4) ** 2 < 0.04).astype(float)
+    disc2 = ((u - 0.7) ** 2 + (v - 0.65) ** 2 < 0.015).astype(float)
+    line = (np.abs(u + 0.5 * v - 0.9) < 0.004).astype(float)
+    return np.stack(
+        [smooth + 0.5 * disc1 + line, smooth + 0.4 * disc2, 0.6 * smooth + 0.3 * disc1 * v], axis=1
+    )
+
+
+def answer(positions, round_, args, reference):
+    xs, ys = positions[:, 0], positions[:, 1]
+    if reference is None:
+        vals = analytic(xs, ys, args.size, args.size)
+    else:
+        h, w = reference.shape[:2]
+        ix = np.clip(xs.astype(int), 0, w - 1)
+        iy = np.clip(ys.astype(int), 0, h - 1)
+        vals = reference[iy, ix].reshape(len(xs), -1)
+    rng = np.random.default_rng(1000 + round_)
+    vals = vals + args.noise * rng.standard_normal(vals.shape)
+    return np.hstack([positions, vals])
+
+
+def sha(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()[:16]
+
+
+CPU = [0.0]
+
+
+def cpu_children():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run(cmd):
+    """Runs `cmd`; its wall seconds (and its CPU seconds, user + system, added to CPU[0])."""
+    c0 = cpu_children()
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    CPU[0] += cpu_children() - c0
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}")
+    return proc.stdout, dt
+
+
+def loop(binary, args, reference, work):
+    """One whole loop; returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
+    cpu0 = CPU[0]
+    state = os.path.join(work, "state")
+    pos = os.path.join(work, "next.npy")
+    allp = os.path.join(work, "all.npy")
+    final = os.path.join(work, "final.npy")
+    res = f"{args.size}x{args.size}"
+    prefix = ["nice", "-n", str(args.nice)] if args.nice else []
+    out, dt = run(prefix + [binary, "plan", "--state", state, "--resolution", res, "--spp",
+                            str(args.spp), "--out", pos, "--force", "--json"])
+    rows = [("start", 0, 0, dt, None)]
+    hashes = [sha(pos)]
+    samples = None
+    round_ = 0
+    while True:
+        p = np.load(pos).reshape(-1, 2)
+        if len(p) == 0:
+            break
+        round_ += 1
+        new = answer(p, round_, args, reference)
+        samples = new if samples is None else np.vstack([samples, new])
+        np.save(allp, samples)
+        out, dt = run(prefix + [binary, "plan", "--state", state, "--samples", allp, "--out",
+                                pos, "--final-image", final, "--force", "--json"])
+        step = json.loads(out).get("step") or {}
+        fit = (step.get("log") or {}).get("fit") or {}
+        rows.append((f"round {round_}", len(samples), fit.get("functions", 0), dt, fit))
+        last = json.loads(out)
+        hashes.append(sha(pos))
+    if not os.path.exists(final):
+        # 0 positions handed out without a stop: the final image by reconstruct --state
+        out, dt = run(prefix + [binary, "reconstruct", "--dim", "2", "--state", state, "--input",
+                                allp, "--output", final, "--force", "--json"])
+        rows.append(("reconstruct --state (0 positions, no stop)", len(samples), 0, dt, None))
+    hashes.append(sha(final))
+    return sum(r[3] for r in rows), CPU[0] - cpu0, rows, hashes
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--bin", action="append", required=True, help="rkwave binary (repeatable)")
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--spp", type=int, default=8)
+    ap.add_argument("--noise", type=float, default=0.05)
+    ap.add_argument("--reference", help="H x W x C .npy image answering the positions")
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--nice", type=int, default=0, help="run rkwave under nice -n N")
+    ap.add_argument("--keep", help="run in this folder and keep its files (one binary, one repeat)")
+    ap.add_argument("--quiet", action="store_true", help="totals only")
+    args = ap.parse_args()
+    reference = None
+    if args.reference:
+        reference = np.load(args.reference)
+        args.size = reference.shape[1]
+    print(f"# {args.size}x{args.size}, {args.spp} spp, load {os.getloadavg()[0]:.2f}")
+    totals = {b: [] for b in args.bin}
+    cpus = {b: [] for b in args.bin}
+    hashes = {}
+    for rep in range(args.repeat):
+        for b in args.bin:
+            if args.keep:
+                os.makedirs(args.keep, exist_ok=True)
+                total, cpu, rows, h = loop(b, args, reference, args.keep)
+            else:
+                with tempfile.TemporaryDirectory() as work:
+                    total, cpu, rows, h = loop(b, args, reference, work)
+            totals[b].append(total)
+            cpus[b].append(cpu)
+            hashes.setdefault(b, h)
+            if args.quiet:
+                continue
+            print(f"## {b} (repeat {rep + 1})")
+            print("| call | samples | functions | wall (s) | kernel (s) | normal (s) | kept f/s "
+                  "| solve (s) |")
+            print("|---|---:|---:|---:|---:|---:|---:|---:|")
+            for name, m, p, dt, fit in rows:
+                if fit:
+                    kept = f"{fit.get('normal_kept_functions', 0)}/{fit.get('normal_kept_samples', 0)}"
+                    print(f"| {name} | {m} | {p} | {dt:.2f} | {fit.get('kernel_s', 0):.2f} | "
+                          f"{fit.get('normal_s', 0):.2f} | {kept} | {fit.get('solve_s', 0):.2f} |")
+                else:
+                    print(f"| {name} | | | {dt:.2f} | | | | |")
+            print(f"| **total** | | | **{total:.2f}** | | | | |")
+            print(f"CPU seconds (user + system, all threads): {cpu:.2f}")
+    print(f"# load {os.getloadavg()[0]:.2f}")
+    for b in args.bin:
+        ts = totals[b]
+        print(f"total {b}: wall " + ", ".join(f"{t:.2f}" for t in ts) + f" s (min {min(ts):.2f}); "
+              "CPU " + ", ".join(f"{t:.2f}" for t in cpus[b]) + " s")
+    if len(args.bin) > 1:
+        first = hashes[args.bin[0]]
+        for b in args.bin[1:]:
+            same = hashes[b] == first
+            print(f"outputs of {b} {'identical to' if same else 'DIFFER from'} {args.bin[0]} "
+                  f"({len(first)} files: positions per call and the final image)")
+
+
+if __name__ == "__main__":
+    main()
