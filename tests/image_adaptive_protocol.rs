@@ -597,3 +597,34 @@ fn command_line_protocol_gives_the_in_process_image() {
     ]);
     assert!(out_msg.contains("40"), "{out_msg}");
 }
+
+/// A plan whose budget runs out while detail is still significant stops at the round whose
+/// samples spend it: no call hands out zero positions without stopping (the renderer would
+/// have nothing to render and no final image; `drive` asserts every other call hands out
+/// positions). Noise-free and noisy, 8 spp.
+#[test]
+fn a_spent_budget_stops_the_plan() {
+    let scene = Scene::from_file(Scene::builtin_dir().join("shapes.json")).unwrap();
+    let plane = ImagePlane::new(64, 64).unwrap();
+    let clean = SceneOracle {
+        scene: &scene,
+        plane,
+    };
+    let noisy = NoisyOracle {
+        inner: &straight_edge,
+        sigma: 0.05,
+        seed: 3,
+    };
+    let oracles: [&dyn ImageOracle; 2] = [&clean, &noisy];
+    let mut spent = 0;
+    for (k, oracle) in oracles.into_iter().enumerate() {
+        let params = budget_and_seed(8 * plane.pixels(), 3);
+        let (state, rendered) = drive(oracle, plane, &params);
+        if state.stop == Some(rkwave::adaptive::StopReason::Budget) {
+            assert_eq!(rendered.xs.len(), params.stop.budget, "oracle {k}");
+            spent += 1;
+        }
+        assert!(rendered.xs.len() <= params.stop.budget, "oracle {k}");
+    }
+    assert!(spent > 0, "the test needs a plan that spends its budget");
+}

@@ -201,7 +201,9 @@ impl ImagePlan {
     }
 
     /// Stop: at the tolerance, when nothing below the depth limit is left to deepen or
-    /// densify, or at the round limit. Under [`SpreadRule::Uncertainty`] a tree that is deep
+    /// densify, when the budget is spent (a round could only deepen the tree without a
+    /// sample to give it, and the renderer would get no positions yet no final image), or at
+    /// the round limit. Under [`SpreadRule::Uncertainty`] a tree that is deep
     /// everywhere its detail is significant is not a reason to stop while the budget lasts:
     /// the next rounds densify where the slots' means are uncertain.
     fn stop_reason(
@@ -218,6 +220,8 @@ impl ImagePlan {
             Some(StopReason::Tolerance)
         } else if nothing_significant && ind.insignificant.is_empty() && !densify_at_limit {
             Some(StopReason::DepthLimit)
+        } else if samples >= self.params.stop.budget {
+            Some(StopReason::Budget)
         } else if round >= self.params.stop.max_rounds {
             Some(StopReason::MaxRounds)
         } else {
