@@ -22,12 +22,14 @@ def scattered(spp=4, seed=11):
     [("wavelet", [], 2), ("wavelet", [], 3), ("local", ["--method", "local"], 2)],
 )
 def test_image_equals_cli_bit_for_bit(tmp_path, cli_json, method, flags, p):
+    # `--pixels fit`: the command line's default estimate is `auto` (films chosen by SURE);
+    # rkwave.reconstruct_image fits.
     xy = scattered()
     values = disc_scene(xy)
     np.save(tmp_path / "s.npy", np.c_[xy, values])
     theirs = cli_json(
         "reconstruct", "--dim", 2, "--input", tmp_path / "s.npy", "--resolution", f"{W}x{H}",
-        "--output", tmp_path / "i.npy", "--p", p, *flags,
+        "--output", tmp_path / "i.npy", "--p", p, "--pixels", "fit", *flags,
     )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rkwave.RkwaveWarning)
