@@ -56,6 +56,20 @@ fn setup() -> (ImagePlane, AdaptiveParams) {
     (plane, params)
 }
 
+/// A plan of [`setup`] started and saved in `dir`, its base positions rendered.
+fn started(dir: &std::path::Path) -> (ImagePlane, Rendered) {
+    let (plane, params) = setup();
+    let (state, base) = PlanState::start(plane, &params).unwrap();
+    state.save(dir).unwrap();
+    let mut rendered = Rendered {
+        xs: vec![],
+        ys: vec![],
+        values: vec![],
+    };
+    rendered.render(&ORACLE, &base);
+    (plane, rendered)
+}
+
 /// An edit of `gram.bin` between two calls.
 type Damage<'a> = &'a dyn Fn(&std::path::Path);
 
@@ -123,15 +137,7 @@ fn drive(
 #[test]
 fn carried_matrix_equals_a_fresh_assembly() {
     let dir = common::scratch("gram", "fresh");
-    let (plane, params) = setup();
-    let (state, base) = PlanState::start(plane, &params).unwrap();
-    state.save(&dir).unwrap();
-    let mut rendered = Rendered {
-        xs: vec![],
-        ys: vec![],
-        values: vec![],
-    };
-    rendered.render(&ORACLE, &base);
+    let (plane, mut rendered) = started(&dir);
     let mut continued = 0;
     for round in 1..=4 {
         let mut state = PlanState::load(&dir).unwrap();
@@ -240,15 +246,7 @@ fn damaged_or_foreign_matrix_is_rebuilt_with_a_note() {
 #[test]
 fn reordered_samples_are_fitted_afresh_with_a_note() {
     let dir = common::scratch("gram", "order");
-    let (plane, params) = setup();
-    let (state, base) = PlanState::start(plane, &params).unwrap();
-    state.save(&dir).unwrap();
-    let mut rendered = Rendered {
-        xs: vec![],
-        ys: vec![],
-        values: vec![],
-    };
-    rendered.render(&ORACLE, &base);
+    let (plane, mut rendered) = started(&dir);
     let mut state = PlanState::load(&dir).unwrap();
     let step = state.advance(&rendered.samples(plane)).unwrap();
     state.save(&dir).unwrap();
