@@ -17,7 +17,7 @@ use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples};
 use rkwave::io::{read_npy, write_npy, SampleSet};
 
-use common::scenes::straight_edge;
+use common::scenes::{straight_edge, DiscsAndLine};
 use rkwave::image::adaptive::{ImageSampling, StopParams};
 
 /// The default parameters with `budget` samples and positions seeded by `seed`.
@@ -601,7 +601,10 @@ fn command_line_protocol_gives_the_in_process_image() {
 /// A plan whose budget runs out while detail is still significant stops at the round whose
 /// samples spend it: no call hands out zero positions without stopping (the renderer would
 /// have nothing to render and no final image; `drive` asserts every other call hands out
-/// positions). Noise-free and noisy, 8 spp.
+/// positions). Noise-free and noisy, 8 spp. The third plan (three noisy channels at 32², a
+/// renderer plan's parameters) is one where the round that reaches the budget has marked
+/// slots whose children already hold their samples: without the budget stop it deepened the
+/// tree and handed out zero positions (checked by removing the stop).
 #[test]
 fn a_spent_budget_stops_the_plan() {
     let scene = Scene::from_file(Scene::builtin_dir().join("shapes.json")).unwrap();
@@ -615,10 +618,23 @@ fn a_spent_budget_stops_the_plan() {
         sigma: 0.05,
         seed: 3,
     };
-    let oracles: [&dyn ImageOracle; 2] = [&clean, &noisy];
+    let small = ImagePlane::new(32, 32).unwrap();
+    let discs = DiscsAndLine { w: 32.0, h: 32.0 };
+    let noisy_discs = NoisyOracle {
+        inner: &discs,
+        sigma: 0.05,
+        seed: 7,
+    };
+    let mut renderer = AdaptiveParams::renderer_plan();
+    renderer.stop.budget = 8 * small.pixels();
+    renderer.sampling.seed = 1;
+    let plans: [(&dyn ImageOracle, ImagePlane, AdaptiveParams); 3] = [
+        (&clean, plane, budget_and_seed(8 * plane.pixels(), 3)),
+        (&noisy, plane, budget_and_seed(8 * plane.pixels(), 3)),
+        (&noisy_discs, small, renderer),
+    ];
     let mut spent = 0;
-    for (k, oracle) in oracles.into_iter().enumerate() {
-        let params = budget_and_seed(8 * plane.pixels(), 3);
+    for (k, (oracle, plane, params)) in plans.into_iter().enumerate() {
         let (state, rendered) = drive(oracle, plane, &params);
         if state.stop == Some(rkwave::adaptive::StopReason::Budget) {
             assert_eq!(rendered.xs.len(), params.stop.budget, "oracle {k}");

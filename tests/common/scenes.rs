@@ -46,3 +46,29 @@ pub fn jittered_with(w: usize, h: usize, spp: usize, rng: &mut impl Rng) -> (Vec
     }
     (xs, ys)
 }
+
+/// Three channels on a `w x h` plane (pixel units): a smooth background, two discs with sharp
+/// edges and a thin bright line (the replay scene of `benches/plan_loop.py`).
+pub struct DiscsAndLine {
+    /// Width in pixels.
+    pub w: f64,
+    /// Height in pixels.
+    pub h: f64,
+}
+
+impl rkwave::image::adaptive::ImageOracle for DiscsAndLine {
+    fn channels(&self) -> usize {
+        3
+    }
+    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
+        let (u, v) = (x / self.w, y / self.h);
+        let smooth = 0.3 + 0.2 * (3.0 * u).sin() * (2.0 * v).cos();
+        let inside = |r2: f64, r: f64| if r2 < r { 1.0 } else { 0.0 };
+        let disc1 = inside((u - 0.35).powi(2) + (v - 0.4).powi(2), 0.04);
+        let disc2 = inside((u - 0.7).powi(2) + (v - 0.65).powi(2), 0.015);
+        let line = inside((u + 0.5 * v - 0.9).abs(), 0.004);
+        out[0] = smooth + 0.5 * disc1 + line;
+        out[1] = smooth + 0.4 * disc2;
+        out[2] = 0.6 * smooth + 0.3 * disc1 * v;
+    }
+}
