@@ -45,6 +45,18 @@
 //! `Shrunk` shrinks the clamped corrected pixels; `BoxShrunk` shrinks the box pixels (the
 //! mean of each pixel's samples; the clamped corrected pixel where a pixel has none).
 //!
+//! *Auto* ([`PixelEstimate::Auto`]). Per pixel the film filter of least SURE over the
+//! window around it, on the plan's own samples, then shrinkage at the chosen films' noise: the
+//! uniform path's `auto` ([`crate::image::estimate::auto`], whose module states the risk
+//! estimate), run on the samples the rounds placed. SURE compares each film with the mean of
+//! the pixel's own samples, so it needs a sample in every pixel and two in at least half of
+//! them; otherwise the output is [`PixelEstimate::Shrunk`]'s and the reason is kept in
+//! [`ResidualCorrection::auto_fallback`] and printed. SURE is unbiased for noise in the
+//! values at fixed positions (Monte Carlo noise); it does not see the fit's gain as a control
+//! variate against the error of the positions (texture past Nyquist), so where that gain is
+//! the larger one `Shrunk` is better: docs/measurements.md, "The final image of the plan by
+//! SURE".
+//!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop ([`super::refine_image`]) and the file protocol
