@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 
 import metrics  # noqa: E402
 
-ESTIMATES = ["residual_clamped", "shrunk", "box_shrunk"]
+ESTIMATES = ["residual_clamped", "shrunk", "box_shrunk", "auto"]
 
 
 def main():

@@ -45,6 +45,18 @@
 //! `Shrunk` shrinks the clamped corrected pixels; `BoxShrunk` shrinks the box pixels (the
 //! mean of each pixel's samples; the clamped corrected pixel where a pixel has none).
 //!
+//! *Auto* ([`PixelEstimate::Auto`]). Per pixel the film filter of least SURE over the
+//! window around it, on the plan's own samples, then shrinkage at the chosen films' noise: the
+//! uniform path's `auto` ([`crate::image::estimate::auto`], whose module states the risk
+//! estimate), run on the samples the rounds placed. SURE compares each film with the mean of
+//! the pixel's own samples, so it needs a sample in every pixel and two in at least half of
+//! them; otherwise the output is [`PixelEstimate::Shrunk`]'s and the reason is kept in
+//! [`ResidualCorrection::auto_fallback`] and printed. SURE is unbiased for noise in the
+//! values at fixed positions (Monte Carlo noise); it does not see the fit's gain as a control
+//! variate against the error of the positions (texture past Nyquist), so where that gain is
+//! the larger one `Shrunk` is better: docs/measurements.md, "The final image of the plan by
+//! SURE".
+//!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop ([`super::refine_image`]) and the file protocol
@@ -59,8 +71,11 @@ use super::fit::TreeFit;
 use super::significance::residuals;
 use super::AdaptiveError;
 use crate::adaptive::QuadTree;
-use crate::image::estimate::{shrink_channel, universal_threshold, PixelStatistics, ShrinkParams};
-use crate::image::{ImagePlane, PixelImage};
+use crate::image::estimate::auto::{self, WINDOW_HALF};
+use crate::image::estimate::{
+    shrink_channel, universal_threshold, FilmCount, PixelStatistics, ShrinkParams,
+};
+use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
 /// Standard errors of the residual mean beyond which a pixel is corrected (the default of
 /// [`super::AdaptiveParams::residual_z`]): a pixel of pure noise is corrected with probability
@@ -93,16 +108,21 @@ pub enum PixelEstimate {
     /// The box pixels (the clamped corrected pixel where a pixel holds no sample), shrunk at
     /// the samples' noise level (module docs, *Shrinkage*).
     BoxShrunk,
+    /// The film of least SURE per pixel on the plan's samples, then Haar shrinkage (the
+    /// uniform path's `auto`, [`crate::image::estimate::auto`]); [`PixelEstimate::Shrunk`]
+    /// where the samples do not permit it (module docs, *Auto*).
+    Auto,
 }
 
 impl PixelEstimate {
     /// Every estimate.
-    pub const ALL: [PixelEstimate; 5] = [
+    pub const ALL: [PixelEstimate; 6] = [
         PixelEstimate::ResidualClamped,
         PixelEstimate::ResidualCorrected,
         PixelEstimate::FitOnly,
         PixelEstimate::Shrunk,
         PixelEstimate::BoxShrunk,
+        PixelEstimate::Auto,
     ];
 
     /// The name on the command line and in state files.
@@ -113,12 +133,17 @@ impl PixelEstimate {
             PixelEstimate::FitOnly => "fit_only",
             PixelEstimate::Shrunk => "shrunk",
             PixelEstimate::BoxShrunk => "box_shrunk",
+            PixelEstimate::Auto => "auto",
         }
     }
 
-    /// Whether the estimate shrinks at the samples' noise level.
+    /// Whether the estimate shrinks at the samples' noise level ([`PixelEstimate::Auto`]
+    /// shrinks too, at the chosen films' noise, or falls back to [`PixelEstimate::Shrunk`]).
     pub fn shrinks(self) -> bool {
-        matches!(self, PixelEstimate::Shrunk | PixelEstimate::BoxShrunk)
+        matches!(
+            self,
+            PixelEstimate::Shrunk | PixelEstimate::BoxShrunk | PixelEstimate::Auto
+        )
     }
 }
 
@@ -134,7 +159,7 @@ impl std::str::FromStr for PixelEstimate {
             .ok_or_else(|| {
                 format!(
                     "unknown output pixels `{s}`: expected residual_clamped, residual_corrected, \
-                     fit_only, shrunk or box_shrunk"
+                     fit_only, shrunk, box_shrunk or auto"
                 )
             })
     }
@@ -167,16 +192,53 @@ pub struct ResidualCorrection {
     /// The shrinkage's threshold per channel, `t_c` (as `shrink_sigma`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shrink_threshold: Option<Vec<f64>>,
+    /// [`PixelEstimate::Auto`]: the pixels per film chosen by SURE (`None` when it fell
+    /// back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub films: Option<Vec<FilmCount>>,
+    /// [`PixelEstimate::Auto`]: why the samples did not permit it, so that the output is
+    /// [`PixelEstimate::Shrunk`]'s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_fallback: Option<String>,
 }
 
 impl ResidualCorrection {
     /// The correction in words (for the notes of a report).
     pub fn note(&self) -> String {
+        if self.estimate == PixelEstimate::Auto {
+            return match (&self.films, &self.auto_fallback) {
+                (Some(films), _) => format!(
+                    "output pixels: auto, the film of least SURE over the {side} x {side} window \
+                     around each pixel on the plan's samples (pixels per film: {}), shrunk \
+                     (soft, orthonormal Haar, 16 shifts) at the universal threshold {} of the \
+                     chosen films' noise {} per channel",
+                    films
+                        .iter()
+                        .map(|f| format!("{} {}", f.film, f.pixels))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    fmt_list(self.shrink_threshold.as_deref().unwrap_or_default()),
+                    fmt_list(self.shrink_sigma.as_deref().unwrap_or_default()),
+                    side = 2 * WINDOW_HALF + 1,
+                ),
+                (None, reason) => {
+                    let shrunk = ResidualCorrection {
+                        estimate: PixelEstimate::Shrunk,
+                        ..self.clone()
+                    };
+                    format!(
+                        "output pixels: auto fell back to shrunk ({}); {}",
+                        reason.as_deref().unwrap_or("no reason given"),
+                        shrunk.note().trim_start_matches("output pixels: ")
+                    )
+                }
+            };
+        }
         match self.estimate {
             PixelEstimate::FitOnly => {
                 "output pixels: the fit's box pixels only (no residual correction)".to_string()
             }
-            PixelEstimate::Shrunk | PixelEstimate::BoxShrunk => {
+            PixelEstimate::Shrunk | PixelEstimate::BoxShrunk | PixelEstimate::Auto => {
                 let what = if self.estimate == PixelEstimate::Shrunk {
                     format!(
                         "the fit's box pixels plus the significant mean residual ({} of {} \
@@ -346,6 +408,20 @@ pub fn output_pixels(
         sigma,
         ..ResidualCorrection::default()
     };
+    if estimate == PixelEstimate::Auto {
+        let chosen = ImageSamples::new(plane, xs.to_vec(), ys.to_vec(), values.to_vec())
+            .map_err(|e| e.to_string())
+            .and_then(|samples| auto::estimate(&samples, &ShrinkParams::default()));
+        match chosen {
+            Ok((image, auto)) => {
+                report.films = Some(auto.films);
+                report.shrink_sigma = Some(auto.output_noise);
+                report.shrink_threshold = Some(auto.threshold);
+                return Ok((fit_image, image, report));
+            }
+            Err(reason) => report.auto_fallback = Some(reason),
+        }
+    }
     let mut image = fit_image.clone();
     if estimate != PixelEstimate::FitOnly {
         let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
@@ -359,7 +435,10 @@ pub fn output_pixels(
     }
     if matches!(
         estimate,
-        PixelEstimate::ResidualClamped | PixelEstimate::Shrunk | PixelEstimate::BoxShrunk
+        PixelEstimate::ResidualClamped
+            | PixelEstimate::Shrunk
+            | PixelEstimate::BoxShrunk
+            | PixelEstimate::Auto
     ) {
         let (clamped, largest) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
         report.clamped = clamped;
