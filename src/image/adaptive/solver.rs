@@ -74,3 +74,64 @@ impl Default for TreeSolver {
 
 /// Largest tree the direct solve takes over from a stalled PCG.
 pub const DIRECT_FALLBACK_MAX: usize = 40_000;
+
+/// The solver of a plan's fit of `samples` (`channels` channels, `next` positions to hand
+/// out after it) on `plane` with a tree of at most `levels` levels: `wanted`, or, when that
+/// is an assembled solve whose estimate ([`crate::resources::ImageRequest`]) exceeds the
+/// memory limit, matrix-free PCG ([`TreeSolver::default`]) with the note saying so. Refused
+/// when PCG does not fit either.
+pub(crate) fn fitting_solver(
+    wanted: TreeSolver,
+    plane: crate::image::ImagePlane,
+    (p, levels, rho): (usize, u32, f64),
+    (samples, channels, next): (usize, usize, usize),
+) -> Result<(TreeSolver, Option<String>), crate::resources::ResourceError> {
+    use crate::resources::{ImageRequest, ImageSolve};
+    let check = |solver: TreeSolver| {
+        let solve = match solver {
+            TreeSolver::Pcg { .. } => ImageSolve::TreePcg { p, levels, rho },
+            _ => ImageSolve::TreeDirect { p, levels, rho },
+        };
+        let request = ImageRequest {
+            pixels: plane.pixels() as f64,
+            channels,
+            samples: samples as f64,
+            from_file: false,
+            positions: next as f64,
+            solve,
+            images: 2,
+        };
+        request.estimate().check(
+            || {
+                format!(
+                    "the plan's fit of {samples} samples on a tree of {levels} levels ({plane})"
+                )
+            },
+            || {
+                "a smaller budget (--budget, --spp) or depth limit (--below-pixel) for a new plan"
+                    .into()
+            },
+        )
+    };
+    match check(wanted) {
+        Err(e) if !matches!(wanted, TreeSolver::Pcg { .. }) => {
+            let pcg = TreeSolver::default();
+            check(pcg)?;
+            Ok((pcg, Some(fallback_note(&e.to_string()))))
+        }
+        checked => checked.map(|()| (wanted, None)),
+    }
+}
+
+/// The note of a fit that takes matrix-free PCG because the assembled solve does not fit in
+/// memory (`why`: the refusal).
+pub(crate) fn fallback_note(why: &str) -> String {
+    let TreeSolver::Pcg { tolerance, .. } = TreeSolver::default() else {
+        unreachable!("the default solver is PCG")
+    };
+    format!(
+        "the direct solve does not fit in memory ({why}): this fit uses the matrix-free PCG \
+         solve instead (to a relative residual of {tolerance:e}; `--solver pcg` for the \
+         whole plan)"
+    )
+}
