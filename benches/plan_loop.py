@@ -128,6 +128,9 @@ def loop(binary, args, reference, work):
         np.save(allp, samples)
         out, dt = run(prefix + [binary, "plan", "--state", state, "--samples", allp, "--out",
                                 pos, "--final-image", final, "--force", "--json"])
+        if args.keep:
+            with open(os.path.join(work, f"call{round_}.json"), "w") as f:
+                f.write(out)
         step = json.loads(out).get("step") or {}
         fit = (step.get("log") or {}).get("fit") or {}
         rows.append((f"round {round_}", len(samples), fit.get("functions", 0), dt, fit))

@@ -8,7 +8,9 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, PositionPattern, SamplePositions};
+use rkwave::image::adaptive::{
+    AdaptiveParams, PixelEstimate, PositionPattern, SamplePositions, TreeSolver,
+};
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::{ImagePlane, NonFinitePolicy};
 use rkwave::io::output::{same_file, OutputError};
@@ -92,7 +94,7 @@ pub struct PlanArgs {
     pub output_pixels: Option<PixelEstimate>,
     /// The solver of the rounds' fits (recorded in the state): `pcg` (default for a new plan:
     /// matrix-free conjugate gradients, the rounds to a relative residual of 1e-2 from the
-    /// last round's coefficients carried in `pcg.bin`, the final image's fit to 1e-6) or
+    /// last round's coefficients carried in `pcg.bin`, the final image's fit to 1e-4) or
     /// `direct` (the sparse Cholesky of the normal matrix carried in `gram.bin`). A fit whose
     /// direct solve would exceed the memory limit uses PCG, with a note.
     #[arg(long, value_enum)]
@@ -162,7 +164,11 @@ fn params(
             ..base.output
         },
         fit: FitParams {
-            solver: args.solver.map_or(base.fit.solver, SolverChoice::solver),
+            solver: match args.solver {
+                None => base.fit.solver,
+                Some(SolverChoice::Pcg) => TreeSolver::plan_pcg(),
+                Some(choice) => choice.solver(),
+            },
             ..base.fit
         },
         ..*base

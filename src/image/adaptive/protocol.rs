@@ -542,8 +542,8 @@ impl PlanState {
         if let Err(AdaptiveError::Resource(e)) = &stepped {
             // the fit's own, finer estimate refused the direct solve: PCG instead
             if !matches!(plan.params().fit.solver, TreeSolver::Pcg { .. }) {
-                solver_note = Some(fallback_note(&e.to_string()));
-                plan = self.plan_at(k, TreeSolver::default())?;
+                solver_note = Some(fallback_note(e));
+                plan = self.plan_at(k, TreeSolver::plan_pcg())?;
                 pcg_note = self.offer_pcg(&mut plan, samples);
                 stepped = plan.step(samples.xs(), samples.ys(), &values);
             }
