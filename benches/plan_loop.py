@@ -10,10 +10,13 @@ Per call it prints the wall time (process start and files included) and, from th
 `--json` report, the fit's stages: kernel rows, normal matrix (assembly or update) with the
 functions/samples carried over, factor + solve; then the total of the loop (every `plan`
 call, the stopping one writing the final image with `--final-image`), the renderer's time
-excluded. With several `--bin`, the binaries run back to back (alternating over `--repeat`)
-and the SHA-256 of every positions file and of the final image are compared between them.
+excluded, with the CPU seconds (user + system, system apart) and the peak resident memory of
+the largest call (`wait4` of each call). `--psnr` adds the final image's PSNR against the
+scene's box pixels; `--solver NAME` starts the plan with `--solver NAME`. With several
+`--bin`, the binaries run back to back (alternating over `--repeat`) and the SHA-256 of every
+positions file and of the final image are compared between them.
 
-    python benches/plan_loop.py --bin target/release/rkwave --size 128 --spp 8
+    python benches/plan_loop.py --bin target/release/rkwave --size 128 --spp 8 --psnr
     python benches/plan_loop.py --bin /tmp/old/rkwave --bin target/release/rkwave --size 128
 """
 
@@ -60,6 +63,7 @@ def sha(path):
 
 
 CPU = [0.0]
+SYS = [0.0]
 PEAK = [0]
 
 
@@ -73,6 +77,7 @@ def run(cmd):
         dt = time.perf_counter() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
         CPU[0] += usage.ru_utime + usage.ru_stime
+        SYS[0] += usage.ru_stime
         PEAK[0] = max(PEAK[0], usage.ru_maxrss * 1024)
         out.seek(0)
         err.seek(0)
@@ -104,7 +109,7 @@ def psnr(image, reference):
 
 def loop(binary, args, reference, work):
     """One whole loop; returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
-    cpu0 = CPU[0]
+    cpu0, sys0 = CPU[0], SYS[0]
     state = os.path.join(work, "state")
     pos = os.path.join(work, "next.npy")
     allp = os.path.join(work, "all.npy")
@@ -142,7 +147,7 @@ def loop(binary, args, reference, work):
                                 allp, "--output", final, "--force", "--json"])
         rows.append(("reconstruct --state (0 positions, no stop)", len(samples), 0, dt, None))
     hashes.append(sha(final))
-    return sum(r[3] for r in rows), CPU[0] - cpu0, rows, hashes
+    return sum(r[3] for r in rows), (CPU[0] - cpu0, SYS[0] - sys0), rows, hashes
 
 
 def main():
@@ -205,12 +210,12 @@ def main():
                 else:
                     print(f"| {name} | | | {dt:.2f} | | | | |")
             print(f"| **total** | | | **{total:.2f}** | | | | |")
-            print(f"CPU seconds (user + system, all threads): {cpu:.2f}")
+            print(f"CPU seconds (user + system, all threads): {cpu[0]:.2f} (system {cpu[1]:.2f})")
     print(f"# load {os.getloadavg()[0]:.2f}")
     for b in args.bin:
         ts = totals[b]
         print(f"total {b}: wall " + ", ".join(f"{t:.2f}" for t in ts) + f" s (min {min(ts):.2f}); "
-              "CPU " + ", ".join(f"{t:.2f}" for t in cpus[b]) + " s; peak "
+              "CPU " + ", ".join(f"{t:.2f} (sys {u:.2f})" for t, u in cpus[b]) + " s; peak "
               + ", ".join(f"{m / 1e9:.2f}" for m in peaks[b]) + " GB"
               + ("; final PSNR " + ", ".join(f"{v:.2f}" for v in psnrs[b]) + " dB"
                  if psnrs[b] else ""))

@@ -383,7 +383,8 @@ fn npy_image(path: &std::path::Path) -> Vec<f64> {
 /// function) writing `.npy` samples, then `rkwave reconstruct --dim 2 --state`: the image is
 /// the in-process loop's, bit for bit (float64 files keep every position and value). The
 /// plan is started with the engine's output pixels (`--output-pixels residual_clamped`; a new
-/// plan's own default shrinks them, which on this noise-free edge moves pixels by round-off).
+/// plan's own default shrinks them, which on this noise-free edge moves pixels by round-off)
+/// and solver (`--solver direct`; a new plan's own is PCG, `tests/plan_pcg.rs`).
 #[test]
 fn command_line_protocol_gives_the_in_process_image() {
     let dir = common::scratch("plan", "loop");
@@ -411,6 +412,8 @@ fn command_line_protocol_gives_the_in_process_image() {
                 format!("{w}x{h}"),
                 "--output-pixels".into(),
                 "residual_clamped".into(),
+                "--solver".into(),
+                "direct".into(),
             ]);
         } else {
             args.extend([

@@ -355,6 +355,7 @@ impl PyPlan {
         self.time_s.library += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut notes = plan_fit_notes(&done);
+        notes.extend(done.solver_note.clone());
         notes.extend(done.dropped.note());
         warn_all(py, &notes)?;
         let plane = self.state.plane;

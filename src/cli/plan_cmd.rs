@@ -381,7 +381,7 @@ pub fn reconstruct(
         .reconstruct_dropped(&samples, dropped, estimate)
         .map_err(protocol)?;
     rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
-    let mut overridden = Vec::new();
+    let mut overridden: Vec<String> = done.solver_note.iter().cloned().collect();
     // The plan fixes the basis and the solve: say so when the user asked for others.
     if let Some(p) = args.p.filter(|&p| p != state.params.tree.p) {
         overridden.push(format!(

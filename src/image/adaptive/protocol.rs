@@ -285,6 +285,9 @@ pub struct PlanReconstruction {
     pub complete: bool,
     /// The samples dropped for a non-finite value (none unless the caller's policy drops).
     pub dropped: DroppedSamples,
+    /// Why the fit used another solver than the plan's (the direct solve would not fit in
+    /// memory; `None`: the plan's solver).
+    pub solver_note: Option<String>,
 }
 
 /// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.
@@ -587,6 +590,7 @@ impl PlanState {
                     round: k,
                     complete: true,
                     dropped: dropped.clone(),
+                    solver_note: solver_note.clone(),
                 }))
             }
             Decision::Sample(_) => None,
@@ -653,7 +657,7 @@ impl PlanState {
         estimate: PixelEstimate,
     ) -> Result<PlanReconstruction, ProtocolError> {
         let k = self.matching_round(samples, &dropped)?;
-        let (mut plan, _) = self.fitting_plan(k, samples, 0)?;
+        let (mut plan, solver_note) = self.fitting_plan(k, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         // the carried normal matrix, continued (the same bits as assembled afresh), and
         // PCG's carried start and diagonal
@@ -693,6 +697,7 @@ impl PlanState {
             round: k,
             complete: self.stop.is_some() && k + 1 == self.issued.len(),
             dropped,
+            solver_note,
         })
     }
 }
