@@ -8,11 +8,12 @@ mod common;
 
 use rkwave::image::adaptive::protocol::{CarriedPcg, PlanState, PCG_FILE};
 use rkwave::image::adaptive::{
-    refine_image, AdaptiveParams, ImageOracle, ImagePlan, NoisyOracle, SamplePositions, TreeSolver,
+    refine_image, AdaptiveParams, ImagePlan, NoisyOracle, SamplePositions, TreeSolver,
 };
-use rkwave::image::{ImagePlane, ImageSamples};
+use rkwave::image::ImagePlane;
 
 use common::image_cli::{arg, plan_round, plan_start, render};
+use common::rendered::Rendered;
 use common::scenes::straight_edge;
 use common::succeeds;
 
@@ -30,35 +31,6 @@ fn setup() -> (ImagePlane, AdaptiveParams) {
     params.sampling.seed = 11;
     params.fit.solver = TreeSolver::default();
     (plane, params)
-}
-
-/// The samples so far, grown round by round as a renderer would.
-#[derive(Default)]
-struct Rendered {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    values: Vec<f64>,
-}
-
-impl Rendered {
-    fn render(&mut self, next: &SamplePositions) {
-        let mut buf = [0.0];
-        for (&x, &y) in next.xs.iter().zip(&next.ys) {
-            ORACLE.sample(x, y, &mut buf);
-            self.xs.push(x);
-            self.ys.push(y);
-            self.values.push(buf[0]);
-        }
-    }
-    fn samples(&self, plane: ImagePlane) -> ImageSamples {
-        ImageSamples::new(
-            plane,
-            self.xs.clone(),
-            self.ys.clone(),
-            vec![self.values.clone()],
-        )
-        .unwrap()
-    }
 }
 
 /// An edit of `pcg.bin` before a call.
@@ -83,7 +55,7 @@ fn drive(dir: &std::path::Path, edit: &dyn Fn(usize) -> Option<Edit<'static>>) -
     let (state, base) = PlanState::start(plane, &params).unwrap();
     state.save(dir).unwrap();
     let mut rendered = Rendered::default();
-    rendered.render(&base);
+    rendered.render(&ORACLE, &base);
     let mut positions = vec![base];
     let mut notes = vec![];
     for round in 1.. {
@@ -107,7 +79,7 @@ fn drive(dir: &std::path::Path, edit: &dyn Fn(usize) -> Option<Edit<'static>>) -
                 condition: last.condition,
             };
         }
-        rendered.render(&step.next);
+        rendered.render(&ORACLE, &step.next);
         positions.push(step.next);
         assert!(round < 40, "the plan did not stop");
     }
