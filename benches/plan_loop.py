@@ -10,10 +10,13 @@ Per call it prints the wall time (process start and files included) and, from th
 `--json` report, the fit's stages: kernel rows, normal matrix (assembly or update) with the
 functions/samples carried over, factor + solve; then the total of the loop (every `plan`
 call, the stopping one writing the final image with `--final-image`), the renderer's time
-excluded. With several `--bin`, the binaries run back to back (alternating over `--repeat`)
-and the SHA-256 of every positions file and of the final image are compared between them.
+excluded, with the CPU seconds (user + system, system apart) and the peak resident memory of
+the largest call (`wait4` of each call). `--psnr` adds the final image's PSNR against the
+scene's box pixels; `--solver NAME` starts the plan with `--solver NAME`. With several
+`--bin`, the binaries run back to back (alternating over `--repeat`) and the SHA-256 of every
+positions file and of the final image are compared between them.
 
-    python benches/plan_loop.py --bin target/release/rkwave --size 128 --spp 8
+    python benches/plan_loop.py --bin target/release/rkwave --size 128 --spp 8 --psnr
     python benches/plan_loop.py --bin /tmp/old/rkwave --bin target/release/rkwave --size 128
 """
 
@@ -21,7 +24,6 @@ import argparse
 import hashlib
 import json
 import os
-import resource
 import subprocess
 import tempfile
 import time
@@ -61,36 +63,62 @@ def sha(path):
 
 
 CPU = [0.0]
-
-
-def cpu_children():
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
+SYS = [0.0]
+PEAK = [0]
 
 
 def run(cmd):
-    """Runs `cmd`; its wall seconds (and its CPU seconds, user + system, added to CPU[0])."""
-    c0 = cpu_children()
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    dt = time.perf_counter() - t0
-    CPU[0] += cpu_children() - c0
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}")
-    return proc.stdout, dt
+    """Runs `cmd`; its wall seconds (its CPU seconds, user + system, added to CPU[0], its
+    peak resident memory folded into PEAK[0])."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=out, stderr=err, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        dt = time.perf_counter() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        CPU[0] += usage.ru_utime + usage.ru_stime
+        SYS[0] += usage.ru_stime
+        PEAK[0] = max(PEAK[0], usage.ru_maxrss * 1024)
+        out.seek(0)
+        err.seek(0)
+        if proc.returncode != 0:
+            raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{err.read()}")
+        return out.read(), dt
+
+
+def truth(size, supersample=8):
+    """The analytic scene's box pixels (`size x size x 3`), by `supersample^2` midpoints a
+    pixel (exact on the smooth part to O(1/supersample^2); an edge pixel's coverage to
+    O(1/supersample))."""
+    n = supersample
+    offsets = (np.arange(n) + 0.5) / n
+    out = np.zeros((size, size, 3))
+    for row in range(size):
+        ys = row + np.repeat(offsets, n * size)
+        xs = np.tile((np.arange(size)[:, None] + offsets[None, :]).reshape(-1), n)
+        vals = analytic(xs, ys, size, size).reshape(n, size, n, 3)
+        out[row] = vals.mean(axis=(0, 2))
+    return out
+
+
+def psnr(image, reference):
+    """`10 log10(1 / MSE)` over every pixel and channel (peak 1, as `rkwave`'s metrics)."""
+    mse = np.mean((image.reshape(reference.shape) - reference) ** 2)
+    return 10.0 * np.log10(1.0 / mse)
 
 
 def loop(binary, args, reference, work):
     """One whole loop; returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
-    cpu0 = CPU[0]
+    cpu0, sys0 = CPU[0], SYS[0]
     state = os.path.join(work, "state")
     pos = os.path.join(work, "next.npy")
     allp = os.path.join(work, "all.npy")
     final = os.path.join(work, "final.npy")
     res = f"{args.size}x{args.size}"
     prefix = ["nice", "-n", str(args.nice)] if args.nice else []
+    solver = ["--solver", args.solver] if args.solver else []
     out, dt = run(prefix + [binary, "plan", "--state", state, "--resolution", res, "--spp",
-                            str(args.spp), "--out", pos, "--force", "--json"])
+                            str(args.spp), "--out", pos, "--force", "--json"] + solver)
     rows = [("start", 0, 0, dt, None)]
     hashes = [sha(pos)]
     samples = None
@@ -105,6 +133,9 @@ def loop(binary, args, reference, work):
         np.save(allp, samples)
         out, dt = run(prefix + [binary, "plan", "--state", state, "--samples", allp, "--out",
                                 pos, "--final-image", final, "--force", "--json"])
+        if args.keep:
+            with open(os.path.join(work, f"call{round_}.json"), "w") as f:
+                f.write(out)
         step = json.loads(out).get("step") or {}
         fit = (step.get("log") or {}).get("fit") or {}
         rows.append((f"round {round_}", len(samples), fit.get("functions", 0), dt, fit))
@@ -116,7 +147,7 @@ def loop(binary, args, reference, work):
                                 allp, "--output", final, "--force", "--json"])
         rows.append(("reconstruct --state (0 positions, no stop)", len(samples), 0, dt, None))
     hashes.append(sha(final))
-    return sum(r[3] for r in rows), CPU[0] - cpu0, rows, hashes
+    return sum(r[3] for r in rows), (CPU[0] - cpu0, SYS[0] - sys0), rows, hashes
 
 
 def main():
@@ -130,6 +161,10 @@ def main():
     ap.add_argument("--nice", type=int, default=0, help="run rkwave under nice -n N")
     ap.add_argument("--keep", help="run in this folder and keep its files (one binary, one repeat)")
     ap.add_argument("--quiet", action="store_true", help="totals only")
+    ap.add_argument("--solver", help="pass `--solver NAME` to the plan's first call")
+    ap.add_argument("--psnr", action="store_true",
+                    help="the final image's PSNR against the scene's box pixels (the analytic "
+                         "scene supersampled 8 x 8 a pixel, or the --reference image)")
     args = ap.parse_args()
     reference = None
     if args.reference:
@@ -138,15 +173,26 @@ def main():
     print(f"# {args.size}x{args.size}, {args.spp} spp, load {os.getloadavg()[0]:.2f}")
     totals = {b: [] for b in args.bin}
     cpus = {b: [] for b in args.bin}
+    peaks = {b: [] for b in args.bin}
+    psnrs = {b: [] for b in args.bin}
+    exact = None
+    if args.psnr:
+        exact = reference if reference is not None else truth(args.size)
     hashes = {}
     for rep in range(args.repeat):
         for b in args.bin:
+            PEAK[0] = 0
             if args.keep:
                 os.makedirs(args.keep, exist_ok=True)
                 total, cpu, rows, h = loop(b, args, reference, args.keep)
+                final = np.load(os.path.join(args.keep, "final.npy")) if args.psnr else None
             else:
                 with tempfile.TemporaryDirectory() as work:
                     total, cpu, rows, h = loop(b, args, reference, work)
+                    final = np.load(os.path.join(work, "final.npy")) if args.psnr else None
+            if final is not None:
+                psnrs[b].append(psnr(final, exact))
+            peaks[b].append(PEAK[0])
             totals[b].append(total)
             cpus[b].append(cpu)
             hashes.setdefault(b, h)
@@ -164,12 +210,15 @@ def main():
                 else:
                     print(f"| {name} | | | {dt:.2f} | | | | |")
             print(f"| **total** | | | **{total:.2f}** | | | | |")
-            print(f"CPU seconds (user + system, all threads): {cpu:.2f}")
+            print(f"CPU seconds (user + system, all threads): {cpu[0]:.2f} (system {cpu[1]:.2f})")
     print(f"# load {os.getloadavg()[0]:.2f}")
     for b in args.bin:
         ts = totals[b]
         print(f"total {b}: wall " + ", ".join(f"{t:.2f}" for t in ts) + f" s (min {min(ts):.2f}); "
-              "CPU " + ", ".join(f"{t:.2f}" for t in cpus[b]) + " s")
+              "CPU " + ", ".join(f"{t:.2f} (sys {u:.2f})" for t, u in cpus[b]) + " s; peak "
+              + ", ".join(f"{m / 1e9:.2f}" for m in peaks[b]) + " GB"
+              + ("; final PSNR " + ", ".join(f"{v:.2f}" for v in psnrs[b]) + " dB"
+                 if psnrs[b] else ""))
     if len(args.bin) > 1:
         first = hashes[args.bin[0]]
         for b in args.bin[1:]:

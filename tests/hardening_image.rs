@@ -10,7 +10,8 @@ mod common;
 use std::path::Path;
 
 use common::image_cli::{
-    arg, plan_round, reconstruct2d, samples_npy, started_plan, write_npy_unchecked,
+    arg, plan_round, plan_start, reconstruct2d, render, samples_npy, started_plan,
+    write_npy_unchecked,
 };
 use common::{rkwave, succeeds, text, user_error, Scratch};
 use rkwave::io::SampleSet;
@@ -134,14 +135,19 @@ fn large_image_requests_are_refused_before_allocating() {
     assert!(!d.join("cmp").exists());
 }
 
-/// Class "aborts instead of refusals", the plan: a round whose tree fit exceeds the limit is
-/// refused before the fit (exit 2, the parts named), the state does not move and no
-/// positions are written; under a limit below the budget itself the state is not called
-/// damaged.
+/// Class "aborts instead of refusals", the plan: under a limit below the budget itself a
+/// round is refused (exit 2), the state is not called damaged, does not move and no
+/// positions are written; a round whose direct fit exceeds the limit is fitted by PCG
+/// instead, the note naming the estimate's parts.
 #[test]
 fn a_plan_round_above_the_limit_is_refused_and_the_state_survives() {
     let d = scratch("plan_memory");
-    let s0 = started_plan(&d, "128x128", "4");
+    let n0 = d.join("n0.npy");
+    let mut start = plan_start("128x128", "4", &d, &n0);
+    start.extend(["--solver".to_string(), "direct".to_string()]);
+    succeeds(&start);
+    let s0 = d.join("s0.npy");
+    render(None, &n0, &s0);
     let state = std::fs::read(d.join("state.json")).unwrap();
     let n1 = d.join("n1.npy");
     let round = |limit: &str| {
@@ -153,8 +159,6 @@ fn a_plan_round_above_the_limit_is_refused_and_the_state_survives() {
                 .collect::<Vec<_>>(),
         ))
     };
-    let e = round("20M");
-    assert!(e.contains("normal matrix") && e.contains("factor"), "{e}");
     let e = round("2M");
     assert!(
         e.contains("memory") && !e.contains("not a plan state"),
@@ -162,7 +166,15 @@ fn a_plan_round_above_the_limit_is_refused_and_the_state_survives() {
     );
     assert!(!n1.exists());
     assert_eq!(std::fs::read(d.join("state.json")).unwrap(), state);
-    succeeds(&plan_round(&d, &s0, &n1));
+    let mut tight = vec!["--memory-limit".to_string(), "20M".to_string()];
+    tight.extend(plan_round(&d, &s0, &n1));
+    let text = succeeds(&tight);
+    assert!(
+        text.contains("matrix-free PCG")
+            && text.contains("normal matrix")
+            && text.contains("factor"),
+        "{text}"
+    );
 }
 
 /// Class "checks after the work": an output in a missing folder was found only after the fit
@@ -327,9 +339,12 @@ fn estimate(args: &[String], limit: &str, cwd: &Path) -> f64 {
         .output()
         .unwrap();
     let e = text(&out);
-    assert_eq!(out.status.code(), Some(2), "{all:?}: {e}");
+    // a refusal, or a plan's direct fit taken over by PCG (its note names the estimate)
+    let fallback = out.status.code() == Some(0) && e.contains("matrix-free PCG");
+    assert!(out.status.code() == Some(2) || fallback, "{all:?}: {e}");
     let need = e.split("would need about ").nth(1).expect("an estimate");
-    parse_bytes(&need[..need.find(" of memory").unwrap()])
+    let end = need.find(" of memory").or_else(|| need.find(" against"));
+    parse_bytes(&need[..end.unwrap()])
 }
 
 /// The variable that turns [`peak_probe`] into the measuring parent of one `rkwave` run.
@@ -405,15 +420,24 @@ fn peak_probe() {
 fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
     let d = scratch("estimate");
     let mut rows = Vec::new();
-    let mut measure = |name: String, args: Vec<String>, limit: &str, cwd: &Path| {
-        let e = estimate(&args, limit, cwd);
-        let m = peak(&args, cwd);
-        rows.push(format!(
-            "{name}: estimate {e:.3e}, peak {m:.3e}, ratio {:.2}",
-            m / e
-        ));
-        (name, m / e)
-    };
+    // `restore`: a plan folder whose state the estimate's call advanced (its direct fit taken
+    // over by PCG), put back before the peak's call
+    let mut measure =
+        |name: String, args: Vec<String>, limit: &str, cwd: &Path, restore: Option<&Path>| {
+            let saved = restore.map(|dir| std::fs::read(dir.join("state.json")).unwrap());
+            let e = estimate(&args, limit, cwd);
+            if let (Some(dir), Some(state)) = (restore, saved) {
+                std::fs::write(dir.join("state.json"), state).unwrap();
+                std::fs::remove_file(dir.join("n1.npy")).unwrap();
+                let _ = std::fs::remove_file(dir.join("pcg.bin"));
+            }
+            let m = peak(&args, cwd);
+            rows.push(format!(
+                "{name}: estimate {e:.3e}, peak {m:.3e}, ratio {:.2}",
+                m / e
+            ));
+            (name, m / e)
+        };
     let mut ratios = Vec::new();
     for r in [128usize, 256] {
         let res = format!("{r}x{r}");
@@ -422,7 +446,7 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
         // The estimate is the fit's (the default `--pixels auto` fits nothing and stays below).
         args.extend(["--force", "--pixels", "fit"].map(String::from));
         let limit = format!("{}", 3 * std::fs::metadata(&s).unwrap().len() + (1 << 20));
-        ratios.push(measure(format!("uniform {res}"), args, &limit, &d));
+        ratios.push(measure(format!("uniform {res}"), args, &limit, &d, None));
         let image = |extra: &[&str], out: &str| {
             with(
                 [
@@ -449,12 +473,14 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
             image(&[], "i.npy"),
             "1M",
             &d,
+            None,
         ));
         ratios.push(measure(
             format!("adaptive PCG {res}"),
             image(&["--adaptive", "--solver", "pcg"], "p.npy"),
             "1M",
             &d,
+            None,
         ));
         let half = format!("{}x{}", r / 2, r / 2);
         let direct = image_cmd(
@@ -464,7 +490,13 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
             &d.join("a.npy"),
             &["--adaptive", "--force"],
         );
-        ratios.push(measure(format!("adaptive direct {half}"), direct, "1M", &d));
+        ratios.push(measure(
+            format!("adaptive direct {half}"),
+            direct,
+            "1M",
+            &d,
+            None,
+        ));
         let compare = [
             "compare",
             "--scene",
@@ -481,10 +513,15 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
         ]
         .map(String::from)
         .to_vec();
-        ratios.push(measure(format!("compare {res}"), compare, "1M", &d));
+        ratios.push(measure(format!("compare {res}"), compare, "1M", &d, None));
         let plan = d.join(format!("plan{r}"));
         std::fs::create_dir(&plan).unwrap();
-        let s0 = started_plan(&plan, &res, "4");
+        let n0 = plan.join("n0.npy");
+        let mut start = plan_start(&res, "4", &plan, &n0);
+        start.extend(["--solver".to_string(), "direct".to_string()]);
+        succeeds(&start);
+        let s0 = plan.join("s0.npy");
+        render(None, &n0, &s0);
         let args = [
             "plan",
             "--state",
@@ -498,7 +535,13 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
         .to_vec();
         // above the reading (3 x the file) and the budget (168 bytes a sample)
         let limit = format!("{}", 200 * 4 * r * r);
-        ratios.push(measure(format!("plan round 1 {res}"), args, &limit, &d));
+        ratios.push(measure(
+            format!("plan round 1 {res} (direct)"),
+            args,
+            &limit,
+            &d,
+            Some(&plan),
+        ));
     }
     let report = rows.join("\n");
     println!("{report}");

@@ -18,7 +18,7 @@ use rkwave::image::{ImagePlane, ImageSamples};
 use rkwave::io::{read_npy, write_npy, SampleSet};
 
 use common::scenes::{straight_edge, DiscsAndLine};
-use rkwave::image::adaptive::{ImageSampling, StopParams};
+use rkwave::image::adaptive::{ImageSampling, StopParams, TreeSolver};
 
 /// The default parameters with `budget` samples and positions seeded by `seed`.
 fn budget_and_seed(budget: usize, seed: u64) -> AdaptiveParams {
@@ -383,7 +383,8 @@ fn npy_image(path: &std::path::Path) -> Vec<f64> {
 /// function) writing `.npy` samples, then `rkwave reconstruct --dim 2 --state`: the image is
 /// the in-process loop's, bit for bit (float64 files keep every position and value). The
 /// plan is started with the engine's output pixels (`--output-pixels residual_clamped`; a new
-/// plan's own default shrinks them, which on this noise-free edge moves pixels by round-off).
+/// plan's own default shrinks them, which on this noise-free edge moves pixels by round-off)
+/// and solver (`--solver direct`; a new plan's own is PCG, `tests/plan_pcg.rs`).
 #[test]
 fn command_line_protocol_gives_the_in_process_image() {
     let dir = common::scratch("plan", "loop");
@@ -411,6 +412,8 @@ fn command_line_protocol_gives_the_in_process_image() {
                 format!("{w}x{h}"),
                 "--output-pixels".into(),
                 "residual_clamped".into(),
+                "--solver".into(),
+                "direct".into(),
             ]);
         } else {
             args.extend([
@@ -602,9 +605,10 @@ fn command_line_protocol_gives_the_in_process_image() {
 /// samples spend it: no call hands out zero positions without stopping (the renderer would
 /// have nothing to render and no final image; `drive` asserts every other call hands out
 /// positions). Noise-free and noisy, 8 spp. The third plan (three noisy channels at 32², a
-/// renderer plan's parameters) is one where the round that reaches the budget has marked
-/// slots whose children already hold their samples: without the budget stop it deepened the
-/// tree and handed out zero positions (checked by removing the stop).
+/// renderer plan's parameters with the direct solve) is one where the round that reaches the
+/// budget has marked slots whose children already hold their samples: without the budget stop
+/// it deepened the tree and handed out zero positions (checked by removing the stop). The
+/// fourth is the same plan with a renderer plan's own solver (PCG).
 #[test]
 fn a_spent_budget_stops_the_plan() {
     let scene = Scene::from_file(Scene::builtin_dir().join("shapes.json")).unwrap();
@@ -628,9 +632,12 @@ fn a_spent_budget_stops_the_plan() {
     let mut renderer = AdaptiveParams::renderer_plan();
     renderer.stop.budget = 8 * small.pixels();
     renderer.sampling.seed = 1;
-    let plans: [(&dyn ImageOracle, ImagePlane, AdaptiveParams); 3] = [
+    let mut renderer_direct = renderer.clone();
+    renderer_direct.fit.solver = TreeSolver::Direct;
+    let plans: [(&dyn ImageOracle, ImagePlane, AdaptiveParams); 4] = [
         (&clean, plane, budget_and_seed(8 * plane.pixels(), 3)),
         (&noisy, plane, budget_and_seed(8 * plane.pixels(), 3)),
+        (&noisy_discs, small, renderer_direct),
         (&noisy_discs, small, renderer),
     ];
     let mut spent = 0;

@@ -7,40 +7,12 @@ mod common;
 
 use rkwave::image::adaptive::protocol::{PlanState, GRAM_FILE};
 use rkwave::image::adaptive::{
-    fit_tree_updating, AdaptiveParams, FitState, ImageOracle, NoisyOracle, SamplePositions,
-    TreeGram, TreeSolver,
+    fit_tree_updating, AdaptiveParams, FitState, NoisyOracle, SamplePositions, TreeGram, TreeSolver,
 };
-use rkwave::image::{ImagePlane, ImageSamples};
+use rkwave::image::ImagePlane;
 
+use common::rendered::Rendered;
 use common::scenes::straight_edge;
-
-/// The samples so far, grown round by round as a renderer would.
-struct Rendered {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    values: Vec<f64>,
-}
-
-impl Rendered {
-    fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
-        let mut buf = [0.0];
-        for (&x, &y) in next.xs.iter().zip(&next.ys) {
-            oracle.sample(x, y, &mut buf);
-            self.xs.push(x);
-            self.ys.push(y);
-            self.values.push(buf[0]);
-        }
-    }
-    fn samples(&self, plane: ImagePlane) -> ImageSamples {
-        ImageSamples::new(
-            plane,
-            self.xs.clone(),
-            self.ys.clone(),
-            vec![self.values.clone()],
-        )
-        .unwrap()
-    }
-}
 
 const ORACLE: NoisyOracle<'static> = NoisyOracle {
     inner: &straight_edge,

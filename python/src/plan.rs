@@ -4,11 +4,13 @@
 //! the tree the samples were planned for); this class keeps every sample so far in memory
 //! and the positions it handed out for the next round.
 //!
-//! The state in memory carries the last round's normal matrix to the next round
-//! ([`PlanState::carried`]), as `rkwave plan` does through `gram.bin`.
+//! The state in memory carries the last round's solver state to the next round (under PCG,
+//! the plan's default, its start and diagonal, [`PlanState::pcg`]; under the direct solve,
+//! the normal matrix, [`PlanState::carried`]), as `rkwave plan` does through `pcg.bin` and
+//! `gram.bin`.
 //!
 //! `save(dir)` writes the state in the format of `rkwave plan --state DIR` (`state.json`,
-//! and `gram.bin`),
+//! and `pcg.bin` or `gram.bin`),
 //! every sample so far as `samples.npy` (`m x (2 + channels)`, what `--samples` and
 //! `reconstruct --dim 2 --state` read) and the pending positions as `next.npy` (`n x 2`, what
 //! `--out` writes), so a loop can move between the command line and Python either way.
@@ -283,7 +285,9 @@ impl PyPlan {
             .dropped
             .note()
             .into_iter()
+            .chain(step.solver_note.clone())
             .chain(step.gram_note.clone())
+            .chain(step.pcg_note.clone())
             .collect();
         warn_all(py, &notes)?;
         let library = t_lib.elapsed().as_secs_f64();
@@ -351,6 +355,7 @@ impl PyPlan {
         self.time_s.library += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut notes = plan_fit_notes(&done);
+        notes.extend(done.solver_note.clone());
         notes.extend(done.dropped.note());
         warn_all(py, &notes)?;
         let plane = self.state.plane;

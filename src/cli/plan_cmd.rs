@@ -8,16 +8,19 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, PositionPattern, SamplePositions};
+use rkwave::image::adaptive::{
+    AdaptiveParams, PixelEstimate, PositionPattern, SamplePositions, TreeSolver,
+};
 use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
 use rkwave::image::{ImagePlane, NonFinitePolicy};
 use rkwave::io::output::{same_file, OutputError};
 use rkwave::io::{npy_bytes, read_image_samples_with, SampleSet};
 
-use super::image_args::{check_p, parse_resolution};
+use super::image_args::{check_p, parse_resolution, SolverChoice};
 use super::{check_writable, CliError};
 use rkwave::image::adaptive::{
-    GrowthParams, ImageSampling, NoiseParams, OutputParams, QuadTreeParams, StopParams, TreeParams,
+    FitParams, GrowthParams, ImageSampling, NoiseParams, OutputParams, QuadTreeParams, StopParams,
+    TreeParams,
 };
 
 /// `rkwave plan`.
@@ -89,6 +92,13 @@ pub struct PlanArgs {
     /// state's.
     #[arg(long)]
     pub output_pixels: Option<PixelEstimate>,
+    /// The solver of the rounds' fits (recorded in the state): `pcg` (default for a new plan:
+    /// matrix-free conjugate gradients, the rounds to a relative residual of 1e-2 from the
+    /// last round's coefficients carried in `pcg.bin`, the final image's fit to 1e-4) or
+    /// `direct` (the sparse Cholesky of the normal matrix carried in `gram.bin`). A fit whose
+    /// direct solve would exceed the memory limit uses PCG, with a note.
+    #[arg(long, value_enum)]
+    pub solver: Option<SolverChoice>,
     /// Overwrite the positions file; without `--samples`, also replace an existing plan.
     #[arg(long)]
     pub force: bool,
@@ -152,6 +162,14 @@ fn params(
         output: OutputParams {
             pixels: args.output_pixels.unwrap_or(base.output.pixels),
             ..base.output
+        },
+        fit: FitParams {
+            solver: match args.solver {
+                None => base.fit.solver,
+                Some(SolverChoice::Pcg) => TreeSolver::plan_pcg(),
+                Some(choice) => choice.solver(),
+            },
+            ..base.fit
         },
         ..*base
     })
@@ -313,7 +331,10 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         if let Some(note) = s.dropped.note() {
             println!("note: {note}");
         }
-        if let Some(note) = &s.gram_note {
+        for note in [&s.solver_note, &s.gram_note, &s.pcg_note]
+            .into_iter()
+            .flatten()
+        {
             println!("note: {note}");
         }
         if s.log.fit.ridge > 0.0 {
@@ -360,7 +381,7 @@ pub fn reconstruct(
         .reconstruct_dropped(&samples, dropped, estimate)
         .map_err(protocol)?;
     rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
-    let mut overridden = Vec::new();
+    let mut overridden: Vec<String> = done.solver_note.iter().cloned().collect();
     // The plan fixes the basis and the solve: say so when the user asked for others.
     if let Some(p) = args.p.filter(|&p| p != state.params.tree.p) {
         overridden.push(format!(

@@ -8,7 +8,8 @@
 //! - [`oracle`]: the dense least-squares oracle `c = K^+ f` by an SVD (nalgebra), with the
 //!   one tolerance rule every solver is held to;
 //! - [`image_cli`]: image-plane sample files, `reconstruct --dim 2` / `plan` arguments and a
-//!   renderer answering a plan, for the image plane's hardening tests.
+//!   renderer answering a plan, for the image plane's hardening tests;
+//! - [`rendered`]: one-channel samples grown round by round, for the plan's library tests.
 //!
 //! Each test file that needs them declares `mod common;`; what a file does not use is dead
 //! code there, hence the `allow`.
@@ -16,6 +17,7 @@
 
 pub mod image_cli;
 pub mod oracle;
+pub mod rendered;
 pub mod runner;
 pub mod scenes;
 pub mod trees;

@@ -23,9 +23,19 @@ use crate::basis::tensor::TensorBasis;
 pub struct DiagonalSums {
     /// Samples summed over.
     pub(super) samples: usize,
+    /// [`positions_hash`] of the samples summed over: a continuation checks that they are a
+    /// prefix of its samples, in order.
+    pub(super) positions: u64,
     /// The tree's functions (Mallat layout).
     pub(super) mask: Vec<bool>,
-    sums: Vec<f64>,
+    pub(super) sums: Vec<f64>,
+}
+
+/// An order-dependent hash of positions (their bits, one 64-bit mix per coordinate).
+pub(super) fn positions_hash(xs: &[f64], ys: &[f64]) -> u64 {
+    xs.iter().zip(ys).fold(0x243F_6A88_85A3_08D3, |h, (x, y)| {
+        super::mix64(super::mix64(h ^ x.to_bits()) ^ y.to_bits())
+    })
 }
 
 impl DiagonalSums {
@@ -38,14 +48,16 @@ impl DiagonalSums {
             mask[f] = true;
         }
         let usable = previous.filter(|d| {
-            d.samples <= xs.len()
+            d.continues(xs, ys)
                 && d.mask.len() == mask.len()
                 && d.mask.iter().zip(&mask).all(|(&was, &is)| !was || is)
         });
+        let positions = positions_hash(xs, ys);
         let Some(previous) = usable else {
             let sums = exact_diagonal(basis, &mask, xs, ys);
             return Self {
                 samples: xs.len(),
+                positions,
                 mask,
                 sums,
             };
@@ -82,9 +94,23 @@ impl DiagonalSums {
         }
         Self {
             samples: xs.len(),
+            positions,
             mask,
             sums,
         }
+    }
+
+    /// Whether the samples summed over are the first of `(xs, ys)`, in order, on a basis of
+    /// the same size (the condition to continue the sums with the rest).
+    pub fn continues(&self, xs: &[f64], ys: &[f64]) -> bool {
+        self.samples <= xs.len()
+            && self.sums.len() == self.mask.len()
+            && positions_hash(&xs[..self.samples], &ys[..self.samples]) == self.positions
+    }
+
+    /// Samples summed over.
+    pub fn samples(&self) -> usize {
+        self.samples
     }
 
     /// `G_aa` per function (full Mallat layout, 0 off the tree).

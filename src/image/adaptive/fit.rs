@@ -4,7 +4,8 @@
 //!
 //! Two solvers ([`TreeSolver`]):
 //!
-//! - **PCG** (opt-in: measured slower, see [`super::pcg`]): matrix-free preconditioned
+//! - **PCG** (opt-in for `image --adaptive`, measured slower there; the default of a
+//!   renderer's plan, see [`super::pcg`]): matrix-free preconditioned
 //!   conjugate gradients on the normal equations ([`super::pcg`]), `K_T = E S P_T` applied
 //!   through the single-scale rows and the 2D FWT, every channel's conjugate gradients in
 //!   lockstep so that one pass over the rows serves all of them (the crate's one CG,

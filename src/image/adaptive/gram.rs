@@ -60,12 +60,18 @@ impl TreeGram {
 /// The first bytes of [`TreeGram::to_bytes`]: the layout's name and version.
 const GRAM_MAGIC: &[u8; 8] = b"RKWGRAM1";
 
-/// Why bytes are not a [`TreeGram`] for the caller's plan (the caller assembles afresh).
+/// Why bytes are not a carried state (a normal matrix, PCG's start) for the caller's plan
+/// (the caller starts afresh).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum GramBytesError {
     /// Not this layout or version.
-    #[error("not a normal matrix of this build's layout (its first bytes are not `RKWGRAM1`)")]
-    Layout,
+    #[error("not a {what} of this build's layout (its first bytes are not `{magic}`)")]
+    Layout {
+        /// What the file should hold.
+        what: &'static str,
+        /// The layout's first bytes.
+        magic: &'static str,
+    },
     /// Written for another plan (its tag differs).
     #[error("written for another plan (tag {found:016x}, this plan's {expected:016x})")]
     OtherPlan {
@@ -88,30 +94,129 @@ fn checksum(words: &[u8]) -> u64 {
     })
 }
 
+/// The layout of a carried file: `magic`, then little-endian 64-bit words (the plan's `tag`
+/// first, then the words `fill` writes, `words` of them), then a checksum of the words.
+pub(super) fn seal(
+    magic: &[u8; 8],
+    tag: u64,
+    words: usize,
+    fill: impl FnOnce(&mut dyn FnMut(u64)),
+) -> Vec<u8> {
+    let mut out = Vec::with_capacity(8 * (words + 2) + magic.len());
+    out.extend_from_slice(magic);
+    out.extend_from_slice(&tag.to_le_bytes());
+    fill(&mut |v: u64| out.extend_from_slice(&v.to_le_bytes()));
+    let sum = checksum(&out[magic.len()..]);
+    out.extend_from_slice(&sum.to_le_bytes());
+    out
+}
+
+/// The words of a [`seal`]ed file after its tag, read in order.
+pub(super) struct Words<'a>(std::slice::ChunksExact<'a, u8>);
+
+impl Words<'_> {
+    /// The next word.
+    pub(super) fn next(&mut self) -> Result<u64, GramBytesError> {
+        self.0
+            .next()
+            .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .ok_or(GramBytesError::Damaged("cut short"))
+    }
+    /// The next `n` words.
+    pub(super) fn take(&mut self, n: usize) -> Result<Vec<u64>, GramBytesError> {
+        if self.0.len() < n {
+            return Err(GramBytesError::Damaged("cut short"));
+        }
+        (0..n).map(|_| self.next()).collect()
+    }
+    /// Words left.
+    pub(super) fn left(&self) -> usize {
+        self.0.len()
+    }
+}
+
+/// The words of `bytes` sealed by [`seal`] with `magic` (a file holding a `what`), if they
+/// are whole (checksum) and carry `tag`.
+pub(super) fn unseal<'a>(
+    bytes: &'a [u8],
+    magic: &'static [u8; 8],
+    what: &'static str,
+    tag: u64,
+) -> Result<Words<'a>, GramBytesError> {
+    let body = bytes.strip_prefix(magic).ok_or(GramBytesError::Layout {
+        what,
+        magic: std::str::from_utf8(magic).unwrap_or("?"),
+    })?;
+    if body.len() % 8 != 0 || body.len() < 16 {
+        return Err(GramBytesError::Damaged("not a whole number of words"));
+    }
+    let (payload, sum) = body.split_at(body.len() - 8);
+    if checksum(payload) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+        return Err(GramBytesError::Damaged("the checksum does not match"));
+    }
+    let mut words = Words(payload.chunks_exact(8));
+    let found = words.next()?;
+    if found != tag {
+        return Err(GramBytesError::OtherPlan {
+            expected: tag,
+            found,
+        });
+    }
+    Ok(words)
+}
+
+/// A carried state read from `file` by `parse`: none, silently, when there is no file; none,
+/// with a note naming the file, the fault and `consequence`, when it cannot be read or parsed.
+pub(super) fn read_carried<T>(
+    file: &std::path::Path,
+    consequence: &str,
+    parse: impl FnOnce(&[u8]) -> Result<T, GramBytesError>,
+) -> (Option<T>, Option<String>) {
+    let set_aside = |why: String| {
+        (
+            None,
+            Some(format!("{}: {why}; {consequence}", file.display())),
+        )
+    };
+    match std::fs::read(file) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => (None, None),
+        Err(e) => set_aside(format!("cannot be read ({e})")),
+        Ok(bytes) => match parse(&bytes) {
+            Ok(value) => (Some(value), None),
+            Err(e) => set_aside(e.to_string()),
+        },
+    }
+}
+
+/// Writes `bytes` to `file` (through a temporary file), or removes a stale file when there
+/// are none. A cache: when it cannot be written, the file is removed and the next call
+/// starts afresh.
+pub(super) fn write_carried(file: &std::path::Path, bytes: Option<Vec<u8>>) {
+    let written = bytes.is_some_and(|b| crate::io::output::write_new(file, &b, true).is_ok());
+    if !written {
+        let _ = std::fs::remove_file(file);
+    }
+}
+
 impl TreeGram {
-    /// The matrix as bytes (little-endian 64-bit words): [`GRAM_MAGIC`], the caller's `tag`
-    /// (naming the plan it belongs to), the sizes, the functions, the samples' positions,
-    /// the upper triangle's CSR arrays, and a checksum of all that.
+    /// The matrix as bytes ([`seal`]: [`GRAM_MAGIC`], the caller's `tag` naming the plan it
+    /// belongs to, then the sizes, the functions, the samples' positions, the upper
+    /// triangle's CSR arrays, and a checksum of all that).
     pub fn to_bytes(&self, tag: u64) -> Vec<u8> {
         let (indptr, indices, data) = raw(&self.upper);
-        let words = 5 + self.functions.len() + 2 * self.xs.len() + indptr.len() + 2 * data.len();
-        let mut out = Vec::with_capacity(8 * (words + 1) + GRAM_MAGIC.len());
-        out.extend_from_slice(GRAM_MAGIC);
-        let mut word = |v: u64| out.extend_from_slice(&v.to_le_bytes());
-        word(tag);
-        word(self.functions.len() as u64);
-        word(self.xs.len() as u64);
-        word(self.upper.nnz() as u64);
-        self.functions.iter().for_each(|&f| word(f as u64));
-        self.xs
-            .iter()
-            .chain(&self.ys)
-            .for_each(|v| word(v.to_bits()));
-        indptr.iter().chain(indices).for_each(|&i| word(i as u64));
-        data.iter().for_each(|v| word(v.to_bits()));
-        let sum = checksum(&out[GRAM_MAGIC.len()..]);
-        out.extend_from_slice(&sum.to_le_bytes());
-        out
+        let words = 3 + self.functions.len() + 2 * self.xs.len() + indptr.len() + 2 * data.len();
+        seal(GRAM_MAGIC, tag, words, |word| {
+            word(self.functions.len() as u64);
+            word(self.xs.len() as u64);
+            word(self.upper.nnz() as u64);
+            self.functions.iter().for_each(|&f| word(f as u64));
+            self.xs
+                .iter()
+                .chain(&self.ys)
+                .for_each(|v| word(v.to_bits()));
+            indptr.iter().chain(indices).for_each(|&i| word(i as u64));
+            data.iter().for_each(|v| word(v.to_bits()));
+        })
     }
 
     /// The matrix of [`TreeGram::to_bytes`], if the bytes are whole and carry `tag`. The
@@ -119,38 +224,22 @@ impl TreeGram {
     /// that what is read is a valid start for [`assemble`], which then checks that its
     /// samples and functions fit the fit's.
     pub fn from_bytes(bytes: &[u8], tag: u64) -> Result<Self, GramBytesError> {
-        let body = bytes
-            .strip_prefix(GRAM_MAGIC)
-            .ok_or(GramBytesError::Layout)?;
-        if body.len() % 8 != 0 || body.len() < 48 {
-            return Err(GramBytesError::Damaged("not a whole number of words"));
-        }
-        let (payload, sum) = body.split_at(body.len() - 8);
-        if checksum(payload) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
-            return Err(GramBytesError::Damaged("the checksum does not match"));
-        }
-        let mut words = payload
-            .chunks_exact(8)
-            .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")));
-        let mut next = || words.next().ok_or(GramBytesError::Damaged("cut short"));
-        let found = next()?;
-        if found != tag {
-            return Err(GramBytesError::OtherPlan {
-                expected: tag,
-                found,
-            });
-        }
-        let (p, m, nnz) = (next()? as usize, next()? as usize, next()? as usize);
-        if payload.len() != 8 * (4 + p + 2 * m + (p + 1) + 2 * nnz) {
+        let mut words = unseal(bytes, GRAM_MAGIC, "normal matrix", tag)?;
+        let (p, m, nnz) = (
+            words.next()? as usize,
+            words.next()? as usize,
+            words.next()? as usize,
+        );
+        let expected = 2 * (p as u128) + 1 + 2 * (m as u128) + 2 * (nnz as u128);
+        if words.left() as u128 != expected {
             return Err(GramBytesError::Damaged("the sizes do not add up"));
         }
-        let mut take = |n: usize| (0..n).map(|_| next()).collect::<Result<Vec<u64>, _>>();
-        let functions: Vec<usize> = take(p)?.into_iter().map(|v| v as usize).collect();
-        let xs: Vec<f64> = take(m)?.into_iter().map(f64::from_bits).collect();
-        let ys: Vec<f64> = take(m)?.into_iter().map(f64::from_bits).collect();
-        let indptr: Vec<usize> = take(p + 1)?.into_iter().map(|v| v as usize).collect();
-        let indices: Vec<usize> = take(nnz)?.into_iter().map(|v| v as usize).collect();
-        let data: Vec<f64> = take(nnz)?.into_iter().map(f64::from_bits).collect();
+        let functions: Vec<usize> = words.take(p)?.into_iter().map(|v| v as usize).collect();
+        let xs: Vec<f64> = words.take(m)?.into_iter().map(f64::from_bits).collect();
+        let ys: Vec<f64> = words.take(m)?.into_iter().map(f64::from_bits).collect();
+        let indptr: Vec<usize> = words.take(p + 1)?.into_iter().map(|v| v as usize).collect();
+        let indices: Vec<usize> = words.take(nnz)?.into_iter().map(|v| v as usize).collect();
+        let data: Vec<f64> = words.take(nnz)?.into_iter().map(f64::from_bits).collect();
         let ascending = functions.windows(2).all(|w| w[0] < w[1]);
         let upper_csr = indptr[0] == 0
             && indptr[p] == nnz
@@ -201,37 +290,18 @@ impl CarriedGram {
     /// none, with a note naming the file and the fault, when it cannot be read or is not a
     /// whole matrix of this plan ([`TreeGram::from_bytes`]).
     pub fn read(file: &std::path::Path, tag: u64) -> Self {
-        let set_aside = |why: String| Self {
-            gram: None,
-            note: Some(format!(
-                "{}: {why}; the normal matrix is assembled afresh (the same result, more time)",
-                file.display()
-            )),
-        };
-        match std::fs::read(file) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Self::default(),
-            Err(e) => set_aside(format!("cannot be read ({e})")),
-            Ok(bytes) => match TreeGram::from_bytes(&bytes, tag) {
-                Ok(gram) => Self {
-                    gram: Some(gram),
-                    note: None,
-                },
-                Err(e) => set_aside(e.to_string()),
-            },
-        }
+        let (gram, note) = read_carried(
+            file,
+            "the normal matrix is assembled afresh (the same result, more time)",
+            |bytes| TreeGram::from_bytes(bytes, tag),
+        );
+        Self { gram, note }
     }
 
     /// Writes the matrix to `file` (through a temporary file), or removes a stale file when
-    /// there is no matrix. A cache: when it cannot be written, the file is removed and the
-    /// next call assembles afresh.
+    /// there is no matrix ([`write_carried`]).
     pub fn write(&self, file: &std::path::Path, tag: u64) {
-        let written = self
-            .gram
-            .as_ref()
-            .is_some_and(|g| crate::io::output::write_new(file, &g.to_bytes(tag), true).is_ok());
-        if !written {
-            let _ = std::fs::remove_file(file);
-        }
+        write_carried(file, self.gram.as_ref().map(|g| g.to_bytes(tag)));
     }
 }
 
@@ -499,10 +569,10 @@ mod tests {
             TreeGram::from_bytes(&bytes[..bytes.len() - 8], 42),
             Err(GramBytesError::Damaged(_))
         ));
-        assert_eq!(
+        assert!(matches!(
             TreeGram::from_bytes(b"RKWGRAM0", 42),
-            Err(GramBytesError::Layout)
-        );
+            Err(GramBytesError::Layout { .. })
+        ));
     }
 
     /// Updating with appended samples and inserted functions equals rebuilding, bit for bit.

@@ -27,8 +27,11 @@
 //! *Limit.* At `rho = 2` samples per slot the least-squares problem itself is not well
 //! conditioned (jittered pairs of samples leave local near-null directions), so Jacobi-PCG
 //! takes hundreds of iterations to a tight residual, more work than the direct solve at small
-//! sizes (docs/measurements.md, "The iterative solvers"). So PCG is opt-in; a stronger (local /
-//! Schwarz, or previous-factor) preconditioner is what it lacks.
+//! sizes (docs/measurements.md, "The iterative solvers"). So PCG is opt-in for the in-process
+//! engine; a stronger (local / Schwarz, or previous-factor) preconditioner is what it lacks.
+//! With the rounds' fits loose and warm-started it is the renderer plan's solver
+//! ([`TreeSolver::plan_pcg`], [`CarriedPcg`]: docs/measurements.md, "The renderer loop on
+//! PCG").
 //!
 //! Stopping: the relative residual of the normal equations `||K_T^T (f - K_T c)|| / ||K_T^T
 //! f|| <= tol`. Then the coefficient error is at most `kappa(G) tol` relative, `kappa`
@@ -47,6 +50,7 @@ pub(crate) use super::single_scale::multilevel_values;
 pub use super::single_scale::{SingleScaleColumns, SingleScaleRows};
 pub use super::solver::{TreeSolver, DIRECT_FALLBACK_MAX};
 
+use super::gram::{read_carried, seal, unseal, write_carried, GramBytesError};
 use crate::solve::cg::{self, CgParams, CgReport, ConditionEstimate, Jacobi, ResidualReport};
 use crate::solve::vectors::interleave;
 
@@ -103,4 +107,154 @@ pub fn pcg_many(
         Some(xs),
         &params,
     )
+}
+
+/// The first bytes of [`CarriedPcg::to_bytes`]: the layout's name and version.
+const PCG_MAGIC: &[u8; 8] = b"RKWPCG01";
+
+/// PCG's state a plan carries from one call to the next (the file protocol's `pcg.bin`,
+/// beside `gram.bin`): the last round's coefficients, per image channel then per probe
+/// channel (the next round's start), and the exact diagonal `G_aa` with the samples it was
+/// summed over ([`DiagonalSums`], continued by the next round). Solver state only: a round
+/// without it starts from zero and sums the diagonal afresh, reaching the same tolerance.
+#[derive(Clone, Debug, Default)]
+pub struct CarriedPcg {
+    /// The start of the next fit (full Mallat layout, zero off the last tree).
+    pub start: Option<Vec<Vec<f64>>>,
+    /// The last fit's exact diagonal.
+    pub diagonal: Option<DiagonalSums>,
+    /// Why the state read from the file was set aside, or its diagonal not continued
+    /// (`None`: used, or there was none).
+    pub note: Option<String>,
+}
+
+impl PartialEq for CarriedPcg {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl CarriedPcg {
+    /// The state as bytes ([`super::gram`]'s sealed layout: [`PCG_MAGIC`], the plan's `tag`,
+    /// the basis size `n`, the vectors `k`, the samples and their positions' hash, the last
+    /// tree as a bit mask, then on the tree's functions the diagonal and each start vector;
+    /// a checksum); `None` unless both the start and the diagonal are there.
+    pub fn to_bytes(&self, tag: u64) -> Option<Vec<u8>> {
+        let (start, d) = (self.start.as_ref()?, self.diagonal.as_ref()?);
+        let n = d.mask.len();
+        if start.iter().any(|s| s.len() != n) {
+            return None;
+        }
+        let on: Vec<usize> = (0..n).filter(|&f| d.mask[f]).collect();
+        let words = 4 + n.div_ceil(64) + on.len() * (1 + start.len());
+        Some(seal(PCG_MAGIC, tag, words, |word| {
+            word(n as u64);
+            word(start.len() as u64);
+            word(d.samples as u64);
+            word(d.positions);
+            for block in d.mask.chunks(64) {
+                word(
+                    block
+                        .iter()
+                        .rev()
+                        .fold(0u64, |w, &b| (w << 1) | u64::from(b)),
+                );
+            }
+            on.iter().for_each(|&f| word(d.sums[f].to_bits()));
+            for s in start {
+                on.iter().for_each(|&f| word(s[f].to_bits()));
+            }
+        }))
+    }
+
+    /// The state of [`CarriedPcg::to_bytes`], if the bytes are whole, carry `tag` and hold
+    /// vectors of `n` entries (the plan's basis).
+    pub fn from_bytes(bytes: &[u8], tag: u64, n: usize) -> Result<Self, GramBytesError> {
+        let mut words = unseal(bytes, PCG_MAGIC, "PCG start", tag)?;
+        let (len, k, samples, positions) = (
+            words.next()? as usize,
+            words.next()? as usize,
+            words.next()? as usize,
+            words.next()?,
+        );
+        if len != n || words.left() < n.div_ceil(64) {
+            return Err(GramBytesError::Damaged("the basis size does not match"));
+        }
+        let mut mask = Vec::with_capacity(n);
+        for w in words.take(n.div_ceil(64))? {
+            mask.extend((0..64).map(|b| (w >> b) & 1 == 1));
+        }
+        mask.truncate(n);
+        let on: Vec<usize> = (0..n).filter(|&f| mask[f]).collect();
+        if words.left() as u128 != on.len() as u128 * (1 + k as u128) {
+            return Err(GramBytesError::Damaged("the sizes do not add up"));
+        }
+        let spread = |words: &mut super::gram::Words<'_>| -> Result<Vec<f64>, _> {
+            let mut v = vec![0.0; n];
+            for (&f, w) in on.iter().zip(words.take(on.len())?) {
+                v[f] = f64::from_bits(w);
+            }
+            Ok(v)
+        };
+        let sums = spread(&mut words)?;
+        let start = (0..k)
+            .map(|_| spread(&mut words))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            start: Some(start),
+            diagonal: Some(DiagonalSums {
+                samples,
+                positions,
+                mask,
+                sums,
+            }),
+            note: None,
+        })
+    }
+
+    /// The state in `file` for the plan tagged `tag` on a basis of `n` functions; none,
+    /// silently, when there is no file; none, with a note naming the file and the fault,
+    /// when it cannot be read or is not whole ([`CarriedPcg::from_bytes`]).
+    pub fn read(file: &std::path::Path, tag: u64, n: usize) -> Self {
+        let (state, note) = read_carried(
+            file,
+            "PCG starts from zero with the diagonal summed afresh (the same tolerance, more \
+             iterations)",
+            |bytes| Self::from_bytes(bytes, tag, n),
+        );
+        Self {
+            note,
+            ..state.unwrap_or_default()
+        }
+    }
+
+    /// The start and the diagonal for a fit of the samples `(xs, ys)` (the diagonal only when
+    /// its samples are their first, in order, [`DiagonalSums::continues`]), and the note of
+    /// what was set aside.
+    #[allow(clippy::type_complexity)]
+    pub fn offer(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+    ) -> (Option<Vec<Vec<f64>>>, Option<DiagonalSums>, Option<String>) {
+        let mut note = self.note.clone();
+        let diagonal = self.diagonal.clone().filter(|d| {
+            let continues = d.continues(xs, ys);
+            if !continues {
+                note.get_or_insert(format!(
+                    "the carried PCG diagonal ({} samples) was not continued: the samples do \
+                     not start with its samples in the same order; summed afresh",
+                    d.samples()
+                ));
+            }
+            continues
+        });
+        (self.start.clone(), diagonal, note)
+    }
+
+    /// Writes the state to `file` (through a temporary file), or removes a stale file when
+    /// there is none.
+    pub fn write(&self, file: &std::path::Path, tag: u64) {
+        write_carried(file, self.to_bytes(tag));
+    }
 }

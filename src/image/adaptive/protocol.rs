@@ -42,8 +42,18 @@
 //! the same with or without it). It is a cache: tagged with the plan ([`PlanState::tag`]:
 //! plane and parameters) and checksummed; a missing file is assembled afresh silently (the
 //! first fit), a damaged one, one of another plan, or one whose samples are not the first of
-//! the call's is assembled afresh with a note ([`PlanStep::gram_note`]). A process that keeps
-//! the state in memory (Python's `Plan`) carries the matrix without the file.
+//! the call's is assembled afresh with a note ([`PlanStep::gram_note`]). Under PCG (the
+//! renderer plan's default), `pcg.bin` ([`PCG_FILE`], [`CarriedPcg`], tagged and checksummed
+//! the same way) holds the last round's coefficients, image and probe channels, as the next
+//! round's start and its exact diagonal `G_aa` with a hash of the samples summed, continued
+//! when they are the first of the call's in order: the calls are then the in-process loop's
+//! rounds bit for bit; without it (missing, damaged: a note, [`PlanStep::pcg_note`]) a round
+//! starts from zero and reaches the same tolerance. A process that keeps the state in memory
+//! (Python's `Plan`) carries both without the files.
+//!
+//! *Memory.* A fit whose assembled solve (the direct one) would exceed the memory limit is
+//! fitted by matrix-free PCG instead, with a note ([`PlanStep::solver_note`]); only a fit that
+//! does not fit under PCG either is refused.
 
 use std::path::{Path, PathBuf};
 
@@ -54,14 +64,16 @@ use super::correction::{output_pixels, PixelEstimate, ResidualCorrection};
 use super::fit::{FitState, TreeFit};
 use super::gram::TreeGram;
 use super::mix64;
+use super::pcg::TreeSolver;
 use super::refiner::{
     AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
 };
+use super::solver::{fallback_note, fitting_solver};
 use super::AdaptiveError;
 use crate::adaptive::QuadTree;
 use crate::adaptive::StopReason;
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples, PixelImage};
-use crate::io::output::{persist, temporary, write_new, OutputError};
+use crate::io::output::OutputError;
 
 /// The `format` field of a plan state.
 pub const STATE_FORMAT: &str = "rkwave-image-plan";
@@ -71,8 +83,13 @@ pub const STATE_VERSION: u32 = 1;
 pub const STATE_FILE: &str = "state.json";
 /// The carried normal matrix's file name inside the state's directory (module docs).
 pub const GRAM_FILE: &str = "gram.bin";
+/// The carried PCG start's file name inside the state's directory (module docs).
+pub const PCG_FILE: &str = "pcg.bin";
+
+mod files;
 
 pub use super::gram::CarriedGram;
+pub use super::pcg::CarriedPcg;
 
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
@@ -205,6 +222,9 @@ pub struct PlanState {
     /// [`GRAM_FILE`], not in the JSON).
     #[serde(skip)]
     pub carried: CarriedGram,
+    /// The last round's PCG start and diagonal (module docs; kept in [`PCG_FILE`]).
+    #[serde(skip)]
+    pub pcg: CarriedPcg,
 }
 
 /// What one call of [`PlanState::advance`] did.
@@ -230,6 +250,12 @@ pub struct PlanStep {
     /// Why the normal matrix carried from the last call was not continued and the round's was
     /// assembled afresh (`None`: continued, or the first fit).
     pub gram_note: Option<String>,
+    /// Why PCG's start carried from the last call was not used, or its diagonal not continued
+    /// (`None`: used, or there was none).
+    pub pcg_note: Option<String>,
+    /// Why this round was fitted by another solver than the plan's (the direct solve would
+    /// not fit in memory; `None`: the plan's solver).
+    pub solver_note: Option<String>,
     /// When this round stopped the plan: the final reconstruction from its fit, with the
     /// plan's output pixels, without fitting the samples again (under the direct solve, the
     /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
@@ -259,6 +285,9 @@ pub struct PlanReconstruction {
     pub complete: bool,
     /// The samples dropped for a non-finite value (none unless the caller's policy drops).
     pub dropped: DroppedSamples,
+    /// Why the fit used another solver than the plan's (the direct solve would not fit in
+    /// memory; `None`: the plan's solver).
+    pub solver_note: Option<String>,
 }
 
 /// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.
@@ -295,6 +324,7 @@ impl PlanState {
             }],
             stop: None,
             carried: CarriedGram::default(),
+            pcg: CarriedPcg::default(),
         };
         Ok((state, base))
     }
@@ -382,8 +412,11 @@ impl PlanState {
         }
     }
 
-    /// The plan as of round `k` (the tree after the markings of rounds `1..=k`).
-    fn plan_at(&self, k: usize) -> Result<ImagePlan, ProtocolError> {
+    /// The plan as of round `k` (the tree after the markings of rounds `1..=k`), fitting by
+    /// `solver`.
+    fn plan_at(&self, k: usize, solver: TreeSolver) -> Result<ImagePlan, ProtocolError> {
+        let mut params = self.params;
+        params.fit.solver = solver;
         let progress = if k == self.progress.marked.len() {
             self.progress.clone()
         } else {
@@ -392,7 +425,7 @@ impl PlanState {
                 samples_fitted: 0,
             }
         };
-        ImagePlan::resume(self.plane, &self.params, progress).map_err(|e| match e {
+        ImagePlan::resume(self.plane, &params, progress).map_err(|e| match e {
             AdaptiveError::History { .. } => ProtocolError::State {
                 file: PathBuf::from(STATE_FILE),
                 problem: e.to_string(),
@@ -401,52 +434,45 @@ impl PlanState {
         })
     }
 
-    /// Refuses, before the fit, a round (or reconstruction) whose tree fit on `samples`, the
-    /// output image and the `next` positions it may hand out exceed the memory limit
-    /// ([`crate::resources::ImageRequest`]): the tree of `plan` has at most the base levels
-    /// plus one per round, up to the depth limit.
-    fn check_memory(
+    /// The plan as of round `k` fitting by the plan's solver, or by PCG when the direct fit
+    /// of `samples` would not fit in memory (with the note saying so); refused, before the
+    /// fit, when the fit, the output image and the `next` positions it may hand out exceed
+    /// the memory limit under PCG too ([`fitting_solver`]): the tree has at most the base
+    /// levels plus one per round, up to the depth limit.
+    fn fitting_plan(
         &self,
-        plan: &ImagePlan,
+        k: usize,
         samples: &ImageSamples,
         next: usize,
-    ) -> Result<(), ProtocolError> {
-        use crate::resources::{tree_levels, ImageRequest, ImageSolve};
+    ) -> Result<(ImagePlan, Option<String>), ProtocolError> {
+        use crate::resources::tree_levels;
+        let plan = self.plan_at(k, self.params.fit.solver)?;
         let p = self.params.tree.p;
-        let (w, h) = (self.plane.width(), self.plane.height());
-        let limit = tree_levels(p, w, h, self.params.quad.below_pixel);
+        let limit = tree_levels(p, self.plane.width(), self.plane.height(), {
+            self.params.quad.below_pixel
+        });
         let levels = (plan.base_steps() + plan.progress().marked.len() as u32 + 1).min(limit);
-        let rho = self.params.tree.rho;
-        let solve = match self.params.fit.solver {
-            super::TreeSolver::Pcg { .. } => ImageSolve::TreePcg { p, levels, rho },
-            _ => ImageSolve::TreeDirect { p, levels, rho },
-        };
-        let request = ImageRequest {
-            pixels: self.plane.pixels() as f64,
-            channels: samples.channels(),
-            samples: samples.len() as f64,
-            from_file: false,
-            positions: next as f64,
-            solve,
-            images: 2,
-        };
-        request
-            .estimate()
-            .check(
-                || {
-                    format!(
-                        "the plan's fit of {} samples on a tree of {levels} levels ({})",
-                        samples.len(),
-                        self.plane
-                    )
-                },
-                || {
-                    "a smaller budget (--budget, --spp) or depth limit (--below-pixel) for a \
-                     new plan"
-                        .into()
-                },
-            )
-            .map_err(|e| ProtocolError::Adaptive(e.into()))
+        let sizes = (samples.len(), samples.channels(), next);
+        let (solver, note) = fitting_solver(
+            self.params.fit.solver,
+            self.plane,
+            (p, levels, self.params.tree.rho),
+            sizes,
+        )
+        .map_err(|e| ProtocolError::Adaptive(e.into()))?;
+        if solver == self.params.fit.solver {
+            return Ok((plan, None));
+        }
+        Ok((self.plan_at(k, solver)?, note))
+    }
+
+    /// PCG's carried start and diagonal put into `plan` ([`CarriedPcg::offer`]); the note
+    /// of what was set aside.
+    fn offer_pcg(&self, plan: &mut ImagePlan, samples: &ImageSamples) -> Option<String> {
+        let (start, diagonal, note) = self.pcg.offer(samples.xs(), samples.ys());
+        plan.fit_state_mut().diagonal = diagonal;
+        *plan.start_mut() = start;
+        note
     }
 
     /// Checks the state's own consistency: format, version, one issued record per round.
@@ -507,21 +533,33 @@ impl PlanState {
                 expected: self.positions(),
             });
         }
-        let mut plan = self.plan_at(k)?;
-        self.check_memory(
-            &plan,
-            samples,
-            self.params.stop.budget.saturating_sub(self.positions()),
-        )?;
+        let next = self.params.stop.budget.saturating_sub(self.positions());
+        let (mut plan, mut solver_note) = self.fitting_plan(k, samples, next)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         let carried = self.carried.gram.take();
         let mut gram_note = self.carried.note.take();
         let offered = carried.as_ref().map(TreeGram::samples);
         plan.fit_state_mut().gram = carried;
-        let stepped = plan.step(samples.xs(), samples.ys(), &values);
+        let mut pcg_note = self.offer_pcg(&mut plan, samples);
+        let mut stepped = plan.step(samples.xs(), samples.ys(), &values);
+        if let Err(AdaptiveError::Resource(e)) = &stepped {
+            // the fit's own, finer estimate refused the direct solve: PCG instead
+            if !matches!(plan.params().fit.solver, TreeSolver::Pcg { .. }) {
+                solver_note = Some(fallback_note(e));
+                plan = self.plan_at(k, TreeSolver::plan_pcg())?;
+                pcg_note = self.offer_pcg(&mut plan, samples);
+                stepped = plan.step(samples.xs(), samples.ys(), &values);
+            }
+        }
         self.carried.gram = plan.fit_state_mut().gram.take();
+        self.pcg = CarriedPcg {
+            start: plan.start_mut().take(),
+            diagonal: plan.fit_state_mut().diagonal.take(),
+            note: None,
+        };
         let round = stepped?;
-        if let Some(m) = offered.filter(|_| round.log.fit.normal_kept_samples == 0) {
+        let direct = round.log.fit.solver == "direct";
+        if let Some(m) = offered.filter(|_| direct && round.log.fit.normal_kept_samples == 0) {
             gram_note.get_or_insert(format!(
                 "the carried normal matrix ({m} samples) was not continued: the samples do not \
                  start with its samples in the same order, or the tree lost functions; \
@@ -552,6 +590,7 @@ impl PlanState {
                     round: k,
                     complete: true,
                     dropped: dropped.clone(),
+                    solver_note: solver_note.clone(),
                 }))
             }
             Decision::Sample(_) => None,
@@ -585,6 +624,8 @@ impl PlanState {
             budget: self.params.stop.budget,
             dropped,
             gram_note,
+            pcg_note,
+            solver_note,
             reconstruction,
         })
     }
@@ -616,20 +657,23 @@ impl PlanState {
         estimate: PixelEstimate,
     ) -> Result<PlanReconstruction, ProtocolError> {
         let k = self.matching_round(samples, &dropped)?;
-        let plan = self.plan_at(k)?;
-        self.check_memory(&plan, samples, 0)?;
+        let (mut plan, solver_note) = self.fitting_plan(k, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
-        // the carried normal matrix, continued (the same bits as assembled afresh)
+        // the carried normal matrix, continued (the same bits as assembled afresh), and
+        // PCG's carried start and diagonal
+        self.offer_pcg(&mut plan, samples);
+        let start = plan.start_mut().take();
         let mut carried = FitState {
             gram: self.carried.gram.clone(),
+            diagonal: plan.fit_state_mut().diagonal.take(),
             ..FitState::default()
         };
         let (fit, significance) = plan.fit_updating(
             samples.xs(),
             samples.ys(),
             &values,
-            self.params.fit.solver,
-            None,
+            plan.params().fit.solver,
+            start.as_deref(),
             &mut carried,
         )?;
         // the noise estimate of this fit, as the in-process loop's last round
@@ -653,131 +697,7 @@ impl PlanState {
             round: k,
             complete: self.stop.is_some() && k + 1 == self.issued.len(),
             dropped,
+            solver_note,
         })
     }
-
-    /// The state as JSON.
-    pub fn to_json(&self) -> String {
-        serde_json::to_string(self).expect("a plan state serialises")
-    }
-
-    /// Parses a state written by [`PlanState::to_json`] (`file` names it in errors), checking
-    /// its format, version and history against its own parameters.
-    pub fn from_json(text: &str, file: &Path) -> Result<Self, ProtocolError> {
-        let state: Self = serde_json::from_str(text).map_err(|e| ProtocolError::State {
-            file: file.to_path_buf(),
-            problem: e.to_string(),
-        })?;
-        state.check_layout(file)?;
-        ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
-            match e {
-                // A memory limit below the plan's budget is no fault of the state.
-                AdaptiveError::Resource(e) => ProtocolError::Adaptive(e.into()),
-                e => ProtocolError::State {
-                    file: file.to_path_buf(),
-                    problem: e.to_string(),
-                },
-            }
-        })?;
-        Ok(state)
-    }
-
-    /// The state file in the directory `dir`.
-    pub fn path(dir: &Path) -> PathBuf {
-        dir.join(STATE_FILE)
-    }
-
-    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`] when it is
-    /// there and whole (module docs; otherwise a note says why it is not used).
-    pub fn load(dir: &Path) -> Result<Self, ProtocolError> {
-        let file = Self::path(dir);
-        let text = std::fs::read_to_string(&file).map_err(|source| ProtocolError::Read {
-            file: file.clone(),
-            source,
-        })?;
-        let mut state = Self::from_json(&text, &file)?;
-        state.carried = CarriedGram::read(&dir.join(GRAM_FILE), state.tag());
-        Ok(state)
-    }
-
-    /// The tag of this plan's carried normal matrix: a hash of the state's version, plane
-    /// and parameters (a matrix of another plan is not continued).
-    pub fn tag(&self) -> u64 {
-        let params = serde_json::to_string(&self.params).expect("parameters serialise");
-        format!("{}/{}/{params}", STATE_VERSION, self.plane)
-            .bytes()
-            .fold(0u64, |h, b| mix64(h ^ u64::from(b)))
-    }
-
-    /// Writes the state into `dir` (created if missing), replacing the previous state
-    /// atomically, and the carried normal matrix beside it.
-    pub fn save(&self, dir: &Path) -> Result<(), ProtocolError> {
-        let file = Self::path(dir);
-        create_folder(dir, &file)?;
-        write_new(&file, self.to_json().as_bytes(), true)?;
-        self.carried.write(&dir.join(GRAM_FILE), self.tag());
-        Ok(())
-    }
-
-    /// Commits a round as one step: the state into `dir` and the positions `bytes` to
-    /// `positions` (replacing an existing file only with `overwrite`), both or neither; then
-    /// the carried normal matrix (a cache, [`PlanState::save`]).
-    ///
-    /// Both are written to temporary files beside their targets first; then the positions
-    /// are moved into place (refused if the file appeared meanwhile), then the state (a
-    /// rename over the previous state). When the state cannot be moved, the positions just
-    /// placed are removed again: a failed commit leaves the previous state and no positions
-    /// file, and the same call can be retried.
-    pub fn commit(
-        &self,
-        dir: &Path,
-        positions: &Path,
-        bytes: &[u8],
-        overwrite: bool,
-    ) -> Result<(), ProtocolError> {
-        let file = Self::path(dir);
-        create_folder(dir, &file)?;
-        if let Some(folder) = positions.parent().filter(|d| !d.as_os_str().is_empty()) {
-            create_folder(folder, positions)?;
-        }
-        let state_tmp = write_temporary(&file, self.to_json().as_bytes())?;
-        let positions_tmp = match write_temporary(positions, bytes) {
-            Ok(t) => t,
-            Err(e) => {
-                let _ = std::fs::remove_file(&state_tmp);
-                return Err(e.into());
-            }
-        };
-        if let Err(e) = persist(&positions_tmp, positions, overwrite) {
-            let _ = std::fs::remove_file(&state_tmp);
-            return Err(e.into());
-        }
-        if let Err(e) = persist(&state_tmp, &file, true) {
-            let _ = std::fs::remove_file(positions);
-            return Err(e.into());
-        }
-        self.carried.write(&dir.join(GRAM_FILE), self.tag());
-        Ok(())
-    }
-}
-
-/// Creates `folder` (and its parents) for the file `file`.
-fn create_folder(folder: &Path, file: &Path) -> Result<(), OutputError> {
-    std::fs::create_dir_all(folder).map_err(|source| OutputError::NotWritable {
-        file: file.to_path_buf(),
-        source,
-    })
-}
-
-/// `bytes` in a fresh temporary file beside `target` (removed again if the write fails).
-fn write_temporary(target: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
-    let tmp = temporary(target);
-    std::fs::write(&tmp, bytes).map_err(|source| {
-        let _ = std::fs::remove_file(&tmp);
-        OutputError::NotWritable {
-            file: target.to_path_buf(),
-            source,
-        }
-    })?;
-    Ok(tmp)
 }

@@ -72,5 +72,93 @@ impl Default for TreeSolver {
     }
 }
 
+impl TreeSolver {
+    /// PCG to a relative residual of `1e-4`: the solver of a renderer's plan (`rkwave plan`,
+    /// Python's `Plan`) and of its fits whose direct solve does not fit in memory. The final
+    /// image is the same as at `1e-6` to the hundredth of a dB in about half the final fit's
+    /// iterations (docs/measurements.md, "The renderer loop on PCG").
+    pub fn plan_pcg() -> Self {
+        Self::Pcg {
+            tolerance: 1e-4,
+            max_iterations: 400,
+        }
+    }
+}
+
 /// Largest tree the direct solve takes over from a stalled PCG.
 pub const DIRECT_FALLBACK_MAX: usize = 40_000;
+
+/// The solver of a plan's fit of `samples` (`channels` channels, `next` positions to hand
+/// out after it) on `plane` with a tree of at most `levels` levels: `wanted`, or, when that
+/// is an assembled solve whose estimate ([`crate::resources::ImageRequest`]) exceeds the
+/// memory limit, matrix-free PCG ([`TreeSolver::plan_pcg`]) with the note saying so. Refused
+/// when PCG does not fit either.
+pub(crate) fn fitting_solver(
+    wanted: TreeSolver,
+    plane: crate::image::ImagePlane,
+    (p, levels, rho): (usize, u32, f64),
+    (samples, channels, next): (usize, usize, usize),
+) -> Result<(TreeSolver, Option<String>), crate::resources::ResourceError> {
+    use crate::resources::{ImageRequest, ImageSolve};
+    let check = |solver: TreeSolver| {
+        let solve = match solver {
+            TreeSolver::Pcg { .. } => ImageSolve::TreePcg { p, levels, rho },
+            _ => ImageSolve::TreeDirect { p, levels, rho },
+        };
+        let request = ImageRequest {
+            pixels: plane.pixels() as f64,
+            channels,
+            samples: samples as f64,
+            from_file: false,
+            positions: next as f64,
+            solve,
+            images: 2,
+        };
+        request.estimate().check(
+            || {
+                format!(
+                    "the plan's fit of {samples} samples on a tree of {levels} levels ({plane})"
+                )
+            },
+            || {
+                "a smaller budget (--budget, --spp) or depth limit (--below-pixel) for a new plan"
+                    .into()
+            },
+        )
+    };
+    match check(wanted) {
+        Err(e) if !matches!(wanted, TreeSolver::Pcg { .. }) => {
+            let pcg = TreeSolver::plan_pcg();
+            check(pcg)?;
+            Ok((pcg, Some(fallback_note(&e))))
+        }
+        checked => checked.map(|()| (wanted, None)),
+    }
+}
+
+/// The note of a fit that takes matrix-free PCG because the assembled solve does not fit in
+/// memory (`refused`: the assembled solve's refusal).
+pub(crate) fn fallback_note(refused: &crate::resources::ResourceError) -> String {
+    use crate::resources::{format_bytes, ResourceError};
+    let TreeSolver::Pcg { tolerance, .. } = TreeSolver::plan_pcg() else {
+        unreachable!("the plan's PCG")
+    };
+    let why = match refused {
+        ResourceError::TooLarge {
+            what,
+            needed,
+            limit,
+            ..
+        } => format!(
+            "{what} would need about {} against the memory limit of {}",
+            format_bytes(*needed),
+            format_bytes(*limit as f64)
+        ),
+        e => e.to_string(),
+    };
+    format!(
+        "the direct solve does not fit in memory ({why}): this fit uses the matrix-free PCG \
+         solve instead (to a relative residual of {tolerance:e}; `--solver pcg` for the \
+         whole plan)"
+    )
+}

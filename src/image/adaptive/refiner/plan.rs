@@ -262,6 +262,12 @@ impl ImagePlan {
         &mut self.state
     }
 
+    /// PCG's start for the next round's fit (per image channel, then per probe channel): a
+    /// caller that keeps it between processes (the file protocol's `pcg.bin`) puts it back.
+    pub fn start_mut(&mut self) -> &mut Option<Vec<Vec<f64>>> {
+        &mut self.start
+    }
+
     /// [`ImagePlan::fit`] continuing the solver state `state` ([`FitState`]),
     /// PCG starting from `start` (per image channel, then per probe channel; channels
     /// without one start from 0).

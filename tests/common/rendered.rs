@@ -1,0 +1,40 @@
+//! One-channel samples grown round by round as a renderer answering a plan would: the
+//! positions handed out, in order, and an oracle's values at them.
+
+use rkwave::image::adaptive::{ImageOracle, SamplePositions};
+use rkwave::image::{ImagePlane, ImageSamples};
+
+/// The samples so far.
+#[derive(Default)]
+pub struct Rendered {
+    /// Positions, in the order handed out.
+    pub xs: Vec<f64>,
+    /// Positions, in the order handed out.
+    pub ys: Vec<f64>,
+    /// The oracle's value at each position.
+    pub values: Vec<f64>,
+}
+
+impl Rendered {
+    /// Appends `oracle`'s values at the positions `next`.
+    pub fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
+        let mut buf = [0.0];
+        for (&x, &y) in next.xs.iter().zip(&next.ys) {
+            oracle.sample(x, y, &mut buf);
+            self.xs.push(x);
+            self.ys.push(y);
+            self.values.push(buf[0]);
+        }
+    }
+
+    /// The samples so far on `plane`.
+    pub fn samples(&self, plane: ImagePlane) -> ImageSamples {
+        ImageSamples::new(
+            plane,
+            self.xs.clone(),
+            self.ys.clone(),
+            vec![self.values.clone()],
+        )
+        .unwrap()
+    }
+}
