@@ -74,9 +74,11 @@ def run(cmd):
 
 def stages(report):
     """The fit's stages from a `--json` report, as text."""
-    solve = report.get("solve") or {}
+    solve = (report.get("solve") or {}).get("solve") or {}
     timings = solve.get("timings") or {}
-    parts = [f"{k} {v:.2f}" for k, v in timings.items() if v]
+    seconds = report.get("time_s") or {}
+    parts = [f"{k} {seconds.get(k, 0):.2f}" for k in ("read", "fit", "pixels")]
+    parts += [f"{k} {v:.2f}" for k, v in timings.items() if v]
     cg = solve.get("cg")
     if cg:
         parts.append(f"cg iterations {cg['iterations']}")
