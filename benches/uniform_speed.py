@@ -2,8 +2,8 @@
 of each binary given, and the Gaussian film splat of the same samples, back to back.
 
 The samples: `--size`² pixels, `--spp` stratified samples per pixel (a jittered `g_x x g_y`
-grid in every pixel, as a renderer's), three channels of an analytic scene (a smooth gradient,
-two discs with sharp edges, a thin line) plus Gaussian noise of standard deviation `--noise`
+grid in every pixel, as a renderer's), three channels of an analytic scene (`plan_loop.analytic`: a
+smooth gradient, two discs with sharp edges, a thin line) plus Gaussian noise of standard deviation `--noise`
 (seeded). They are written once as `.npy` (`m x 5`: x, y, r, g, b).
 
 Per run it prints the wall time and the CPU time (user + system of the child process, from
@@ -26,17 +26,7 @@ import time
 
 import numpy as np
 
-
-def scene(xs, ys, width, height):
-    """Three channels of a scene with smooth parts, edges and a thin feature."""
-    u, v = xs / width, ys / height
-    smooth = 0.3 + 0.2 * np.sin(3.0 * u) * np.cos(2.0 * v)
-    disc1 = ((u - 0.35) ** 2 + (v - 0.4) ** 2 < 0.04).astype(float)
-    disc2 = ((u - 0.7) ** 2 + (v - 0.65) ** 2 < 0.015).astype(float)
-    line = (np.abs(u + 0.5 * v - 0.9) < 0.004).astype(float)
-    return np.stack(
-        [smooth + 0.5 * disc1 + line, smooth + 0.4 * disc2, 0.6 * smooth + 0.3 * disc1 * v], axis=1
-    )
+from plan_loop import analytic as scene  # the same three-channel scene as the loop's
 
 
 def strata(spp):

@@ -16,6 +16,7 @@
 
 mod common;
 
+use common::image_cli::reconstruct2d;
 use common::runner::{rkwave, scratch, succeeds};
 use rkwave::image::fit::{NormalSolver, Preconditioner, CG_TOLERANCE, CHOLESKY_MAX_FUNCTIONS};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
@@ -233,19 +234,9 @@ fn the_report_of_auto_says_auto_and_the_estimate_used() {
     let out = dir.join("o.npy");
     let out = out.to_str().unwrap();
     let base = |input: &std::path::Path| {
-        vec![
-            "reconstruct".to_string(),
-            "--dim".into(),
-            "2".into(),
-            "--input".into(),
-            input.to_str().unwrap().into(),
-            "--resolution".into(),
-            "48x40".into(),
-            "--output".into(),
-            out.into(),
-            "--force".into(),
-            "--json".into(),
-        ]
+        let mut args = reconstruct2d(input, std::path::Path::new(out), "48x40");
+        args.extend(["--force".into(), "--json".into()]);
+        args
     };
     let full = sample_file(&dir, 48, 40, false);
     let args = base(&full);
@@ -268,8 +259,8 @@ fn the_report_of_auto_says_auto_and_the_estimate_used() {
         .contains("no sample"));
     // --pixels fit above 64² functions: the report names CG and its iterations.
     let big = sample_file(&dir, 128, 80, false);
-    let mut args = base(&big);
-    args[6] = "128x80".into();
+    let mut args = reconstruct2d(&big, std::path::Path::new(out), "128x80");
+    args.extend(["--force".into(), "--json".into()]);
     args.extend(["--pixels".into(), "fit".into()]);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let r = json(&args);
@@ -288,23 +279,10 @@ fn auto_is_checked_against_its_own_memory_not_the_fit_s() {
     let input = sample_file(&dir, 256, 256, false);
     let out = dir.join("o.npy");
     let args = |pixels: &str| {
-        [
-            "--memory-limit",
-            "100M",
-            "reconstruct",
-            "--dim",
-            "2",
-            "--input",
-            input.to_str().unwrap(),
-            "--resolution",
-            "256x256",
-            "--output",
-            out.to_str().unwrap(),
-            "--force",
-            "--pixels",
-            pixels,
-        ]
-        .map(String::from)
+        let mut args = vec!["--memory-limit".to_string(), "100M".into()];
+        args.extend(reconstruct2d(&input, &out, "256x256"));
+        args.extend(["--force".into(), "--pixels".into(), pixels.into()]);
+        args
     };
     succeeds(&args("auto"));
     let refused = rkwave(&args("fit"));
