@@ -52,9 +52,9 @@ pub fn uniform_request(
 /// ([`rkwave::image::estimate::auto`]).
 const AUTO_WORKING_IMAGES: usize = 12;
 
-/// A pixel estimate that uses no fit (`auto`, `box`, `shrunk`) of `samples` samples read from
-/// a file onto `plane`: the samples, their bins by pixel (8 bytes a sample, counted as half a
-/// position) and the estimate's images; no basis.
+/// A pixel estimate that uses no fit (`auto`, `box`, `shrunk`) of `samples` samples onto
+/// `plane` (the file's reading is checked before, [`check_reading`]): the samples, their bins
+/// by pixel (8 bytes a sample, counted as half a position) and the estimate's images; no basis.
 pub fn estimate_request(
     plane: ImagePlane,
     channels: usize,
@@ -69,7 +69,7 @@ pub fn estimate_request(
         pixels: plane.pixels() as f64,
         channels,
         samples,
-        from_file: true,
+        from_file: false,
         positions: samples / 2.0,
         solve: ImageSolve::None,
         images: 1 + working,
