@@ -24,7 +24,8 @@
 //! - the uniform fit's normal matrix on the `(4p - 3)^2` stencil, upper triangle, values and
 //!   indices, twice (the matrix and the copy factored): `16 P (4p - 3)^2`; its sparse Cholesky
 //!   factor under nested dissection, `nnz(L) ~ kappa (2p - 1)^2 P log2 P` entries of 8 bytes
-//!   (the top separators of a 2D grid; `kappa` = [`FACTOR_FILL`]);
+//!   (the top separators of a 2D grid; `kappa` = [`FACTOR_FILL`]), up to `64²` functions; above,
+//!   the fit is PCG ([`crate::image::fit::NormalSolver::Auto`]): no factor, `64 P c` of vectors;
 //! - local inversion: the kernel matrix and its transpose, `32 m (2p - 1)^2`;
 //! - the tree fit on `L` levels: kernel rows of `r = 2 (2p - 1)^2 L` entries per sample
 //!   (`32 m r` with the transpose, the direct solve; `8 m r` for the matrix-free PCG), the
@@ -313,8 +314,15 @@ impl ImageRequest {
             ImageSolve::None => {}
             ImageSolve::Uniform { p, functions } => {
                 e.normal_matrix = 16.0 * functions * stencil(p);
-                e.factor = 8.0 * FACTOR_FILL * support(p) * functions * functions.max(2.0).log2();
-                e.scratch = 24.0 * functions * c;
+                if functions <= crate::image::fit::CHOLESKY_MAX_FUNCTIONS as f64 {
+                    e.factor =
+                        8.0 * FACTOR_FILL * support(p) * functions * functions.max(2.0).log2();
+                    e.scratch = 24.0 * functions * c;
+                } else {
+                    // PCG (`NormalSolver::Auto`): five vectors a channel and their
+                    // interleaved copies, no factor (its rare fallback is not counted)
+                    e.scratch = 64.0 * functions * c;
+                }
             }
             ImageSolve::Local { p, functions } => {
                 e.kernel_rows = 32.0 * m * support(p);
@@ -593,10 +601,12 @@ mod tests {
             solve: ImageSolve::Uniform { p: 2, functions },
             images: 1,
         };
-        let (a, b) = (uniform(65536.0).estimate(), uniform(262144.0).estimate());
+        let (a, b) = (uniform(1024.0).estimate(), uniform(4096.0).estimate());
         let ratio = b.factor / a.factor;
-        assert!((ratio - 4.0 * 18.0 / 16.0).abs() < 1e-12, "{ratio}");
-        assert_eq!(a.normal_matrix, 16.0 * 65536.0 * 25.0);
+        assert!((ratio - 4.0 * 12.0 / 10.0).abs() < 1e-12, "{ratio}");
+        assert_eq!(a.normal_matrix, 16.0 * 1024.0 * 25.0);
+        // above 64² functions the fit is PCG: no factor
+        assert_eq!(uniform(65536.0).estimate().factor, 0.0);
         let file = ImageRequest {
             from_file: true,
             ..uniform(65536.0)
@@ -627,7 +637,7 @@ mod tests {
         let e = huge
             .check(|| "a test".into(), || "fewer samples".into())
             .unwrap_err();
-        assert!(e.to_string().contains("factor"), "{e}");
+        assert!(e.to_string().contains("normal matrix"), "{e}");
         assert_eq!(uniform_image_functions(2, 256, 256, 262144.0, 4.0), 65536.0);
         assert_eq!(tree_levels(2, 256, 256, 1), 7);
         assert_eq!(tree_levels(2, 128, 128, 1), 6);

@@ -9,7 +9,9 @@ adaptive CDV interval wavelet bases (numpy in, numpy out).
     >>> bool(abs(f(np.array([0.5]))[0] - np.sin(1.5)) < 1e-6)
     True
 
-The image plane (positions in pixel units, ``(H, W, C)`` out)::
+The image plane (positions in pixel units, ``(H, W, C)`` out; the pixel estimate is
+``pixels="auto"`` by default, as ``rkwave reconstruct --dim 2``'s, ``pixels="fit"`` the
+wavelet fit)::
 
     >>> xy = np.random.default_rng(2).uniform(0, 32, (4 * 32 * 32, 2))
     >>> image, report = rkwave.reconstruct_image(xy, xy[:, 0] / 32, resolution=(32, 32))

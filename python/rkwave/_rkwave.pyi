@@ -76,11 +76,14 @@ def reconstruct_image(
     xy: ArrayLike,
     values: ArrayLike,
     resolution: Tuple[int, int],
-    p: int = 2,
+    p: Optional[int] = None,
     method: str = "wavelet",
     filter: Optional[
         Literal["box", "triangle", "gaussian", "mitchell", "lanczos"]
     ] = None,
+    *,
+    pixels: Optional[Literal["auto", "fit", "fit-clamped", "box", "shrunk"]] = None,
+    drop_nonfinite: bool = False,
 ) -> Tuple[FloatArray, dict[str, Any]]: ...
 def adapt(
     f: Union[Callable[[float], float], str],

@@ -113,6 +113,7 @@ kinded!(
     rkwave::sampling::DomainError,
     rkwave::image::ImageError,
     rkwave::image::WaveletError,
+    rkwave::image::estimate::EstimateError,
     rkwave::image::adaptive::protocol::ProtocolError,
     rkwave::image::adaptive::AdaptiveError,
     rkwave::io::IoError,

@@ -7,6 +7,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use pyo3::prelude::*;
+use rkwave::image::estimate::{reconstruct_estimated, ShrinkParams, UniformEstimate};
 use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::report::FileReconstructionReport;
 use rkwave::image::{
@@ -106,6 +107,39 @@ pub fn samples_of(
     .map_err(to_py)
 }
 
+/// The pixel estimate of the wavelet path: `pixels` by name, or as the command line's
+/// `--pixels` default: `auto`, unless `p` or `method="local"` (read by the fit only) is given,
+/// then `fit` with a note saying so.
+fn estimate_of(
+    pixels: Option<&str>,
+    p_given: bool,
+    method: Method,
+) -> PyResult<(UniformEstimate, Option<String>)> {
+    if let Some(name) = pixels {
+        let e = name.parse().map_err(|e| invalid(format!("pixels: {e}")))?;
+        return Ok((e, None));
+    }
+    let given: Vec<&str> = [
+        ("p", p_given),
+        ("method=\"local\"", method == Method::Local),
+    ]
+    .into_iter()
+    .filter_map(|(k, g)| g.then_some(k))
+    .collect();
+    if given.is_empty() {
+        return Ok((UniformEstimate::Auto, None));
+    }
+    Ok((
+        UniformEstimate::Fit,
+        Some(format!(
+            "pixels: the least-squares fit, because {} (read by the fit only) was given without \
+             pixels=; the default without them is pixels=\"auto\" (films chosen per pixel by \
+             SURE), which uses no fit",
+            given.join(", ")
+        )),
+    ))
+}
+
 /// Reconstructs a `W x H` image from scattered samples on the image plane, as `rkwave
 /// reconstruct --dim 2`: returns the `(H, W, C)` float64 pixels and a report dict.
 ///
@@ -113,40 +147,75 @@ pub fn samples_of(
 /// `(m,)` or `(m, C)` with 1 to 4 channels. `method` is `"wavelet"` (the least-squares fit,
 /// box-integrated over each pixel), `"local"` (its local inversion), or a film filter;
 /// `filter="gaussian"` (or `box`, `triangle`, `mitchell`, `lanczos`) splats the same samples
-/// through that film filter for comparison. A value that is NaN or infinite is refused (the
-/// error names the count and the first sample); `drop_nonfinite=True` drops those samples
-/// and counts them in the report (`nonfinite`) and a warning.
+/// through that film filter for comparison. `pixels` is the pixel estimate of the wavelet
+/// path, as the command line's `--pixels`: `"auto"` (the film of least SURE per pixel, then
+/// Haar shrinkage; falls back to the fit, with a warning, where a pixel has no sample or
+/// most have one), `"fit"`, `"fit-clamped"`, `"box"` or `"shrunk"`; by default `"auto"`,
+/// or `"fit"` (with a warning) when `p` or `method="local"` is given, as on the command line.
+/// A value that is NaN or infinite is refused (the error names the count and the first
+/// sample); `drop_nonfinite=True` drops those samples and counts them in the report
+/// (`nonfinite`) and a warning.
 ///
 /// >>> import numpy as np, rkwave
 /// >>> xy = np.random.default_rng(3).uniform(0, 16, (4 * 16 * 16, 2))
-/// >>> img, rep = rkwave.reconstruct_image(xy, np.c_[xy, xy[:, :1]] / 16, resolution=(16, 16))
+/// >>> f = np.c_[xy, xy[:, :1]] / 16
+/// >>> img, rep = rkwave.reconstruct_image(xy, f, resolution=(16, 16), pixels="fit")
 /// >>> img.shape, rep["method"]
 /// ((16, 16, 3), 'wavelet')
 /// >>> rkwave.reconstruct_image(xy, xy[:, 0], resolution=(16, 16), filter="gaussian")[1]["method"]
 /// 'gaussian'
 #[pyfunction]
-#[pyo3(signature = (xy, values, resolution, p=2, method="wavelet", filter=None, *,
-    drop_nonfinite=false))]
+#[pyo3(signature = (xy, values, resolution, p=None, method="wavelet", filter=None, *,
+    pixels=None, drop_nonfinite=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn reconstruct_image<'py>(
     py: Python<'py>,
     xy: &Bound<'py, PyAny>,
     values: &Bound<'py, PyAny>,
     resolution: (usize, usize),
-    p: usize,
+    p: Option<usize>,
     method: &str,
     filter: Option<&str>,
+    pixels: Option<&str>,
     drop_nonfinite: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let method = method_of(method, filter)?;
-    let wavelet = wavelet_params(p)?;
+    let wavelet = wavelet_params(p.unwrap_or(2))?;
     let plane = plane_of(resolution)?;
+    let film = matches!(method, Method::Film(_));
+    if film && pixels.is_some() {
+        return Err(invalid(
+            "pixels= is the estimate of the wavelet path; a film filter splats the samples \
+             itself: drop pixels= or filter=",
+        ));
+    }
+    let estimate = (!film)
+        .then(|| estimate_of(pixels, p.is_some(), method))
+        .transpose()?;
     let t0 = Instant::now();
     let (samples, dropped) = samples_of(plane, xy, values, nonfinite(drop_nonfinite))?;
     let convert_s = t0.elapsed().as_secs_f64();
-    let done = py
-        .detach(|| reconstruct(method, &samples, &wavelet))
-        .map_err(to_py)?;
+    let (done, estimated) = match estimate {
+        None => (
+            py.detach(|| reconstruct(method, &samples, &wavelet))
+                .map_err(to_py)?,
+            None,
+        ),
+        Some((estimate, kept_fit)) => {
+            let (done, estimated) = py
+                .detach(|| {
+                    reconstruct_estimated(
+                        estimate,
+                        method,
+                        &samples,
+                        &wavelet,
+                        &ShrinkParams::default(),
+                    )
+                })
+                .map_err(to_py)?;
+            (done, Some((estimated, kept_fit)))
+        }
+    };
     // The report of `rkwave reconstruct --dim 2 --json`; the samples came from memory, and
     // "read" is checking and converting them.
     let memory = Path::new("<numpy>");
@@ -154,6 +223,10 @@ pub fn reconstruct_image<'py>(
     let mut report = FileReconstructionReport::new(
         memory, memory, plane, &samples, method, wavelet.p, &done, convert_s, 0.0, total,
     );
+    if let Some((estimated, kept_fit)) = estimated {
+        report = report.with_pixels(estimated);
+        report.notes.extend(kept_fit);
+    }
     report.notes.extend(dropped.note());
     report.nonfinite = dropped;
     warn_all(py, &report.notes)?;

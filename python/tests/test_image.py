@@ -22,8 +22,8 @@ def scattered(spp=4, seed=11):
     [("wavelet", [], 2), ("wavelet", [], 3), ("local", ["--method", "local"], 2)],
 )
 def test_image_equals_cli_bit_for_bit(tmp_path, cli_json, method, flags, p):
-    # `--pixels fit`: the command line's default estimate is `auto` (films chosen by SURE);
-    # rkwave.reconstruct_image fits.
+    # `--pixels fit` and pixels="fit": the default estimate of both is `auto` (films chosen by
+    # SURE), which uses no fit.
     xy = scattered()
     values = disc_scene(xy)
     np.save(tmp_path / "s.npy", np.c_[xy, values])
@@ -33,7 +33,9 @@ def test_image_equals_cli_bit_for_bit(tmp_path, cli_json, method, flags, p):
     )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rkwave.RkwaveWarning)
-        image, report = rkwave.reconstruct_image(xy, values, (W, H), p=p, method=method)
+        image, report = rkwave.reconstruct_image(
+            xy, values, (W, H), p=p, method=method, pixels="fit"
+        )
     assert image.shape == (H, W, 3) and image.dtype == np.float64
     np.testing.assert_array_equal(image, np.load(tmp_path / "i.npy"))
     assert report["method"] == method and report["samples"] == len(xy)
@@ -48,7 +50,8 @@ def test_linear_functions_are_reproduced():
     # value at the pixel centre; the ridge 1e-9 of the normal equations perturbs the fit by
     # about that relative size.
     xy = scattered()
-    image, _ = rkwave.reconstruct_image(xy, 0.5 + 0.01 * xy[:, 0] - 0.02 * xy[:, 1], (W, H))
+    f = 0.5 + 0.01 * xy[:, 0] - 0.02 * xy[:, 1]
+    image, _ = rkwave.reconstruct_image(xy, f, (W, H), pixels="fit")
     cy, cx = np.mgrid[0:H, 0:W] + 0.5
     np.testing.assert_allclose(image[:, :, 0], 0.5 + 0.01 * cx - 0.02 * cy, atol=1e-6)
 
@@ -78,6 +81,50 @@ def test_film_filters_by_name():
     np.testing.assert_array_equal(
         same, rkwave.reconstruct_image(xy, xy[:, 0], (W, H), filter="gaussian")[0]
     )
+
+
+def stratified(spp=4, seed=5):
+    """`spp` jittered strata (a 2 x 2 grid at 4) in every pixel, as a renderer's."""
+    rng = np.random.default_rng(seed)
+    g = int(np.sqrt(spp))
+    py, px, sy, sx = np.meshgrid(np.arange(H), np.arange(W), np.arange(g), np.arange(g), indexing="ij")
+    x = px.ravel() + (sx.ravel() + rng.uniform(size=px.size)) / g
+    y = py.ravel() + (sy.ravel() + rng.uniform(size=py.size)) / g
+    return np.c_[x, y]
+
+
+def test_auto_is_the_default_and_equals_cli_bit_for_bit(tmp_path, cli_json):
+    # Every pixel has four stratified samples, so auto makes its films (no fallback); the
+    # command line without --pixels runs the same library function on the same samples.
+    xy = stratified()
+    values = disc_scene(xy) + 0.05 * np.random.default_rng(2).standard_normal((len(xy), 3))
+    np.save(tmp_path / "s.npy", np.c_[xy, values])
+    theirs = cli_json(
+        "reconstruct", "--dim", 2, "--input", tmp_path / "s.npy", "--resolution", f"{W}x{H}",
+        "--output", tmp_path / "i.npy",
+    )
+    image, report = rkwave.reconstruct_image(xy, values, (W, H))
+    np.testing.assert_array_equal(image, np.load(tmp_path / "i.npy"))
+    assert report["method"] == theirs["method"] == "auto"
+    assert report["pixels"]["estimate"] == "auto" and report["pixels"]["fallback"] is None
+    for key in ["films", "noise_level", "threshold", "description"]:
+        assert report["pixels"][key] == theirs["pixels"][key], key
+    same, _ = rkwave.reconstruct_image(xy, values, (W, H), pixels="auto")
+    np.testing.assert_array_equal(same, image)
+
+
+def test_a_fit_only_argument_selects_the_fit_with_a_warning():
+    xy = stratified()
+    values = disc_scene(xy)
+    with pytest.warns(rkwave.RkwaveWarning, match="because p"):
+        image, report = rkwave.reconstruct_image(xy, values, (W, H), p=2)
+    assert report["method"] == "wavelet" and report["pixels"]["estimate"] == "fit"
+    fit, _ = rkwave.reconstruct_image(xy, values, (W, H), pixels="fit")
+    np.testing.assert_array_equal(image, fit)
+    with pytest.raises(rkwave.RkwaveError, match="drop pixels= or filter="):
+        rkwave.reconstruct_image(xy, values, (W, H), filter="gaussian", pixels="auto")
+    with pytest.raises(rkwave.RkwaveError, match="unknown pixel estimate"):
+        rkwave.reconstruct_image(xy, values, (W, H), pixels="median")
 
 
 @pytest.mark.parametrize(

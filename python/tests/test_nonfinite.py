@@ -22,11 +22,13 @@ def test_reconstruct_image_refuses_then_drops():
         rkwave.reconstruct_image(xy, values, resolution=(W, H))
     with warnings.catch_warnings(record=True):
         warnings.simplefilter("always")
-        img, rep = rkwave.reconstruct_image(xy, values, resolution=(W, H), drop_nonfinite=True)
+        img, rep = rkwave.reconstruct_image(
+            xy, values, resolution=(W, H), drop_nonfinite=True, pixels="fit"
+        )
     assert rep["nonfinite"]["count"] == 2 and rep["samples"] == len(xy) - 2
     keep = np.ones(len(xy), bool)
     keep[[3, 50]] = False
-    expected, _ = rkwave.reconstruct_image(xy[keep], values[keep], resolution=(W, H))
+    expected, _ = rkwave.reconstruct_image(xy[keep], values[keep], resolution=(W, H), pixels="fit")
     assert np.array_equal(img, expected)
 
 

@@ -47,6 +47,35 @@ pub fn uniform_request(
     )
 }
 
+/// Images of the output's size `auto` holds beside the output: the value and the variance of
+/// each of its five films, the noise of the pixel means and the chosen films' image
+/// ([`rkwave::image::estimate::auto`]).
+const AUTO_WORKING_IMAGES: usize = 12;
+
+/// A pixel estimate that uses no fit (`auto`, `box`, `shrunk`) of `samples` samples onto
+/// `plane` (the file's reading is checked before, [`check_reading`]): the samples, their bins
+/// by pixel (8 bytes a sample, counted as half a position) and the estimate's images; no basis.
+pub fn estimate_request(
+    plane: ImagePlane,
+    channels: usize,
+    samples: f64,
+    estimate: rkwave::image::UniformEstimate,
+) -> ImageRequest {
+    let working = match estimate {
+        rkwave::image::UniformEstimate::Auto => AUTO_WORKING_IMAGES,
+        _ => 1,
+    };
+    ImageRequest {
+        pixels: plane.pixels() as f64,
+        channels,
+        samples,
+        from_file: false,
+        positions: samples / 2.0,
+        solve: ImageSolve::None,
+        images: 1 + working,
+    }
+}
+
 /// `method`'s fit of `spp` samples per pixel on `plane` (3 channels, a scene's), with the
 /// samples generated (no file) and `images` output images held.
 pub fn method_request(

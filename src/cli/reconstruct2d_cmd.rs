@@ -86,6 +86,40 @@ fn choose_estimate(args: &ReconstructArgs) -> (UniformEstimate, Option<String>) 
     )
 }
 
+/// The memory request of `estimate` and what it is called: the fit's for `fit` and
+/// `fit-clamped`, and for `auto` where its fallback to the fit applies (a pixel without
+/// samples, or fewer than half with two: the rule of [`rkwave::image::estimate::auto`]);
+/// otherwise the estimate's own, without a basis.
+fn estimate_request(
+    estimate: UniformEstimate,
+    plane: rkwave::image::ImagePlane,
+    samples: &rkwave::image::ImageSamples,
+    wavelet: &WaveletParams,
+    method: Method,
+) -> (rkwave::resources::ImageRequest, String) {
+    let fits = estimate.uses_fit()
+        || (estimate == UniformEstimate::Auto && {
+            let stats = rkwave::image::estimate::PixelStatistics::new(samples);
+            stats.empty_pixels() > 0 || 2 * stats.pixels_with_spread() < plane.pixels()
+        });
+    let (channels, m) = (samples.channels(), samples.len() as f64);
+    if fits {
+        let request = super::image_memory::uniform_request(
+            plane,
+            channels,
+            m,
+            wavelet.p,
+            wavelet.rho,
+            method == Method::Local,
+            1,
+        );
+        (request, method.to_string())
+    } else {
+        let request = super::image_memory::estimate_request(plane, channels, m, estimate);
+        (request, format!("--pixels {estimate}"))
+    }
+}
+
 /// Runs the 2D path of `rkwave reconstruct`.
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
     let started = Instant::now();
@@ -154,20 +188,14 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         super::plan_cmd::nonfinite(args.drop_nonfinite),
     )?;
     let read_s = started.elapsed().as_secs_f64();
-    // Before the fit: the fit and the output image, from the sizes read.
-    let request = super::image_memory::uniform_request(
-        plane,
-        samples.channels(),
-        samples.len() as f64,
-        wavelet.p,
-        wavelet.rho,
-        method == Method::Local,
-        1,
-    );
+    let (estimate, kept_fit) = choose_estimate(args);
+    // Before the work: the fit (or the estimate without one) and the output image, from the
+    // sizes read.
+    let (request, by) = estimate_request(estimate, plane, &samples, &wavelet, method);
     if let Err(e) = super::image_memory::check(
         &request,
         format!(
-            "reconstructing {} samples onto {plane} pixels by {method}",
+            "reconstructing {} samples onto {plane} pixels by {by}",
             samples.len()
         ),
         "a smaller --resolution, fewer samples, or --method local / a lower --p",
@@ -176,7 +204,6 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         return Err(e);
     }
     bar.set_message("reconstructing");
-    let (estimate, kept_fit) = choose_estimate(args);
     let (done, estimated) = reconstruct_estimated(
         estimate,
         method,
@@ -210,8 +237,9 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         read_s,
         write_s,
         started.elapsed().as_secs_f64(),
-    );
-    report.pixels = Some(estimated);
+    )
+    .with_pixels(estimated);
+
     report.notes.extend(kept_fit);
     report.notes.extend(dropped.note());
     report.nonfinite = dropped;

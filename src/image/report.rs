@@ -50,8 +50,9 @@ pub struct FileReconstructionReport {
     pub samples: usize,
     /// Value channels per sample.
     pub channels: usize,
-    /// The reconstruction method.
-    pub method: Method,
+    /// The reconstruction method's name (`wavelet`, `local`, a film's), or `auto` for the
+    /// pixel estimate of that name (films chosen per pixel; `pixels` says which).
+    pub method: String,
     /// Vanishing moments of the wavelet methods.
     pub p: usize,
     /// Basis functions (wavelet methods).
@@ -94,7 +95,7 @@ impl FileReconstructionReport {
             resolution: plane.to_string(),
             samples: samples.len(),
             channels: samples.channels(),
-            method,
+            method: method.into(),
             p,
             functions: done.functions,
             solve: done.solve.clone(),
@@ -110,6 +111,22 @@ impl FileReconstructionReport {
             pixels: None,
             nonfinite: super::DroppedSamples::default(),
         }
+    }
+
+    /// The report with the pixel estimate made: its report in `pixels`, and as the method
+    /// `auto` where that estimate was made, the box film's name for `box` and `shrunk` (the
+    /// pixel statistics), the fit's method otherwise.
+    pub fn with_pixels(mut self, estimated: super::estimate::EstimateReport) -> Self {
+        use super::estimate::UniformEstimate;
+        match estimated.estimate {
+            UniformEstimate::Auto => self.method = UniformEstimate::Auto.name().into(),
+            UniformEstimate::Box | UniformEstimate::Shrunk => {
+                self.method = Method::Film(super::filters::FilmFilterKind::Box).into()
+            }
+            UniformEstimate::Fit | UniformEstimate::FitClamped => {}
+        }
+        self.pixels = Some(estimated);
+        self
     }
 }
 

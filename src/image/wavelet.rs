@@ -2,7 +2,8 @@
 //! single-scale space `V_Jx (x) V_Jy` ([`crate::image::fit`]), then take each pixel's value
 //! against a pixel filter, exactly ([`crate::image::pixels`]).
 //!
-//! * `wavelet`: the global solve of the normal equations (sparse Cholesky);
+//! * `wavelet`: the global solve of the normal equations (Jacobi PCG, or the sparse Cholesky
+//!   where it does not converge: [`crate::image::fit::NormalSolver::default_cg`]);
 //! * `local`: local inversion of the 2D kernel matrix, `c = K~ f` with `K~ ≈ K^+` from
 //!   [`crate::solve::apply_local`] (the paper's dual kernels), on the same basis.
 //!
@@ -74,7 +75,7 @@ impl Default for WaveletParams {
 /// How the coefficients of the wavelet method are found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum CoefficientSolve {
-    /// The global solve of the normal equations (sparse Cholesky).
+    /// The global solve of the normal equations (Jacobi PCG, the sparse Cholesky where it does not converge).
     Global,
     /// Local inversion of the kernel matrix (the paper's dual kernels).
     Local,
@@ -173,7 +174,7 @@ pub struct WaveletOutput {
 }
 
 /// The fit parameters of the wavelet methods: `p`, CDV's family for it, automatic levels at
-/// `rho` samples per function, the relative ridge, the global Cholesky solve or local
+/// `rho` samples per function, the relative ridge, the global solve (Jacobi PCG, Cholesky fallback) or local
 /// inversion with default parameters.
 pub fn fit_params(params: &WaveletParams, solve: CoefficientSolve) -> ImageFitParams {
     let mut fit = ImageFitParams {
@@ -242,13 +243,8 @@ fn solve_notes(r: &ImageSolveReport) -> Vec<String> {
             ));
         }
     }
-    if let Some(cg) = &r.cg {
-        if !cg.converged {
-            notes.push(format!(
-                "CG did not reach its tolerance (residuals {:?})",
-                cg.residual
-            ));
-        }
+    if let Some(why) = r.cg.as_ref().and_then(|cg| cg.fallback.as_ref()) {
+        notes.push(why.clone());
     }
     if let Some(local) = &r.local {
         notes.extend(local.warnings());

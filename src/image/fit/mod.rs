@@ -28,6 +28,7 @@ pub use normal::{NormalEquations2d, StencilPattern};
 pub use precondition::kernel_matrix_2d;
 pub use system::{
     CgReport, FactorReport, FillOrdering, NormalSolver, NormalSystem, Preconditioner,
+    CG_MAX_ITERATIONS, CG_TOLERANCE, CHOLESKY_MAX_FUNCTIONS,
 };
 
 /// How the levels are chosen per axis.
@@ -53,9 +54,10 @@ pub struct ImageFitParams {
     pub family: Option<FilterFamily>,
     /// Levels per axis.
     pub levels: ImageLevels,
-    /// The solver of the normal equations.
+    /// The solver of the normal equations: by default chosen by size, Jacobi PCG (with the
+    /// Cholesky where it does not converge) above `64²` functions ([`NormalSolver::Auto`]).
     pub solver: NormalSolver,
-    /// Fill-reducing ordering of the Cholesky solver (unused by CG).
+    /// Fill-reducing ordering of the Cholesky solver (and of CG's fallback).
     pub ordering: FillOrdering,
     /// Relative ridge `lambda` on the equilibrated normal matrix: bounds the amplification
     /// of directions the samples barely determine (`~ 1 / (2 sqrt(lambda))`) at a bias of
@@ -85,7 +87,7 @@ impl Default for ImageFitParams {
             p: 2,
             family: None,
             levels: ImageLevels::Auto(TensorLevelParams::default()),
-            solver: NormalSolver::Cholesky,
+            solver: NormalSolver::Auto,
             ordering: FillOrdering::default(),
             ridge: 1e-9,
             smoothing: 0.0,
@@ -199,7 +201,7 @@ pub struct ImageSolveReport {
     pub oversampling: f64,
     /// Stored entries of `G` (lower triangle).
     pub normal_nnz: usize,
-    /// Solver used.
+    /// Solver used (never [`NormalSolver::Auto`]: the one it resolved to).
     pub solver: NormalSolver,
     /// Relative ridge used.
     pub ridge: f64,
@@ -383,8 +385,10 @@ pub fn fit_image(
     let mut system = NormalSystem::new(pattern, ne.values, params.ridge);
     let rhs: Vec<&[f64]> = ne.rhs.iter().map(|r| r.as_slice()).collect();
     let mut local_stats = None;
-    let (coefficients, factor, cg) = match params.solver {
-        NormalSolver::Cholesky => {
+    let solver = params.solver.resolve(basis.len());
+    let (coefficients, factor, cg) = match solver {
+        // `resolve` never returns `Auto`
+        NormalSolver::Cholesky | NormalSolver::Auto => {
             let t = Instant::now();
             let f = system.factor(params.ordering)?;
             timings.factor_s = t.elapsed().as_secs_f64();
@@ -420,6 +424,7 @@ pub fn fit_image(
                 residual: Vec::new(),
                 converged: true,
                 setup_s,
+                fallback: None,
             };
             let mut z = Vec::with_capacity(rhs.len());
             for (zc, it, res) in system.solve_cg(
@@ -435,7 +440,28 @@ pub fn fit_image(
                 z.push(zc);
             }
             timings.solve_s = t.elapsed().as_secs_f64();
-            (z, None, Some(report))
+            if report.converged {
+                (z, None, Some(report))
+            } else {
+                // short of the tolerance (the cap, or a breakdown): the direct solve instead
+                report.fallback = Some(format!(
+                    "CG stopped at relative residuals {} after {:?} iterations (tolerance \
+                     {tolerance:e}, at most {max_iterations}): solved by the sparse Cholesky \
+                     instead",
+                    report
+                        .residual
+                        .iter()
+                        .map(|r| format!("{r:.1e}"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    report.iterations,
+                ));
+                let t = Instant::now();
+                let f = system.factor(params.ordering)?;
+                let z = system.solve_factored(&rhs);
+                timings.factor_s += t.elapsed().as_secs_f64();
+                (z, Some(f), Some(report))
+            }
         }
     };
     if let Some((c, _)) = coefficients
@@ -453,7 +479,7 @@ pub fn fit_image(
         samples: xs.len(),
         oversampling: xs.len() as f64 / (nx * ny) as f64,
         normal_nnz,
-        solver: params.solver,
+        solver,
         ridge: system.ridge(),
         smoothing: params.smoothing,
         unsampled,

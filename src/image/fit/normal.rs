@@ -15,6 +15,7 @@ use rayon::prelude::*;
 
 use crate::basis::tensor::TensorBasis;
 use crate::basis::CdvBasis;
+use crate::solve::vectors::interleave;
 
 /// Structural range `lo[k]..=hi[k]` of the 1D single-scale functions sharing a cell with
 /// `phi_{J,k}` (from one evaluation at each of the `2^J` cell centres).
@@ -306,10 +307,13 @@ pub fn accumulate(
 }
 
 /// `y_c = G x_c` for every vector `c`, with `G` given by its lower triangle (symmetric
-/// product): one pass over `G` serves all vectors. Parallel over contiguous bands of columns,
-/// each band writing a private output (rows `j..` of its columns), summed afterwards.
+/// product): one pass over `G` serves all vectors, held interleaved (`x[j k + c]`) so that each
+/// entry of `G` updates the `k` channels of its row and column from adjacent memory. Parallel
+/// over contiguous bands of columns, each band writing a private output (rows `j..` of its
+/// columns), summed afterwards; within a column the diagonal comes first.
 pub fn symmetric_matvec(pattern: &StencilPattern, g: &[f64], x: &[&[f64]], y: &mut [Vec<f64>]) {
     let k = x.len();
+    let xi = interleave(x);
     let bands = rayon::current_num_threads().clamp(1, pattern.ny);
     let per = pattern.ny.div_ceil(bands);
     let parts: Vec<(usize, usize, Vec<f64>)> = (0..bands)
@@ -322,22 +326,27 @@ pub fn symmetric_matvec(pattern: &StencilPattern, g: &[f64], x: &[&[f64]], y: &m
                 .max()
                 .unwrap_or(c0);
             let len = hi.saturating_sub(c0);
-            // out[c * len + (i - c0)]
+            // out[(i - c0) k + c]
             let mut out = vec![0.0; len * k];
             let mut acc = vec![0.0; k];
             for j in c0..c1 {
                 let (s, e) = (pattern.col_ptr[j], pattern.col_ptr[j + 1]);
-                acc.iter_mut().for_each(|a| *a = 0.0);
-                for (&i, &v) in pattern.row_idx[s..e].iter().zip(&g[s..e]) {
+                let xj = &xi[j * k..(j + 1) * k];
+                // the diagonal
+                for (a, &v) in acc.iter_mut().zip(xj) {
+                    *a = g[s] * v;
+                }
+                for (&i, &v) in pattern.row_idx[s + 1..e].iter().zip(&g[s + 1..e]) {
+                    let o = (i - c0) * k;
+                    let (oi, xr) = (&mut out[o..o + k], &xi[i * k..(i + 1) * k]);
                     for c in 0..k {
-                        out[c * len + i - c0] += v * x[c][j];
-                        if i != j {
-                            acc[c] += v * x[c][i];
-                        }
+                        oi[c] += v * xj[c];
+                        acc[c] += v * xr[c];
                     }
                 }
-                for c in 0..k {
-                    out[c * len + j - c0] += acc[c];
+                let o = (j - c0) * k;
+                for (oj, a) in out[o..o + k].iter_mut().zip(&acc) {
+                    *oj += a;
                 }
             }
             (c0, len, out)
@@ -350,7 +359,7 @@ pub fn symmetric_matvec(pattern: &StencilPattern, g: &[f64], x: &[&[f64]], y: &m
         for (c, yc) in y.iter_mut().enumerate() {
             yc[c0..c0 + len]
                 .iter_mut()
-                .zip(&out[c * len..(c + 1) * len])
+                .zip(out[c..].iter().step_by(k))
                 .for_each(|(a, b)| *a += b);
         }
     }

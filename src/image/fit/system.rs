@@ -13,7 +13,16 @@
 //! - PCG on `A`: conjugate gradients with no preconditioner, Jacobi (`diag(A)^{-1}`, which on the
 //!   equilibrated `A` is the identity up to the ridge, so it is run on `G` itself), or local
 //!   inversion (`M = K~ K~^T` with `K~ ≈ K^+` from [`crate::solve::local_inversion`] on the 2D
-//!   kernel matrix: `K^+ K^{+T} = (K^T K)^{-1}`), stopped at a relative residual.
+//!   kernel matrix: `K^+ K^{+T} = (K^T K)^{-1}`), stopped at a relative residual. Where the
+//!   samples are dense (a few per function, stratified) the functions are a Riesz basis for the
+//!   sample points: `A` is a mass-like matrix with eigenvalues in `[a, b]`, `b / a` small and
+//!   independent of the resolution, so Jacobi PCG converges in a fixed number of iterations
+//!   (error factor `2 ((sqrt k - 1) / (sqrt k + 1))^j` after `j` of them, `k = b / a`) at a cost
+//!   of one pass over `G` each: the default above `64²` unknowns ([`NormalSolver::Auto`]). Where
+//!   the samples
+//!   leave directions nearly undetermined `k` grows with the ridge's `1 / lambda`; CG then
+//!   stops at its iteration cap and the fit falls back to the Cholesky (reported,
+//!   [`CgReport::fallback`]), so a hard case costs at most the cap's iterations more.
 
 use faer::{Mat, Par};
 use rayon::prelude::*;
@@ -53,6 +62,11 @@ pub enum FillOrdering {
 /// How the normal equations are solved.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum NormalSolver {
+    /// By size ([`NormalSolver::resolve`]): the sparse Cholesky up to
+    /// [`CHOLESKY_MAX_FUNCTIONS`] unknowns, where it is exact and no slower, and Jacobi PCG
+    /// above ([`NormalSolver::default_cg`], with its fallback to the Cholesky). The report
+    /// names the solver used.
+    Auto,
     /// Sparse Cholesky (exact; memory of the fill-in, ~`N log N`).
     Cholesky,
     /// Preconditioned conjugate gradients (memory of `G` only).
@@ -61,7 +75,9 @@ pub enum NormalSolver {
         preconditioner: Preconditioner,
         /// Stop at `||b - A x|| <= tolerance ||b||`.
         tolerance: f64,
-        /// Give up (and report it) after this many iterations.
+        /// Stop after this many iterations: a channel short of the tolerance then makes the
+        /// fit solve the system by the sparse Cholesky instead (reported,
+        /// [`CgReport::fallback`]).
         max_iterations: usize,
     },
     /// Local inversion instead of a global solve (docs/design.md §4): `z_c = K~ f_c` with `K~ ≈ K^+`
@@ -69,6 +85,41 @@ pub enum NormalSolver {
     /// error against the global solve shrinks with `rings`), and `G` is still accumulated for
     /// [`super::ImageFit::solve_normal`].
     Local(crate::solve::LocalInversionParams),
+}
+
+/// Relative residual at which the default CG stops ([`NormalSolver::default_cg`]): the pixels
+/// then agree with the Cholesky's to well below the noise of a render (docs/measurements.md,
+/// "The uniform fit by conjugate gradients").
+pub const CG_TOLERANCE: f64 = 1e-6;
+
+/// Iterations after which the default CG gives way to the Cholesky: a few times what dense
+/// samples need, and well below the cost of the factorization in passes over `G`.
+pub const CG_MAX_ITERATIONS: usize = 60;
+
+/// Unknowns up to which [`NormalSolver::Auto`] takes the sparse Cholesky: at 4 samples per
+/// function its factorization costs about what the CG iterations do at `64²` and grows as
+/// `N^{3/2}` against CG's `N` (docs/measurements.md, "The uniform fit by conjugate gradients").
+pub const CHOLESKY_MAX_FUNCTIONS: usize = 64 * 64;
+
+impl NormalSolver {
+    /// The solver for `functions` unknowns: [`NormalSolver::Auto`] resolved by size, any other
+    /// unchanged.
+    pub fn resolve(self, functions: usize) -> Self {
+        match self {
+            NormalSolver::Auto if functions <= CHOLESKY_MAX_FUNCTIONS => NormalSolver::Cholesky,
+            NormalSolver::Auto => NormalSolver::default_cg(),
+            other => other,
+        }
+    }
+
+    /// Jacobi PCG to [`CG_TOLERANCE`], at most [`CG_MAX_ITERATIONS`] (then the Cholesky).
+    pub const fn default_cg() -> Self {
+        NormalSolver::Cg {
+            preconditioner: Preconditioner::Jacobi,
+            tolerance: CG_TOLERANCE,
+            max_iterations: CG_MAX_ITERATIONS,
+        }
+    }
 }
 
 /// What one CG solve did.
@@ -84,6 +135,9 @@ pub struct CgReport {
     pub converged: bool,
     /// Seconds to build the preconditioner.
     pub setup_s: f64,
+    /// Why the system was solved by the sparse Cholesky after all (a channel short of the
+    /// tolerance at the iteration cap, or a breakdown); `None` when CG's iterate is the result.
+    pub fallback: Option<String>,
 }
 
 /// The assembled system and (for Cholesky) its factor.
