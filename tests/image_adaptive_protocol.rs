@@ -632,7 +632,7 @@ fn a_spent_budget_stops_the_plan() {
     let mut renderer = AdaptiveParams::renderer_plan();
     renderer.stop.budget = 8 * small.pixels();
     renderer.sampling.seed = 1;
-    let mut renderer_direct = renderer.clone();
+    let mut renderer_direct = renderer;
     renderer_direct.fit.solver = TreeSolver::Direct;
     let plans: [(&dyn ImageOracle, ImagePlane, AdaptiveParams); 4] = [
         (&clean, plane, budget_and_seed(8 * plane.pixels(), 3)),
