@@ -7,30 +7,17 @@ mod common;
 
 use rkwave::image::adaptive::protocol::{PlanState, GRAM_FILE};
 use rkwave::image::adaptive::{
-    fit_tree_updating, AdaptiveParams, FitState, NoisyOracle, SamplePositions, TreeGram, TreeSolver,
+    fit_tree_updating, FitState, NoisyOracle, SamplePositions, TreeGram, TreeSolver,
 };
 use rkwave::image::ImagePlane;
 
-use common::rendered::Rendered;
-use common::scenes::straight_edge;
+use common::rendered::{small_plan, Rendered, NOISY_EDGE};
 
-const ORACLE: NoisyOracle<'static> = NoisyOracle {
-    inner: &straight_edge,
-    sigma: 0.05,
-    seed: 3,
-};
+const ORACLE: NoisyOracle<'static> = NOISY_EDGE;
 
-fn setup() -> (ImagePlane, AdaptiveParams) {
-    let plane = ImagePlane::new(32, 32).unwrap();
-    let mut params = AdaptiveParams::default();
-    params.stop.budget = 4 * plane.pixels();
-    params.sampling.seed = 11;
-    (plane, params)
-}
-
-/// A plan of [`setup`] started and saved in `dir`, its base positions rendered.
+/// A plan of [`small_plan`] started and saved in `dir`, its base positions rendered.
 fn started(dir: &std::path::Path) -> (ImagePlane, Rendered) {
-    let (plane, params) = setup();
+    let (plane, params) = small_plan();
     let (state, base) = PlanState::start(plane, &params).unwrap();
     state.save(dir).unwrap();
     let mut rendered = Rendered {
@@ -54,7 +41,7 @@ fn drive(
     dir: Option<&std::path::Path>,
     damage: Option<(usize, Damage<'_>)>,
 ) -> (Vec<SamplePositions>, Vec<Vec<f64>>, Vec<Option<String>>) {
-    let (plane, params) = setup();
+    let (plane, params) = small_plan();
     let (state, base) = PlanState::start(plane, &params).unwrap();
     let mut json = state.to_json();
     if let Some(d) = dir {
@@ -186,7 +173,7 @@ fn damaged_or_foreign_matrix_is_rebuilt_with_a_note() {
     let junk = |f: &std::path::Path| std::fs::write(f, b"not a matrix").unwrap();
     let foreign = |f: &std::path::Path| {
         // a well-formed matrix of the same plan's samples under another plan's tag
-        let (plane, params) = setup();
+        let (plane, params) = small_plan();
         let (state, _) = PlanState::start(plane, &params).unwrap();
         let gram = TreeGram::from_bytes(&std::fs::read(f).unwrap(), state.tag()).unwrap();
         std::fs::write(f, gram.to_bytes(state.tag() ^ 1)).unwrap();

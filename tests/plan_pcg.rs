@@ -13,22 +13,14 @@ use rkwave::image::adaptive::{
 use rkwave::image::ImagePlane;
 
 use common::image_cli::{arg, plan_round, plan_start, render};
-use common::rendered::Rendered;
-use common::scenes::straight_edge;
+use common::rendered::{small_plan, Rendered, NOISY_EDGE};
 use common::succeeds;
 
-const ORACLE: NoisyOracle<'static> = NoisyOracle {
-    inner: &straight_edge,
-    sigma: 0.05,
-    seed: 3,
-};
+const ORACLE: NoisyOracle<'static> = NOISY_EDGE;
 
 /// A 32² plan of 4 spp fitted by PCG (to `1e-6`, rounds to `1e-2`).
 fn setup() -> (ImagePlane, AdaptiveParams) {
-    let plane = ImagePlane::new(32, 32).unwrap();
-    let mut params = AdaptiveParams::default();
-    params.stop.budget = 4 * plane.pixels();
-    params.sampling.seed = 11;
+    let (plane, mut params) = small_plan();
     params.fit.solver = TreeSolver::default();
     (plane, params)
 }

@@ -1,8 +1,26 @@
 //! One-channel samples grown round by round as a renderer answering a plan would: the
 //! positions handed out, in order, and an oracle's values at them.
 
-use rkwave::image::adaptive::{ImageOracle, SamplePositions};
+use rkwave::image::adaptive::{AdaptiveParams, ImageOracle, NoisyOracle, SamplePositions};
 use rkwave::image::{ImagePlane, ImageSamples};
+
+use super::scenes::straight_edge;
+
+/// The renderer of the file-protocol tests: [`straight_edge`] with noise `sigma = 0.05`.
+pub const NOISY_EDGE: NoisyOracle<'static> = NoisyOracle {
+    inner: &straight_edge,
+    sigma: 0.05,
+    seed: 3,
+};
+
+/// Their plan: 32², 4 spp, positions seeded by 11, the engine's default parameters otherwise.
+pub fn small_plan() -> (ImagePlane, AdaptiveParams) {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let mut params = AdaptiveParams::default();
+    params.stop.budget = 4 * plane.pixels();
+    params.sampling.seed = 11;
+    (plane, params)
+}
 
 /// The samples so far.
 #[derive(Default)]
