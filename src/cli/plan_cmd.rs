@@ -87,9 +87,10 @@ pub struct PlanArgs {
     /// The final image's pixels (recorded in the state; the rounds do not depend on it):
     /// `residual_clamped` (the fit plus the significant mean residual, clamped to the local
     /// sample range), `residual_corrected`, `fit_only`, `shrunk` (residual_clamped, then
-    /// wavelet-shrunk at the noise level of the samples' own spread) or `box_shrunk` (the
-    /// box pixels, shrunk likewise). Default for a new plan: `shrunk`; later calls keep the
-    /// state's.
+    /// wavelet-shrunk at the noise level of the samples' own spread), `box_shrunk` (the
+    /// box pixels, shrunk likewise) or `auto` (per pixel the film filter of least SURE, then
+    /// shrunk, as `reconstruct --dim 2 --pixels auto`; `shrunk` where a pixel has no sample,
+    /// said). Default for a new plan: `shrunk`; later calls keep the state's.
     #[arg(long)]
     pub output_pixels: Option<PixelEstimate>,
     /// The solver of the rounds' fits (recorded in the state): `pcg` (default for a new plan:
