@@ -25,7 +25,7 @@
 //!   indices, twice (the matrix and the copy factored): `16 P (4p - 3)^2`; its sparse Cholesky
 //!   factor under nested dissection, `nnz(L) ~ kappa (2p - 1)^2 P log2 P` entries of 8 bytes
 //!   (the top separators of a 2D grid; `kappa` = [`FACTOR_FILL`]), up to `64²` functions; above,
-//!   the fit is PCG ([`crate::image::fit::NormalSolver::Auto`]): no factor, `64 P c` of vectors;
+//!   the fit is PCG (the image fit's `NormalSolver::Auto`): no factor, `64 P c` of vectors;
 //! - local inversion: the kernel matrix and its transpose, `32 m (2p - 1)^2`;
 //! - the tree fit on `L` levels: kernel rows of `r = 2 (2p - 1)^2 L` entries per sample
 //!   (`32 m r` with the transpose, the direct solve; `8 m r` for the matrix-free PCG), the
@@ -48,6 +48,11 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use thiserror::Error;
+
+/// The largest uniform image fit (functions) that the image fit's `NormalSolver::Auto` solves by
+/// the sparse Cholesky; above it, Jacobi PCG (no factor). Defined here, where the memory
+/// estimate needs it, and used by the image fit (`image::fit::CHOLESKY_MAX_FUNCTIONS`).
+pub const UNIFORM_CHOLESKY_MAX_FUNCTIONS: usize = 64 * 64;
 
 /// The limit when the machine's memory cannot be read: 8 GiB.
 pub const FALLBACK_LIMIT: u64 = 8 << 30;
@@ -314,7 +319,7 @@ impl ImageRequest {
             ImageSolve::None => {}
             ImageSolve::Uniform { p, functions } => {
                 e.normal_matrix = 16.0 * functions * stencil(p);
-                if functions <= crate::image::fit::CHOLESKY_MAX_FUNCTIONS as f64 {
+                if functions <= UNIFORM_CHOLESKY_MAX_FUNCTIONS as f64 {
                     e.factor =
                         8.0 * FACTOR_FILL * support(p) * functions * functions.max(2.0).log2();
                     e.scratch = 24.0 * functions * c;

@@ -99,7 +99,7 @@ pub const CG_MAX_ITERATIONS: usize = 60;
 /// Unknowns up to which [`NormalSolver::Auto`] takes the sparse Cholesky: at 4 samples per
 /// function its factorization costs about what the CG iterations do at `64²` and grows as
 /// `N^{3/2}` against CG's `N` (docs/measurements.md, "The uniform fit by conjugate gradients").
-pub const CHOLESKY_MAX_FUNCTIONS: usize = 64 * 64;
+pub const CHOLESKY_MAX_FUNCTIONS: usize = crate::resources::UNIFORM_CHOLESKY_MAX_FUNCTIONS;
 
 impl NormalSolver {
     /// The solver for `functions` unknowns: [`NormalSolver::Auto`] resolved by size, any other
