@@ -6,8 +6,8 @@
 use pyo3::prelude::*;
 use rkwave::basis::FilterFamily;
 use rkwave::image::adaptive::{
-    AdaptiveParams, ImageSampling, NoiseParams, QuadTreeParams, StopParams as ImageStop,
-    TreeParams as ImageTree,
+    AdaptiveParams, FitParams as ImageFit, ImageSampling, NoiseParams, OutputParams, PixelEstimate,
+    QuadTreeParams, StopParams as ImageStop, TreeParams as ImageTree, TreeSolver,
 };
 use rkwave::image::{ImagePlane, WaveletParams};
 use rkwave::kernel::LevelParams;
@@ -235,7 +235,7 @@ pub fn wavelet_params(p: usize) -> PyResult<WaveletParams> {
 }
 
 /// The keyword arguments of `rkwave.Plan`, as the flags of `rkwave plan`.
-pub struct PlanArgs {
+pub struct PlanArgs<'a> {
     /// Total sample budget.
     pub budget: Option<usize>,
     /// Average samples per pixel.
@@ -250,11 +250,29 @@ pub struct PlanArgs {
     pub seed: Option<u64>,
     /// False-alarm rate of the noise test.
     pub false_alarm: Option<f64>,
+    /// The rounds' solver: `"pcg"` or `"direct"`.
+    pub solver: Option<&'a str>,
+    /// The final image's pixels, by [`PixelEstimate`]'s name.
+    pub output_pixels: Option<&'a str>,
+}
+
+/// The plan's solver by name, as `rkwave plan --solver`: `"pcg"` (the renderer plan's
+/// warm-started conjugate gradients, [`TreeSolver::plan_pcg`]) or `"direct"` (the sparse
+/// Cholesky of the carried normal matrix).
+fn plan_solver(name: &str) -> PyResult<TreeSolver> {
+    match name.trim().to_ascii_lowercase().as_str() {
+        "pcg" => Ok(TreeSolver::plan_pcg()),
+        "direct" => Ok(TreeSolver::Direct),
+        other => Err(invalid(format!(
+            "solver={other:?}: expected \"pcg\" (conjugate gradients, the default) or \"direct\" \
+             (sparse Cholesky)"
+        ))),
+    }
 }
 
 /// The plan's parameters for a new plan on `plane`: the arguments given, the library's
 /// defaults of a renderer's plan for the rest (as `rkwave plan` on its first call).
-pub fn plan_params(plane: ImagePlane, a: &PlanArgs) -> PyResult<AdaptiveParams> {
+pub fn plan_params(plane: ImagePlane, a: &PlanArgs<'_>) -> PyResult<AdaptiveParams> {
     let base = AdaptiveParams::renderer_plan();
     let budget = match (a.budget, a.spp) {
         (Some(_), Some(_)) => {
@@ -290,6 +308,19 @@ pub fn plan_params(plane: ImagePlane, a: &PlanArgs) -> PyResult<AdaptiveParams> 
         stop: ImageStop {
             budget,
             ..base.stop
+        },
+        output: OutputParams {
+            pixels: match a.output_pixels {
+                None => base.output.pixels,
+                Some(name) => name
+                    .parse::<PixelEstimate>()
+                    .map_err(|e| invalid(format!("output_pixels={name:?}: {e}")))?,
+            },
+            ..base.output
+        },
+        fit: ImageFit {
+            solver: a.solver.map_or(Ok(base.fit.solver), plan_solver)?,
+            ..base.fit
         },
         ..base
     })

@@ -178,7 +178,12 @@ fn npy_of(first: &[f64], rest: Vec<Vec<f64>>) -> PyResult<Vec<u8>> {
 #[pymethods]
 impl PyPlan {
     /// A new plan on a `W x H` image with a sample budget (`spp` per pixel on average, or
-    /// `budget` in all); the other parameters default as in `rkwave plan`.
+    /// `budget` in all); the other parameters default as in `rkwave plan`: `solver="pcg"`
+    /// (the rounds' fits by warm-started conjugate gradients; `"direct"`: the sparse Cholesky
+    /// of the normal matrix carried between rounds, `rkwave plan --solver`) and
+    /// `output_pixels="shrunk"` (the final image's pixels, `rkwave plan --output-pixels`:
+    /// also `"auto"`, `"residual_clamped"`, `"residual_corrected"`, `"fit_only"`,
+    /// `"box_shrunk"`).
     ///
     /// >>> import rkwave
     /// >>> plan = rkwave.Plan(resolution=(32, 32), spp=4)
@@ -186,7 +191,7 @@ impl PyPlan {
     /// (2, False)
     #[new]
     #[pyo3(signature = (resolution, spp=None, budget=None, *, p=None, rho=None,
-        below_pixel=None, seed=None, false_alarm=None))]
+        below_pixel=None, seed=None, false_alarm=None, solver=None, output_pixels=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -198,6 +203,8 @@ impl PyPlan {
         below_pixel: Option<u32>,
         seed: Option<u64>,
         false_alarm: Option<f64>,
+        solver: Option<&str>,
+        output_pixels: Option<&str>,
     ) -> PyResult<Self> {
         let plane = plane_of(resolution)?;
         let params = plan_params(
@@ -210,6 +217,8 @@ impl PyPlan {
                 below_pixel,
                 seed,
                 false_alarm,
+                solver,
+                output_pixels,
             },
         )?;
         let t = Instant::now();

@@ -16,11 +16,13 @@ from conftest import disc_scene
 W, H, SPP = 32, 24, 4
 
 
-def cli_loop(cli, run, rounds=None):
-    """`rkwave plan` through files with disc_scene as the renderer; stops after `rounds`
-    calls (None: until the plan stops, whose call writes `run / "final.npy"`). Returns the
-    positions of every round and the path of the last sample file."""
-    cli("plan", "--resolution", f"{W}x{H}", "--spp", SPP, "--state", run, "--out", run / "n0.npy")
+def cli_loop(cli, run, rounds=None, flags=()):
+    """`rkwave plan` through files with disc_scene as the renderer (`flags` added to the
+    first call, the one that makes the plan); stops after `rounds` calls (None: until the plan
+    stops, whose call writes `run / "final.npy"`). Returns the positions of every round and
+    the path of the last sample file."""
+    cli("plan", "--resolution", f"{W}x{H}", "--spp", SPP, "--state", run, "--out", run / "n0.npy",
+        *flags)
     positions, everything = [np.load(run / "n0.npy")], None
     k = 0
     while rounds is None or k < rounds:
@@ -64,6 +66,30 @@ def test_plan_equals_cli_from_files(tmp_path, cli):
     assert report["done"] and report["samples"] == len(np.load(last)) <= W * H * SPP
     assert len(report["steps"]) == len(positions)
     assert plan.positions().shape == (0, 2)
+
+
+@pytest.mark.parametrize("solver,output", [("direct", "auto"), ("pcg", "residual_clamped")])
+def test_plan_keywords_are_the_cli_flags(tmp_path, cli, solver, output):
+    """`solver=` and `output_pixels=` make the plan of `--solver` and `--output-pixels`: the
+    same positions every round and the same final image, bit for bit."""
+    run = tmp_path / "run"
+    cli_positions, last = cli_loop(
+        cli, run, flags=("--solver", solver, "--output-pixels", output))
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP, solver=solver, output_pixels=output)
+    positions = python_loop(plan)
+    assert len(positions) == len(cli_positions) > 2
+    for mine, theirs in zip(positions, cli_positions):
+        np.testing.assert_array_equal(mine, theirs)
+    np.testing.assert_array_equal(plan.image(), np.load(run / "final.npy"))
+    default = rkwave.Plan(resolution=(W, H), spp=SPP)
+    python_loop(default)
+    # another output or solver is another image (the keywords are not ignored)
+    assert not np.array_equal(plan.image(), default.image())
+    if solver == "direct":
+        # under the direct solve `reconstruct --state` refits to the same image (README)
+        cli("reconstruct", "--dim", "2", "--state", run, "--input", last, "--output",
+            tmp_path / "again.npy")
+        np.testing.assert_array_equal(np.load(tmp_path / "again.npy"), plan.image())
 
 
 def test_state_moves_between_cli_and_python(tmp_path, cli):
@@ -121,6 +147,10 @@ def test_plan_refuses_what_the_cli_refuses(tmp_path):
         rkwave.Plan(resolution=(W, H))
     with pytest.raises(rkwave.RkwaveError, match="not both"):
         rkwave.Plan(resolution=(W, H), spp=4, budget=100)
+    with pytest.raises(rkwave.RkwaveError, match="solver=.*pcg"):
+        rkwave.Plan(resolution=(W, H), spp=4, solver="cholesky")
+    with pytest.raises(rkwave.RkwaveError, match="output_pixels=.*shrunk"):
+        rkwave.Plan(resolution=(W, H), spp=4, output_pixels="gaussian")
     with pytest.raises(rkwave.RkwaveError, match="p = 1 to 4"):
         rkwave.Plan(resolution=(W, H), spp=4, p=6)
     with pytest.raises(rkwave.RkwaveError, match="no plan in"):
