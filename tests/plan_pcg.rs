@@ -1,6 +1,7 @@
 //! The plan under matrix-free PCG through files: the last round's start and diagonal carried
 //! in `pcg.bin` make the calls the in-process loop's rounds bit for bit; a damaged or foreign
-//! `pcg.bin` is set aside with a note and the round starts from zero, as without the file;
+//! `pcg.bin` is set aside with a note and the round starts from zero, as without the file
+//! (whose absence after fitted rounds is noted too);
 //! a start from zero reaches the same final fit to the solver's tolerance; and a plan whose
 //! direct fit would exceed the memory limit fits by PCG instead, saying so, and completes.
 
@@ -106,7 +107,8 @@ fn carried_start_is_the_in_process_loop() {
 
 /// A damaged `pcg.bin` (a flipped bit, cut short, not one at all) or one of another plan is
 /// set aside with a note naming the file and the fault; the call then starts from zero,
-/// exactly as a call without the file does (the same positions and image, bit for bit).
+/// exactly as a call without the file does (the same positions and image, bit for bit), and
+/// a missing file is noted as such.
 #[test]
 fn damaged_or_foreign_start_is_set_aside_with_a_note() {
     fn remove(f: &std::path::Path) {
@@ -136,8 +138,17 @@ fn damaged_or_foreign_start_is_set_aside_with_a_note() {
     let missing = drive(&common::scratch("plan-pcg", "missing"), &|r| {
         (r == 2).then_some(&remove as Edit<'static>)
     });
+    // A missing file after fitted rounds is said too (the first call has none to find).
+    assert!(missing.notes[0].is_none(), "{:?}", missing.notes);
+    let note = missing.notes[1]
+        .as_deref()
+        .expect("no note for a missing pcg.bin");
     assert!(
-        missing.notes.iter().all(Option::is_none),
+        note.contains(PCG_FILE) && note.contains("not found") && note.contains("from zero"),
+        "{note}"
+    );
+    assert!(
+        missing.notes[2..].iter().all(Option::is_none),
         "{:?}",
         missing.notes
     );

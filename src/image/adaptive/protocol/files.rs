@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::super::mix64;
 use super::super::refiner::ImagePlan;
-use super::super::AdaptiveError;
+use super::super::{AdaptiveError, TreeSolver};
 use super::{
     CarriedGram, CarriedPcg, PlanState, ProtocolError, GRAM_FILE, PCG_FILE, STATE_FILE,
     STATE_VERSION,
@@ -45,8 +45,10 @@ impl PlanState {
         dir.join(STATE_FILE)
     }
 
-    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`] when it is
-    /// there and whole (module docs; otherwise a note says why it is not used).
+    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`] and the PCG
+    /// start and diagonal in [`PCG_FILE`] when they are there and whole (module docs;
+    /// otherwise a note says why they are not used: a damaged file, or a missing
+    /// [`PCG_FILE`] of a plan that has fitted rounds by PCG).
     pub fn load(dir: &Path) -> Result<Self, ProtocolError> {
         let file = Self::path(dir);
         let text = std::fs::read_to_string(&file).map_err(|source| ProtocolError::Read {
@@ -59,7 +61,23 @@ impl PlanState {
             .tree()
             .basis()
             .len();
-        state.pcg = CarriedPcg::read(&dir.join(PCG_FILE), state.tag(), n);
+        let pcg_file = dir.join(PCG_FILE);
+        state.pcg = CarriedPcg::read(&pcg_file, state.tag(), n);
+        let fitted = state.progress.marked.len();
+        if fitted > 0
+            && matches!(state.params.fit.solver, TreeSolver::Pcg { .. })
+            && state.pcg.note.is_none()
+            && !pcg_file.exists()
+        {
+            // A plan fitted by PCG leaves its start here after every round: its absence
+            // costs iterations, so it is said, as a damaged file is.
+            state.pcg.note = Some(format!(
+                "{}: not found, although the plan has fitted {fitted} round(s) by PCG (removed, \
+                 or the last call could not write it); PCG starts from zero with the diagonal \
+                 summed afresh (the same tolerance, more iterations)",
+                pcg_file.display()
+            ));
+        }
         Ok(state)
     }
 
