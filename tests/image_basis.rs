@@ -5,8 +5,6 @@
 //! hundred ulps (`1e-12`); least-squares solutions of consistent data are exact up to
 //! `cond(A) eps` with `cond(A) <~ 1e4` for these well-sampled problems (`1e-9`).
 
-mod common;
-
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -483,51 +481,48 @@ fn smoothing_fills_holes_from_their_neighbours() {
     assert!(fit_image(w, h, &xs, &ys, &[&f], &prm).is_err());
 }
 
-/// The 2D FWT from the 1D steps of `basis::fwt` alone, line by line: rows then columns, level
-/// by level (a reference written without the 2D code).
-fn line_by_line(b: &TensorBasis, data: &[f64], analysis: bool) -> Vec<f64> {
-    use rkwave::basis::fwt::{analysis_step, synthesis_step};
-    let (nx, _) = b.dims();
-    let (cx, cy) = b.coarse_levels();
-    let bank = b.bank();
-    let mut x = data.to_vec();
-    let steps: Vec<u32> = if analysis {
-        (0..b.steps()).rev().collect()
-    } else {
-        (0..b.steps()).collect()
-    };
-    for s in steps {
-        let (jx, jy) = (cx + s, cy + s);
-        let (lx, ly) = (2usize << jx, 2usize << jy);
-        let step = |j, f: &[f64], o: &mut [f64]| {
-            if analysis {
-                analysis_step(bank, j, f, o)
-            } else {
-                synthesis_step(bank, j, f, o)
-            }
-        };
-        let mut out = vec![0.0; lx.max(ly)];
-        for ky in 0..ly {
-            step(jx, &x[ky * nx..ky * nx + lx], &mut out[..lx]);
-            x[ky * nx..ky * nx + lx].copy_from_slice(&out[..lx]);
-        }
-        for kx in 0..lx {
-            let line: Vec<f64> = (0..ly).map(|ky| x[ky * nx + kx]).collect();
-            step(jy, &line, &mut out[..ly]);
-            for ky in 0..ly {
-                x[ky * nx + kx] = out[ky];
-            }
-        }
-    }
-    x
-}
-
 /// The 2D FWT (parallel, whole-row column pass) is the 1D steps of `basis::fwt` applied line
 /// by line, rows then columns, level by level: the same sums in the same order, so equal bit
 /// for bit (a reference written here from the 1D step alone), for p = 1..4 on non-square
 /// images.
 #[test]
 fn fwt_2d_is_the_1d_steps_line_by_line_bit_for_bit() {
+    use rkwave::basis::fwt::{analysis_step, synthesis_step};
+    let reference = |b: &TensorBasis, data: &[f64], analysis: bool| -> Vec<f64> {
+        let (nx, _) = b.dims();
+        let (cx, cy) = b.coarse_levels();
+        let bank = b.bank();
+        let mut x = data.to_vec();
+        let steps: Vec<u32> = if analysis {
+            (0..b.steps()).rev().collect()
+        } else {
+            (0..b.steps()).collect()
+        };
+        for s in steps {
+            let (jx, jy) = (cx + s, cy + s);
+            let (lx, ly) = (2usize << jx, 2usize << jy);
+            let step = |j, f: &[f64], o: &mut [f64]| {
+                if analysis {
+                    analysis_step(bank, j, f, o)
+                } else {
+                    synthesis_step(bank, j, f, o)
+                }
+            };
+            let mut out = vec![0.0; lx.max(ly)];
+            for ky in 0..ly {
+                step(jx, &x[ky * nx..ky * nx + lx], &mut out[..lx]);
+                x[ky * nx..ky * nx + lx].copy_from_slice(&out[..lx]);
+            }
+            for kx in 0..lx {
+                let line: Vec<f64> = (0..ly).map(|ky| x[ky * nx + kx]).collect();
+                step(jy, &line, &mut out[..ly]);
+                for ky in 0..ly {
+                    x[ky * nx + kx] = out[ky];
+                }
+            }
+        }
+        x
+    };
     let mut rng = Pcg64::seed_from_u64(SEED ^ 77);
     for (p, w, h, levels) in [
         (1, 8, 4, (4, 3)),
@@ -537,74 +532,11 @@ fn fwt_2d_is_the_1d_steps_line_by_line_bit_for_bit() {
     ] {
         let b = basis(p, w, h, levels);
         let v: Vec<f64> = (0..b.len()).map(|_| rng.random::<f64>() - 0.5).collect();
-        assert_eq!(
-            b.analysis(&v),
-            line_by_line(&b, &v, true),
-            "analysis, p = {p}"
-        );
+        assert_eq!(b.analysis(&v), reference(&b, &v, true), "analysis, p = {p}");
         assert_eq!(
             b.synthesis(&v),
-            line_by_line(&b, &v, false),
+            reference(&b, &v, false),
             "synthesis, p = {p}"
         );
-    }
-}
-
-/// The FWT skipping zeros and unwanted outputs (`basis::tensor_fwt`) on vectors zero off a
-/// set: random quadtrees (random leaves deepened from a uniform start, as the refiner grows
-/// them) and random scattered sets. The synthesis of a vector zero off the set, and the
-/// analysis kept to the set (`analysis_kept`), equal the line-by-line reference (the full
-/// transform; the analysis then zeroed off the set) exactly, for p = 1..4 on non-square
-/// images. Exact equality is the claim: the skipped terms are products with zeros and
-/// outputs thrown away, so no rounding may differ.
-#[test]
-fn fwt_2d_restricted_to_a_set_equals_the_full_transform_bit_for_bit() {
-    use common::trees::deepen_randomly;
-    use rkwave::image::adaptive::QuadTree;
-    let mut rng = Pcg64::seed_from_u64(SEED ^ 78);
-    for (p, w, h, levels) in [
-        (1, 8, 4, (4, 3)),
-        (2, 16, 8, (5, 5)),
-        (2, 32, 32, (6, 6)),
-        (3, 24, 40, (6, 7)),
-        (4, 32, 32, (6, 6)),
-    ] {
-        let b = basis(p, w, h, levels);
-        let n = b.len();
-        for trial in 0..6 {
-            let mask: Vec<bool> = if trial < 4 {
-                let mut tree = QuadTree::uniform(b.clone(), 1.min(b.steps()));
-                deepen_randomly(&mut tree, 5 + 10 * trial, &mut rng);
-                let mut m = vec![false; n];
-                tree.functions().into_iter().for_each(|f| m[f] = true);
-                m
-            } else {
-                let density = [0.05, 0.3][trial - 4];
-                (0..n).map(|_| rng.random::<f64>() < density).collect()
-            };
-            let on = mask.iter().filter(|&&m| m).count();
-            assert!(on > 0 && on < n, "p = {p}, trial {trial}: a proper subset");
-            let v: Vec<f64> = mask
-                .iter()
-                .map(|&m| if m { rng.random::<f64>() - 0.5 } else { 0.0 })
-                .collect();
-            assert_eq!(
-                b.synthesis(&v),
-                line_by_line(&b, &v, false),
-                "synthesis, p = {p}, trial {trial}"
-            );
-            let u: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.5).collect();
-            let mut full = line_by_line(&b, &u, true);
-            full.iter_mut().zip(&mask).for_each(|(x, &m)| {
-                if !m {
-                    *x = 0.0
-                }
-            });
-            assert_eq!(
-                b.analysis_kept(&u, &mask),
-                full,
-                "analysis kept, p = {p}, trial {trial}"
-            );
-        }
     }
 }

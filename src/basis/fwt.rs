@@ -87,12 +87,6 @@ pub(crate) struct StepMatrix {
     ptr: Vec<usize>,
     input: Vec<usize>,
     weight: Vec<f64>,
-    /// Per output: how many leading entries read the low half (`< 2^level`) when all the
-    /// others read the high half (the synthesis: the `s` terms, then the `d` terms); else all
-    /// of its entries.
-    split: Vec<usize>,
-    /// Per output: the range of the high-half inputs after `split` (empty if none).
-    high: Vec<(usize, usize)>,
 }
 
 impl StepMatrix {
@@ -125,30 +119,12 @@ impl StepMatrix {
             weight[next[o]] = w;
             next[o] += 1;
         }
-        let (mut split, mut high) = (Vec::with_capacity(2 * size), Vec::with_capacity(2 * size));
-        for o in 0..2 * size {
-            let inputs = &input[ptr[o]..ptr[o + 1]];
-            let k = inputs
-                .iter()
-                .position(|&i| i >= size)
-                .unwrap_or(inputs.len());
-            let tail = &inputs[k..];
-            if tail.iter().all(|&i| i >= size) && !tail.is_empty() {
-                split.push(k);
-                let lo = *tail.iter().min().expect("a high input");
-                high.push((lo, tail.iter().max().expect("a high input") + 1));
-            } else {
-                split.push(inputs.len());
-                high.push((0, 0));
-            }
-        }
-        Self {
-            ptr,
-            input,
-            weight,
-            split,
-            high,
-        }
+        Self { ptr, input, weight }
+    }
+
+    /// Outputs (and inputs): `2^{level+1}`.
+    pub(crate) fn len(&self) -> usize {
+        self.ptr.len() - 1
     }
 
     /// Inputs and weights of output `o`.
@@ -157,40 +133,12 @@ impl StepMatrix {
         (&self.input[a..b], &self.weight[a..b])
     }
 
-    /// `out[o] = (A f)_o` for the outputs `o` in `range` only (the other entries of `out`
-    /// untouched), each summed from 0 in the stored order.
-    pub(crate) fn apply_range(&self, f: &[f64], out: &mut [f64], range: std::ops::Range<usize>) {
-        for (v, o) in out[range.clone()].iter_mut().zip(range) {
+    /// `out = A f` for one vector.
+    pub(crate) fn apply(&self, f: &[f64], out: &mut [f64]) {
+        for (o, v) in out[..self.len()].iter_mut().enumerate() {
             let (input, weight) = self.entries(o);
             let mut acc = 0.0;
             for (&i, &w) in input.iter().zip(weight) {
-                acc += w * f[i];
-            }
-            *v = acc;
-        }
-    }
-
-    /// [`Self::apply_range`] leaving out, per output, its trailing high-half terms when
-    /// `nonzero(lo, hi)` says the inputs `lo..hi` they read are all zero (a synthesis row
-    /// whose wavelet half is zero there). The terms left out are `w 0` added last to a sum
-    /// from `+0`, so the bits are those of [`Self::apply_range`].
-    pub(crate) fn apply_range_sparse_high(
-        &self,
-        f: &[f64],
-        out: &mut [f64],
-        range: std::ops::Range<usize>,
-        nonzero: impl Fn(usize, usize) -> bool,
-    ) {
-        for (v, o) in out[range.clone()].iter_mut().zip(range) {
-            let (input, weight) = self.entries(o);
-            let (lo, hi) = self.high[o];
-            let n = if lo < hi && !nonzero(lo, hi) {
-                self.split[o]
-            } else {
-                input.len()
-            };
-            let mut acc = 0.0;
-            for (&i, &w) in input[..n].iter().zip(&weight[..n]) {
                 acc += w * f[i];
             }
             *v = acc;

@@ -19,7 +19,6 @@ mod index;
 pub mod integral;
 pub mod single_level;
 pub mod tensor;
-mod tensor_fwt;
 
 pub use bank::FilterBank;
 pub use eval::{BasisValue, Evaluator};

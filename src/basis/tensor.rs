@@ -147,10 +147,6 @@ pub struct TensorBasis {
     /// Multilevel `Psi(nx, Jx - 1)` and `Psi(ny, Jy - 1)`.
     multi_x: CdvBasis,
     multi_y: CdvBasis,
-    /// The 1D FWT steps of each non-standard step `s` as sparse matrices, built once:
-    /// `[analysis, synthesis]` of level `nx + s` (x) and `ny + s` (y).
-    pub(super) steps_x: Vec<[fwt::StepMatrix; 2]>,
-    pub(super) steps_y: Vec<[fwt::StepMatrix; 2]>,
 }
 
 fn axis_basis(
@@ -198,19 +194,7 @@ impl TensorBasis {
                 .collect::<Result<Vec<_>, _>>()
         };
         let (dx, dy) = (scale_x.domain(), scale_y.domain());
-        let step_matrices = |n: u32| {
-            (n..n + steps)
-                .map(|j| {
-                    [
-                        fwt::StepMatrix::new(&bank, j, true),
-                        fwt::StepMatrix::new(&bank, j, false),
-                    ]
-                })
-                .collect()
-        };
         Ok(Self {
-            steps_x: step_matrices(nx),
-            steps_y: step_matrices(ny),
             width,
             height,
             levels_x: per_level(nx, levels.0, dx)?,
@@ -315,21 +299,72 @@ impl TensorBasis {
     /// 2D non-standard FWT analysis: single-scale coefficients (`ny x nx`, row-major) to the
     /// multilevel coefficients in the Mallat layout.
     pub fn analysis(&self, single: &[f64]) -> Vec<f64> {
-        super::tensor_fwt::transform(self, single, true, None)
+        self.transform(single, true)
     }
 
-    /// [`Self::analysis`] wanted on the entries where `keep` is true only (a tree's
-    /// functions, `P_T^T S^T`): equal to it there bit for bit, 0 elsewhere; the detail
-    /// entries off `keep` are not computed ([`super::tensor_fwt`]).
-    pub fn analysis_kept(&self, single: &[f64], keep: &[bool]) -> Vec<f64> {
-        super::tensor_fwt::transform(self, single, true, Some(keep))
-    }
-
-    /// 2D non-standard FWT synthesis (the transpose, hence the inverse, of [`Self::analysis`]);
-    /// the products with zero rows and the zero ends of rows are skipped, with the same bits
-    /// ([`super::tensor_fwt`]): cheaper for a vector zero off a tree.
+    /// 2D non-standard FWT synthesis (the transpose, hence the inverse, of [`Self::analysis`]).
     pub fn synthesis(&self, coefficients: &[f64]) -> Vec<f64> {
-        super::tensor_fwt::transform(self, coefficients, false, None)
+        self.transform(coefficients, false)
+    }
+
+    /// The 2D non-standard FWT, level by level: every row by the x step, then every column
+    /// by the y step (they commute). Both passes run in parallel over rows, each entry summed
+    /// in the order of the 1D step ([`fwt::StepMatrix`]), so the bits are those of
+    /// [`fwt::analysis_step`] / [`fwt::synthesis_step`] applied line by line whatever the
+    /// thread count. The column pass combines whole rows (`y_o = sum_i w_oi x_i`, contiguous).
+    fn transform(&self, data: &[f64], analysis: bool) -> Vec<f64> {
+        use rayon::prelude::*;
+        let (nx, ny) = self.dims();
+        assert_eq!(data.len(), nx * ny, "2D FWT input length");
+        let bank = self.bank();
+        let (cx, cy) = self.coarse_levels();
+        let mut x = data.to_vec();
+        // the column pass's output: a buffer kept per thread (a fresh one per call cost its
+        // page faults every PCG iteration); every entry read is written first
+        let mut y = FWT_SCRATCH.with(|b| b.take());
+        y.resize(nx * ny, 0.0);
+        let order: Vec<u32> = if analysis {
+            (0..self.steps()).rev().collect()
+        } else {
+            (0..self.steps()).collect()
+        };
+        for s in order {
+            let (jx, jy) = (cx + s, cy + s);
+            let (lx, ly) = (2usize << jx, 2usize << jy);
+            let step_x = fwt::StepMatrix::new(bank, jx, analysis);
+            let step_y = fwt::StepMatrix::new(bank, jy, analysis);
+            x[..ly * nx].par_chunks_mut(nx).for_each_init(
+                || vec![0.0; lx],
+                |out, row| {
+                    step_x.apply(&row[..lx], out);
+                    row[..lx].copy_from_slice(out);
+                },
+            );
+            y[..ly * nx]
+                .par_chunks_mut(nx)
+                .enumerate()
+                .for_each(|(o, out)| {
+                    let out = &mut out[..lx];
+                    out.iter_mut().for_each(|v| *v = 0.0);
+                    let (input, weight) = step_y.entries(o);
+                    for (&i, &w) in input.iter().zip(weight) {
+                        for (v, &xv) in out.iter_mut().zip(&x[i * nx..i * nx + lx]) {
+                            *v += w * xv;
+                        }
+                    }
+                });
+            if lx == nx && ly == ny {
+                // the level covers the whole layout: the output is all of `y`
+                std::mem::swap(&mut x, &mut y);
+            } else {
+                x[..ly * nx]
+                    .par_chunks_mut(nx)
+                    .zip(y[..ly * nx].par_chunks(nx))
+                    .for_each(|(xr, yr)| xr[..lx].copy_from_slice(&yr[..lx]));
+            }
+        }
+        FWT_SCRATCH.with(|b| b.replace(y));
+        x
     }
 
     /// An evaluator of the multilevel non-standard basis (Mallat layout indices).
@@ -346,6 +381,11 @@ impl TensorBasis {
             buf_sy: vec![Vec::new(); self.levels_y.len()],
         }
     }
+}
+
+thread_local! {
+    /// Scratch of [`TensorBasis`]'s 2D FWT, one per thread.
+    static FWT_SCRATCH: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Evaluates every nonzero single-scale tensor function at a point; one per thread.

@@ -141,7 +141,11 @@ impl<'a> TreeNormalOperator<'a> {
         debug_assert_eq!(self.columns.ptr.len(), n + 1);
         let u = deinterleave(&self.columns.apply_many(f, k), k);
         u.par_iter()
-            .map(|u| self.basis.analysis_kept(u, &self.mask))
+            .map(|u| {
+                let mut b = self.basis.analysis(u);
+                self.restrict(&mut b);
+                b
+            })
             .collect()
     }
 
