@@ -336,28 +336,13 @@ pub fn symmetric_matvec(pattern: &StencilPattern, g: &[f64], x: &[&[f64]], y: &m
                 for (a, &v) in acc.iter_mut().zip(xj) {
                     *a = g[s] * v;
                 }
-                // The column's rows in runs of consecutive indices (module docs: `(ky, kx + 1..)`,
-                // then the x range of `kx` in each row `ky' > ky`), in `row_idx`'s order, so
-                // the index array is not read.
-                let (ky, kx) = (j / pattern.nx, j % pattern.nx);
-                let (lo, hi) = (pattern.rx.lo[kx], pattern.rx.hi[kx]);
-                let mut t = s + 1;
-                let mut first = j + 1;
-                let mut len = hi - kx;
-                let mut ky2 = ky;
-                while t < e {
-                    for (i, &v) in (first..first + len).zip(&g[t..t + len]) {
-                        let o = (i - c0) * k;
-                        let (oi, xr) = (&mut out[o..o + k], &xi[i * k..(i + 1) * k]);
-                        for c in 0..k {
-                            oi[c] += v * xj[c];
-                            acc[c] += v * xr[c];
-                        }
+                for (&i, &v) in pattern.row_idx[s + 1..e].iter().zip(&g[s + 1..e]) {
+                    let o = (i - c0) * k;
+                    let (oi, xr) = (&mut out[o..o + k], &xi[i * k..(i + 1) * k]);
+                    for c in 0..k {
+                        oi[c] += v * xj[c];
+                        acc[c] += v * xr[c];
                     }
-                    t += len;
-                    ky2 += 1;
-                    first = ky2 * pattern.nx + lo;
-                    len = hi - lo + 1;
                 }
                 let o = (j - c0) * k;
                 for (oj, a) in out[o..o + k].iter_mut().zip(&acc) {
@@ -376,55 +361,6 @@ pub fn symmetric_matvec(pattern: &StencilPattern, g: &[f64], x: &[&[f64]], y: &m
                 .iter_mut()
                 .zip(out[c..].iter().step_by(k))
                 .for_each(|(a, b)| *a += b);
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The product addressed by the stencil's runs against the product read through
-    /// `row_idx` (each stored entry `G_ij`, `i > j`, adds `G_ij x_j` to row `i` and `G_ij x_i`
-    /// to row `j`): uneven 1D ranges (clipped at the ends, widths 2 to 5), three vectors.
-    /// Both sum at most 25 products of numbers in `[-1, 1]` in different orders, so they agree
-    /// to `25 * 2^-52` relative to the sum of magnitudes, below `1e-13`.
-    #[test]
-    fn stencil_product_matches_the_index_array() {
-        let (nx, ny) = (9, 6);
-        let range = |n: usize, below: usize, above: usize| Ranges {
-            lo: (0..n).map(|k| k.saturating_sub(below)).collect(),
-            hi: (0..n).map(|k| (k + above).min(n - 1)).collect(),
-        };
-        let pattern = StencilPattern::from_ranges(range(nx, 2, 2), range(ny, 1, 1));
-        let n = pattern.len();
-        let g: Vec<f64> = (0..pattern.nnz())
-            .map(|t| ((t * 7919) % 201) as f64 / 100.0 - 1.0)
-            .collect();
-        let x: Vec<Vec<f64>> = (0..3)
-            .map(|c| {
-                (0..n)
-                    .map(|i| ((i * 31 + c * 17) % 13) as f64 / 6.0 - 1.0)
-                    .collect()
-            })
-            .collect();
-        let refs: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
-        let mut y = vec![vec![0.0; n]; 3];
-        symmetric_matvec(&pattern, &g, &refs, &mut y);
-        for (xc, yc) in x.iter().zip(&y) {
-            let mut expected = vec![0.0; n];
-            for j in 0..n {
-                let (s, e) = (pattern.col_ptr[j], pattern.col_ptr[j + 1]);
-                assert_eq!(pattern.row_idx[s], j);
-                expected[j] += g[s] * xc[j];
-                for (&i, &v) in pattern.row_idx[s + 1..e].iter().zip(&g[s + 1..e]) {
-                    expected[i] += v * xc[j];
-                    expected[j] += v * xc[i];
-                }
-            }
-            for (a, b) in yc.iter().zip(&expected) {
-                assert!((a - b).abs() < 1e-13, "{a} {b}");
-            }
         }
     }
 }
