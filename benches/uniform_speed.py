@@ -10,10 +10,16 @@ Per run it prints the wall time and the CPU time (user + system of the child pro
 `resource.getrusage`), and from the `--json` report the fit's stages. The splat runs through
 the Python module (`rkwave.reconstruct_image(..., filter="gaussian")`, the library's
 `image::splat`) when it is importable: CPU time of the call from `time.process_time`; the
-module must be built from the same tree (`pip install ./python`).
+module must be built from the same tree (`pip install ./python`). Without the module, or to
+compare the splat of two trees, `--probe` (repeatable) runs the example `uniform_fit_probe` of
+a tree (`cargo build --release --example uniform_fit_probe`, then
+`target/release/examples/uniform_fit_probe`) with `ONLY=none`: it reads the file and times the
+Gaussian splat alone (wall, in process).
 
     python benches/uniform_speed.py --bin target/release/rkwave --size 512 --spp 4
     python benches/uniform_speed.py --bin /old/rkwave --bin target/release/rkwave --repeat 2
+    python benches/uniform_speed.py --bin OLD/rkwave --bin target/release/rkwave \
+        --probe OLD/uniform_fit_probe --probe target/release/examples/uniform_fit_probe
 """
 
 import argparse
@@ -85,6 +91,8 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--pixels", default="auto,fit")
+    ap.add_argument("--probe", action="append", default=[],
+                    help="a uniform_fit_probe binary: times its Gaussian splat of the samples")
     ap.add_argument("--extra", default="", help="more flags for every reconstruct call")
     args = ap.parse_args()
     work = tempfile.mkdtemp(prefix="uniform_speed_")
@@ -106,6 +114,12 @@ def main():
                 wall, cpu, text = run(cmd)
                 print(f"[{r}] {binary} --pixels {pixels}: wall {wall:.2f} s, CPU {cpu:.2f} s; "
                       f"{stages(json.loads(text))}")
+        for probe in args.probe:
+            env = dict(os.environ, ONLY="none")
+            out = subprocess.run([probe, path, str(args.size)], check=True, capture_output=True,
+                                 text=True, env=env).stdout
+            splat = next(line for line in out.splitlines() if line.startswith("splat:"))
+            print(f"[{r}] gaussian splat ({probe}): {splat.split(':', 1)[1].strip()}")
         if rkwave is not None:
             t, c = time.perf_counter(), time.process_time()
             rkwave.reconstruct_image(data[:, :2], data[:, 2:], (args.size, args.size),

@@ -48,29 +48,34 @@ pub fn uniform_request(
 }
 
 /// Images of the output's size `auto` holds beside the output: the value and the variance of
-/// each of its five films, the noise of the pixel means and the chosen films' image
-/// ([`rkwave::image::estimate::auto`]).
-const AUTO_WORKING_IMAGES: usize = 12;
+/// each of its five films, the noise of the pixel means, the chosen films' image and the
+/// per-pixel sample variances a film candidate reads ([`rkwave::image::estimate::auto`]).
+const AUTO_WORKING_IMAGES: usize = 13;
 
 /// A pixel estimate that uses no fit (`auto`, `box`, `shrunk`) of `samples` samples onto
 /// `plane` (the file's reading is checked before, [`check_reading`]): the samples, their bins
-/// by pixel (8 bytes a sample, counted as half a position) and the estimate's images; no basis.
+/// by pixel (8 bytes a sample, counted as half a position), `auto`'s cached film factors
+/// ([`rkwave::image::film_weights::film_cache_bytes`], counted as positions of 16 bytes) and
+/// the estimate's images; no basis.
 pub fn estimate_request(
     plane: ImagePlane,
     channels: usize,
     samples: f64,
     estimate: rkwave::image::UniformEstimate,
 ) -> ImageRequest {
-    let working = match estimate {
-        rkwave::image::UniformEstimate::Auto => AUTO_WORKING_IMAGES,
-        _ => 1,
+    let (working, cache) = match estimate {
+        rkwave::image::UniformEstimate::Auto => (
+            AUTO_WORKING_IMAGES,
+            rkwave::image::film_weights::film_cache_bytes(plane.height(), samples),
+        ),
+        _ => (1, 0.0),
     };
     ImageRequest {
         pixels: plane.pixels() as f64,
         channels,
         samples,
         from_file: false,
-        positions: samples / 2.0,
+        positions: samples / 2.0 + cache / 16.0,
         solve: ImageSolve::None,
         images: 1 + working,
     }
@@ -92,6 +97,9 @@ pub fn method_request(
     match method {
         Method::Film(_) => ImageRequest {
             solve: ImageSolve::None,
+            // The splat's cached film factors, as positions of 16 bytes.
+            positions: request.positions
+                + rkwave::image::film_weights::film_cache_bytes(plane.height(), samples) / 16.0,
             ..request
         },
         _ => request,

@@ -43,6 +43,7 @@ pub use wavelet::{CoefficientSolve, WaveletError, WaveletParams};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+pub mod film_weights;
 pub mod filters;
 pub mod metrics;
 pub mod report;

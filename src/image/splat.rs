@@ -17,11 +17,14 @@
 //! [`SplatReport`]; a noise-free 4 spp stratified image has none.
 //!
 //! Samples are binned by pixel once (a counting sort), then rows of pixels are filled in
-//! parallel, each pixel visiting the `(2 ceil(r + 1/2) + 1)^2` pixels around it.
+//! parallel, each pixel visiting the `(2 floor(r + 1/2) + 1)^2` pixels around it, with each
+//! sample's 1D filter factors evaluated once per pixel column and row
+//! ([`super::film_weights`]: the same weights, bit for bit).
 
-use rayon::prelude::*;
 use serde::Serialize;
 
+use super::film_weights::map_rows;
+pub use super::film_weights::PixelBins;
 use super::filters::FilmFilter;
 use super::{ImageSamples, PixelImage};
 
@@ -40,113 +43,53 @@ pub struct SplatReport {
     pub empty_pixels: usize,
 }
 
-/// Samples sorted by the pixel that holds them: sample indices of pixel `p` are
-/// `order[start[p]..start[p + 1]]`.
-pub struct PixelBins {
-    /// Start offsets, `W H + 1` of them.
-    pub start: Vec<usize>,
-    /// Sample indices grouped by pixel.
-    pub order: Vec<usize>,
-}
-
-impl PixelBins {
-    /// Bins the samples by [`super::ImagePlane::pixel_of`] (counting sort, `O(m + W H)`).
-    pub fn new(samples: &ImageSamples) -> Self {
-        let plane = samples.plane();
-        let w = plane.width();
-        let cell: Vec<usize> = samples
-            .xs()
-            .iter()
-            .zip(samples.ys())
-            .map(|(&x, &y)| {
-                let (px, py) = plane.pixel_of(x, y);
-                py * w + px
-            })
-            .collect();
-        let mut start = vec![0usize; plane.pixels() + 1];
-        for &c in &cell {
-            start[c + 1] += 1;
-        }
-        for p in 0..plane.pixels() {
-            start[p + 1] += start[p];
-        }
-        let mut next = start.clone();
-        let mut order = vec![0usize; cell.len()];
-        for (i, &c) in cell.iter().enumerate() {
-            order[next[c]] = i;
-            next[c] += 1;
-        }
-        Self { start, order }
-    }
-
-    /// The sample indices in pixel `p = Y W + X`.
-    pub fn in_pixel(&self, p: usize) -> &[usize] {
-        &self.order[self.start[p]..self.start[p + 1]]
-    }
-}
-
 /// The weighted-splatting image of `samples` with the film filter `filter`, and what it had to
 /// fall back on (see the module docs).
 pub fn splat(samples: &ImageSamples, filter: &dyn FilmFilter) -> (PixelImage, SplatReport) {
     let plane = samples.plane();
-    let (w, h) = (plane.width(), plane.height());
+    let w = plane.width();
     let channels = samples.channels();
     let bins = PixelBins::new(samples);
-    let reach = (filter.radius() + 0.5).floor() as isize;
-    let r = filter.radius();
 
-    // Per row: interleaved pixel values (X * channels + c) and the two fallback counts.
-    let rows: Vec<(Vec<f64>, usize, usize)> = (0..h)
-        .into_par_iter()
-        .map(|py| {
-            let mut out = vec![0.0; w * channels];
-            let (mut cancelled, mut empty) = (0, 0);
-            let mut num = vec![0.0; channels];
-            let mut num_abs = vec![0.0; channels];
-            for px in 0..w {
-                let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
-                num.iter_mut().for_each(|v| *v = 0.0);
-                num_abs.iter_mut().for_each(|v| *v = 0.0);
-                let (mut den, mut den_abs) = (0.0, 0.0);
-                for qy in (py as isize - reach).max(0)..=(py as isize + reach).min(h as isize - 1) {
-                    for qx in
-                        (px as isize - reach).max(0)..=(px as isize + reach).min(w as isize - 1)
-                    {
-                        for &i in bins.in_pixel(qy as usize * w + qx as usize) {
-                            let (dx, dy) = (samples.xs()[i] - cx, samples.ys()[i] - cy);
-                            if dx.abs() > r || dy.abs() > r {
-                                continue;
-                            }
-                            let wt = filter.eval_2d(dx, dy);
-                            den += wt;
-                            den_abs += wt.abs();
-                            for ((n, na), values) in
-                                num.iter_mut().zip(num_abs.iter_mut()).zip(samples.values())
-                            {
-                                *n += wt * values[i];
-                                *na += wt.abs() * values[i];
-                            }
-                        }
-                    }
+    // Per row: interleaved pixel values (X * channels + c) and the two fallback counts; the
+    // weights from each sample's 1D factors, evaluated once (`film_weights`).
+    let rows: Vec<(Vec<f64>, usize, usize)> = map_rows(samples, &bins, filter, |weights| {
+        let py = weights.row();
+        let mut out = vec![0.0; w * channels];
+        let (mut cancelled, mut empty) = (0, 0);
+        let mut num = vec![0.0; channels];
+        let mut num_abs = vec![0.0; channels];
+        for px in 0..w {
+            num.iter_mut().for_each(|v| *v = 0.0);
+            num_abs.iter_mut().for_each(|v| *v = 0.0);
+            let (mut den, mut den_abs) = (0.0, 0.0);
+            weights.pixel(px, |i, _, wt| {
+                den += wt;
+                den_abs += wt.abs();
+                for ((n, na), values) in
+                    num.iter_mut().zip(num_abs.iter_mut()).zip(samples.values())
+                {
+                    *n += wt * values[i];
+                    *na += wt.abs() * values[i];
                 }
-                let px_out = &mut out[px * channels..(px + 1) * channels];
-                if den_abs == 0.0 {
-                    empty += 1;
-                    nearest_ring_mean(samples, &bins, px, py, px_out);
-                } else if den.abs() <= CANCELLATION_RATIO * den_abs {
-                    cancelled += 1;
-                    for (o, n) in px_out.iter_mut().zip(&num_abs) {
-                        *o = n / den_abs;
-                    }
-                } else {
-                    for (o, n) in px_out.iter_mut().zip(&num) {
-                        *o = n / den;
-                    }
+            });
+            let px_out = &mut out[px * channels..(px + 1) * channels];
+            if den_abs == 0.0 {
+                empty += 1;
+                nearest_ring_mean(samples, &bins, px, py, px_out);
+            } else if den.abs() <= CANCELLATION_RATIO * den_abs {
+                cancelled += 1;
+                for (o, n) in px_out.iter_mut().zip(&num_abs) {
+                    *o = n / den_abs;
+                }
+            } else {
+                for (o, n) in px_out.iter_mut().zip(&num) {
+                    *o = n / den;
                 }
             }
-            (out, cancelled, empty)
-        })
-        .collect();
+        }
+        (out, cancelled, empty)
+    });
 
     let mut image = PixelImage::zeros(plane, channels);
     let mut report = SplatReport::default();
