@@ -34,10 +34,11 @@ def main():
     ap.add_argument("--scenes", nargs="+", default=["direct", "cornell", "thinlens"])
     ap.add_argument("--cache", default=os.path.expanduser("~/.cache/rkwave-mitsuba"))
     ap.add_argument("--mitsuba", default="3.9.1", help="version in the reference's file name")
+    ap.add_argument("--estimates", nargs="+", default=ESTIMATES, help="the output estimates")
     args = ap.parse_args()
     n = args.resolution
-    print("| scene | spp | " + " | ".join(ESTIMATES) + " |")
-    print("|---|---:|" + "---:|" * len(ESTIMATES))
+    print("| scene | spp | " + " | ".join(args.estimates) + " |")
+    print("|---|---:|" + "---:|" * len(args.estimates))
     for scene in args.scenes:
         tag = f"{scene}-{n}x{n}-{args.spp}"
         state = os.path.join(args.workdir, f"{tag}-plan")
@@ -47,7 +48,7 @@ def main():
         ref = np.load(os.path.join(args.cache, f"ref-{scene}-{n}x{n}-1024spp-mitsuba{args.mitsuba}.npy"))
         cells = []
         with tempfile.TemporaryDirectory() as tmp:
-            for est in ESTIMATES:
+            for est in args.estimates:
                 copy = os.path.join(tmp, est)
                 shutil.copytree(state, copy)
                 path = os.path.join(copy, "state.json")
