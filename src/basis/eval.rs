@@ -138,8 +138,36 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// `y = A x`, `A` row-major `y.len() x x.len()`, each entry summed from 0 in column order.
+/// The widths of p = 1..4 (`2p - 1`) as constants ([`matvec_fixed`]: the same sums in the
+/// same order, unrolled).
 #[inline]
 fn matvec(a: &[f64], x: &[f64], y: &mut [f64]) {
+    match x.len() {
+        1 => matvec_fixed::<1>(a, x, y),
+        3 => matvec_fixed::<3>(a, x, y),
+        5 => matvec_fixed::<5>(a, x, y),
+        7 => matvec_fixed::<7>(a, x, y),
+        _ => matvec_dynamic(a, x, y),
+    }
+}
+
+/// [`matvec`] for `x` of `W` entries.
+#[inline]
+fn matvec_fixed<const W: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
+    let x: &[f64; W] = x.try_into().expect("W entries");
+    for (i, yi) in y.iter_mut().enumerate() {
+        let row: &[f64; W] = a[i * W..(i + 1) * W].try_into().expect("W entries");
+        let mut s = 0.0;
+        for l in 0..W {
+            s += row[l] * x[l];
+        }
+        *yi = s;
+    }
+}
+
+#[inline]
+fn matvec_dynamic(a: &[f64], x: &[f64], y: &mut [f64]) {
     let w = x.len();
     for (i, yi) in y.iter_mut().enumerate() {
         let row = &a[i * w..(i + 1) * w];

@@ -133,6 +133,26 @@ impl StepMatrix {
         (&self.input[a..b], &self.weight[a..b])
     }
 
+    /// `out_r = A f_r` for `R` vectors at once, `f_r = f[r stride..r stride + len]` and
+    /// `out_r = out[r len..(r + 1) len]`: each output the same sum in the same order as
+    /// [`Self::apply`] (the same bits), the `R` independent sums interleaved so that they
+    /// do not wait on one another and each entry's input and weight are read once.
+    pub(crate) fn apply_rows<const R: usize>(&self, f: &[f64], stride: usize, out: &mut [f64]) {
+        let len = self.len();
+        for o in 0..len {
+            let (input, weight) = self.entries(o);
+            let mut acc = [0.0; R];
+            for (&i, &w) in input.iter().zip(weight) {
+                for (r, a) in acc.iter_mut().enumerate() {
+                    *a += w * f[r * stride + i];
+                }
+            }
+            for (r, &a) in acc.iter().enumerate() {
+                out[r * len + o] = a;
+            }
+        }
+    }
+
     /// `out = A f` for one vector.
     pub(crate) fn apply(&self, f: &[f64], out: &mut [f64]) {
         for (o, v) in out[..self.len()].iter_mut().enumerate() {

@@ -333,11 +333,21 @@ impl TensorBasis {
             let (lx, ly) = (2usize << jx, 2usize << jy);
             let step_x = fwt::StepMatrix::new(bank, jx, analysis);
             let step_y = fwt::StepMatrix::new(bank, jy, analysis);
-            x[..ly * nx].par_chunks_mut(nx).for_each_init(
-                || vec![0.0; lx],
-                |out, row| {
-                    step_x.apply(&row[..lx], out);
-                    row[..lx].copy_from_slice(out);
+            // the row pass `ROWS` rows at a time ([`fwt::StepMatrix::apply_rows`])
+            x[..ly * nx].par_chunks_mut(ROWS * nx).for_each_init(
+                || vec![0.0; ROWS * lx],
+                |out, rows| {
+                    if rows.len() == ROWS * nx {
+                        step_x.apply_rows::<ROWS>(rows, nx, out);
+                        for (row, o) in rows.chunks_mut(nx).zip(out.chunks(lx)) {
+                            row[..lx].copy_from_slice(o);
+                        }
+                    } else {
+                        for row in rows.chunks_mut(nx) {
+                            step_x.apply(&row[..lx], &mut out[..lx]);
+                            row[..lx].copy_from_slice(&out[..lx]);
+                        }
+                    }
                 },
             );
             y[..ly * nx]
@@ -382,6 +392,9 @@ impl TensorBasis {
         }
     }
 }
+
+/// Rows of the 2D FWT's row pass summed together (independent sums interleaved).
+const ROWS: usize = 4;
 
 thread_local! {
     /// Scratch of [`TensorBasis`]'s 2D FWT, one per thread.
