@@ -5,9 +5,13 @@
 //! Its pattern is the Kronecker product of the two 1D patterns: `(kx, kx')` is structurally
 //! nonzero when some cell of `[0, W]` carries both `phi_{Jx,kx}` and `phi_{Jx,kx'}` (a
 //! contiguous range around `kx`, within the 1D half-bandwidth `3p - 3`), likewise in y. The
-//! symbolic pattern (lower triangle, CSC, rows sorted) is built once from the 1D ranges; each
-//! thread accumulates its share of the samples into its own value array on that pattern,
-//! then the arrays are summed. Each column's entries are addressed directly (no search):
+//! symbolic pattern (lower triangle, CSC, rows sorted) is built once from the 1D ranges. A
+//! sample adds only to the columns `(ky, kx)` of its own functions, so the columns are cut
+//! into bands of [`BAND_ROWS`] grid rows `ky`, filled in parallel: a band takes, in sample
+//! order, the samples whose y cell carries a function of the band, and adds their terms in
+//! its columns only. Every entry thus sums its samples in sample order, as one thread would:
+//! the same bits whatever the number of threads, and no private copies of `G` to sum.
+//! Each column's entries are addressed directly (no search):
 //! column `(ky, kx)` holds first the rows `(ky, kx'..)`, `kx' >= kx`, then for each
 //! `ky' > ky` in range the whole x range of `kx`.
 
@@ -25,20 +29,43 @@ pub(crate) struct Ranges {
     pub hi: Vec<usize>,
 }
 
+/// `(first, last)` index of the 1D single-scale functions nonzero in each cell
+/// `[c, c + 1) / 2^J` of `[0, 1]`, from one evaluation at each cell centre (the functions
+/// nonzero at `t` depend only on its cell, [`unit_cell`]); `None` for a cell without any.
+fn cell_spans(scale: &CdvBasis) -> Vec<Option<(usize, usize)>> {
+    let n = 1usize << scale.coarse();
+    let mut ev = scale.evaluator();
+    let mut out = Vec::new();
+    (0..n)
+        .map(|c| {
+            ev.eval_scaling_unit_into((c as f64 + 0.5) / n as f64, &mut out);
+            out.first().zip(out.last()).map(|(f, l)| (f.index, l.index))
+        })
+        .collect()
+}
+
+/// The cell `floor(2^J t)` of `t` in `[0, 1]` at level `J` (`2^J t` is exact), the last
+/// cell at `t = 1`: the cell the evaluator walks from.
+fn unit_cell(t: f64, level: u32) -> usize {
+    let cells = 1usize << level;
+    if t >= 1.0 {
+        cells - 1
+    } else if t <= 0.0 {
+        0
+    } else {
+        ((t * cells as f64).floor() as usize).min(cells - 1)
+    }
+}
+
 impl Ranges {
     fn of(scale: &CdvBasis) -> Self {
         let n = 1usize << scale.coarse();
         let mut lo: Vec<usize> = (0..n).collect();
         let mut hi = lo.clone();
-        let mut ev = scale.evaluator();
-        let mut out = Vec::new();
-        for c in 0..n {
-            ev.eval_scaling_unit_into((c as f64 + 0.5) / n as f64, &mut out);
-            if let (Some(first), Some(last)) = (out.first(), out.last()) {
-                for v in &out {
-                    lo[v.index] = lo[v.index].min(first.index);
-                    hi[v.index] = hi[v.index].max(last.index);
-                }
+        for (first, last) in cell_spans(scale).into_iter().flatten() {
+            for k in first..=last {
+                lo[k] = lo[k].min(first);
+                hi[k] = hi[k].max(last);
             }
         }
         Self { lo, hi }
@@ -225,7 +252,46 @@ impl NormalEquations2d {
         i: usize,
         prod: &mut Vec<f64>,
     ) {
+        let mut all = Band {
+            rows: (0, pattern.ny),
+            first_column: 0,
+            first_value: 0,
+            values: &mut self.values,
+            rhs: self.rhs.iter_mut().map(|r| r.as_mut_slice()).collect(),
+            support_samples: &mut self.support_samples,
+        };
+        all.add_sample(pattern, fx, fy, values, i, prod);
+    }
+}
+
+/// Grid rows `ky` of a band of columns of `G` in [`accumulate`].
+pub const BAND_ROWS: usize = 32;
+
+/// The columns `(ky, kx)`, `rows.0 <= ky < rows.1`, of `G`, `b_c` and the support counts:
+/// `values[0]` is entry `first_value = col_ptr[first_column]` of the whole array, `rhs[c][0]`
+/// and `support_samples[0]` are column `first_column = rows.0 nx`.
+struct Band<'a> {
+    rows: (usize, usize),
+    first_column: usize,
+    first_value: usize,
+    values: &'a mut [f64],
+    rhs: Vec<&'a mut [f64]>,
+    support_samples: &'a mut [u32],
+}
+
+impl Band<'_> {
+    /// The terms of sample `i` in the band's columns (see [`NormalEquations2d::add_sample`]).
+    fn add_sample(
+        &mut self,
+        pattern: &StencilPattern,
+        fx: &[crate::basis::BasisValue],
+        fy: &[crate::basis::BasisValue],
+        values: &[&[f64]],
+        i: usize,
+        prod: &mut Vec<f64>,
+    ) {
         let wx = fx.len();
+        let (c0, v0) = (self.first_column, self.first_value);
         prod.clear();
         for vy in fy {
             for vx in fx {
@@ -233,21 +299,24 @@ impl NormalEquations2d {
             }
         }
         for (b_y, vyb) in fy.iter().enumerate() {
+            if vyb.index < self.rows.0 || vyb.index >= self.rows.1 {
+                continue;
+            }
             for (b_x, vxb) in fx.iter().enumerate() {
                 let vb = prod[b_y * wx + b_x];
-                let col = vyb.index * pattern.nx + vxb.index;
+                let col = vyb.index * pattern.nx + vxb.index - c0;
                 self.support_samples[col] += 1;
                 for (c, f) in values.iter().enumerate() {
                     self.rhs[c][col] += vb * f[i];
                 }
                 // same y row: kx2 >= kx
-                let base = pattern.offset(vyb.index, vxb.index, vyb.index, vxb.index);
+                let base = pattern.offset(vyb.index, vxb.index, vyb.index, vxb.index) - v0;
                 for (a_x, vxa) in fx.iter().enumerate().skip(b_x) {
                     self.values[base + (vxa.index - vxb.index)] += prod[b_y * wx + a_x] * vb;
                 }
                 // rows above in y: every kx2
                 for (a_y, vya) in fy.iter().enumerate().skip(b_y + 1) {
-                    let row = pattern.offset(vyb.index, vxb.index, vya.index, fx[0].index);
+                    let row = pattern.offset(vyb.index, vxb.index, vya.index, fx[0].index) - v0;
                     for a_x in 0..wx {
                         self.values[row + a_x] += prod[a_y * wx + a_x] * vb;
                     }
@@ -258,6 +327,9 @@ impl NormalEquations2d {
 }
 
 /// Accumulates the normal equations; positions must already be checked to lie in the image.
+/// Bands of [`BAND_ROWS`] grid rows in parallel, each over the samples whose y cell carries
+/// one of its functions (one comparison a sample for the cell, the factors evaluated only
+/// for those): a sample whose functions straddle two bands is evaluated in both.
 pub fn accumulate(
     basis: &TensorBasis,
     pattern: &StencilPattern,
@@ -266,44 +338,72 @@ pub fn accumulate(
     values: &[&[f64]],
 ) -> NormalEquations2d {
     let n = pattern.len();
-    let nnz = pattern.nnz();
-    let channels = values.len();
-    let threads = rayon::current_num_threads().max(1);
-    let per = xs.len().div_ceil(threads).max(4096);
-    let starts: Vec<usize> = (0..xs.len()).step_by(per.max(1)).collect();
-    let empty = || NormalEquations2d {
-        values: vec![0.0; nnz],
-        rhs: vec![vec![0.0; n]; channels],
+    let (nx, ny) = (pattern.nx, pattern.ny);
+    let mut ne = NormalEquations2d {
+        values: vec![0.0; pattern.nnz()],
+        rhs: vec![vec![0.0; n]; values.len()],
         support_samples: vec![0; n],
     };
-    starts
+    let scale_y = basis.scale_y();
+    let (level, domain) = (scale_y.coarse(), scale_y.domain());
+    let spans = cell_spans(scale_y);
+    let cells: Vec<u32> = ys
         .par_iter()
-        .map(|&start| {
-            let end = (start + per).min(xs.len());
-            let mut acc = empty();
-            let mut ev = basis.evaluator();
-            let mut prod: Vec<f64> = Vec::with_capacity(64);
-            for i in start..end {
-                let (fx, fy) = ev.factors_unchecked(xs[i], ys[i]);
-                acc.add_sample(pattern, fx, fy, values, i, &mut prod);
+        .map(|&y| unit_cell(domain.to_unit(y), level) as u32)
+        .collect();
+    // the bands, each with the (contiguous) range of cells carrying one of its functions
+    let mut bands = Vec::with_capacity(ny.div_ceil(BAND_ROWS));
+    {
+        let mut values_rest = ne.values.as_mut_slice();
+        let mut rhs_rest: Vec<&mut [f64]> = ne.rhs.iter_mut().map(|r| r.as_mut_slice()).collect();
+        let mut support_rest = ne.support_samples.as_mut_slice();
+        for ky0 in (0..ny).step_by(BAND_ROWS) {
+            let ky1 = (ky0 + BAND_ROWS).min(ny);
+            let (c0, c1) = (ky0 * nx, ky1 * nx);
+            let (v0, v1) = (pattern.col_ptr[c0], pattern.col_ptr[c1]);
+            let (v, rest) = std::mem::take(&mut values_rest).split_at_mut(v1 - v0);
+            values_rest = rest;
+            let mut rhs = Vec::with_capacity(rhs_rest.len());
+            for r in rhs_rest.iter_mut() {
+                let (a, rest) = std::mem::take(r).split_at_mut(c1 - c0);
+                rhs.push(a);
+                *r = rest;
             }
-            acc
-        })
-        .reduce_with(|mut a, b| {
-            a.values
-                .par_iter_mut()
-                .zip(&b.values)
-                .for_each(|(x, y)| *x += y);
-            for (x, y) in a.rhs.iter_mut().zip(&b.rhs) {
-                x.iter_mut().zip(y).for_each(|(p, q)| *p += q);
+            let (sup, rest) = std::mem::take(&mut support_rest).split_at_mut(c1 - c0);
+            support_rest = rest;
+            let carrying = |c: &usize| spans[*c].is_some_and(|(f, l)| l >= ky0 && f < ky1);
+            let first_cell = (0..spans.len()).find(carrying);
+            let last_cell = (0..spans.len()).rev().find(carrying);
+            let band = Band {
+                rows: (ky0, ky1),
+                first_column: c0,
+                first_value: v0,
+                values: v,
+                rhs,
+                support_samples: sup,
+            };
+            bands.push((first_cell.zip(last_cell), band));
+        }
+    }
+    bands.into_par_iter().for_each(|(cell_range, mut band)| {
+        let Some((lo, hi)) = cell_range else {
+            return;
+        };
+        let (lo, width) = (lo as u32, (hi - lo) as u32);
+        let mut ev = basis.evaluator();
+        let mut prod: Vec<f64> = Vec::with_capacity(64);
+        for (i, &c) in cells.iter().enumerate() {
+            if c.wrapping_sub(lo) > width {
+                continue;
             }
-            a.support_samples
-                .iter_mut()
-                .zip(&b.support_samples)
-                .for_each(|(p, q)| *p += q);
-            a
-        })
-        .unwrap_or_else(empty)
+            let (fx, fy) = ev.factors_unchecked(xs[i], ys[i]);
+            debug_assert!(
+                spans[c as usize] == fy.first().zip(fy.last()).map(|(f, l)| (f.index, l.index))
+            );
+            band.add_sample(pattern, fx, fy, values, i, &mut prod);
+        }
+    });
+    ne
 }
 
 /// `y_c = G x_c` for every vector `c`, with `G` given by its lower triangle (symmetric
@@ -361,6 +461,88 @@ pub fn symmetric_matvec(pattern: &StencilPattern, g: &[f64], x: &[&[f64]], y: &m
                 .iter_mut()
                 .zip(out[c..].iter().step_by(k))
                 .for_each(|(a, b)| *a += b);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    use super::*;
+    use crate::basis::FilterFamily;
+
+    /// The banded parallel accumulation against one sequential pass of
+    /// [`NormalEquations2d::add_sample`] over all samples in order: every entry of `G`, every
+    /// `b_c` and every support count equal to the bit (both sum each entry's terms in sample
+    /// order). Random positions plus the image's corners and edges and positions on the cell
+    /// boundaries of both axes (where a sample's functions change), several bands (`ny`
+    /// above [`BAND_ROWS`]), `p = 2` and `3`, a width and height that are not powers of two.
+    #[test]
+    fn banded_accumulation_equals_the_sequential_sum_bit_for_bit() {
+        for (p, (w, h), levels) in [(2, (40, 100), (6, 7)), (3, (23, 70), (5, 7))] {
+            let basis = TensorBasis::new(p, FilterFamily::cdv_default(p), w, h, levels).unwrap();
+            let pattern = StencilPattern::new(&basis);
+            assert!(pattern.ny > 2 * BAND_ROWS, "several bands");
+            let mut rng = Pcg64::seed_from_u64(7);
+            let (wf, hf) = (w as f64, h as f64);
+            let mut xs: Vec<f64> = (0..5000).map(|_| rng.random::<f64>() * wf).collect();
+            let mut ys: Vec<f64> = (0..5000).map(|_| rng.random::<f64>() * hf).collect();
+            let (cx, cy) = (1usize << levels.0, 1usize << levels.1);
+            for k in 0..=cy {
+                // on every y cell boundary, and both corners of the x axis
+                for x in [0.0, wf, rng.random::<f64>() * wf] {
+                    xs.push(x);
+                    ys.push(hf * k as f64 / cy as f64);
+                }
+            }
+            for k in 0..=cx {
+                for y in [0.0, hf, rng.random::<f64>() * hf] {
+                    xs.push(wf * k as f64 / cx as f64);
+                    ys.push(y);
+                }
+            }
+            let m = xs.len();
+            let channels: Vec<Vec<f64>> = (0..3)
+                .map(|_| (0..m).map(|_| rng.random::<f64>() - 0.5).collect())
+                .collect();
+            let values: Vec<&[f64]> = channels.iter().map(|c| c.as_slice()).collect();
+
+            let banded = accumulate(&basis, &pattern, &xs, &ys, &values);
+
+            let n = pattern.len();
+            let mut serial = NormalEquations2d {
+                values: vec![0.0; pattern.nnz()],
+                rhs: vec![vec![0.0; n]; 3],
+                support_samples: vec![0; n],
+            };
+            let mut ev = basis.evaluator();
+            let mut prod = Vec::new();
+            let mut terms = 0;
+            for i in 0..m {
+                let (fx, fy) = ev.factors_unchecked(xs[i], ys[i]);
+                terms += fx.len() * fy.len();
+                serial.add_sample(&pattern, fx, fy, &values, i, &mut prod);
+            }
+            assert!(banded
+                .values
+                .iter()
+                .zip(&serial.values)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            for (a, b) in banded.rhs.iter().zip(&serial.rhs) {
+                assert!(a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+            assert_eq!(banded.support_samples, serial.support_samples);
+            assert_eq!(
+                serial
+                    .support_samples
+                    .iter()
+                    .map(|&s| s as usize)
+                    .sum::<usize>(),
+                terms,
+                "every sample counted once for each of its functions"
+            );
         }
     }
 }
