@@ -214,12 +214,12 @@ pub struct ResidualCorrection {
     /// The shrinkage's threshold per channel, `t_c` (as `shrink_sigma`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shrink_threshold: Option<Vec<f64>>,
-    /// [`PixelEstimate::Auto`]: the pixels per film chosen by SURE (`None` when it fell
-    /// back).
+    /// [`PixelEstimate::Auto`] and [`PixelEstimate::Blend`]: the pixels per film chosen by
+    /// SURE (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub films: Option<Vec<FilmCount>>,
-    /// [`PixelEstimate::Auto`]: why the samples did not permit it, so that the output is
-    /// [`PixelEstimate::Shrunk`]'s.
+    /// [`PixelEstimate::Auto`] and [`PixelEstimate::Blend`]: why the samples did not permit
+    /// `auto`, so that the output is [`PixelEstimate::Shrunk`]'s.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_fallback: Option<String>,
     /// [`PixelEstimate::Blend`]: the mean over pixels of the weight of the `shrunk` pixel
