@@ -2,7 +2,9 @@
 //! uniform path's SURE film choice and shrinkage on the plan's own samples, one
 //! implementation. Where every pixel holds a sample the output is the uniform `auto` of the
 //! same samples bit for bit; where one does not, it is the `shrunk` output bit for bit, with
-//! the reason in the report and the note.
+//! the reason in the report and the note. `blend` (the inverse-risk combination of `shrunk`
+//! and `auto`) lies between the two in every pixel and channel, and is `shrunk` bit for bit
+//! where `auto` falls back.
 
 mod common;
 
@@ -144,5 +146,86 @@ fn auto_is_named_on_the_command_line() {
     assert_eq!("auto".parse::<PixelEstimate>(), Ok(PixelEstimate::Auto));
     assert_eq!(PixelEstimate::Auto.name(), "auto");
     let err = "autos".parse::<PixelEstimate>().unwrap_err();
-    assert!(err.contains("box_shrunk or auto"), "{err}");
+    assert!(err.contains("box_shrunk, auto or blend"), "{err}");
+}
+
+/// `output_pixels` of the run's tree and fit on the given samples.
+fn pixels_of(run: &AdaptiveImage, samples: &Samples, estimate: PixelEstimate) -> Outputs {
+    let (xs, ys, values) = samples;
+    output_pixels(
+        &run.tree,
+        &run.fit,
+        xs,
+        ys,
+        values,
+        estimate,
+        run.report.pixels.sigma,
+        RESIDUAL_Z,
+    )
+    .unwrap()
+}
+
+type Outputs = (
+    rkwave::image::PixelImage,
+    rkwave::image::PixelImage,
+    rkwave::image::adaptive::correction::ResidualCorrection,
+);
+
+/// Weights in `[0, 1]` summing to 1 (`w S + (1 - w) A`): each blended pixel lies between the
+/// `shrunk` and the `auto` pixel, and so its squared error against the scene's pixel is at
+/// most the larger of theirs.
+#[test]
+fn blend_lies_between_shrunk_and_auto_in_every_pixel() {
+    let run = run();
+    let samples = with_a_sample_everywhere(&run);
+    let (_, blend, report) = pixels_of(&run, &samples, PixelEstimate::Blend);
+    let (_, shrunk, _) = pixels_of(&run, &samples, PixelEstimate::Shrunk);
+    let (_, auto_image, _) = pixels_of(&run, &samples, PixelEstimate::Auto);
+    assert_eq!(report.estimate, PixelEstimate::Blend);
+    assert_eq!(report.auto_fallback, None);
+    let w = report.blend_weight.expect("the mean weight");
+    assert!((0.0..=1.0).contains(&w), "{w}");
+    let (mut moved_off_shrunk, mut moved_off_auto) = (0, 0);
+    for ((&b, &s), &a) in blend.channels[0]
+        .iter()
+        .zip(&shrunk.channels[0])
+        .zip(&auto_image.channels[0])
+    {
+        let slack = 1e-15 * (1.0 + s.abs().max(a.abs()));
+        assert!(
+            s.min(a) - slack <= b && b <= s.max(a) + slack,
+            "{s} {a} {b}"
+        );
+        moved_off_shrunk += usize::from(b != s);
+        moved_off_auto += usize::from(b != a);
+    }
+    // both inputs take part (neither risk is zero or infinite everywhere)
+    assert!(moved_off_shrunk > 0 && moved_off_auto > 0);
+    assert!(report.note().contains("inverse-risk"), "{}", report.note());
+}
+
+#[test]
+fn blend_is_shrunk_where_auto_falls_back() {
+    let run = run();
+    let (xs, ys, values) = with_a_sample_everywhere(&run);
+    let keep: Vec<usize> = (0..xs.len())
+        .filter(|&i| xs[i] >= 1.0 || ys[i] >= 1.0)
+        .collect();
+    let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<_>>();
+    let samples = (pick(&xs), pick(&ys), vec![pick(&values[0])]);
+    let (_, blend, report) = pixels_of(&run, &samples, PixelEstimate::Blend);
+    let (_, shrunk, shrunk_report) = pixels_of(&run, &samples, PixelEstimate::Shrunk);
+    for (a, b) in blend.channels[0].iter().zip(&shrunk.channels[0]) {
+        assert_eq!(a.to_bits(), b.to_bits());
+    }
+    let reason = report.auto_fallback.as_deref().expect("the reason");
+    assert!(reason.contains("no sample"), "{reason}");
+    assert_eq!(report.blend_weight, None);
+    assert_eq!(report.shrink_threshold, shrunk_report.shrink_threshold);
+    assert!(
+        report.note().contains("blend fell back to shrunk"),
+        "{}",
+        report.note()
+    );
+    assert_eq!("blend".parse::<PixelEstimate>(), Ok(PixelEstimate::Blend));
 }

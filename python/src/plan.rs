@@ -181,9 +181,9 @@ impl PyPlan {
     /// `budget` in all); the other parameters default as in `rkwave plan`: `solver="pcg"`
     /// (the rounds' fits by warm-started conjugate gradients; `"direct"`: the sparse Cholesky
     /// of the normal matrix carried between rounds, `rkwave plan --solver`) and
-    /// `output_pixels="shrunk"` (the final image's pixels, `rkwave plan --output-pixels`:
-    /// also `"auto"`, `"residual_clamped"`, `"residual_corrected"`, `"fit_only"`,
-    /// `"box_shrunk"`).
+    /// `output_pixels="blend"` (the final image's pixels, `rkwave plan --output-pixels`:
+    /// also `"shrunk"`, `"auto"`, `"residual_clamped"`, `"residual_corrected"`,
+    /// `"fit_only"`, `"box_shrunk"`).
     ///
     /// >>> import rkwave
     /// >>> plan = rkwave.Plan(resolution=(32, 32), spp=4)

@@ -88,9 +88,11 @@ pub struct PlanArgs {
     /// `residual_clamped` (the fit plus the significant mean residual, clamped to the local
     /// sample range), `residual_corrected`, `fit_only`, `shrunk` (residual_clamped, then
     /// wavelet-shrunk at the noise level of the samples' own spread), `box_shrunk` (the
-    /// box pixels, shrunk likewise) or `auto` (per pixel the film filter of least SURE, then
+    /// box pixels, shrunk likewise), `auto` (per pixel the film filter of least SURE, then
     /// shrunk, as `reconstruct --dim 2 --pixels auto`; `shrunk` where a pixel has no sample,
-    /// said). Default for a new plan: `shrunk`; later calls keep the state's.
+    /// said) or `blend` (per pixel `shrunk` and `auto` weighted by the inverse of their
+    /// estimated risks; `shrunk` where `auto` falls back, said). Default for a new plan:
+    /// `blend`; later calls keep the state's.
     #[arg(long)]
     pub output_pixels: Option<PixelEstimate>,
     /// The solver of the rounds' fits (recorded in the state): `pcg` (default for a new plan:

@@ -57,6 +57,18 @@
 //! the larger one `Shrunk` is better: docs/measurements.md, "The final image of the plan by
 //! SURE".
 //!
+//! *Blend* ([`PixelEstimate::Blend`]). `shrunk` and `auto` err differently: SURE does not see
+//! the fit's gain as a control variate (texture past Nyquist, where `shrunk` is ahead), and
+//! the corrected pixels keep the fit's ringing and the samples' noise where the films average
+//! it (Monte Carlo noise, where `auto` is ahead). Each pixel is their combination
+//! `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight `w_P = R^A_P / (R^S_P + R^A_P)`
+//! ([`crate::image::estimate::blend`], the least variance for uncorrelated errors), `R^A_P`
+//! the chosen film's SURE and `R^S_P` the variance of the corrected pixel's residual mean
+//! (the spread of its residuals over `n_P`), both averaged over the SURE window. The weights
+//! lie in `[0, 1]`, so each pixel lies between its two inputs. Where `auto` is not permitted
+//! the output is `shrunk`'s, said as for `auto`. Its figures: docs/measurements.md, "The
+//! plan's final image as the inverse-risk blend of shrunk and auto".
+//!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop ([`super::refine_image`]) and the file protocol
@@ -72,8 +84,9 @@ use super::significance::residuals;
 use super::AdaptiveError;
 use crate::adaptive::QuadTree;
 use crate::image::estimate::auto::{self, WINDOW_HALF};
+use crate::image::estimate::sure::window_sum;
 use crate::image::estimate::{
-    shrink_channel, universal_threshold, FilmCount, PixelStatistics, ShrinkParams,
+    blend_by_risk, shrink_channel, universal_threshold, FilmCount, PixelStatistics, ShrinkParams,
 };
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
@@ -112,17 +125,22 @@ pub enum PixelEstimate {
     /// uniform path's `auto`, [`crate::image::estimate::auto`]); [`PixelEstimate::Shrunk`]
     /// where the samples do not permit it (module docs, *Auto*).
     Auto,
+    /// [`PixelEstimate::Shrunk`] and [`PixelEstimate::Auto`] combined per pixel with
+    /// inverse-risk weights ([`crate::image::estimate::blend`]); [`PixelEstimate::Shrunk`]
+    /// where `auto` is not permitted (module docs, *Blend*).
+    Blend,
 }
 
 impl PixelEstimate {
     /// Every estimate.
-    pub const ALL: [PixelEstimate; 6] = [
+    pub const ALL: [PixelEstimate; 7] = [
         PixelEstimate::ResidualClamped,
         PixelEstimate::ResidualCorrected,
         PixelEstimate::FitOnly,
         PixelEstimate::Shrunk,
         PixelEstimate::BoxShrunk,
         PixelEstimate::Auto,
+        PixelEstimate::Blend,
     ];
 
     /// The name on the command line and in state files.
@@ -134,6 +152,7 @@ impl PixelEstimate {
             PixelEstimate::Shrunk => "shrunk",
             PixelEstimate::BoxShrunk => "box_shrunk",
             PixelEstimate::Auto => "auto",
+            PixelEstimate::Blend => "blend",
         }
     }
 
@@ -142,7 +161,10 @@ impl PixelEstimate {
     pub fn shrinks(self) -> bool {
         matches!(
             self,
-            PixelEstimate::Shrunk | PixelEstimate::BoxShrunk | PixelEstimate::Auto
+            PixelEstimate::Shrunk
+                | PixelEstimate::BoxShrunk
+                | PixelEstimate::Auto
+                | PixelEstimate::Blend
         )
     }
 }
@@ -159,7 +181,7 @@ impl std::str::FromStr for PixelEstimate {
             .ok_or_else(|| {
                 format!(
                     "unknown output pixels `{s}`: expected residual_clamped, residual_corrected, \
-                     fit_only, shrunk, box_shrunk or auto"
+                     fit_only, shrunk, box_shrunk, auto or blend"
                 )
             })
     }
@@ -192,19 +214,50 @@ pub struct ResidualCorrection {
     /// The shrinkage's threshold per channel, `t_c` (as `shrink_sigma`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shrink_threshold: Option<Vec<f64>>,
-    /// [`PixelEstimate::Auto`]: the pixels per film chosen by SURE (`None` when it fell
-    /// back).
+    /// [`PixelEstimate::Auto`] and [`PixelEstimate::Blend`]: the pixels per film chosen by
+    /// SURE (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub films: Option<Vec<FilmCount>>,
-    /// [`PixelEstimate::Auto`]: why the samples did not permit it, so that the output is
-    /// [`PixelEstimate::Shrunk`]'s.
+    /// [`PixelEstimate::Auto`] and [`PixelEstimate::Blend`]: why the samples did not permit
+    /// `auto`, so that the output is [`PixelEstimate::Shrunk`]'s.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_fallback: Option<String>,
+    /// [`PixelEstimate::Blend`]: the mean over pixels of the weight of the `shrunk` pixel
+    /// (`None` when it fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend_weight: Option<f64>,
 }
 
 impl ResidualCorrection {
     /// The correction in words (for the notes of a report).
     pub fn note(&self) -> String {
+        if self.estimate == PixelEstimate::Blend {
+            let shrunk = ResidualCorrection {
+                estimate: PixelEstimate::Shrunk,
+                ..self.clone()
+            }
+            .note();
+            let shrunk = shrunk.trim_start_matches("output pixels: ");
+            return match (self.blend_weight, &self.auto_fallback) {
+                (Some(w), _) => format!(
+                    "output pixels: blend, per pixel the inverse-risk combination of shrunk and \
+                     auto (risks: the residuals' spread of a pixel's mean and the chosen film's \
+                     SURE, each averaged over the {side} x {side} window; mean weight of \
+                     shrunk {w:.3}; auto's films: {}); shrunk: {shrunk}",
+                    self.films
+                        .iter()
+                        .flatten()
+                        .map(|f| format!("{} {}", f.film, f.pixels))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    side = 2 * WINDOW_HALF + 1,
+                ),
+                (None, reason) => format!(
+                    "output pixels: blend fell back to shrunk (auto: {}); {shrunk}",
+                    reason.as_deref().unwrap_or("no reason given"),
+                ),
+            };
+        }
         if self.estimate == PixelEstimate::Auto {
             return match (&self.films, &self.auto_fallback) {
                 (Some(films), _) => format!(
@@ -238,7 +291,10 @@ impl ResidualCorrection {
             PixelEstimate::FitOnly => {
                 "output pixels: the fit's box pixels only (no residual correction)".to_string()
             }
-            PixelEstimate::Shrunk | PixelEstimate::BoxShrunk | PixelEstimate::Auto => {
+            PixelEstimate::Shrunk
+            | PixelEstimate::BoxShrunk
+            | PixelEstimate::Auto
+            | PixelEstimate::Blend => {
                 let what = if self.estimate == PixelEstimate::Shrunk {
                     format!(
                         "the fit's box pixels plus the significant mean residual ({} of {} \
@@ -402,6 +458,9 @@ pub fn output_pixels(
         plane,
         channels: fit.box_pixels(tree)?,
     };
+    if estimate == PixelEstimate::Blend {
+        return blend_shrunk_and_auto(tree, fit, xs, ys, values, sigma, z);
+    }
     let mut report = ResidualCorrection {
         estimate,
         z,
@@ -469,6 +528,65 @@ pub fn output_pixels(
             report.shrink_threshold = Some(t);
         }
     }
+    Ok((fit_image, image, report))
+}
+
+/// [`PixelEstimate::Blend`]: the `shrunk` pixels `S_P` and the `auto` pixels `A_P` of the
+/// same samples combined per pixel, `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight
+/// `w_P = R^A_P / (R^S_P + R^A_P)` ([`crate::image::estimate::blend`]). `R^A_P`: the chosen
+/// film's SURE averaged over the window around `P` ([`auto::AutoReport::window_risk`]).
+/// `R^S_P`: the variance of the corrected pixel's residual mean, `sum_c s²_{r,P,c} / n_P`
+/// (the spread of the residuals `r_i = v_i - g(x_i)` of the pixel's samples), averaged over
+/// the pixels of the same window that hold two samples or more (NaN where none does: weight
+/// 1/2). Both risks are of the pixels before the shrinkage. Where `auto` is not permitted the
+/// output is `shrunk`'s, with the reason in [`ResidualCorrection::auto_fallback`].
+#[allow(clippy::too_many_arguments)]
+fn blend_shrunk_and_auto(
+    tree: &QuadTree,
+    fit: &TreeFit,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[Vec<f64>],
+    sigma: f64,
+    z: f64,
+) -> Result<(PixelImage, PixelImage, ResidualCorrection), AdaptiveError> {
+    let (fit_image, shrunk, mut report) =
+        output_pixels(tree, fit, xs, ys, values, PixelEstimate::Shrunk, sigma, z)?;
+    report.estimate = PixelEstimate::Blend;
+    let plane = shrunk.plane;
+    let chosen = ImageSamples::new(plane, xs.to_vec(), ys.to_vec(), values.to_vec())
+        .map_err(|e| e.to_string())
+        .and_then(|samples| auto::estimate(&samples, &ShrinkParams::default()));
+    let (auto_image, auto_report) = match chosen {
+        Ok(chosen) => chosen,
+        Err(reason) => {
+            report.auto_fallback = Some(reason);
+            return Ok((fit_image, shrunk, report));
+        }
+    };
+    let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
+    let vals: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
+    let r = residuals(tree, &coef, xs, ys, &vals);
+    let spread = PixelStatistics::of(plane, xs, ys, &r);
+    let variance: Vec<f64> = (0..plane.pixels())
+        .map(|p| spread.mean_variance.iter().map(|v| v[p]).sum::<f64>())
+        .collect();
+    let known: Vec<f64> = variance
+        .iter()
+        .map(|v| f64::from(u8::from(!v.is_nan())))
+        .collect();
+    let zeroed: Vec<f64> = variance
+        .iter()
+        .map(|&v| if v.is_nan() { 0.0 } else { v })
+        .collect();
+    let (w, h) = (plane.width(), plane.height());
+    let sum = window_sum(&zeroed, w, h, WINDOW_HALF);
+    let count = window_sum(&known, w, h, WINDOW_HALF);
+    let risk_shrunk: Vec<f64> = sum.iter().zip(&count).map(|(s, n)| s / n).collect();
+    let (image, weight) =
+        blend_by_risk(&shrunk, &risk_shrunk, &auto_image, &auto_report.window_risk);
+    report.films = Some(auto_report.films);
+    report.blend_weight = Some(weight.iter().sum::<f64>() / weight.len() as f64);
     Ok((fit_image, image, report))
 }
 

@@ -40,6 +40,9 @@ pub struct AutoReport {
     pub films: Vec<FilmCount>,
     /// Estimated risks.
     pub risk: FilmRisks,
+    /// The chosen films' SURE per pixel, averaged over the window ([`super::sure::FilmChoice::window_risk`],
+    /// before the shrinkage).
+    pub window_risk: Vec<f64>,
     /// The noise of a pixel's mean `sigma_c` ([`PixelNoise::sigma`]).
     pub sigma: Vec<f64>,
     /// Pixels whose noise was estimated.
@@ -157,6 +160,7 @@ pub fn estimate(
         AutoReport {
             films,
             risk: choice.risk,
+            window_risk: choice.window_risk,
             sigma: noise.sigma.clone(),
             pixels_with_blocks: noise.pixels_with_blocks(),
             output_noise,

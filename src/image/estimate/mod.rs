@@ -28,6 +28,7 @@
 //! The noise level and the thresholds used are in the [`EstimateReport`] (text and `--json`).
 
 pub mod auto;
+pub mod blend;
 pub mod clamp;
 pub mod haar;
 pub mod noise;
@@ -43,6 +44,7 @@ use serde::Serialize;
 use thiserror::Error;
 
 pub use auto::{AutoReport, FilmCount};
+pub use blend::{blend_by_risk, inverse_risk_weight};
 pub use clamp::clamp_to_sample_range;
 pub use haar::{Haar2d, HaarCoefficients};
 pub use noise::PixelNoise;

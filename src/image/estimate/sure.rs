@@ -234,6 +234,10 @@ pub struct FilmChoice {
     /// The estimated risk (window-averaged SURE per pixel, summed over channels) of the choice
     /// and of each film alone, per pixel averaged over the image.
     pub risk: FilmRisks,
+    /// The chosen film's SURE over each pixel's window, per pixel of the window: the window
+    /// sum of `SURE_Q` (summed over channels) divided by the pixels `Q` in the window (fewer
+    /// at the borders). An estimate of the chosen pixels' mean squared error near `P`.
+    pub window_risk: Vec<f64>,
 }
 
 /// The mean estimated risk per pixel of the choice and of each film alone.
@@ -281,6 +285,12 @@ pub fn choose_films(
                 .unwrap_or(0)
         })
         .collect();
+    let area = window_sum(&vec![1.0; plane.pixels()], w, h, half);
+    let window_risk: Vec<f64> = choice
+        .iter()
+        .enumerate()
+        .map(|(p, &k)| windows[k][p] / area[p])
+        .collect();
     let channels = samples.channels();
     let mut image = PixelImage::zeros(plane, channels);
     let mut variance = vec![vec![0.0; plane.pixels()]; channels];
@@ -312,6 +322,7 @@ pub fn choose_films(
         films: films.to_vec(),
         variance,
         risk,
+        window_risk,
     }
 }
 

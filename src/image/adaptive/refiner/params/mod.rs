@@ -217,17 +217,19 @@ fn check(
 
 impl AdaptiveParams {
     /// The parameters of a new plan a renderer drives (`rkwave plan`, Python's `Plan`): the
-    /// defaults, with the final image shrunk at the samples' noise level
-    /// ([`PixelEstimate::Shrunk`]): a renderer's samples carry Monte Carlo noise, and where
-    /// they carry none the shrinkage keeps the image (docs/measurements.md, "Placement that
-    /// follows the pixel integral"); and fitted by matrix-free PCG ([`TreeSolver::plan_pcg`]:
+    /// defaults, with the final image denoised ([`PixelEstimate::Blend`]: per pixel the
+    /// inverse-risk combination of the corrected pixels shrunk at the samples' noise level and
+    /// the films chosen by SURE; a renderer's samples carry Monte Carlo noise, and where they
+    /// carry none the shrinkage keeps the image: docs/measurements.md, "Placement that follows
+    /// the pixel integral" and "The plan's final image as the inverse-risk blend of shrunk and
+    /// auto"); and fitted by matrix-free PCG ([`TreeSolver::plan_pcg`]:
     /// the loop's calls several times faster, a tenth of the memory, the same final image to
     /// a tenth of a dB: docs/measurements.md, "The renderer loop on PCG").
     pub fn renderer_plan() -> Self {
         let d = Self::default();
         Self {
             output: OutputParams {
-                pixels: PixelEstimate::Shrunk,
+                pixels: PixelEstimate::Blend,
                 ..d.output
             },
             fit: FitParams {
