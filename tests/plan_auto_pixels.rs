@@ -185,6 +185,11 @@ fn blend_lies_between_shrunk_and_auto_in_every_pixel() {
     assert_eq!(report.auto_fallback, None);
     let w = report.blend_weight.expect("the mean weight");
     assert!((0.0..=1.0).contains(&w), "{w}");
+    let unknown = report
+        .blend_unknown_risk
+        .expect("the count of unknown risks");
+    assert!(unknown <= blend.channels[0].len());
+    assert_eq!(unknown > 0, report.note().contains("risk unknown"));
     let (mut moved_off_shrunk, mut moved_off_auto) = (0, 0);
     for ((&b, &s), &a) in blend.channels[0]
         .iter()
@@ -221,6 +226,7 @@ fn blend_is_shrunk_where_auto_falls_back() {
     let reason = report.auto_fallback.as_deref().expect("the reason");
     assert!(reason.contains("no sample"), "{reason}");
     assert_eq!(report.blend_weight, None);
+    assert_eq!(report.blend_unknown_risk, None);
     assert_eq!(report.shrink_threshold, shrunk_report.shrink_threshold);
     assert!(
         report.note().contains("blend fell back to shrunk"),

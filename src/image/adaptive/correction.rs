@@ -226,6 +226,11 @@ pub struct ResidualCorrection {
     /// (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub blend_weight: Option<f64>,
+    /// [`PixelEstimate::Blend`]: the pixels whose window holds no pixel with two samples or
+    /// more, so that `shrunk`'s risk is unknown there and both pixels weigh 1/2 (`None` when
+    /// it fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend_unknown_risk: Option<usize>,
 }
 
 impl ResidualCorrection {
@@ -243,13 +248,20 @@ impl ResidualCorrection {
                     "output pixels: blend, per pixel the inverse-risk combination of shrunk and \
                      auto (risks: the residuals' spread of a pixel's mean and the chosen film's \
                      SURE, each averaged over the {side} x {side} window; mean weight of \
-                     shrunk {w:.3}; auto's films: {}); shrunk: {shrunk}",
+                     shrunk {w:.3}; auto's films: {}{}); shrunk: {shrunk}",
                     self.films
                         .iter()
                         .flatten()
                         .map(|f| format!("{} {}", f.film, f.pixels))
                         .collect::<Vec<_>>()
                         .join(", "),
+                    match self.blend_unknown_risk {
+                        Some(n) if n > 0 => format!(
+                            "; {n} pixels without a pixel of two samples in their window: \
+                             shrunk's risk unknown, both weighted 1/2"
+                        ),
+                        _ => String::new(),
+                    },
                     side = 2 * WINDOW_HALF + 1,
                 ),
                 (None, reason) => format!(
@@ -587,6 +599,7 @@ fn blend_shrunk_and_auto(
         blend_by_risk(&shrunk, &risk_shrunk, &auto_image, &auto_report.window_risk);
     report.films = Some(auto_report.films);
     report.blend_weight = Some(weight.iter().sum::<f64>() / weight.len() as f64);
+    report.blend_unknown_risk = Some(risk_shrunk.iter().filter(|r| r.is_nan()).count());
     Ok((fit_image, image, report))
 }
 
