@@ -18,7 +18,9 @@
 //! the gains measured on these fixtures.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+mod common;
+use common::psnr;
 
 use rkwave::image::filters::BoxFilter;
 use rkwave::image::splat::splat;
@@ -100,20 +102,6 @@ fn naive_box(f: &Fixture) -> (Vec<Vec<f64>>, Vec<usize>) {
         }
     }
     (sums, counts)
-}
-
-/// PSNR of images clipped to [0, 1] (peak 1), MSE over every pixel and channel: the harness's
-/// definition (`benches/mitsuba/metrics.py`).
-fn psnr(image: &[Vec<f64>], reference: &[Vec<f64>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (a, b) in image.iter().zip(reference) {
-        for (&x, &r) in a.iter().zip(b) {
-            let d = x.clamp(0.0, 1.0) - r.clamp(0.0, 1.0);
-            sum += d * d;
-            n += 1;
-        }
-    }
-    10.0 * (n as f64 / sum).log10()
 }
 
 /// A fixture's entry in `data/renders/fixtures.json`, written by the harness with numpy.
@@ -378,7 +366,7 @@ fn reconstruct_with(
     dir: &Path,
 ) -> ((usize, usize, usize), Vec<Vec<f64>>) {
     let out = dir.join(format!("{scene}{}.npy", extra.join("")));
-    let run = Command::new(env!("CARGO_BIN_EXE_rkwave"))
+    let run = common::command()
         .args(["reconstruct", "--dim", "2", "--resolution"])
         .arg(format!("{SIZE}x{SIZE}"))
         .arg("--input")
