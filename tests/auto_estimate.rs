@@ -171,7 +171,7 @@ fn candidates_are_the_splat() {
 /// On the stored Mitsuba renders (64², 4 spp): `auto` is no more than a margin below any single
 /// film of the same samples, and not below the Gaussian film (Mitsuba's default). The margin,
 /// 3.6 dB, is the largest loss to a single film measured at 128² (direct, 8 spp, against the
-/// box: `docs/measurements.md`, "`--pixels auto`").
+/// box: `docs/measurements/real-renders.md`, "`--pixels auto`").
 #[test]
 fn auto_against_single_films_on_real_renders() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/renders");
