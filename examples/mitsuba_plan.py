@@ -6,6 +6,7 @@ high-spp reference.
 
     pip install mitsuba ./python            # from the repository root
     python examples/mitsuba_plan.py --scene direct --resolution 128 --spp 8 --out mitsuba-out
+    python examples/mitsuba_plan.py --resolution 16 --spp 4 --ref-spp 16   # small (CI)
 
 The scenes, the per-sample renderer (`Renderer.render_positions`: Mitsuba's
 `SamplingIntegrator::render_sample` steps at given positions), the cached reference and the
@@ -81,8 +82,12 @@ def main():
     film_s = time.perf_counter() - t0
 
     os.makedirs(args.out, exist_ok=True)
-    mi.util.write_bitmap(os.path.join(args.out, "rkwave_plan.exr"), image.astype(np.float32))
-    mi.util.write_bitmap(os.path.join(args.out, f"mitsuba_{args.film}.exr"), film.astype(np.float32))
+    # Written synchronously: `write_bitmap`'s default (`write_async=True`) hands the EXR to
+    # Mitsuba's thread pool, and on a 2-core machine the interpreter then never exits (every
+    # thread parked at exit, OpenEXR's pool waiting on a semaphore); a plain write returns.
+    for name, pixels in [("rkwave_plan", image), (f"mitsuba_{args.film}", film)]:
+        mi.util.write_bitmap(os.path.join(args.out, f"{name}.exr"), pixels.astype(np.float32),
+                             write_async=False)
     np.save(os.path.join(args.out, "rkwave_plan.npy"), image)
     np.save(os.path.join(args.out, f"mitsuba_{args.film}.npy"), film)
 

@@ -33,7 +33,8 @@ fn main() {
 /// never trimmed. The PCG iterations allocate and free vectors of 8-112 MB (a channel's
 /// coefficients, the samples' values); from fresh mappings each one paid its page faults
 /// again. The price is a higher peak resident size (freed memory is held until the process
-/// ends); both figures: docs/measurements.md, "Adaptive image sampling: speed and memory".
+/// ends); both figures: docs/measurements/plan-speed.md, "Adaptive image sampling: speed and
+/// memory".
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 fn retain_freed_memory() {
     // SAFETY: `mallopt` only sets the allocator's parameters; it runs before any other thread

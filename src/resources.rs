@@ -38,7 +38,8 @@
 //! The stencil and row counts follow from the supports (`2p - 1` cells per axis); the fill
 //! constants are calibrated against the solver's own counts (`normal_nnz`, `factor_nnz` of
 //! `--json`) and the child's peak resident memory is checked against the total in
-//! `tests/hardening_image.rs` (docs/measurements.md, "Image plane: resource estimates").
+//! `tests/hardening_image.rs` (docs/measurements/image-plane.md, "Image plane: resource
+//! estimates").
 //!
 //! The limit is three quarters of `MemTotal` in `/proc/meminfo` (8 GiB where that file
 //! does not exist), or what [`set_memory_limit`] set (the command line's `--memory-limit`).

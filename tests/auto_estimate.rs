@@ -2,7 +2,9 @@
 //! SURE of a linear film against its true risk, the stored Mitsuba renders, the fallbacks.
 
 use std::path::Path;
-use std::process::Command;
+
+mod common;
+use common::{psnr, succeeds};
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -166,22 +168,10 @@ fn candidates_are_the_splat() {
     }
 }
 
-/// PSNR of images clipped to [0, 1] (the harness's definition).
-fn psnr(image: &[Vec<f64>], reference: &[Vec<f64>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (a, b) in image.iter().zip(reference) {
-        for (&x, &r) in a.iter().zip(b) {
-            sum += (x.clamp(0.0, 1.0) - r.clamp(0.0, 1.0)).powi(2);
-            n += 1;
-        }
-    }
-    10.0 * (n as f64 / sum).log10()
-}
-
 /// On the stored Mitsuba renders (64², 4 spp): `auto` is no more than a margin below any single
 /// film of the same samples, and not below the Gaussian film (Mitsuba's default). The margin,
 /// 3.6 dB, is the largest loss to a single film measured at 128² (direct, 8 spp, against the
-/// box: `docs/measurements.md`, "`--pixels auto`").
+/// box: `docs/measurements/real-renders.md`, "`--pixels auto`").
 #[test]
 fn auto_against_single_films_on_real_renders() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/renders");
@@ -235,17 +225,6 @@ fn auto_against_single_films_on_real_renders() {
     }
 }
 
-fn rkwave(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
-    )
-}
-
 /// One sample per pixel: `auto` falls back to the fit and says why, in text and `--json`; a
 /// fit-only flag without `--pixels` keeps the fit and says so.
 #[test]
@@ -278,14 +257,12 @@ fn fallback_and_kept_fit_are_printed() {
         out.to_str().unwrap(),
         "--force",
     ];
-    let (ok, text) = rkwave(&base);
-    assert!(ok, "{text}");
+    let text = succeeds(&base);
     assert!(
         text.contains("--pixels auto fell back to fit") && text.contains("two samples or more"),
         "{text}"
     );
-    let (ok, json) = rkwave(&[&base[..], &["--json"]].concat());
-    assert!(ok, "{json}");
+    let json = succeeds(&[&base[..], &["--json"]].concat());
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["pixels"]["requested"], "auto");
     assert_eq!(v["pixels"]["estimate"], "fit");
@@ -293,8 +270,7 @@ fn fallback_and_kept_fit_are_printed() {
         .as_str()
         .unwrap()
         .contains("two samples"));
-    let (ok, text) = rkwave(&[&base[..], &["--p", "3"]].concat());
-    assert!(ok, "{text}");
+    let text = succeeds(&[&base[..], &["--p", "3"]].concat());
     assert!(
         text.contains("because --p (read by the fit only)"),
         "{text}"

@@ -49,6 +49,11 @@ fn grid_written_in_blocks_reads_back_exactly() {
     let before = std::fs::read(&kept).unwrap();
     let mut w = GridWriter::create(&kept, &names, 1).unwrap();
     w.write_block(&[0.5], &[vec![1.0], vec![2.0]]).unwrap();
-    assert!(w.finish(false).is_err());
+    let refused = w.finish(false).unwrap_err();
+    assert_eq!(
+        refused.kind(),
+        rkwave::error::ErrorKind::OutputRefused,
+        "{refused}"
+    );
     assert_eq!(std::fs::read(&kept).unwrap(), before);
 }

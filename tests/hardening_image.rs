@@ -333,7 +333,7 @@ fn parse_bytes(text: &str) -> f64 {
 fn estimate(args: &[String], limit: &str, cwd: &Path) -> f64 {
     let mut all = vec!["--memory-limit".to_string(), limit.to_string()];
     all.extend(args.iter().cloned());
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rkwave"))
+    let out = common::command()
         .args(&all)
         .current_dir(cwd)
         .output()
@@ -388,7 +388,7 @@ fn peak_probe() {
     let args: Vec<&str> = joined.split('\u{1f}').collect();
     // reaped below by `wait4`, which clippy does not see
     #[allow(clippy::zombie_processes)]
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_rkwave"))
+    let child = common::command()
         .args(&args)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())

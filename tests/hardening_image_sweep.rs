@@ -202,7 +202,7 @@ fn sweep_concurrent_plan_calls() {
     let d = scratch("concurrent");
     let s0 = started_plan(&d, "32x32", "4");
     let spawn = |name: &str| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_rkwave"))
+        common::command()
             .args([
                 "plan",
                 "--state",

@@ -14,7 +14,7 @@ use rkwave::image::ImagePlane;
 use rkwave::refine::StopReason;
 
 use common::scenes::{edge_distance, jittered, polynomial, straight_edge};
-use common::trees::deepen_randomly;
+use common::trees::random_tree;
 use rkwave::image::adaptive::{
     GrowthParams, ImageSampling, MarkingParams, QuadTreeParams, StopParams, TreeParams,
 };
@@ -83,13 +83,6 @@ fn full_tree_equals_uniform_engine() {
             .fold(0.0, f64::max);
         assert!(err < 1e-10, "channel {c}: pixels differ by {err:e}");
     }
-}
-
-/// A random tree closed under "parent present": activate random slots below the limit.
-fn random_tree(b: TensorBasis, base: u32, cells: usize, seed: u64) -> QuadTree {
-    let mut tree = QuadTree::uniform(b, base);
-    deepen_randomly(&mut tree, cells, &mut Pcg64::seed_from_u64(seed));
-    tree
 }
 
 /// Tensor polynomials of degree `< p` in each variable lie in the coarse space, which every

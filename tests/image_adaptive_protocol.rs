@@ -426,7 +426,8 @@ fn command_line_protocol_gives_the_in_process_image() {
         assert!(out.status.success(), "{}", common::text(&out));
         if common::text(&out).contains("the plan stopped") {
             // the last call writes 0 rows (which the sample reader refuses as samples)
-            assert!(read_npy(&next).is_err());
+            let e = read_npy(&next).unwrap_err();
+            assert_eq!(e.kind(), rkwave::error::ErrorKind::InvalidInput, "{e}");
             break dir.join(format!("samples{}.npy", call - 1));
         }
         let positions = read_npy(&next).unwrap();

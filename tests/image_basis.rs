@@ -478,7 +478,8 @@ fn smoothing_fills_holes_from_their_neighbours() {
     }
     prm.p = 1;
     prm.levels = ImageLevels::Fixed(5, 5);
-    assert!(fit_image(w, h, &xs, &ys, &[&f], &prm).is_err());
+    let e = fit_image(w, h, &xs, &ys, &[&f], &prm).unwrap_err();
+    assert_eq!(e.kind(), rkwave::error::ErrorKind::InvalidInput, "{e}");
 }
 
 /// The 2D FWT (parallel, whole-row column pass) is the 1D steps of `basis::fwt` applied line

@@ -79,10 +79,17 @@ fn box_pixels_integrate_tensor_polynomials_exactly() {
 #[test]
 fn pixel_axis_must_match_the_basis_domain() {
     let b = axis(2, 4, 10);
-    assert!(PixelIntegrals::new(&b, 11).is_err());
-    assert!(PixelIntegrals::new(&b, 0).is_err());
+    for pixels in [11, 0] {
+        let e = PixelIntegrals::new(&b, pixels).unwrap_err();
+        assert_eq!(
+            e.kind(),
+            rkwave::error::ErrorKind::InvalidInput,
+            "{pixels}: {e}"
+        );
+    }
     let bx = PixelIntegrals::new(&b, 10).unwrap();
-    assert!(filter_image(&bx, &bx, &[0.0; 3]).is_err());
+    let e = filter_image(&bx, &bx, &[0.0; 3]).unwrap_err();
+    assert_eq!(e.kind(), rkwave::error::ErrorKind::InvalidInput, "{e}");
 }
 
 /// Test copies of the film-filter shapes of `film-filters.md` (pbrt-v4 defaults).
@@ -307,7 +314,8 @@ fn equivalent_filter_matches_dense_pseudo_inverse() {
         assert!((cx - (px as f64 + 0.5)).abs() < 1e-9, "centroid x {cx}");
         assert!((cy - (py as f64 + 0.5)).abs() < 1e-9, "centroid y {cy}");
     }
-    assert!(equivalent_filter(&dense, &by, &bx, 8, 0).is_err());
+    let e = equivalent_filter(&dense, &by, &bx, 8, 0).unwrap_err();
+    assert_eq!(e.kind(), rkwave::error::ErrorKind::InvalidInput, "{e}");
 }
 
 /// Wired to `ImageFit`: the weights of the fit's own solve reproduce its box pixel,

@@ -7,7 +7,8 @@
 //! max|v|` with `C = 16` (4 rotations per value per level — x and y, forward and back — each
 //! within 2 eps, a factor 2 to spare).
 
-use std::process::Command;
+mod common;
+use common::rkwave;
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -287,13 +288,6 @@ fn empty_pixels_and_single_samples_are_refused_with_the_way_out() {
     assert!(err.to_string().contains("--pixels fit"));
 }
 
-fn rkwave(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("rkwave runs")
-}
-
 #[test]
 fn the_command_line_reports_the_noise_level_and_threshold() {
     let dir = std::env::temp_dir().join(format!("rkwave-pixel-estimates-{}", std::process::id()));
@@ -346,7 +340,7 @@ fn the_command_line_reports_the_noise_level_and_threshold() {
     let stdout = String::from_utf8_lossy(&text.stdout);
     assert!(stdout.contains("universal threshold"), "{stdout}");
     let bad = rkwave(&[&base[..], &["--pixels", "median"]].concat());
-    assert!(!bad.status.success());
+    assert_eq!(bad.status.code(), Some(2), "a user error");
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert!(
         stderr.contains("fit, fit-clamped, box or shrunk"),

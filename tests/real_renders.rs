@@ -13,12 +13,14 @@
 //! definition against rkwave's splat, the PSNR against the value numpy computed when the fixture
 //! was written, the absence of bias against the reference (in units of the standard error the
 //! samples themselves give), that rkwave's uniform reconstruction of real samples is finite
-//! and no further below the box film than the measured table in `docs/measurements.md` shows,
-//! and that the noise-aware pixel estimates (`--pixels shrunk`, `--pixels fit-clamped`) keep
+//! and no further below the box film than the measured table in `docs/measurements/real-renders.md`
+//! shows, and that the noise-aware pixel estimates (`--pixels shrunk`, `--pixels fit-clamped`) keep
 //! the gains measured on these fixtures.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+mod common;
+use common::psnr;
 
 use rkwave::image::filters::BoxFilter;
 use rkwave::image::splat::splat;
@@ -100,20 +102,6 @@ fn naive_box(f: &Fixture) -> (Vec<Vec<f64>>, Vec<usize>) {
         }
     }
     (sums, counts)
-}
-
-/// PSNR of images clipped to [0, 1] (peak 1), MSE over every pixel and channel: the harness's
-/// definition (`benches/mitsuba/metrics.py`).
-fn psnr(image: &[Vec<f64>], reference: &[Vec<f64>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (a, b) in image.iter().zip(reference) {
-        for (&x, &r) in a.iter().zip(b) {
-            let d = x.clamp(0.0, 1.0) - r.clamp(0.0, 1.0);
-            sum += d * d;
-            n += 1;
-        }
-    }
-    10.0 * (n as f64 / sum).log10()
 }
 
 /// A fixture's entry in `data/renders/fixtures.json`, written by the harness with numpy.
@@ -322,8 +310,8 @@ fn read_image_npy(path: &Path) -> ((usize, usize, usize), Vec<Vec<f64>>) {
 /// per scene, in dB. Measured with main's rkwave at de5b629 (`reconstruct --dim 2`, p = 3)
 /// on these fixtures: direct 28.05 vs 31.79 (-3.74), cornell 24.53 vs 27.55 (-3.02), thinlens
 /// 28.43 vs 29.23 (-0.80); the bound is the measured gap plus 1 dB. The uniform fit LOSES to
-/// the box film on every fixture (at 128 x 128, `docs/measurements.md`, it loses on direct and
-/// cornell at 4, 8 and 16 spp and wins only on thinlens); this guards against a further
+/// the box film on every fixture (at 128 x 128, `docs/measurements/real-renders.md`, it loses on
+/// direct and cornell at 4, 8 and 16 spp and wins only on thinlens); this guards against a further
 /// regression, it asserts no win.
 const UNIFORM_GAP_DB: [(&str, f64); 3] = [("direct", 4.74), ("cornell", 4.02), ("thinlens", 1.80)];
 
@@ -354,9 +342,9 @@ fn uniform_reconstruction_of_real_samples_is_finite_and_within_the_measured_gap(
 
 /// What `reconstruct --dim 2 --pixels E` gains on the fixtures, in dB against the box film of
 /// the same samples (shrunk) or against the plain fit (fit-clamped). Measured on these fixtures
-/// (`docs/measurements.md`, "Noise-aware pixel estimates in the engine"): shrunk − box = +0.01
-/// (direct), +4.65 (cornell), +0.02 (thinlens); fit-clamped − fit = +3.19, +4.24, +1.18. The
-/// outputs are deterministic, so the bounds guard against regressions, with room for a change
+/// (`docs/measurements/real-renders.md`, "Noise-aware pixel estimates in the engine"): shrunk − box
+/// = +0.01 (direct), +4.65 (cornell), +0.02 (thinlens); fit-clamped − fit = +3.19, +4.24, +1.18.
+/// The outputs are deterministic, so the bounds guard against regressions, with room for a change
 /// of the transform's rounding or of the fit: on cornell (Monte Carlo noise) shrinkage must
 /// keep at least 3 dB, i.e. at least halve the box's squared error; on the noise-free scenes it
 /// must cost at most 0.1 dB (the pooled noise level there is ~1e-4 of the signal); the clamp
@@ -378,7 +366,7 @@ fn reconstruct_with(
     dir: &Path,
 ) -> ((usize, usize, usize), Vec<Vec<f64>>) {
     let out = dir.join(format!("{scene}{}.npy", extra.join("")));
-    let run = Command::new(env!("CARGO_BIN_EXE_rkwave"))
+    let run = common::command()
         .args(["reconstruct", "--dim", "2", "--resolution"])
         .arg(format!("{SIZE}x{SIZE}"))
         .arg("--input")

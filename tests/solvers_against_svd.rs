@@ -24,7 +24,7 @@ mod common;
 
 use common::oracle::{check_with, Accuracy, DenseLs};
 use common::scenes::{jittered, jittered_with, straight_edge};
-use common::trees::{deepen_randomly, sample_slots};
+use common::trees::{random_tree_with, sample_slots};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -496,11 +496,10 @@ fn uniform_image_solvers_match_the_dense_svd() {
 /// A random quadtree on an 8 x 8 image (`p = 2`, levels (5, 5): down to a quarter pixel):
 /// the base step full, then `deepen` random slots activated; 12 jittered samples per pixel
 /// and 4 more in every slot's cell, so every function is sampled.
-fn random_tree(seed: u64, deepen: usize) -> (QuadTree, Vec<f64>, Vec<f64>) {
+fn random_tree_and_samples(seed: u64, deepen: usize) -> (QuadTree, Vec<f64>, Vec<f64>) {
     let basis = TensorBasis::new(2, FilterFamily::cdv_default(2), 8, 8, (5, 5)).unwrap();
-    let mut tree = QuadTree::uniform(basis, 1);
     let mut rng = Pcg64::seed_from_u64(seed);
-    deepen_randomly(&mut tree, deepen, &mut rng);
+    let tree = random_tree_with(basis, 1, deepen, &mut rng);
     let (mut xs, mut ys) = jittered_with(8, 8, 12, &mut rng);
     sample_slots(&tree, 4, &mut rng, &mut xs, &mut ys);
     (tree, xs, ys)
@@ -532,7 +531,7 @@ fn tree_solvers_match_the_dense_svd() {
         ),
     ];
     for &seed in &SEEDS_2D {
-        let (tree, xs, ys) = random_tree(seed, 20);
+        let (tree, xs, ys) = random_tree_and_samples(seed, 20);
         let values = image_values(&xs, &ys, 8.0, seed + 2);
         let values: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
         let functions = tree.functions();

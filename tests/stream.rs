@@ -146,7 +146,11 @@ fn bad_streams_are_refused_with_the_fix() {
         assert!(matches!(err, StreamError::BadBytes { .. }), "{err}");
     }
     let other = FitParams::default().basis(4, 7, domain).unwrap();
-    assert!(SingleScaleAccumulator::from_bytes(&bytes, &other).is_err());
+    let err = SingleScaleAccumulator::from_bytes(&bytes, &other)
+        .err()
+        .unwrap();
+    assert!(matches!(err, StreamError::BadBytes { .. }), "{err}");
+    assert_eq!(err.kind(), rkwave::error::ErrorKind::InvalidInput);
 }
 
 /// `finish_fit`: the `Fit` of the accumulated samples, its coefficients those of `finish`

@@ -24,8 +24,8 @@ fn with(mut args: Vec<String>, extra: &[&str]) -> Vec<String> {
 }
 
 /// At the default halo the tiled image is the untiled one within 1e-6 of the value range
-/// (the measured bound of the halo study, docs/measurements.md), and the worker count does
-/// not change a bit of it.
+/// (the measured bound of the halo study, docs/measurements/image-plane.md), and the worker count
+/// does not change a bit of it.
 #[test]
 fn tiled_matches_untiled_and_ignores_the_worker_count() {
     let dir = scratch("tiles", "match");

@@ -48,7 +48,7 @@ pub fn within_budget(costs: &[usize], budget: usize) -> usize {
 /// Where a round's spare samples go ([`spread`]): the samples left over when the marked slots
 /// cost less than the round's least growth.
 ///
-/// The two rules compared: docs/measurements.md, "Variants tried at 64²".
+/// The two rules compared: docs/measurements/image-plane.md, "Variants tried at 64²".
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SpreadRule {

@@ -6,7 +6,7 @@
 //! Products formed in `f64` instead take seven roundings of a `(2p-1)`-wide matrix product
 //! plus the rounding of `sqrt2 h`: their scaling-function values are several times further
 //! from the exact ones than tables rounded once, which limited the single-scale least squares
-//! at round-off (docs/measurements.md, "Least squares at round-off").
+//! at round-off (docs/measurements/one-d.md, "Least squares at round-off").
 //!
 //! Cost: 30 double-double products for the 16 four-digit tables and 256 for the bytes,
 //! `(2p - 1)^3` multiply-adds each, once per filter bank.

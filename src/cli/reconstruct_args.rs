@@ -20,7 +20,7 @@ pub struct ReconstructArgs {
     pub domain: Option<Domain>,
     /// Vanishing moments p (1 = Haar, up to 10); default 3 in 1D and 2 on the image plane
     /// (`--dim 2`, as `rkwave image` and the plan: chosen by measurement on real renders,
-    /// docs/measurements.md).
+    /// docs/measurements/real-renders.md).
     #[arg(long)]
     pub p: Option<usize>,
     /// Interior filter family; default CDV's choice (db for p <= 3, sym for p >= 4).
@@ -92,7 +92,7 @@ pub struct ReconstructArgs {
     #[arg(long, value_name = "T")]
     pub tile: Option<usize>,
     /// With `--tile`: the halo in pixels around each tile [default: 12, from the halo study
-    /// in docs/measurements.md].
+    /// in docs/measurements/image-plane.md].
     #[arg(long, value_name = "H")]
     pub halo: Option<usize>,
     /// With `--tile`: tiles fitted at once [default: the number of cores].

@@ -108,7 +108,7 @@ pub struct DensityOptions {
 
 /// The default threshold sits inside the range that both keeps clustered samples' error and
 /// bounds the fit across a gap wider than a coarse support; larger thresholds drop scaling
-/// functions the clusters need (docs/measurements.md, "Trees from sample density").
+/// functions the clusters need (docs/measurements/one-d.md, "Trees from sample density").
 impl Default for DensityOptions {
     fn default() -> Self {
         Self {

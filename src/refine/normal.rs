@@ -26,7 +26,7 @@
 //! cached rows: `O(nnz(K))` more), and that factorization, in AMD order. An earlier version
 //! eliminated the finest level first (sparser on a narrow adaptive tree), but on a full level
 //! the chain of same-level neighbours carries the fill of each elimination to the next one,
-//! so every coarser level ends up coupled to every other (docs/measurements.md, "What a round
+//! so every coarser level ends up coupled to every other (docs/measurements/one-d.md, "What a round
 //! costs").
 
 use std::collections::HashMap;

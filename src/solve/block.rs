@@ -6,7 +6,7 @@
 //! All faer calls here take `Par::Seq` explicitly: the blocks are small (tens to a few
 //! hundred rows) and thousands of them run concurrently on the rayon pool, so faer's own
 //! parallelism would only add synchronisation (a small thin SVD is about three times slower
-//! with `Par::rayon(0)`; docs/measurements.md has the figure). Passing `Par` per call instead
+//! with `Par::rayon(0)`; docs/measurements/basis.md has the figure). Passing `Par` per call instead
 //! of `faer::set_global_parallelism(Par::Seq)` leaves the global setting alone for the one
 //! large factorization of the global reference, which runs at the same time in a report.
 

@@ -256,7 +256,7 @@ fn union_of(indptr: &[usize], indices: &[usize], outer: &[usize]) -> Vec<usize> 
     out.sort_unstable();
     out.dedup();
     // The concatenation is ~10x longer than the union: without this, every group keeps that
-    // capacity (tens of GB at 1e6 samples: docs/measurements.md, "Solver per block,
+    // capacity (tens of GB at 1e6 samples: docs/measurements/basis.md, "Solver per block,
     // parallelism and memory").
     out.shrink_to_fit();
     out

@@ -9,12 +9,15 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+/// The binary this test run built, as a command to add arguments, a folder or its standard
+/// streams to: every test starts `rkwave` through this.
+pub fn command() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rkwave"))
+}
+
 /// Runs the binary with `args` and waits for it.
 pub fn rkwave<S: AsRef<OsStr>>(args: &[S]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rkwave"))
-        .args(args)
-        .output()
-        .expect("binary runs")
+    command().args(args).output().expect("binary runs")
 }
 
 /// Standard output and standard error together.
@@ -49,7 +52,7 @@ pub fn user_error<S: AsRef<OsStr> + std::fmt::Debug>(args: &[S]) -> String {
 /// kills it after `limit`: the exit code (-1 for a signal) and standard error, or `None` if
 /// it had to be killed.
 pub fn rkwave_bounded<S: AsRef<OsStr>>(args: &[S], limit: Duration) -> Option<(i32, String)> {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_rkwave"))
+    let mut child = command()
         .args(args)
         .current_dir(std::env::temp_dir())
         .stdout(Stdio::null())

@@ -1,8 +1,28 @@
 //! Random quadtrees for the tree-fit tests, and samples that keep every slot of a tree
 //! sampled.
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use rkwave::basis::tensor::TensorBasis;
 use rkwave::image::adaptive::{Cell, QuadTree};
+
+/// A random tree: `basis`'s tree uniform to `base`, then `cells` random slots activated by
+/// [`deepen_randomly`] with `rng` (closed under "parent present").
+pub fn random_tree_with(
+    basis: TensorBasis,
+    base: u32,
+    cells: usize,
+    rng: &mut impl Rng,
+) -> QuadTree {
+    let mut tree = QuadTree::uniform(basis, base);
+    deepen_randomly(&mut tree, cells, rng);
+    tree
+}
+
+/// [`random_tree_with`] from a seed (`Pcg64`).
+pub fn random_tree(basis: TensorBasis, base: u32, cells: usize, seed: u64) -> QuadTree {
+    random_tree_with(basis, base, cells, &mut Pcg64::seed_from_u64(seed))
+}
 
 /// Activates `cells` random slots above the depth limit, one at a time (so the tree stays
 /// closed under "parent present", as every refined tree is); stops early if none is left.

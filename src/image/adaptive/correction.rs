@@ -31,7 +31,7 @@
 //! it, `I'_P = min(max(I_P, lo_P), hi_P)`: a projection onto an interval, so wherever the
 //! truth lies in `[lo_P, hi_P]`, `|I'_P - t_P| <= |I_P - t_P|` (it removes the fit's ringing
 //! beside edges and sub-pixel lines). Pixels without a sample in their neighbourhood are
-//! kept. Its gain on the analytic scenes, with and without noise: docs/measurements.md,
+//! kept. Its gain on the analytic scenes, with and without noise: docs/measurements/image-plane.md,
 //! "Adaptive image sampling: quality".
 //!
 //! *Shrinkage* ([`PixelEstimate::Shrunk`], [`PixelEstimate::BoxShrunk`]). Under Monte Carlo
@@ -54,8 +54,8 @@
 //! [`ResidualCorrection::auto_fallback`] and printed. SURE is unbiased for noise in the
 //! values at fixed positions (Monte Carlo noise); it does not see the fit's gain as a control
 //! variate against the error of the positions (texture past Nyquist), so where that gain is
-//! the larger one `Shrunk` is better: docs/measurements.md, "The final image of the plan by
-//! SURE".
+//! the larger one `Shrunk` is better: docs/measurements/real-renders.md, "The plan at 4, 8
+//! and 16 spp, and its final image by SURE".
 //!
 //! *Blend* ([`PixelEstimate::Blend`]). `shrunk` and `auto` err differently: SURE does not see
 //! the fit's gain as a control variate (texture past Nyquist, where `shrunk` is ahead), and
@@ -66,8 +66,8 @@
 //! the chosen film's SURE and `R^S_P` the variance of the corrected pixel's residual mean
 //! (the spread of its residuals over `n_P`), both averaged over the SURE window. The weights
 //! lie in `[0, 1]`, so each pixel lies between its two inputs. Where `auto` is not permitted
-//! the output is `shrunk`'s, said as for `auto`. Its figures: docs/measurements.md, "The
-//! plan's final image as the inverse-risk blend of shrunk and auto".
+//! the output is `shrunk`'s, said as for `auto`. Its figures: docs/measurements/real-renders.md,
+//! "The plan's final image as the inverse-risk blend of shrunk and auto".
 //!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all

@@ -27,11 +27,11 @@
 //! *Limit.* At `rho = 2` samples per slot the least-squares problem itself is not well
 //! conditioned (jittered pairs of samples leave local near-null directions), so Jacobi-PCG
 //! takes hundreds of iterations to a tight residual, more work than the direct solve at small
-//! sizes (docs/measurements.md, "The iterative solvers"). So PCG is opt-in for the in-process
-//! engine; a stronger (local / Schwarz, or previous-factor) preconditioner is what it lacks.
-//! With the rounds' fits loose and warm-started it is the renderer plan's solver
-//! ([`TreeSolver::plan_pcg`], [`CarriedPcg`]: docs/measurements.md, "The renderer loop on
-//! PCG").
+//! sizes (docs/measurements/plan-speed.md, "The iterative solvers"). So PCG is opt-in for the
+//! in-process engine; a stronger (local / Schwarz, or previous-factor) preconditioner is what it
+//! lacks. With the rounds' fits loose and warm-started it is the renderer plan's solver
+//! ([`TreeSolver::plan_pcg`], [`CarriedPcg`]: docs/measurements/plan-speed.md, "The renderer loop
+//! on PCG").
 //!
 //! Stopping: the relative residual of the normal equations `||K_T^T (f - K_T c)|| / ||K_T^T
 //! f|| <= tol`. Then the coefficient error is at most `kappa(G) tol` relative, `kappa`

@@ -14,15 +14,15 @@
 //! meets tile `t` (`T x T` pixels). With exact principal submatrices `G_tt`, `kappa(M^{-1} G)`
 //! falls by two orders of magnitude from Jacobi's, while blocks of one level alone (or the
 //! coarse levels split off into a block of their own) barely help (dense eigenvalues:
-//! docs/measurements.md, "The iterative solvers").
+//! docs/measurements/plan-speed.md, "The iterative solvers").
 //!
 //! Here the tiles' blocks are chosen; they are read from an assembled `G` (the direct path's,
 //! [`super::gram`]), factored and applied by the crate's one additive Schwarz preconditioner
 //! ([`AdditiveSchwarz`]: dense Cholesky per block, blocked triangular solves for all channels
 //! at once), and the conjugate gradient is the crate's one ([`crate::solve::cg::pcg`]). That
 //! is the reference for a matrix-free assembly of the same blocks, which the 512² target
-//! needs: `G` itself, built from the kernel rows, does not fit at 512² (docs/measurements.md,
-//! "512² at 8 spp").
+//! needs: `G` itself, built from the kernel rows, does not fit at 512²
+//! (docs/measurements/plan-speed.md, "512² at 8 spp").
 
 use serde::Serialize;
 use sprs::CsMat;

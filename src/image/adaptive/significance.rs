@@ -26,7 +26,7 @@
 //! in-process loop agree). They do not depend on the round: a sample keeps its probe values,
 //! so a round's probe fit continues the previous round's like the image channels' fit does
 //! (started from zero every round, the probes were the rounds' whole solve cost:
-//! docs/measurements.md, "512² at 8 spp"). Within a round the
+//! docs/measurements/plan-speed.md, "512² at 8 spp"). Within a round the
 //! values are independent standard normal deviates all the same, which is all the test
 //! needs; across rounds an unchanged cell sees nearly the same test instead of a fresh draw,
 //! so a false alarm is not re-drawn every round.
@@ -42,8 +42,8 @@
 //!
 //! Tried: `|c_a| > kappa sigma sqrt(ch v_P)` with a fixed `kappa = 3`, and `v` from the cell
 //! alone. With one channel that is `P(chi^2_1 > 9) = 2.7e-3` per function, a few false
-//! alarms per round, enough to deepen a noisy smooth scene (docs/measurements.md, "The noise
-//! test").
+//! alarms per round, enough to deepen a noisy smooth scene (docs/measurements/image-plane.md, "The
+//! noise test").
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -95,7 +95,7 @@ pub fn probe_values(seed: u64, xs: &[f64], ys: &[f64], k: usize) -> Vec<Vec<f64>
 /// single-scale coefficients of `V_Jx (x) V_Jy`, then the single-scale rows `E`, `(2p - 1)^2`
 /// terms a sample instead of the multilevel evaluator's terms of every level (the same values
 /// up to rounding, and most of the noise test's cost at 512² went to the multilevel
-/// evaluator before this: docs/measurements.md, "512² at 8 spp").
+/// evaluator before this: docs/measurements/plan-speed.md, "512² at 8 spp").
 pub(crate) fn residuals(
     tree: &QuadTree,
     coefficients: &[&[f64]],

@@ -60,7 +60,7 @@ impl TreeSolver {
 }
 
 /// PCG to a relative residual of `1e-6` (`rkwave image --adaptive --solver pcg`): the
-/// output's PSNR is the same at `1e-4` and `1e-6` (docs/measurements.md, "The iterative
+/// output's PSNR is the same at `1e-4` and `1e-6` (docs/measurements/plan-speed.md, "The iterative
 /// solvers"), so `1e-6` keeps two orders of margin (the earlier default, `1e-10`, only added
 /// iterations).
 impl Default for TreeSolver {
@@ -76,7 +76,7 @@ impl TreeSolver {
     /// PCG to a relative residual of `1e-4`: the solver of a renderer's plan (`rkwave plan`,
     /// Python's `Plan`) and of its fits whose direct solve does not fit in memory. The final
     /// image is the same as at `1e-6` to the hundredth of a dB in about half the final fit's
-    /// iterations (docs/measurements.md, "The renderer loop on PCG").
+    /// iterations (docs/measurements/plan-speed.md, "The renderer loop on PCG").
     pub fn plan_pcg() -> Self {
         Self::Pcg {
             tolerance: 1e-4,

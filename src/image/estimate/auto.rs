@@ -21,7 +21,7 @@ use crate::image::splat::PixelBins;
 use crate::image::{ImageSamples, PixelImage};
 
 /// Half the side of SURE's window: `(2 h + 1)²` pixels, 17 x 17 (chosen on the Mitsuba
-/// renders against 9 x 9 and 33 x 33, `docs/measurements.md`).
+/// renders against 9 x 9 and 33 x 33, `docs/measurements/real-renders.md`).
 pub const WINDOW_HALF: usize = 8;
 
 /// Pixels that took one film.

@@ -23,9 +23,10 @@
 //!   pixel's mean, so no noise flag is needed; where the samples carry no pixel-scale noise it
 //!   is near zero and the shrinkage changes nothing.
 //!
-//! Why these: `docs/measurements.md`, "Prototype: noise-aware pixel estimates", and the table
-//! after it measured in Rust; `docs/design.md` has the section "Noise-aware pixel estimates".
-//! The noise level and the thresholds used are in the [`EstimateReport`] (text and `--json`).
+//! Why these: `docs/measurements/real-renders.md`, "Prototype: noise-aware pixel estimates", and
+//! the table after it measured in Rust; `docs/design.md` has the section "Noise-aware pixel
+//! estimates". The noise level and the thresholds used are in the [`EstimateReport`] (text and
+//! `--json`).
 
 pub mod auto;
 pub mod blend;

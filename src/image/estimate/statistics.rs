@@ -16,7 +16,7 @@
 //! `n_P >= 2`: the typical standard error of a pixel's mean. The median, not the mean, so that
 //! the pixels whose spread is signal (texture past Nyquist, an edge crossing the pixel) do not
 //! raise it; on a scene without Monte Carlo noise it is near zero, and shrinkage by it changes
-//! nothing (`docs/measurements.md`, "Prototype: noise-aware pixel estimates").
+//! nothing (`docs/measurements/real-renders.md`, "Prototype: noise-aware pixel estimates").
 
 use crate::image::{ImagePlane, ImageSamples};
 

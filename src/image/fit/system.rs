@@ -88,8 +88,8 @@ pub enum NormalSolver {
 }
 
 /// Relative residual at which the default CG stops ([`NormalSolver::default_cg`]): the pixels
-/// then agree with the Cholesky's to well below the noise of a render (docs/measurements.md,
-/// "The uniform fit by conjugate gradients").
+/// then agree with the Cholesky's to well below the noise of a render
+/// (docs/measurements/plan-speed.md, "The uniform fit by conjugate gradients").
 pub const CG_TOLERANCE: f64 = 1e-6;
 
 /// Iterations after which the default CG gives way to the Cholesky: a few times what dense
@@ -98,7 +98,8 @@ pub const CG_MAX_ITERATIONS: usize = 60;
 
 /// Unknowns up to which [`NormalSolver::Auto`] takes the sparse Cholesky: at 4 samples per
 /// function its factorization costs about what the CG iterations do at `64²` and grows as
-/// `N^{3/2}` against CG's `N` (docs/measurements.md, "The uniform fit by conjugate gradients").
+/// `N^{3/2}` against CG's `N` (docs/measurements/plan-speed.md, "The uniform fit by conjugate
+/// gradients").
 pub const CHOLESKY_MAX_FUNCTIONS: usize = crate::resources::UNIFORM_CHOLESKY_MAX_FUNCTIONS;
 
 impl NormalSolver {

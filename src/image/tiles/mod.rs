@@ -42,8 +42,8 @@ pub use tiled::{
 use crate::error::ErrorKind;
 
 /// The halo of `reconstruct --dim 2 --tile` when none is given, in pixels: the smallest
-/// halo of the halo study (docs/measurements.md) whose tiled image is within `1e-6` of the
-/// value range of the untiled one.
+/// halo of the halo study (docs/measurements/image-plane.md) whose tiled image is within `1e-6` of
+/// the value range of the untiled one.
 pub const DEFAULT_HALO: usize = 12;
 
 impl TileGeometryError {

@@ -17,7 +17,7 @@
 //!    ([`super::marking::spread`], by [`GrowthParams::spread`]), so a budget-driven run
 //!    ends at the budget after about `log(budget / base) / log(1 + min_growth)` rounds
 //!    (without it, a concentrated indicator stopped runs at the round limit with a third of
-//!    the budget unspent: docs/measurements.md, "Variants tried at 64²").
+//!    the budget unspent: docs/measurements/image-plane.md, "Variants tried at 64²").
 //!    Noise ([`super::significance`]): slots whose parent's detail is within the noise are
 //!    not markable; when nothing significant is left, a *densifying* round (no cell marked)
 //!    raises the samples of every slot instead (up to double, at least the least growth),

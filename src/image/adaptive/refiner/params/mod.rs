@@ -53,7 +53,8 @@ pub struct AdaptiveParams {
 pub struct QuadTreeParams {
     /// Depth limit below the pixel: the finest level per axis is
     /// `J = ceil(log2 size) + below_pixel` (1: half-pixel functions at edges; quarter-pixel ones
-    /// spent the budget on too few edge cells: docs/measurements.md, "Variants tried at 64²").
+    /// spent the budget on too few edge cells: docs/measurements/image-plane.md, "Variants tried at
+    /// 64²").
     pub below_pixel: u32,
     /// Level of the base leaves along x (`None`: the finest whose samples fit in
     /// `base_fraction` of the budget).
@@ -114,7 +115,7 @@ pub struct FitParams {
     ///
     /// Loose rounds cost a fraction of the iterations for nearly the same fit; the round fits'
     /// larger residuals raise the noise estimate of a noise-free scene, so fewer pixels take a
-    /// residual correction (docs/measurements.md, "Loose rounds").
+    /// residual correction (docs/measurements/plan-speed.md, "Loose rounds").
     pub round_tolerance: Option<f64>,
     /// Measure each round's fit against the same fit rebuilt from scratch (fresh solver
     /// state, zero start: no continued normal matrix or diagonal, no warm start), reported
@@ -220,11 +221,11 @@ impl AdaptiveParams {
     /// defaults, with the final image denoised ([`PixelEstimate::Blend`]: per pixel the
     /// inverse-risk combination of the corrected pixels shrunk at the samples' noise level and
     /// the films chosen by SURE; a renderer's samples carry Monte Carlo noise, and where they
-    /// carry none the shrinkage keeps the image: docs/measurements.md, "Placement that follows
-    /// the pixel integral" and "The plan's final image as the inverse-risk blend of shrunk and
-    /// auto"); and fitted by matrix-free PCG ([`TreeSolver::plan_pcg`]:
+    /// carry none the shrinkage keeps the image: docs/measurements/real-renders.md, "Placement that
+    /// follows the pixel integral" and "The plan's final image as the inverse-risk blend of shrunk
+    /// and auto"); and fitted by matrix-free PCG ([`TreeSolver::plan_pcg`]:
     /// the loop's calls several times faster, a tenth of the memory, the same final image to
-    /// a tenth of a dB: docs/measurements.md, "The renderer loop on PCG").
+    /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG").
     pub fn renderer_plan() -> Self {
         let d = Self::default();
         Self {
