@@ -7,6 +7,7 @@ noise floor, a sample cache, and scoring entries. See docs/measurements/suite.md
     suite.py score --rkwave BIN --half tuning --spp 4 8 [--extra "FLAGS"] [--json F]
     suite.py plan  --rkwave BIN --scenes glass wires --spp 4 8 [--extra "FLAGS"] [--json F]
     suite.py table --rkwave BIN --half both --spp 4 8 16 32 --json F   # the full table
+    suite.py fixtures --out data/renders/suite --resolution 48 --spp 4 8   # for cargo test
 
 `score` renders nothing: it runs `BIN reconstruct --dim 2 FLAGS` on the cached uniform
 samples. `plan` runs the `rkwave plan` loop with the renderer answering each round.
@@ -50,6 +51,11 @@ def main():
     common(c)
     c.add_argument("--half", choices=["tuning", "validation", "both"], default="both")
     c.add_argument("--scenes", nargs="+", choices=ss.SCENES)
+    fx = sub.add_parser("fixtures", help="small sample sets + references for cargo test")
+    fx.add_argument("--out", default="data/renders/suite")
+    fx.add_argument("--resolution", type=int, default=48)
+    fx.add_argument("--spp", type=int, nargs="+", default=[4, 8])
+    fx.add_argument("--scenes", nargs="+", choices=ss.SCENES, default=["glass", "grazing", "emitter", "wires"])
     for name in ("score", "plan", "table"):
         p = sub.add_parser(name)
         common(p)
@@ -60,9 +66,16 @@ def main():
         p.add_argument("--json", help="write every row to this file")
         p.add_argument("--workdir", default=f"/tmp/rkwave-suite-{os.getpid()}")
         p.add_argument("--seed", type=int, default=1, help="the plan's seed")
+        if name == "table":
+            p.add_argument("--no-plan-spp", type=int, nargs="*", default=[],
+                           help="spp at which the plan loop is skipped (time)")
     args = ap.parse_args()
-    scenes = args.scenes or half_scenes(args.half)
     w = h = args.resolution
+    if args.cmd == "fixtures":
+        suite_cache.write_fixtures(args.out, args.scenes, w, h, args.spp, " ".join(["suite.py"] + sys.argv[1:]),
+                                   log=lambda m: print(m, flush=True))
+        return
+    scenes = args.scenes or half_scenes(args.half)
     if args.cmd == "cache":
         for name in scenes:
             suite_cache.cache_scene(name, args.cache, w, h, args.spp, log=lambda m: print(m, flush=True))

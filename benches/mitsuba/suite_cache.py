@@ -167,3 +167,48 @@ def cache_scene(name, root, w, h, spps, log=print):
     with open(mpath, "w") as fh:
         json.dump(meta, fh, indent=1)
     return meta
+
+
+def write_fixtures(out, names, w, h, spps, command, log=print):
+    """Small sample sets with their references for `cargo test` (as `harness.py --fixtures`):
+    `{scene}-{w}x{h}-{spp}spp-samples.npy` (float32 m x 5, each position kept strictly inside
+    its pixel after rounding to float32), `{scene}-{w}x{h}-reference.npy` (the mean of the two
+    reference halves as a table of pixel centres: x + 1/2, y + 1/2, r, g, b, float64, row-major),
+    and `fixtures.json` with the numpy box-film figures of the float32 samples."""
+    os.makedirs(out, exist_ok=True)
+    meta = {"mitsuba": mi.__version__, "variant": mi.variant(), "film_seed": FILM_SEED,
+            "ref_spp": REF_SPP, "ref_seeds": list(REF_SEEDS), "resolution": [w, h], "command": command,
+            "sets": []}
+    for name in names:
+        halves = [np.array(mi.render(ss.load(name, w, h, "box", REF_SPP), spp=REF_SPP, seed=sd), dtype=np.float64)
+                  for sd in REF_SEEDS]
+        ref = 0.5 * (halves[0] + halves[1])
+        ys, xs = np.mgrid[0:h, 0:w]
+        table = np.column_stack([xs.ravel() + 0.5, ys.ravel() + 0.5, ref.reshape(-1, 3)])
+        ref_name = f"{name}-{w}x{h}-reference.npy"
+        np.save(os.path.join(out, ref_name), table)
+        for spp in spps:
+            n = rendered_spp(spp)
+            ren = MitsubaSeededRenderer(ss.load(name, w, h, "box", spp), pixel_seeds(w, h, FILM_SEED))
+            s = ren.render_pixels(np.full((h, w), n), FILM_SEED)
+            s32 = s.astype(np.float32)
+            for c, size in ((0, w), (1, h)):
+                cell = np.floor(s[:, c])
+                lo = cell.astype(np.float32)
+                hi = np.nextafter((cell + 1).astype(np.float32), np.float32(0))
+                s32[:, c] = np.clip(s32[:, c], np.nextafter(lo, np.float32(size)), hi)
+            base = f"{name}-{w}x{h}-{spp}spp"
+            np.save(os.path.join(out, f"{base}-samples.npy"), s32)
+            s64 = s32.astype(np.float64)
+            box = metrics.box_film(s64[:, 0], s64[:, 1], s64[:, 2:], w, h)
+            meta["sets"].append({"samples": f"{base}-samples.npy", "reference": ref_name, "scene": name,
+                                 "half": "tuning" if name in ss.TUNING else "validation",
+                                 "spp": spp, "rendered_spp": n, "samples_count": int(len(s32)),
+                                 "box_psnr_numpy": metrics.psnr(box, ref),
+                                 "box_relmse_numpy": metrics.relmse(box, ref),
+                                 "sample_min": float(s64[:, 2:].min()), "sample_max": float(s64[:, 2:].max()),
+                                 "floor": floor_stats(*halves)})
+            log(f"fixture {base}: box PSNR {meta['sets'][-1]['box_psnr_numpy']:.3f} dB, "
+                f"relMSE {meta['sets'][-1]['box_relmse_numpy']:.4g}")
+    with open(os.path.join(out, "fixtures.json"), "w") as fh:
+        json.dump(meta, fh, indent=2)
