@@ -185,9 +185,10 @@ def film_curve(sc, measure, which):
 
 
 def equal_samples(ns, qs, q):
-    """Samples of equal quality on the curve (ns, qs), linear in log N between the first
-    bracketing pair: (N_eq, status) with status 'ok', 'above' (q beyond the curve's best:
-    N_eq is a lower bound, the largest N) or 'below' (q under the curve's first point)."""
+    """The fewest samples at which the curve (ns, qs), linear in log N between its points,
+    reaches quality q: (N_eq, status) with status 'ok', 'above' (the curve never reaches q:
+    N_eq is a lower bound, the largest N) or 'below' (the curve's first point already reaches
+    q: N_eq <= ns[0]). On a non-monotone curve (fireflies) this is the first crossing."""
     if q < qs[0]:
         return ns[0], "below"
     for k in range(len(ns) - 1):
@@ -300,40 +301,54 @@ def print_report(data):
             for which in ("box", "best"):
                 e = r[which]
                 spp_eq = {"ok": f"{e['spp_eq']:.1f}", "above": f"> {e['spp_eq']:.0f}",
-                          "below": f"< {e['spp_eq']:.0f}"}[e["status"]]
+                          "below": f"≤ {e['spp_eq']:.0f}"}[e["status"]]
                 cst = "never" if e["kind"] == "never" else (
                     ("≤ " if e["kind"] == "at most" else "") + _fmt_c(e["cstar"]))
                 cells += [spp_eq, cst]
             b = r["best"]
-            ratio = f"{b['t_plan'] / b['t_film']:.3g}" + (" (film time a lower bound)" if b["status"] == "above" else "")
+            ratio = f"{b['t_plan'] / b['t_film']:.3g}" + {"ok": "", "above": " (film time a lower bound)",
+                                                           "below": " (film time an upper bound)"}[b["status"]]
             o = r.get("oidn")
-            ot = "—" if o is None else ({"ok": "", "above": "> ", "below": "< "}[o["status"]] + f"{o['t']:.3g}")
+            ot = "—" if o is None else ({"ok": "", "above": "> ", "below": "≤ "}[o["status"]] + f"{o['t']:.3g}")
             print(f"| {r['scene']} | {r['spp']} | {r['measure']} | {qs} | {r['t_rk']:.2f} | {cells[0]} | {cells[1]} | "
                   f"{cells[2]} | {cells[3]} | {ratio} | {ot} |")
         print()
-        for which in ("box", "best"):
-            for measure in MEASURES:
-                sel = [r for r in rows if r["measure"] == measure]
-                fin = [r[which]["cstar"] for r in sel if np.isfinite(r[which]["cstar"])]
-                never = sum(1 for r in sel if not np.isfinite(r[which]["cstar"]))
-                above = sum(1 for r in sel if r[which]["kind"] == "at most")
-                med = f"{np.median(fin) * 1e6:.3g} µs" if fin else "—"
-                rng = f"{min(fin) * 1e6:.3g}–{max(fin) * 1e6:.3g} µs" if fin else "—"
-                cs = [cost_per_sample(sc, clock) for sc in data["scenes"].values()]
-                print(f"{clock:4s} vs {which:4s} film, {measure:6s}: c* median {med}, range {rng} over {len(fin)} "
-                      f"points ({above} upper bounds); never pays at {never} of {len(sel)}; "
-                      f"Mitsuba scalar_rgb c here {min(cs) * 1e6:.3g}–{max(cs) * 1e6:.3g} µs")
+        for which, measure, half in [(w_, m_, h_) for w_ in ("box", "best") for m_ in MEASURES
+                                     for h_ in ("tuning", "validation", "both")]:
+            if True:
+                sel = [r for r in rows if r["measure"] == measure and half in (r["half"], "both")]
+                if not sel:
+                    continue
+                exact = [r[which]["cstar"] for r in sel if r[which]["kind"] == "="]
+                bound = [r[which]["cstar"] for r in sel if r[which]["kind"] == "at most"]
+                never = sum(1 for r in sel if r[which]["kind"] == "never")
+                dec = [r for r in sel if r[which]["status"] != "above"]  # decided at the measured c
+                pays = sum(1 for r in dec if r[which]["t_plan"] < r[which]["t_film"])
+                ratio = np.median([r[which]["t_plan"] / r[which]["t_film"] for r in dec]) if dec else float("nan")
+                cs = [cost_per_sample(sc, clock) for sc in data["scenes"].values()
+                      if half in (sc["half"], "both")]
+                ex = (f"c* median {np.median(exact) * 1e6:.3g} µs, range {min(exact) * 1e6:.3g}–"
+                      f"{max(exact) * 1e6:.3g} µs at {len(exact)}") if exact else "c* exact at 0"
+                bd = (f"c* <= {min(bound) * 1e6:.3g}–{max(bound) * 1e6:.3g} µs at {len(bound)} (films never "
+                      f"reach the plan by 64 spp)") if bound else "no upper bounds"
+                print(f"{clock:4s} vs {which:4s} film, {measure:6s}, {half:10s} ({len(sel)} plan points): {ex}; {bd}; "
+                      f"never pays at {never}. At Mitsuba's c ({min(cs) * 1e6:.3g}–{max(cs) * 1e6:.3g} µs): "
+                      f"the plan pays at {pays} of the {len(dec)} points the films reach (median plan / film time "
+                      f"{ratio:.3g}); undecided at {len(sel) - len(dec)}")
 
 
 # ----------------------------------------------------------------------------- figure
 
-def figure(data, path, clock="wall"):
+def figure(data, path, clock="wall", scenes=None):
+    """`path`: quality against total time, one column per scene of `scenes` (default: the
+    first four), PSNR above, relMSE below; `NAME-breakeven.png`: for every plan point of every
+    scene, plan time / best film's time of equal quality as a function of c."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = list(data["scenes"])
+    names = list(scenes or list(data["scenes"])[:4])
     fig, axes = plt.subplots(2, len(names), figsize=(4.2 * len(names), 7.5), squeeze=False)
     for j, name in enumerate(names):
         sc = data["scenes"][name]
@@ -385,22 +400,24 @@ def figure(data, path, clock="wall"):
     cs = np.logspace(-7, -3, 200)
     for i, measure in enumerate(MEASURES):
         ax = axes[0][i]
+        seen = set()
         for k, r in enumerate([r for r in rows if r["measure"] == measure]):
             b = r["best"]
             if b["kind"] == "never":
                 continue
             ratio = (r["t_rk"] + cs * r["samples"]) / (cs * b["n_eq"])
-            col = f"C{names.index(r['scene'])}"
-            ax.plot(cs * 1e6, ratio, color=col, lw=1, ls="-" if b["status"] == "ok" else ":",
-                    label=f"{r['scene']}" if r["spp"] == min(p["spp"] for p in data["scenes"][r["scene"]]["plan"]) else None)
+            col = "C0" if r["half"] == "tuning" else "C1"
+            lab = f"{r['half']} scenes" if r["half"] not in seen else None
+            seen.add(r["half"])
+            ax.plot(cs * 1e6, ratio, color=col, lw=0.8, alpha=0.8, ls="-" if b["status"] == "ok" else ":", label=lab)
             ax.plot(r["c"] * 1e6, (r["t_rk"] + r["c"] * r["samples"]) / (r["c"] * b["n_eq"]), "o", color=col, ms=3)
         ax.axhline(1.0, color="k", lw=0.8)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("renderer cost per sample c (µs)", fontsize=8)
         ax.set_ylabel("plan time / best film's time at equal quality", fontsize=8)
-        ax.set_title(f"equal {'PSNR' if measure == 'psnr' else 'relMSE'}: below 1 the plan pays "
-                     f"(dots: measured c)", fontsize=9)
+        ax.set_title(f"equal {'PSNR' if measure == 'psnr' else 'relMSE'}: below 1 the plan pays\n"
+                     f"(dots: measured c; dotted: film never reached it by 64 spp, a bound)", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7)
@@ -429,6 +446,7 @@ def main():
     p.add_argument("--json", required=True)
     p.add_argument("--figure", help="PNG path (a second PNG, NAME-breakeven.png, is written beside it)")
     p.add_argument("--clock", choices=["wall", "cpu"], default="wall", help="the figure's clock")
+    p.add_argument("--figure-scenes", nargs="+", help="the scenes of the curves figure (default: the first four)")
     args = ap.parse_args()
     if args.cmd == "run":
         data = run(args)
@@ -436,7 +454,7 @@ def main():
         data = json.load(open(args.json))
     print_report(data)
     if getattr(args, "figure", None):
-        print("\nfigures:", *figure(data, args.figure, args.clock))
+        print("\nfigures:", *figure(data, args.figure, args.clock, args.figure_scenes))
 
 
 if __name__ == "__main__":
