@@ -323,18 +323,24 @@ def print_report(data):
                 bound = [r[which]["cstar"] for r in sel if r[which]["kind"] == "at most"]
                 never = sum(1 for r in sel if r[which]["kind"] == "never")
                 dec = [r for r in sel if r[which]["status"] != "above"]  # decided at the measured c
+                px = data["resolution"][0] * data["resolution"][1]
+                und = [r[which]["t_plan"] / (r["c"] * px) for r in sel if r[which]["status"] == "above"]
                 pays = sum(1 for r in dec if r[which]["t_plan"] < r[which]["t_film"])
                 ratio = np.median([r[which]["t_plan"] / r[which]["t_film"] for r in dec]) if dec else float("nan")
                 cs = [cost_per_sample(sc, clock) for sc in data["scenes"].values()
                       if half in (sc["half"], "both")]
+                rel = [r[which]["cstar"] / r["c"] for r in sel if r[which]["kind"] == "="]
                 ex = (f"c* median {np.median(exact) * 1e6:.3g} µs, range {min(exact) * 1e6:.3g}–"
-                      f"{max(exact) * 1e6:.3g} µs at {len(exact)}") if exact else "c* exact at 0"
+                      f"{max(exact) * 1e6:.3g} µs at {len(exact)} (c* / Mitsuba's c: median {np.median(rel):.3g}, "
+                      f"range {min(rel):.3g}–{max(rel):.3g})") if exact else "c* exact at 0"
                 bd = (f"c* <= {min(bound) * 1e6:.3g}–{max(bound) * 1e6:.3g} µs at {len(bound)} (films never "
                       f"reach the plan by 64 spp)") if bound else "no upper bounds"
                 print(f"{clock:4s} vs {which:4s} film, {measure:6s}, {half:10s} ({len(sel)} plan points): {ex}; {bd}; "
                       f"never pays at {never}. At Mitsuba's c ({min(cs) * 1e6:.3g}–{max(cs) * 1e6:.3g} µs): "
                       f"the plan pays at {pays} of the {len(dec)} points the films reach (median plan / film time "
-                      f"{ratio:.3g}); undecided at {len(sel) - len(dec)}")
+                      f"{ratio:.3g}); undecided at {len(sel) - len(dec)}" + (
+                          f" (there the film would have to need more than {min(und):.0f}–{max(und):.0f} spp, "
+                          f"median {np.median(und):.0f}, for the plan to pay)" if und else ""))
 
 
 # ----------------------------------------------------------------------------- figure
