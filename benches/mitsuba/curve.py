@@ -343,6 +343,34 @@ def print_report(data):
                           f"median {np.median(und):.0f}, for the plan to pay)" if und else ""))
 
 
+def print_condensed(data, clock="wall"):
+    """One row per plan point against the best film per spp, both measures (the docs' table)."""
+    rows = breakeven_rows(data, clock)
+    print(f"\n## Per plan point against the best film ({clock} time)\n")
+    print("| scene | spp | plan dB | film spp of equal PSNR | c* (PSNR) | plan relMSE | film spp of equal relMSE | "
+          "c* (relMSE) | t_rk (s) | plan / film time at Mitsuba's c (PSNR) | OIDN's time to the plan's PSNR (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    by = {}
+    for r in rows:
+        by.setdefault((r["scene"], r["spp"]), {})[r["measure"]] = r
+    for (scene, spp), d in by.items():
+        cells = []
+        for m in MEASURES:
+            r = d[m]
+            e = r["best"]
+            q = f"{r['plan_q']:.2f}" if m == "psnr" else f"{r['plan_q']:.3g}"
+            se = {"ok": f"{e['spp_eq']:.1f}", "above": "> 64", "below": "≤ 1"}[e["status"]]
+            cs = "never" if e["kind"] == "never" else ("≤ " if e["kind"] == "at most" else "") + _fmt_c(e["cstar"])
+            cells += [q, se, cs]
+        r = d["psnr"]
+        e = r["best"]
+        ratio = ({"ok": "", "above": "≤ ", "below": "≥ "}[e["status"]]) + f"{e['t_plan'] / e['t_film']:.3g}"
+        o = r.get("oidn")
+        ot = "—" if o is None else ({"ok": "", "above": "> ", "below": "≤ "}[o["status"]] + f"{o['t']:.2g}")
+        print(f"| {scene} ({data['scenes'][scene]['half'][0]}) | {spp} | " + " | ".join(cells)
+              + f" | {r['t_rk']:.1f} | {ratio} | {ot} |")
+
+
 # ----------------------------------------------------------------------------- figure
 
 def figure(data, path, clock="wall", scenes=None):
@@ -459,6 +487,7 @@ def main():
     else:
         data = json.load(open(args.json))
     print_report(data)
+    print_condensed(data, getattr(args, "clock", "wall"))
     if getattr(args, "figure", None):
         print("\nfigures:", *figure(data, args.figure, args.clock, args.figure_scenes))
 
