@@ -434,16 +434,13 @@ def figure(data, path, clock="wall", scenes=None):
     cs = np.logspace(-7, -3, 200)
     for i, measure in enumerate(MEASURES):
         ax = axes[0][i]
-        seen = set()
         for k, r in enumerate([r for r in rows if r["measure"] == measure]):
             b = r["best"]
             if b["kind"] == "never":
                 continue
             ratio = (r["t_rk"] + cs * r["samples"]) / (cs * b["n_eq"])
             col = "C0" if r["half"] == "tuning" else "C1"
-            lab = f"{r['half']} scenes" if r["half"] not in seen else None
-            seen.add(r["half"])
-            ax.plot(cs * 1e6, ratio, color=col, lw=0.8, alpha=0.8, ls="-" if b["status"] == "ok" else ":", label=lab)
+            ax.plot(cs * 1e6, ratio, color=col, lw=0.8, alpha=0.8, ls="-" if b["status"] == "ok" else ":")
             ax.plot(r["c"] * 1e6, (r["t_rk"] + r["c"] * r["samples"]) / (r["c"] * b["n_eq"]), "o", color=col, ms=3)
         ax.axhline(1.0, color="k", lw=0.8)
         ax.set_xscale("log")
@@ -454,7 +451,11 @@ def figure(data, path, clock="wall", scenes=None):
                      f"(dots: measured c; dotted: film never reached it by 64 spp, a bound)", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.tick_params(labelsize=7)
-        ax.legend(fontsize=7)
+        from matplotlib.lines import Line2D
+
+        ax.legend(handles=[Line2D([], [], color="C0", lw=1, label="tuning scenes"),
+                           Line2D([], [], color="C1", lw=1, label="validation scenes"),
+                           Line2D([], [], color="k", lw=1, ls=":", label="film > 64 spp (bound)")], fontsize=7)
     fig.tight_layout()
     fig.savefig(be, dpi=90)
     plt.close(fig)
