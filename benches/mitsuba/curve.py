@@ -48,6 +48,7 @@ import numpy as np  # noqa: E402
 
 DEFAULT_CACHE = os.environ.get("RKWAVE_SUITE_CACHE", "/work/suite-cache")
 MEASURES = ("psnr", "relmse")
+RUN_KEYS = ("command", "started", "loadavg_start", "loadavg_end", "elapsed_s")
 
 
 def _children_cpu():
@@ -98,6 +99,8 @@ def run(args):
     if args.json and os.path.exists(args.json) and args.resume:
         prev = json.load(open(args.json))
         out["scenes"] = prev.get("scenes", {})
+        # The earlier runs' own headers (command, start, load, elapsed) are kept.
+        out["runs"] = prev.get("runs", []) + [{k: prev.get(k) for k in RUN_KEYS}]
     t_start = time.perf_counter()
     for name in args.scenes:
         if name in out["scenes"] and out["scenes"][name].get("complete"):
