@@ -273,6 +273,20 @@ def print_report(data):
         rk = f"{p8['rkwave_wall_s']:.2f} / {p8['rkwave_cpu_s']:.2f}" if p8 else "—"
         print(f"| {name} | {sc['half']} | {cost_per_sample(sc, 'wall') * 1e6:.3g} | "
               f"{cost_per_sample(sc, 'cpu') * 1e6:.3g} | {rk} |")
+    print("\n## Points within twice the reference's noise floor (clipped MSE or relMSE; not resolvable)\n")
+    for name, sc in data["scenes"].items():
+        f = sc["floor"]
+
+        def near(r):
+            return bool(10 ** (-r["psnr"] / 10) < 2 * 10 ** (-f["psnr_floor_of_mean"] / 10)
+                        or r["relmse"] < 2 * f["relmse_floor_of_mean"])
+
+        hits = ([f"plan {p['spp']}" for p in sc["plan"] if near(p)]
+                + [f"film {x['filter']} {x['spp']}" for x in sc["films"] if near(x)]
+                + [f"OIDN {x['spp']}" for x in sc["oidn"] if "error" not in x and near(x)])
+        if hits:
+            print(f"- {name}: " + ", ".join(hits) + f" (floor {f['psnr_floor_of_mean']:.1f} dB, "
+                  f"relMSE {f['relmse_floor_of_mean']:.2g})")
     print("\n## Curves (quality per spp; films: box and the best filter by PSNR)\n")
     print("| scene | spp | box dB | box relMSE | best film dB | best relMSE | OIDN dB | OIDN relMSE | plan dB | plan relMSE | plan samples / px |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
