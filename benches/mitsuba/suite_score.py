@@ -30,7 +30,6 @@ import numpy as np
 
 import metrics
 import oidn
-import suite_cache
 import suite_scenes as ss
 from render import Renderer
 from rkwave_cli import Rkwave
@@ -242,5 +241,3 @@ def table(args, scenes, w, h):
 
     return suite_table.table(args, scenes, w, h)
 
-
-__all__ = ["score", "plan", "table", "load", "range_check", "row", "films", "compare", "suite_cache"]

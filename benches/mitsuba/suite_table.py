@@ -26,7 +26,6 @@ import numpy as np
 
 import metrics
 import oidn
-import suite_scenes as ss
 from rkwave_cli import Rkwave
 from suite_score import _gmean, compare, films, load, range_check, reconstruct, row, run_plan
 
