@@ -22,6 +22,31 @@ import numpy as np  # noqa: E402
 from suite_table import floors, full, summary  # noqa: E402
 
 
+FILMS = ("box", "tent", "gaussian", "mitchell", "lanczos")
+
+
+def films_table(rows, get):
+    """Mitsuba's five films per (scene, spp): PSNR / relMSE, per half with means."""
+    for half in ("tuning", "validation"):
+        cases = []
+        for r in rows:
+            if r["half"] == half and (r["scene"], r["spp"]) not in cases:
+                cases.append((r["scene"], r["spp"]))
+        if not cases:
+            continue
+        print(f"\nMitsuba's five films, PSNR (dB) / relMSE, {half} half\n")
+        print("| scene | spp | " + " | ".join(FILMS) + " |")
+        print("|---" * (len(FILMS) + 2) + "|")
+        for s, spp in cases:
+            cells = [f"{get[(s, spp, 'mitsuba ' + f)]['psnr']:.2f} / {get[(s, spp, 'mitsuba ' + f)]['relmse']:.3g}"
+                     for f in FILMS]
+            print(f"| {s} | {spp} | " + " | ".join(cells) + " |")
+        means = [f"{np.mean([get[(s, p, 'mitsuba ' + f)]['psnr'] for s, p in cases]):.2f} / "
+                 f"{np.exp(np.mean([np.log(get[(s, p, 'mitsuba ' + f)]['relmse']) for s, p in cases])):.3g}"
+                 for f in FILMS]
+        print(f"| **mean, {half}** | | " + " | ".join(means) + " |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("json", nargs="+")
@@ -45,6 +70,7 @@ def main():
     print(summary(rows, "psnr"))
     print(summary(rows, "relmse"))
     get = {(r["scene"], r["spp"], r["method"]): r for r in rows}
+    films_table(rows, get)
     cases = sorted({(r["scene"], r["spp"]) for r in rows}, key=lambda k: (scenes.index(k[0]), k[1]))
     print("\nTargets per (scene, spp): ✗ = missed\n")
     print("| half | scene | spp | uniform − mean (dB) | uniform relMSE / mean | plan − best film (dB) | plan relMSE / best | "
