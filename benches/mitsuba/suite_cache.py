@@ -134,6 +134,9 @@ def cache_scene(name, root, w, h, spps, log=print):
     ref = 0.5 * (halves[0] + halves[1])
     _save(os.path.join(d, "ref.npy"), ref)
     meta["floor"] = floor_stats(*halves)
+    f = meta["floor"]
+    log(f"{name}: reference floor: A vs B {f['psnr_a_vs_b']:.2f} dB, relMSE {f['relmse_a_vs_b']:.3g}; "
+        f"the mean's floor {f['psnr_floor_of_mean']:.2f} dB, relMSE {f['relmse_floor_of_mean']:.3g}")
     for key, aov in (("albedo", slice(0, 3)), ("normal", slice(3, 6))):
         p = os.path.join(d, f"aov-{key}.npy")
         if not os.path.exists(p):
