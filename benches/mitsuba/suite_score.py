@@ -14,8 +14,9 @@ The range check of an output image against its samples: the global minimum and m
 the image and of the samples (per channel, reported as the extreme over channels), and, per
 pixel and channel, the range [lo, hi] of the samples whose pixel lies within `RANGE_RADIUS`
 pixels (a 5 x 5 block: the support of the widest film filter rkwave or Mitsuba uses here);
-`outside_local` counts the values outside it, `worst_below` / `worst_above` are the largest
-excursions below lo / above hi.
+`outside_local` counts the values outside it (beyond 1e-6 relative), `outside_local_1pct` those
+beyond 1 % of max(|lo|, |hi|, 0.01), `worst_below` / `worst_above` are the largest excursions
+below lo / above hi.
 """
 
 import json
@@ -29,7 +30,6 @@ import numpy as np
 
 import metrics
 import oidn
-import suite_cache
 import suite_scenes as ss
 from render import Renderer
 from rkwave_cli import Rkwave
@@ -67,10 +67,15 @@ def range_check(img, samples, w, h, radius=RANGE_RADIUS):
         hi = np.max([hp[a:a + h, b:b + w] for a in range(3) for b in range(3)], axis=0)
     below = np.where(np.isfinite(lo), lo - img, 0.0)
     above = np.where(np.isfinite(hi), img - hi, 0.0)
+    # "Significant": beyond 1 % of the local magnitude max(|lo|, |hi|, 0.01) (a constant sky
+    # has lo = hi, where any rounding-level difference is outside).
+    mag = 0.01 * np.maximum(np.maximum(np.abs(np.where(np.isfinite(lo), lo, 0)),
+                                       np.abs(np.where(np.isfinite(hi), hi, 0))), 0.01)
     return {"image_min": float(img.min()), "image_max": float(img.max()),
             "samples_min": float(s[:, 2:].min()), "samples_max": float(s[:, 2:].max()),
             "outside_local": int((below > 1e-6 * np.maximum(1, np.abs(lo))).sum()
                                  + (above > 1e-6 * np.maximum(1, np.abs(hi))).sum()),
+            "outside_local_1pct": int((below > mag).sum() + (above > mag).sum()),
             "worst_below": float(max(below.max(), 0.0)), "worst_above": float(max(above.max(), 0.0)),
             "radius": radius}
 
@@ -151,7 +156,7 @@ def print_results(results, title):
                   f"{r['mean_relmse']:.3g} | {r['best_psnr']:.2f} ({r['best_film'].split()[-1]}) | {r['best_relmse']:.3g} | "
                   f"{r['d_psnr_mean']:+.2f} | {r['relmse_ratio_mean']:.3g} | {r['d_psnr_best']:+.2f} | "
                   f"{r['relmse_ratio_best']:.3g} | {g['image_min']:.3g} / {g['image_max']:.3g} | "
-                  f"{g['samples_min']:.3g} / {g['samples_max']:.3g} | {g['outside_local']}, "
+                  f"{g['samples_min']:.3g} / {g['samples_max']:.3g} | {g['outside_local']} ({g['outside_local_1pct']} > 1 %), "
                   f"{g['worst_below']:.3g}, {g['worst_above']:.3g} |")
         for spp in sorted({r["spp"] for r in rows}) + [None]:
             sel = [r for r in rows if spp is None or r["spp"] == spp]
@@ -236,5 +241,3 @@ def table(args, scenes, w, h):
 
     return suite_table.table(args, scenes, w, h)
 
-
-__all__ = ["score", "plan", "table", "load", "range_check", "row", "films", "compare", "suite_cache"]

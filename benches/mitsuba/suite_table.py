@@ -26,7 +26,6 @@ import numpy as np
 
 import metrics
 import oidn
-import suite_scenes as ss
 from rkwave_cli import Rkwave
 from suite_score import _gmean, compare, films, load, range_check, reconstruct, row, run_plan
 
@@ -116,12 +115,12 @@ def summary(rows, key):
 
 
 def full(rows):
-    out = ["| scene | spp | method | PSNR (dB) | relMSE | render (s) | rkwave / OIDN (s) | samples | image min / max | outside local range |",
+    out = ["| scene | spp | method | PSNR (dB) | relMSE | render (s) | rkwave / OIDN (s) | samples | image min / max | outside local range: any / > 1 % |",
            "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         g = r.get("range")
         rg = "" if g is None else f"{g['image_min']:.3g} / {g['image_max']:.3g} (samples {g['samples_min']:.3g} / {g['samples_max']:.3g})"
-        og = "" if g is None else f"{g['outside_local']} (−{g['worst_below']:.3g}, +{g['worst_above']:.3g})"
+        og = "" if g is None else f"{g['outside_local']} / {g.get('outside_local_1pct', '?')} (−{g['worst_below']:.3g}, +{g['worst_above']:.3g})"
         out.append(f"| {r['scene']} | {r['spp']} | {r['method']} | {r['psnr']:.2f}{'†' if r['near_floor'] else ''} | "
                    f"{r['relmse']:.3g} | {r['render_s']:.2f} | {r['tool_s']:.2f} | {r['samples']} | {rg} | {og} |")
     return "\n".join(out)
