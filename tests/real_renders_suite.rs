@@ -18,6 +18,8 @@ use std::path::{Path, PathBuf};
 
 use rkwave::io::read_samples;
 
+mod common;
+
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/renders/suite")
 }
@@ -86,21 +88,6 @@ fn box_film(s: &Set) -> (Vec<Vec<f64>>, Vec<usize>) {
     (sums, counts)
 }
 
-/// PSNR of images clipped to [0, 1] and relMSE `mean((x - r)^2 / (r^2 + 0.01))`, as
-/// `benches/mitsuba/metrics.py` defines them.
-fn psnr_relmse(image: &[Vec<f64>], reference: &[Vec<f64>]) -> (f64, f64) {
-    let (mut se, mut rel, mut n) = (0.0, 0.0, 0usize);
-    for (a, b) in image.iter().zip(reference) {
-        for (&x, &r) in a.iter().zip(b) {
-            let d = x.clamp(0.0, 1.0) - r.clamp(0.0, 1.0);
-            se += d * d;
-            rel += (x - r) * (x - r) / (r * r + 0.01);
-            n += 1;
-        }
-    }
-    (10.0 * (n as f64 / se).log10(), rel / n as f64)
-}
-
 fn sets() -> Vec<(serde_json::Value, usize, usize)> {
     let m = meta();
     let res = m["resolution"].as_array().expect("resolution");
@@ -151,7 +138,10 @@ fn suite_box_film_matches_numpy() {
     for (entry, w, h) in sets() {
         let s = load(&entry, w, h);
         let (image, _) = box_film(&s);
-        let (psnr, relmse) = psnr_relmse(&image, &s.reference);
+        let (psnr, relmse) = (
+            common::metrics::psnr(&image, &s.reference),
+            common::metrics::relmse(&image, &s.reference),
+        );
         let want_psnr = entry["box_psnr_numpy"].as_f64().expect("box_psnr_numpy");
         let want_rel = entry["box_relmse_numpy"]
             .as_f64()
