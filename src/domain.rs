@@ -254,3 +254,18 @@ impl FromStr for Domain {
         Domain::new(a, b)
     }
 }
+
+impl DomainError {
+    /// The kind of this error ([`crate::error`]): always [`ErrorKind::InvalidInput`].
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            DomainError::NotFinite { .. }
+            | DomainError::NotIncreasing { .. }
+            | DomainError::TooWide { .. }
+            | DomainError::TooNarrow { .. }
+            | DomainError::Parse { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(DomainError);

@@ -31,6 +31,34 @@
 //! CDV's rule unless given), the levels and the solver; [`reconstruct::Fit`] carries the
 //! coefficients, the levels used, the solver's report and every fallback taken.
 //!
+//! ## Samples on the image plane to pixels, through the front door
+//!
+//! ```
+//! use rkwave::image::job::{ImageParams, UniformJob};
+//! use rkwave::image::{ImagePlane, ImageSamples};
+//!
+//! // 4 samples a pixel of a smooth image on a 32 x 24 plane (positions in pixel units).
+//! let plane = ImagePlane::new(32, 24)?;
+//! let m = 4 * plane.pixels();
+//! let xs: Vec<f64> = (0..m).map(|i| 32.0 * (i as f64 * 0.618_034).fract()).collect();
+//! let ys: Vec<f64> = (0..m).map(|i| 24.0 * (i as f64 * 0.754_878).fract()).collect();
+//! let f: Vec<f64> = xs.iter().zip(&ys).map(|(x, y)| 0.5 + 0.01 * x - 0.02 * y).collect();
+//! let samples = ImageSamples::new(plane, xs, ys, vec![f])?;
+//!
+//! // Validates, decides the pixel estimate (by default a film per pixel chosen by SURE),
+//! // checks the memory from the sizes, then reconstructs: what `rkwave reconstruct --dim 2`
+//! // and Python's `reconstruct_image` call.
+//! let job = UniformJob::new(plane, &ImageParams::default())?;
+//! job.check_memory(samples.channels(), samples.len())?; // before reading, from sizes alone
+//! let out = job.run(&samples)?;
+//! assert_eq!(out.reconstruction.image.channels[0].len(), plane.pixels());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! [`image::job::ImageParams`] groups what a user sets: the method, the fit's options
+//! ([`image::job::FitOptions`]: `p`, `rho`, the ridge, the smoothing), the pixel estimate and its
+//! shrinkage; a refusal is an [`image::job::JobError`] naming the parameter at fault.
+//!
 //! ## The pipeline, one module a stage
 //!
 //! - [`domain`]: the interval `[a, b]` and its map to `[0, 1]` (shared by every stage);
@@ -51,7 +79,8 @@
 //!   filters and image-plane reconstruction ([`image::reconstruct`]: samples to pixels);
 //! - [`report`]: the local-vs-global comparison of docs/design.md §5 as typed data;
 //! - [`io`] (at the edge): reading and writing samples (CSV, NumPy `.npy`) and images;
-//! - [`error`]: the kinds every error is classified by;
+//! - [`error`]: the kinds every error is classified by and the typed fixes (a leaf: each
+//!   error enum's `kind()` sits beside its definition);
 //! - `plot` (at the edge, feature `plot`): the figures;
 //! - `lab` (feature `plot`): the experiments that measure the library, their tables and
 //!   figures; the production path never calls it.
@@ -76,7 +105,7 @@
 //!     [`domain::DomainError`], [`kernel::KernelError`], [`solve::SolveError`],
 //!     [`reconstruct::ReconstructError`], [`refine::RefineError`],
 //!     [`resources::ResourceError`];
-//!   - the image plane: [`image::ImageError`], [`image::ImageFitError`],
+//!   - the image plane: [`image::job::JobError`], [`image::ImageError`], [`image::ImageFitError`],
 //!     [`image::pixels::PixelError`], [`image::WaveletError`],
 //!     [`image::scene::SceneError`], [`image::adaptive::AdaptiveError`],
 //!     [`image::adaptive::protocol::ProtocolError`];

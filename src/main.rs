@@ -22,7 +22,9 @@ fn main() {
         default_hook(info);
     }));
     let parsed = cli::Cli::parse();
-    if let Err(e) = cli::run(parsed) {
+    // The whole command with flags as the spelling of every typed fix: a message the library
+    // formats while the command runs (a refusal's advice, a note) names flags, not fields.
+    if let Err(e) = cli::hints::in_flags(|| cli::run(parsed)) {
         eprintln!("error: {}", cli::hints::in_flags(|| e.to_string()));
         std::process::exit(e.exit_code());
     }

@@ -535,6 +535,18 @@ pub fn check_reading(
     )
 }
 
+impl ResourceError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ResourceError::TooLarge { .. } => crate::error::ErrorKind::ResourceLimit,
+            ResourceError::BadLimit { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(ResourceError);
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -83,6 +83,9 @@ def reconstruct_image(
     ] = None,
     *,
     pixels: Optional[Literal["auto", "fit", "fit-clamped", "box", "shrunk"]] = None,
+    rho: Optional[float] = None,
+    ridge: Optional[float] = None,
+    smoothing: Optional[float] = None,
     drop_nonfinite: bool = False,
 ) -> Tuple[FloatArray, dict[str, Any]]: ...
 def adapt(
@@ -133,7 +136,7 @@ class Plan:
     def samples(self) -> Optional[FloatArray]: ...
     @property
     def report(self) -> dict[str, Any]: ...
-    def save(self, dir: PathArg) -> None: ...
+    def save(self, dir: PathArg, overwrite: bool = False) -> None: ...
     @staticmethod
     def load(
         dir: PathArg,

@@ -1,7 +1,12 @@
 //! numpy in, numpy out.
 //!
 //! Inputs of any stride and of dtype `float64` or `float32` are accepted; anything else numpy
-//! can turn into `float64` (lists, integer arrays) is converted by `numpy.asarray` once. A
+//! can turn into `float64` without losing information (lists, booleans, integers of up to 32
+//! bits, `float16`; 64-bit integers whose values are all at most `2^53` in magnitude) is
+//! converted by `numpy.asarray` once. A dtype whose values `float64` cannot hold exactly is
+//! refused with its name and the explicit conversion to make ([`lossless`]): complex (the
+//! imaginary part would be dropped), `longdouble` (its extra precision) and 64-bit integers
+//! beyond `2^53`. A
 //! `float64` input whose data the library can read in place (a contiguous vector, a column of
 //! a Fortran-ordered array) is borrowed, not copied; a `float32` input or a strided one is
 //! converted or gathered into `float64` once. The library's inputs are channel-major
@@ -48,6 +53,7 @@ pub fn floats<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Floats<'py>>
         return Ok(Floats::Owned(a.readonly().as_array().mapv(f64::from)));
     }
     let py = obj.py();
+    lossless(obj, name)?;
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
     let converted = py
@@ -63,6 +69,71 @@ pub fn floats<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Floats<'py>>
         .cast_into::<PyArrayDyn<f64>>()
         .map_err(|_| invalid(format!("{name} could not be converted to a float64 array")))?;
     Ok(Floats::Borrowed(a.readonly()))
+}
+
+/// Refuses an input whose values `float64` cannot hold exactly (module docs): numpy's
+/// conversion would drop them without a word.
+fn lossless(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<()> {
+    let np = obj.py().import("numpy")?;
+    // A list or a scalar: the dtype numpy would give it, by the same rules as an array's.
+    let array = if obj.hasattr("dtype")? {
+        obj.clone()
+    } else {
+        match np.getattr("asarray")?.call1((obj,)) {
+            Ok(a) => a,
+            // Ragged or otherwise unreadable: the float64 conversion names the problem.
+            Err(_) => return Ok(()),
+        }
+    };
+    let Ok(dtype) = array.getattr("dtype") else {
+        return Ok(());
+    };
+    let kind: String = dtype.getattr("kind")?.extract()?;
+    let itemsize: usize = dtype.getattr("itemsize")?.extract()?;
+    let dtype_name: String = dtype.getattr("name")?.extract()?;
+    let refuse = |why: &str, fix: &str| {
+        Err(invalid(format!(
+            "{name} has dtype {dtype_name}: {why}; {fix}"
+        )))
+    };
+    match kind.as_str() {
+        "b" | "f" if itemsize <= 8 => Ok(()),
+        "i" | "u" if itemsize <= 4 => Ok(()),
+        "i" | "u" => {
+            // 64-bit integers: exact in float64 up to 2^53 in magnitude.
+            let size: usize = array.getattr("size")?.extract()?;
+            if size == 0 {
+                return Ok(());
+            }
+            let as_float = np
+                .getattr("abs")?
+                .call1((array.call_method1("astype", ("float64",))?,))?;
+            let largest: f64 = as_float.call_method0("max")?.extract()?;
+            if largest <= 2f64.powi(53) {
+                Ok(())
+            } else {
+                refuse(
+                    &format!(
+                        "its largest magnitude {largest:.0} is above 2^53, where float64 \
+                         rounds integers"
+                    ),
+                    "scale the values or convert them to float64 yourself if the rounding is \
+                     acceptable",
+                )
+            }
+        }
+        "f" => refuse(
+            "float64 would drop its extra precision",
+            "convert it with .astype(np.float64) if that is acceptable",
+        ),
+        "c" => refuse(
+            "float64 would drop the imaginary part",
+            "pass np.real(...) or np.abs(...) explicitly",
+        ),
+        // Strings, objects, dates: numpy's float64 conversion decides (and names the
+        // problem where it fails).
+        _ => Ok(()),
+    }
 }
 
 /// The 1D data of `view` (`name` in errors): borrowed when contiguous, gathered otherwise.

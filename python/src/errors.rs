@@ -14,12 +14,11 @@
 //! no message text is rewritten.
 
 use std::ffi::CString;
-use std::fmt::Display;
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyRuntimeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
-use rkwave::error::{spelled, ErrorKind, Fix};
+use rkwave::error::{spelled, Classified, ErrorKind, Fix, Param};
 
 create_exception!(
     rkwave,
@@ -61,6 +60,28 @@ pub fn keyword(fix: Fix) -> &'static str {
         Fix::MethodDense => "method=\"dense\"",
         Fix::SolverQr => "solver=\"qr\"",
         Fix::DropNonfinite => "drop_nonfinite=True",
+        Fix::PixelsAuto => "pixels=\"auto\"",
+        Fix::SolverPcg => "solver=\"pcg\"",
+        Fix::Set(param) => match param {
+            Param::P => "p=",
+            Param::Rho => "rho=",
+            Param::Ridge => "ridge=",
+            Param::Smoothing => "smoothing=",
+            Param::Method => "method=",
+            Param::Pixels => "pixels=",
+            Param::Resolution => "resolution=",
+            Param::Tile => "tile=",
+            Param::Halo => "halo=",
+            Param::Workers => "workers=",
+            Param::State => "the Plan",
+            Param::NoResidual => "no_residual=True",
+            Param::Overwrite => "overwrite=True",
+            Param::Budget => "budget=",
+            Param::BelowPixel => "below_pixel=",
+            Param::MemoryLimit => "rkwave.set_memory_limit()",
+            Param::Scratch => "scratch=",
+            _ => param.in_library(),
+        },
         _ => fix.in_library(),
     }
 }
@@ -91,43 +112,10 @@ pub fn invalid(message: impl Into<String>) -> PyErr {
     raise(ErrorKind::InvalidInput, &message.into())
 }
 
-/// An error of the library that knows its kind.
-pub trait Kinded: Display {
-    /// Its [`ErrorKind`].
-    fn error_kind(&self) -> ErrorKind;
-}
-
-macro_rules! kinded {
-    ($($t:ty),* $(,)?) => {
-        $(impl Kinded for $t {
-            fn error_kind(&self) -> ErrorKind {
-                self.kind()
-            }
-        })*
-    };
-}
-
-kinded!(
-    rkwave::reconstruct::ReconstructError,
-    rkwave::basis::BasisError,
-    rkwave::sampling::DomainError,
-    rkwave::image::ImageError,
-    rkwave::image::WaveletError,
-    rkwave::image::estimate::EstimateError,
-    rkwave::image::adaptive::protocol::ProtocolError,
-    rkwave::image::adaptive::AdaptiveError,
-    rkwave::io::IoError,
-    rkwave::io::output::OutputError,
-    rkwave::refine::RefineError,
-    rkwave::resources::ResourceError,
-    rkwave::reconstruct::stream::StreamError,
-    rkwave::image::tiles::TileError,
-    rkwave::image::tiles::TileGeometryError,
-);
-
-/// The Python exception of a library error.
-pub fn to_py<E: Kinded>(e: E) -> PyErr {
-    raise(e.error_kind(), &spelled(keyword, || e.to_string()))
+/// The Python exception of a library error: any error the library classifies
+/// ([`Classified`]), mapped by its kind alone (no list of the library's error types).
+pub fn to_py<E: Classified>(e: E) -> PyErr {
+    raise(e.kind(), &spelled(keyword, || e.to_string()))
 }
 
 /// Issues every message in `notes` as an [`RkwaveWarning`] (stack level 1: the line that called rkwave).

@@ -7,16 +7,16 @@ use std::path::Path;
 use std::time::Instant;
 
 use pyo3::prelude::*;
-use rkwave::image::estimate::{reconstruct_estimated, ShrinkParams, UniformEstimate};
+use rkwave::error::{spelled, Param};
 use rkwave::image::filters::FilmFilterKind;
+use rkwave::image::job::{FitOptions, ImageParams, JobError, UniformJob};
 use rkwave::image::report::FileReconstructionReport;
 use rkwave::image::{
-    reconstruct, split_finite, DroppedSamples, ImagePlane, ImageSamples, Method, NonFinitePolicy,
+    split_finite, DroppedSamples, ImagePlane, ImageSamples, Method, NonFinitePolicy,
 };
 
 use crate::arrays::{columns, floats, image_out};
-use crate::errors::{invalid, to_py, warn_all};
-use crate::params::wavelet_params;
+use crate::errors::{invalid, keyword, to_py, warn_all};
 use crate::report::to_dict;
 
 /// The method from `method` and `filter` (a film filter by name: `box`, `triangle`,
@@ -44,15 +44,6 @@ fn method_of(method: &str, filter: Option<&str>) -> PyResult<Method> {
 /// The image plane `(W, H)`.
 pub fn plane_of(resolution: (usize, usize)) -> PyResult<ImagePlane> {
     ImagePlane::new(resolution.0, resolution.1).map_err(to_py)
-}
-
-/// The policy of a `drop_nonfinite` keyword.
-pub fn nonfinite(drop: bool) -> NonFinitePolicy {
-    if drop {
-        NonFinitePolicy::Drop
-    } else {
-        NonFinitePolicy::Refuse
-    }
 }
 
 /// Checked samples on `plane` from `xy` `(m, 2)` and `values` `(m,)` or `(m, channels)`,
@@ -107,37 +98,19 @@ pub fn samples_of(
     .map_err(to_py)
 }
 
-/// The pixel estimate of the wavelet path: `pixels` by name, or as the command line's
-/// `--pixels` default: `auto`, unless `p` or `method="local"` (read by the fit only) is given,
-/// then `fit` with a note saying so.
-fn estimate_of(
-    pixels: Option<&str>,
-    p_given: bool,
-    method: Method,
-) -> PyResult<(UniformEstimate, Option<String>)> {
-    if let Some(name) = pixels {
-        let e = name.parse().map_err(|e| invalid(format!("pixels: {e}")))?;
-        return Ok((e, None));
-    }
-    let given: Vec<&str> = [
-        ("p", p_given),
-        ("method=\"local\"", method == Method::Local),
-    ]
-    .into_iter()
-    .filter_map(|(k, g)| g.then_some(k))
-    .collect();
-    if given.is_empty() {
-        return Ok((UniformEstimate::Auto, None));
-    }
-    Ok((
-        UniformEstimate::Fit,
-        Some(format!(
-            "pixels: the least-squares fit, because {} (read by the fit only) was given without \
-             pixels=; the default without them is pixels=\"auto\" (films chosen per pixel by \
-             SURE), which uses no fit",
-            given.join(", ")
-        )),
-    ))
+/// The number of samples and channels of `xy` `(m, 2)` and `values` `(m,)` or `(m, C)` from
+/// their shapes alone (`None` when either is not an array), for the memory check before
+/// anything is converted.
+fn sizes(xy: &Bound<'_, PyAny>, values: &Bound<'_, PyAny>) -> Option<(usize, usize)> {
+    let shape = |a: &Bound<'_, PyAny>| a.getattr("shape").ok()?.extract::<Vec<usize>>().ok();
+    let (xy, values) = (shape(xy)?, shape(values)?);
+    let m = *xy.first()?;
+    let channels = match values.as_slice() {
+        [_] => 1,
+        [_, c] => *c,
+        _ => return None,
+    };
+    Some((m, channels))
 }
 
 /// Reconstructs a `W x H` image from scattered samples on the image plane, as `rkwave
@@ -151,7 +124,12 @@ fn estimate_of(
 /// path, as the command line's `--pixels`: `"auto"` (the film of least SURE per pixel, then
 /// Haar shrinkage; falls back to the fit, with a warning, where a pixel has no sample or
 /// most have one), `"fit"`, `"fit-clamped"`, `"box"` or `"shrunk"`; by default `"auto"`,
-/// or `"fit"` (with a warning) when `p` or `method="local"` is given, as on the command line.
+/// or `"fit"` (with a warning) when `p`, `rho`, `ridge`, `smoothing` or `method="local"` is
+/// given, as on the command line. `rho` (samples per tensor function, default 4), `ridge`
+/// (relative, in `[0, 1)`, default 1e-9) and `smoothing` (`>= 0`, default 0) set the fit as
+/// `--rho`, `--ridge` and `--smoothing` do. The request is validated and its memory estimated
+/// by the same library call as the command line's, before the arrays are converted: above
+/// the limit (`set_memory_limit`) it raises `ResourceLimitError` (a `MemoryError`).
 /// A value that is NaN or infinite is refused (the error names the count and the first
 /// sample); `drop_nonfinite=True` drops those samples and counts them in the report
 /// (`nonfinite`) and a warning.
@@ -166,7 +144,7 @@ fn estimate_of(
 /// 'gaussian'
 #[pyfunction]
 #[pyo3(signature = (xy, values, resolution, p=None, method="wavelet", filter=None, *,
-    pixels=None, drop_nonfinite=false))]
+    pixels=None, rho=None, ridge=None, smoothing=None, drop_nonfinite=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn reconstruct_image<'py>(
     py: Python<'py>,
@@ -177,56 +155,68 @@ pub fn reconstruct_image<'py>(
     method: &str,
     filter: Option<&str>,
     pixels: Option<&str>,
+    rho: Option<f64>,
+    ridge: Option<f64>,
+    smoothing: Option<f64>,
     drop_nonfinite: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    let method = method_of(method, filter)?;
-    let wavelet = wavelet_params(p.unwrap_or(2))?;
+    let params = ImageParams {
+        method: method_of(method, filter)?,
+        fit: FitOptions {
+            p,
+            rho,
+            ridge,
+            smoothing,
+        },
+        pixels: pixels
+            .map(|name| name.parse().map_err(|e| invalid(format!("pixels: {e}"))))
+            .transpose()?,
+        ..ImageParams::default()
+    };
     let plane = plane_of(resolution)?;
-    let film = matches!(method, Method::Film(_));
-    if film && pixels.is_some() {
-        return Err(invalid(
+    // The library decides and refuses, as for `rkwave reconstruct --dim 2`; the memory is
+    // checked from the arrays' shapes before they are converted.
+    let job = UniformJob::new(plane, &params).map_err(|e| match e {
+        // The film was asked for by `filter=`: name the keyword given.
+        JobError::Conflict {
+            second: Param::Method,
+            ..
+        } if filter.is_some() => invalid(
             "pixels= is the estimate of the wavelet path; a film filter splats the samples \
              itself: drop pixels= or filter=",
-        ));
-    }
-    let estimate = (!film)
-        .then(|| estimate_of(pixels, p.is_some(), method))
-        .transpose()?;
-    let t0 = Instant::now();
-    let (samples, dropped) = samples_of(plane, xy, values, nonfinite(drop_nonfinite))?;
-    let convert_s = t0.elapsed().as_secs_f64();
-    let (done, estimated) = match estimate {
-        None => (
-            py.detach(|| reconstruct(method, &samples, &wavelet))
-                .map_err(to_py)?,
-            None,
         ),
-        Some((estimate, kept_fit)) => {
-            let (done, estimated) = py
-                .detach(|| {
-                    reconstruct_estimated(
-                        estimate,
-                        method,
-                        &samples,
-                        &wavelet,
-                        &ShrinkParams::default(),
-                    )
-                })
-                .map_err(to_py)?;
-            (done, Some((estimated, kept_fit)))
-        }
-    };
+        e => to_py(e),
+    })?;
+    if let Some((m, channels)) = sizes(xy, values) {
+        job.check_memory(channels.max(1), m).map_err(to_py)?;
+    }
+    let t0 = Instant::now();
+    let (samples, dropped) =
+        samples_of(plane, xy, values, NonFinitePolicy::dropping(drop_nonfinite))?;
+    let convert_s = t0.elapsed().as_secs_f64();
+    let out = py.detach(|| job.run(&samples)).map_err(to_py)?;
+    let (done, method) = (out.reconstruction, out.method);
     // The report of `rkwave reconstruct --dim 2 --json`; the samples came from memory, and
     // "read" is checking and converting them.
     let memory = Path::new("<numpy>");
     let total = t0.elapsed().as_secs_f64();
     let mut report = FileReconstructionReport::new(
-        memory, memory, plane, &samples, method, wavelet.p, &done, convert_s, 0.0, total,
+        memory,
+        memory,
+        plane,
+        &samples,
+        method,
+        job.wavelet().p,
+        &done,
+        convert_s,
+        0.0,
+        total,
     );
-    if let Some((estimated, kept_fit)) = estimated {
+    if let Some(estimated) = out.estimate {
         report = report.with_pixels(estimated);
-        report.notes.extend(kept_fit);
     }
+    let kept_fit = out.pixels.and_then(|c| spelled(keyword, || c.note()));
+    report.notes.extend(kept_fit);
     report.notes.extend(dropped.note());
     report.nonfinite = dropped;
     warn_all(py, &report.notes)?;

@@ -9,7 +9,7 @@ use rkwave::image::adaptive::{
     AdaptiveParams, FitParams as ImageFit, ImageSampling, NoiseParams, OutputParams, PixelEstimate,
     QuadTreeParams, StopParams as ImageStop, TreeParams as ImageTree, TreeSolver,
 };
-use rkwave::image::{ImagePlane, WaveletParams};
+use rkwave::image::ImagePlane;
 use rkwave::kernel::LevelParams;
 use rkwave::reconstruct::{FitParams, Levels, Method, SingleScaleSolver};
 use rkwave::refine::{
@@ -215,23 +215,10 @@ pub fn report_setting(
     })
 }
 
-/// Vanishing moments on the image plane: 1 to 4.
+/// Vanishing moments on the image plane: 1 to 4 (the library's range,
+/// [`rkwave::image::job::check_p`]).
 pub fn image_p(p: usize) -> PyResult<usize> {
-    if !(1..=4).contains(&p) {
-        return Err(invalid(format!(
-            "p={p}: the image plane supports p = 1 to 4 (2 or 3 are practical)"
-        )));
-    }
-    Ok(p)
-}
-
-/// The wavelet methods' parameters of `rkwave reconstruct --dim 2 --p P`.
-pub fn wavelet_params(p: usize) -> PyResult<WaveletParams> {
-    Ok(WaveletParams {
-        p: image_p(p)?,
-        pixel_filter: None,
-        ..WaveletParams::default()
-    })
+    rkwave::image::job::check_p(p).map_err(crate::errors::to_py)
 }
 
 /// The keyword arguments of `rkwave.Plan`, as the flags of `rkwave plan`.

@@ -28,10 +28,11 @@ use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
 
 use crate::arrays::{image_out, positions_out};
-use crate::errors::{invalid, to_py, warn_all};
-use crate::image::{nonfinite, plane_of, samples_of};
+use crate::errors::{invalid, raise, to_py, warn_all};
+use crate::image::{plane_of, samples_of};
 use crate::params::{plan_params, PlanArgs};
 use crate::report::to_dict;
+use rkwave::error::ErrorKind;
 
 /// Seconds a plan spent inside the library (fits, positions, reconstructions) and in this
 /// module's own work around it (checks, conversion, copies of the samples).
@@ -69,6 +70,14 @@ pub struct PyPlan {
     dropped: DroppedSamples,
     steps: Vec<PlanStep>,
     time_s: PlanSeconds,
+    /// The folder this plan was loaded from or last saved to (canonical): `save` replaces
+    /// its own folder, and another plan's only when asked (`overwrite=True`).
+    home: Option<PathBuf>,
+}
+
+/// `dir` with links and spellings resolved (as given where it does not exist yet).
+fn canonical(dir: &Path) -> PathBuf {
+    std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf())
 }
 
 fn state_hint(dir: &Path, e: ProtocolError) -> PyErr {
@@ -235,6 +244,7 @@ impl PyPlan {
                 library: t.elapsed().as_secs_f64(),
                 glue: 0.0,
             },
+            home: None,
         })
     }
 
@@ -278,7 +288,12 @@ impl PyPlan {
             ));
         }
         let t = Instant::now();
-        let (new, dropped) = samples_of(self.state.plane, xy, values, nonfinite(drop_nonfinite))?;
+        let (new, dropped) = samples_of(
+            self.state.plane,
+            xy,
+            values,
+            rkwave::image::NonFinitePolicy::dropping(drop_nonfinite),
+        )?;
         let rows = self.samples.as_ref().map_or(0, ImageSamples::len) + self.dropped.count;
         let all = appended(self.samples.as_ref(), new)?;
         let mut all_dropped = self.dropped.clone();
@@ -408,13 +423,27 @@ impl PyPlan {
     }
 
     /// Writes the plan into `dir` (module docs): `state.json` as `rkwave plan --state DIR`,
-    /// `samples.npy` (every sample so far) and `next.npy` (the pending positions).
+    /// `samples.npy` (every sample so far) and `next.npy` (the pending positions). A folder
+    /// that holds another plan (one this object was neither loaded from nor saved to) is
+    /// refused unless `overwrite=True`, as `rkwave plan` refuses one without `--force`.
     ///
     /// >>> import rkwave, tempfile
     /// >>> d = tempfile.mkdtemp(); plan = rkwave.Plan(resolution=(16, 16), spp=4)
     /// >>> plan.save(d); rkwave.Plan.load(d).positions().shape == plan.positions().shape
     /// True
-    fn save(&self, py: Python<'_>, dir: PathBuf) -> PyResult<()> {
+    #[pyo3(signature = (dir, overwrite=false))]
+    fn save(&mut self, py: Python<'_>, dir: PathBuf, overwrite: bool) -> PyResult<()> {
+        let home = canonical(&dir);
+        if !overwrite && PlanState::path(&dir).exists() && self.home.as_ref() != Some(&home) {
+            return Err(raise(
+                ErrorKind::OutputRefused,
+                &format!(
+                    "{} holds another plan: pass overwrite=True to replace it, or save to \
+                     another folder",
+                    dir.display()
+                ),
+            ));
+        }
         let state = &self.state;
         let samples = self.samples.as_ref();
         let next = &self.next;
@@ -437,7 +466,9 @@ impl PyPlan {
             }
             let bytes = npy_of(&next.xs, vec![next.ys.clone()])?;
             write_new(&dir.join("next.npy"), &bytes, true).map_err(to_py)
-        })
+        })?;
+        self.home = Some(canonical(&dir));
+        Ok(())
     }
 
     /// A plan from `dir`: a state written by `save` or by `rkwave plan --state DIR`. The
@@ -496,6 +527,7 @@ impl PyPlan {
             dropped: DroppedSamples::default(),
             steps: Vec::new(),
             time_s: PlanSeconds::default(),
+            home: Some(canonical(&dir)),
         })
     }
 

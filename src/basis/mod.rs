@@ -225,3 +225,19 @@ impl CdvBasis {
         FunctionId::from_index(a, self.coarse, self.bank.edge_count())
     }
 }
+
+impl BasisError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            BasisError::UnsupportedOrder { .. }
+            | BasisError::CoarseAboveFine { .. }
+            | BasisError::CoarseLevelTooSmall { .. }
+            | BasisError::FineLevelTooDeep { .. }
+            | BasisError::PositionOutside { .. } => crate::error::ErrorKind::InvalidInput,
+            BasisError::Construction { .. } => crate::error::ErrorKind::Internal,
+        }
+    }
+}
+
+crate::error::classified!(BasisError);

@@ -528,3 +528,17 @@ impl MultilevelEvaluator<'_> {
         Ok(())
     }
 }
+
+impl TensorError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            TensorError::ZeroResolution { .. }
+            | TensorError::LevelOutOfRange { .. }
+            | TensorError::PositionOutside { .. } => crate::error::ErrorKind::InvalidInput,
+            TensorError::Basis(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(TensorError);

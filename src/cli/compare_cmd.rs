@@ -25,6 +25,7 @@ use super::image_args::{
 };
 use super::{check_writable, CliError};
 use rkwave::image::adaptive::{ImageSampling, TreeParams};
+use rkwave::image::job::memory;
 
 /// `rkwave compare`.
 #[derive(Args, Debug)]
@@ -139,12 +140,22 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let images = methods.len() + 1;
     let mut request = methods
         .iter()
-        .map(|&m| super::image_memory::method_request(plane, args.spp, m, p, wavelet.rho, images))
-        .reduce(super::image_memory::larger)
+        .map(|&m| {
+            memory::method_request(
+                plane,
+                3,
+                args.spp as f64 * plane.pixels() as f64,
+                m,
+                p,
+                wavelet.rho,
+                images,
+            )
+        })
+        .reduce(rkwave::resources::ImageRequest::larger)
         .ok_or_else(|| CliError::Invalid("--methods: give at least one method".into()))?;
     if args.adaptive {
         let defaults = AdaptiveParams::default();
-        let tree = super::image_memory::tree_request(
+        let tree = memory::tree_request(
             plane,
             3,
             args.spp as f64 * plane.pixels() as f64,
@@ -157,16 +168,18 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             ),
             8,
         );
-        request = super::image_memory::larger(request, tree);
+        request = request.larger(tree);
     }
-    super::image_memory::check(
+    memory::check(
         &request,
-        format!(
-            "comparing {} methods on {plane} at {} samples per pixel",
-            methods.len(),
-            args.spp
-        ),
-        "a smaller --resolution or --spp, or fewer --methods",
+        || {
+            format!(
+                "comparing {} methods on {plane} at {} samples per pixel",
+                methods.len(),
+                args.spp
+            )
+        },
+        || "a smaller --resolution or --spp, or fewer --methods".into(),
     )?;
     std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
         path: args.out.clone(),

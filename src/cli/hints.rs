@@ -4,7 +4,7 @@
 //! with that spelling, so every hint a user reads names something they can type. No message
 //! text is inspected or rewritten.
 
-use rkwave::error::{spelled, Fix};
+use rkwave::error::{spelled, Fix, Param};
 
 /// `fix` as the command line spells it: the flag that sets the parameter, or the
 /// command-line way to get the same effect where the parameter has no flag.
@@ -24,6 +24,30 @@ pub fn flag(fix: Fix) -> &'static str {
         Fix::MethodDense => "--method dense",
         Fix::SolverQr => "--solver qr",
         Fix::DropNonfinite => "--drop-nonfinite",
+        Fix::PixelsAuto => "--pixels auto",
+        Fix::SolverPcg => "--solver pcg",
+        Fix::Set(param) => match param {
+            Param::P => "--p",
+            Param::Rho => "--rho",
+            Param::Ridge => "--ridge",
+            Param::Smoothing => "--smoothing",
+            Param::Method => "--method",
+            Param::Family => "--family",
+            Param::Levels => "--levels",
+            Param::Pixels => "--pixels",
+            Param::Resolution => "--resolution",
+            Param::Tile => "--tile",
+            Param::Halo => "--halo",
+            Param::Workers => "--workers",
+            Param::State => "--state",
+            Param::NoResidual => "--no-residual",
+            Param::Overwrite => "--force",
+            Param::Budget => "--budget",
+            Param::BelowPixel => "--below-pixel",
+            Param::MemoryLimit => "--memory-limit",
+            Param::Scratch => "--scratch",
+            _ => param.in_library(),
+        },
         _ => fix.in_library(),
     }
 }

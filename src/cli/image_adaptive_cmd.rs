@@ -143,7 +143,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     };
     // Before sampling: the budget's samples (and as many stratified ones for the film
     // filters), the tree fit at the depth limit, the truth and the images.
-    let mut request = super::image_memory::tree_request(
+    let mut request = rkwave::image::job::memory::tree_request(
         plane,
         3,
         budget as f64,
@@ -154,10 +154,10 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         8,
     );
     request.positions = budget as f64;
-    super::image_memory::check(
+    rkwave::image::job::memory::check(
         &request,
-        format!("the adaptive image of {plane} at a budget of {budget} samples"),
-        "a smaller --budget, --spp or --resolution, or --solver pcg",
+        || format!("the adaptive image of {plane} at a budget of {budget} samples"),
+        || "a smaller --budget, --spp or --resolution, or --solver pcg".into(),
     )?;
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
     let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)?;
@@ -275,7 +275,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         );
     }
     for note in &r.notes {
-        println!("note: {note}");
+        super::print_note(note);
     }
     Ok(())
 }

@@ -96,19 +96,28 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     };
     // Before sampling: the samples, the fit, the truth and the output image (twice the
     // samples when the equivalent filter resamples the scene).
-    let mut request =
-        super::image_memory::method_request(plane, sampling.spp, method, wavelet.p, wavelet.rho, 2);
+    let mut request = rkwave::image::job::memory::method_request(
+        plane,
+        3,
+        sampling.spp as f64 * plane.pixels() as f64,
+        method,
+        wavelet.p,
+        wavelet.rho,
+        2,
+    );
     if show.is_some() {
         request.samples *= 2.0;
     }
-    super::image_memory::check(
+    rkwave::image::job::memory::check(
         &request,
-        format!(
-            "{method} on {plane} at {} samples per pixel ({} samples)",
-            sampling.spp,
-            rkwave::norms::show(request.samples)
-        ),
-        "a smaller --resolution or --spp",
+        || {
+            format!(
+                "{method} on {plane} at {} samples per pixel ({} samples)",
+                sampling.spp,
+                rkwave::norms::show(request.samples)
+            )
+        },
+        || "a smaller --resolution or --spp".into(),
     )?;
     let bar = spinner(&format!("{} on {} at {plane}", method, scene.name()));
     let cmp = compare_methods(&scene, &sampling, &[method], &wavelet, &truth)?;
@@ -161,7 +170,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
             println!("peak memory: {mb:.0} MB");
         }
         for note in &report.notes {
-            println!("note: {note}");
+            super::print_note(note);
         }
         if let Some((path, n)) = filter_file {
             println!(

@@ -12,7 +12,6 @@ pub mod hints;
 pub mod image_adaptive_cmd;
 pub mod image_args;
 pub mod image_cmd;
-pub mod image_memory;
 pub mod limits;
 pub mod plan_cmd;
 pub mod reconstruct2d_cmd;
@@ -276,6 +275,10 @@ pub enum CliError {
         /// What the command line says.
         message: String,
     },
+    /// An image-plane job (`reconstruct --dim 2`): its message names parameters, spelled
+    /// as flags where it is printed.
+    #[error(transparent)]
+    Job(rkwave::image::job::JobError),
     /// The tiled image fit (`reconstruct --dim 2 --tile`).
     #[error(transparent)]
     Tiled(#[from] rkwave::image::tiles::TiledError),
@@ -360,6 +363,7 @@ impl CliError {
             CliError::Estimate(e) => e.kind(),
             CliError::Library { kind, .. } => *kind,
             CliError::Tiled(e) => e.kind(),
+            CliError::Job(e) => e.kind(),
             CliError::Write { .. } => ErrorKind::WriteFailed,
             CliError::WouldOverwrite { .. } => ErrorKind::OutputRefused,
             CliError::Output(e) => e.kind(),
@@ -424,6 +428,44 @@ pub fn check_writable(path: &std::path::Path, force: bool) -> Result<(), CliErro
         )?;
     }
     Ok(())
+}
+
+impl From<rkwave::resources::ResourceError> for CliError {
+    fn from(e: rkwave::resources::ResourceError) -> Self {
+        CliError::Resources(e)
+    }
+}
+
+impl From<rkwave::image::job::JobError> for CliError {
+    fn from(e: rkwave::image::job::JobError) -> Self {
+        match e {
+            rkwave::image::job::JobError::Wavelet(e) => CliError::Wavelet(e),
+            rkwave::image::job::JobError::Estimate(
+                rkwave::image::estimate::EstimateError::Wavelet(e),
+            ) => CliError::Wavelet(e),
+            rkwave::image::job::JobError::Estimate(e) => CliError::Estimate(e),
+            e => CliError::Job(e),
+        }
+    }
+}
+
+/// Before a sample file is read ([`rkwave::resources::check_reading`]).
+pub fn check_reading(path: &std::path::Path) -> Result<(), CliError> {
+    rkwave::resources::check_reading(path, || "split the samples or raise --memory-limit".into())
+        .map_err(CliError::from)
+}
+
+/// Prints `note` after `note: `, wrapped at [`rkwave::image::job::text::NOTE_WIDTH`]
+/// characters (its continuation lines indented under the text).
+pub fn print_note(note: &str) {
+    println!(
+        "{}",
+        rkwave::image::job::text::wrap(
+            &format!("note: {note}"),
+            rkwave::image::job::text::NOTE_WIDTH,
+            "      "
+        )
+    );
 }
 
 /// Prints `report` as one pretty JSON object (`--json`); the reports are plain data, whose

@@ -114,15 +114,6 @@ pub struct PlanArgs {
     pub json: bool,
 }
 
-/// The policy for non-finite sample values of a `--drop-nonfinite` flag.
-pub fn nonfinite(drop: bool) -> NonFinitePolicy {
-    if drop {
-        NonFinitePolicy::Drop
-    } else {
-        NonFinitePolicy::Refuse
-    }
-}
-
 /// The parameters of this call: the flags given, the rest from `base` (the state's on later
 /// calls, the defaults on the first).
 fn params(
@@ -262,9 +253,12 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             };
             let params = params(args, plane, &state.params)?;
             state.check_params(plane, &params).map_err(protocol)?;
-            super::image_memory::check_reading(path)?;
-            let (samples, dropped) =
-                read_image_samples_with(path, state.plane, nonfinite(args.drop_nonfinite))?;
+            super::check_reading(path)?;
+            let (samples, dropped) = read_image_samples_with(
+                path,
+                state.plane,
+                NonFinitePolicy::dropping(args.drop_nonfinite),
+            )?;
             let step = state.advance_dropped(&samples, dropped).map_err(protocol)?;
             let next = step.next.clone();
             (state, next, Some(step))
@@ -314,14 +308,22 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         ),
         (Some(s), Some(stop)) => println!(
             "round {}: fit on {} samples ({} functions, estimated RMS error {:.3e}); the plan \
-             stopped ({stop:?}): no positions left ({} written with 0 rows); reconstruct with \
-             `rkwave reconstruct --dim 2 --state {} --input SAMPLES --output IMAGE`",
+             stopped ({stop:?}): no positions left ({} written with 0 rows){}",
             s.log.round,
             s.log.samples,
             s.log.functions,
             s.log.estimate_rms,
             args.out.display(),
-            args.state.display()
+            // With --final-image the image is written below: no second call to send the
+            // user to.
+            match final_image {
+                Some(_) => String::new(),
+                None => format!(
+                    "; reconstruct with `rkwave reconstruct --dim 2 --state {} --input SAMPLES \
+                     --output IMAGE` (or pass --final-image IMAGE to this call)",
+                    args.state.display()
+                ),
+            }
         ),
     }
     if let Some(path) = final_image {
@@ -329,16 +331,24 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "wrote the final image to {} (the stopping round's fit)",
             path.display()
         );
+        if matches!(state.params.fit.solver, TreeSolver::Pcg { .. }) {
+            super::print_note(
+                "the final image is the stopping round's conjugate-gradient fit continued to the \
+                 solver's tolerance; `reconstruct --dim 2 --state` on the same samples solves \
+                 again from the carried coefficients to that tolerance, so the two agree to it, \
+                 not bit for bit (under --solver direct they are the same pixels)",
+            );
+        }
     }
     if let Some(s) = &step {
         if let Some(note) = s.dropped.note() {
-            println!("note: {note}");
+            super::print_note(&note);
         }
         for note in [&s.solver_note, &s.gram_note, &s.pcg_note]
             .into_iter()
             .flatten()
         {
-            println!("note: {note}");
+            super::print_note(note);
         }
         if s.log.fit.ridge > 0.0 {
             println!(
@@ -372,9 +382,12 @@ pub fn reconstruct(
             )));
         }
     }
-    super::image_memory::check_reading(&args.input)?;
-    let (samples, dropped) =
-        read_image_samples_with(&args.input, state.plane, nonfinite(args.drop_nonfinite))?;
+    super::check_reading(&args.input)?;
+    let (samples, dropped) = read_image_samples_with(
+        &args.input,
+        state.plane,
+        NonFinitePolicy::dropping(args.drop_nonfinite),
+    )?;
     let estimate = if args.no_residual {
         PixelEstimate::FitOnly
     } else {
@@ -427,7 +440,7 @@ pub fn reconstruct(
             args.output.display()
         );
         for note in &report.notes {
-            println!("note: {note}");
+            super::print_note(note);
         }
     }
     Ok(())

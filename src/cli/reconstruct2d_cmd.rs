@@ -4,120 +4,53 @@
 
 use std::time::Instant;
 
-use rkwave::image::estimate::{EstimateError, ShrinkParams};
+use rkwave::error::Param;
+use rkwave::image::estimate::ShrinkParams;
+use rkwave::image::job::{FitOptions, ImageParams, UniformJob};
 use rkwave::image::report::FileReconstructionReport;
-use rkwave::image::{reconstruct_estimated, Method, UniformEstimate, WaveletParams};
+use rkwave::image::{Method, UniformEstimate};
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::io::output::check_output;
 use rkwave::io::read_image_samples_with;
 
-use super::image_args::{check_p, parse_resolution, spinner};
+use super::image_args::{parse_resolution, spinner};
 use super::reconstruct_args::ReconstructArgs;
 use super::solve_args::MethodArg;
 use super::CliError;
 
-/// The wavelet parameters of `--p`, `--rho`, `--ridge` and `--smoothing` (each flag not
-/// given keeps the image fit's default: rho 4, ridge 1e-9, smoothing 0).
-fn wavelet_params(args: &ReconstructArgs) -> Result<WaveletParams, CliError> {
-    let defaults = WaveletParams::default();
-    let rho = args.solve.rho.unwrap_or(defaults.rho);
-    if !(rho.is_finite() && rho > 0.0) {
-        return Err(CliError::Invalid(format!(
-            "--rho {rho} must be a positive number of samples per tensor function (the image \
-             fit's default is 4)"
-        )));
-    }
-    let ridge = args.solve.ridge.unwrap_or(defaults.ridge);
-    if !(ridge.is_finite() && (0.0..1.0).contains(&ridge)) {
-        return Err(CliError::Invalid(format!(
-            "--ridge {ridge} must be in [0, 1) (the image fit's default is 1e-9)"
-        )));
-    }
-    let smoothing = args.smoothing.unwrap_or(defaults.smoothing);
-    if !(smoothing.is_finite() && smoothing >= 0.0) {
-        return Err(CliError::Invalid(format!(
-            "--smoothing {smoothing} must be a finite weight >= 0 (0: the least-squares fit)"
-        )));
-    }
-    Ok(WaveletParams {
-        p: check_p(args.filter().p)?,
-        pixel_filter: None,
-        rho,
-        ridge,
-        smoothing,
-    })
-}
-
-/// The flags given that only the least-squares fit reads (`--p`, `--family`, `--method` other
-/// than the default, `--levels` other than auto, `--rho`, `--ridge`, `--smoothing`).
-fn fit_flags(args: &ReconstructArgs) -> Vec<&'static str> {
-    [
-        ("--p", args.p.is_some()),
-        ("--family", args.family.is_some()),
-        ("--method", args.method != MethodArg::Single),
-        ("--levels", args.solve.levels != "auto"),
-        ("--rho", args.solve.rho.is_some()),
-        ("--ridge", args.solve.ridge.is_some()),
-        ("--smoothing", args.smoothing.is_some()),
+/// The image job's parameters from the flags (each flag not given stays `None`: the
+/// library's default, not asked for), and the method the flags ask for.
+fn image_params(args: &ReconstructArgs) -> Result<ImageParams, CliError> {
+    let method = match args.method {
+        MethodArg::Local => Method::Local,
+        MethodArg::Single | MethodArg::Global => Method::Wavelet,
+        MethodArg::Dense => {
+            return Err(CliError::Invalid(
+                "--method dense is 1D only; on the image plane use single, global or local".into(),
+            ))
+        }
+    };
+    // Settings of this command line that only the fit reads and the job does not hold.
+    let also_asked = [
+        (Param::Family, args.family.is_some()),
+        (Param::Method, args.method == MethodArg::Global),
+        (Param::Levels, args.solve.levels != "auto"),
     ]
     .into_iter()
-    .filter_map(|(flag, given)| given.then_some(flag))
-    .collect()
-}
-
-/// The pixel estimate: `--pixels`, or `auto` unless fit-only flags ask for the fit (then
-/// `fit`, with a note saying so).
-fn choose_estimate(args: &ReconstructArgs) -> (UniformEstimate, Option<String>) {
-    if let Some(e) = args.pixels {
-        return (e, None);
-    }
-    let given = fit_flags(args);
-    if given.is_empty() {
-        return (UniformEstimate::Auto, None);
-    }
-    (
-        UniformEstimate::Fit,
-        Some(format!(
-            "pixels: the least-squares fit, because {} (read by the fit only) was given without \
-             --pixels; the default without them is --pixels auto (films chosen per pixel by \
-             SURE), which uses no fit",
-            given.join(", ")
-        )),
-    )
-}
-
-/// The memory request of `estimate` and what it is called: the fit's for `fit` and
-/// `fit-clamped`, and for `auto` where its fallback to the fit applies (a pixel without
-/// samples, or fewer than half with two: the rule of [`rkwave::image::estimate::auto`]);
-/// otherwise the estimate's own, without a basis.
-fn estimate_request(
-    estimate: UniformEstimate,
-    plane: rkwave::image::ImagePlane,
-    samples: &rkwave::image::ImageSamples,
-    wavelet: &WaveletParams,
-    method: Method,
-) -> (rkwave::resources::ImageRequest, String) {
-    let fits = estimate.uses_fit()
-        || (estimate == UniformEstimate::Auto && {
-            let stats = rkwave::image::estimate::PixelStatistics::new(samples);
-            stats.empty_pixels() > 0 || 2 * stats.pixels_with_spread() < plane.pixels()
-        });
-    let (channels, m) = (samples.channels(), samples.len() as f64);
-    if fits {
-        let request = super::image_memory::uniform_request(
-            plane,
-            channels,
-            m,
-            wavelet.p,
-            wavelet.rho,
-            method == Method::Local,
-            1,
-        );
-        (request, method.to_string())
-    } else {
-        let request = super::image_memory::estimate_request(plane, channels, m, estimate);
-        (request, format!("--pixels {estimate}"))
-    }
+    .filter_map(|(param, given)| given.then_some(param))
+    .collect();
+    Ok(ImageParams {
+        method,
+        fit: FitOptions {
+            p: args.p,
+            rho: args.solve.rho,
+            ridge: args.solve.ridge,
+            smoothing: args.smoothing,
+        },
+        pixels: args.pixels,
+        shrink: ShrinkParams::default(),
+        also_asked,
+    })
 }
 
 /// Runs the 2D path of `rkwave reconstruct`.
@@ -167,60 +100,40 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         CliError::Invalid("--dim 2 needs --resolution WxH (the image size in pixels)".into())
     })?;
     let plane = parse_resolution(resolution)?;
-    let method = match args.method {
-        MethodArg::Local => Method::Local,
-        MethodArg::Single | MethodArg::Global => Method::Wavelet,
-        MethodArg::Dense => {
-            return Err(CliError::Invalid(
-                "--method dense is 1D only; on the image plane use single, global or local".into(),
-            ))
-        }
-    };
-    let wavelet = wavelet_params(args)?;
+    let params = image_params(args)?;
+    let job = UniformJob::new(plane, &params)?;
     if let Some(tile) = args.tile {
-        return super::reconstruct_tiles_cmd::run(args, plane, method, tile, &wavelet, started);
+        return super::reconstruct_tiles_cmd::run(
+            args,
+            plane,
+            params.method,
+            tile,
+            job.wavelet(),
+            started,
+        );
     }
-    super::image_memory::check_reading(&args.input)?;
+    super::check_reading(&args.input)?;
     let bar = spinner("reading samples");
     let (samples, dropped) = read_image_samples_with(
         &args.input,
         plane,
-        super::plan_cmd::nonfinite(args.drop_nonfinite),
+        rkwave::image::NonFinitePolicy::dropping(args.drop_nonfinite),
     )?;
     let read_s = started.elapsed().as_secs_f64();
-    let (estimate, kept_fit) = choose_estimate(args);
-    // Before the work: the fit (or the estimate without one) and the output image, from the
-    // sizes read.
-    let (request, by) = estimate_request(estimate, plane, &samples, &wavelet, method);
-    if let Err(e) = super::image_memory::check(
-        &request,
-        format!(
-            "reconstructing {} samples onto {plane} pixels by {by}",
-            samples.len()
-        ),
-        "a smaller --resolution, fewer samples, or --method local / a lower --p",
-    ) {
-        bar.finish_and_clear();
-        return Err(e);
-    }
     bar.set_message("reconstructing");
-    let (done, estimated) = reconstruct_estimated(
-        estimate,
-        method,
-        &samples,
-        &wavelet,
-        &ShrinkParams::default(),
-    )
-    .map_err(|e| match e {
-        EstimateError::Wavelet(e) => CliError::Wavelet(e),
-        other => CliError::Estimate(other),
-    })?;
-    let used = estimated.estimate;
-    let method = if used.uses_fit() {
-        method
-    } else {
-        Method::Film(rkwave::image::filters::FilmFilterKind::Box)
+    // The job checks the memory (the fit, or the estimate without one) before its work.
+    let out = job.run(&samples);
+    let out = match out {
+        Ok(out) => out,
+        Err(e) => {
+            bar.finish_and_clear();
+            return Err(e.into());
+        }
     };
+    let (done, estimated, method) = (out.reconstruction, out.estimate, out.method);
+    let estimated = estimated.expect("the fit's path makes a pixel estimate");
+    let used = estimated.estimate;
+    let kept_fit = out.pixels.and_then(|c| super::hints::in_flags(|| c.note()));
     bar.set_message("writing");
     let t_write = Instant::now();
     write_image(&args.output, &done.image, args.force)?;
@@ -232,7 +145,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
         plane,
         &samples,
         method,
-        wavelet.p,
+        job.wavelet().p,
         &done,
         read_s,
         write_s,
@@ -262,7 +175,7 @@ pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
             args.output.display()
         );
         for note in &report.notes {
-            println!("note: {note}");
+            super::print_note(note);
         }
     }
     Ok(())

@@ -189,7 +189,7 @@ pub fn run(
             args.output.display()
         );
         for note in &report.notes {
-            println!("note: {note}");
+            super::print_note(note);
         }
     }
     Ok(())

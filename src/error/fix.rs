@@ -38,11 +38,114 @@ pub enum Fix {
     SolverQr,
     /// Drop non-finite samples and count them instead of refusing the set.
     DropNonfinite,
+    /// Set the image-plane parameter named (or the parameter itself, where a message names
+    /// the parameter at fault).
+    Set(Param),
+    /// The image plane's default pixel estimate: a film per pixel chosen by SURE.
+    PixelsAuto,
+    /// The adaptive tree's matrix-free conjugate-gradient solve.
+    SolverPcg,
+}
+
+/// The parameters of the image plane's jobs (`image::job`), as data, so a message
+/// names the parameter at fault and each front end spells it (`--rho`, `rho=`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Param {
+    /// Vanishing moments of the image basis.
+    P,
+    /// Samples per tensor function (the uniform fit) or per slot (the plan's tree).
+    Rho,
+    /// The relative ridge of the fit's normal equations.
+    Ridge,
+    /// The smoothing weight of the fit.
+    Smoothing,
+    /// The method (the fit, its local inversion, a film filter).
+    Method,
+    /// The fit's filter family (a front-end setting the image fit reads as asking for it).
+    Family,
+    /// The fit's levels (a front-end setting the image fit reads as asking for it).
+    Levels,
+    /// The pixel estimate of the uniform path.
+    Pixels,
+    /// The image resolution.
+    Resolution,
+    /// The tile size of the tiled fit.
+    Tile,
+    /// The halo of the tiled fit.
+    Halo,
+    /// Tiles fitted at once.
+    Workers,
+    /// A plan's state (folder) whose tree the final image is fitted on.
+    State,
+    /// The plan's own output without the residual (the fit's box pixels alone).
+    NoResidual,
+    /// Replace an output that exists.
+    Overwrite,
+    /// The sample budget of a plan.
+    Budget,
+    /// The adaptive tree's depth limit below the pixel.
+    BelowPixel,
+    /// The process's memory limit.
+    MemoryLimit,
+    /// The folder the tiled fit spills its band files into.
+    Scratch,
+}
+
+impl Param {
+    /// Every parameter, so a front end can check that it spells each one.
+    pub const ALL: [Param; 19] = [
+        Param::P,
+        Param::Rho,
+        Param::Ridge,
+        Param::Smoothing,
+        Param::Method,
+        Param::Family,
+        Param::Levels,
+        Param::Pixels,
+        Param::Resolution,
+        Param::Tile,
+        Param::Halo,
+        Param::Workers,
+        Param::State,
+        Param::NoResidual,
+        Param::Overwrite,
+        Param::Budget,
+        Param::BelowPixel,
+        Param::MemoryLimit,
+        Param::Scratch,
+    ];
+
+    /// The parameter in the library's terms (the field of `image::job::ImageParams`
+    /// or of the call that takes it).
+    pub fn in_library(self) -> &'static str {
+        match self {
+            Param::P => "ImageParams::fit.p",
+            Param::Rho => "ImageParams::fit.rho",
+            Param::Ridge => "ImageParams::fit.ridge",
+            Param::Smoothing => "ImageParams::fit.smoothing",
+            Param::Method => "ImageParams::method",
+            Param::Family => "the filter family",
+            Param::Levels => "the fit's levels",
+            Param::Pixels => "ImageParams::pixels",
+            Param::Resolution => "the ImagePlane",
+            Param::Tile => "ImageParams::tiles.tile",
+            Param::Halo => "ImageParams::tiles.halo",
+            Param::Workers => "ImageParams::tiles.workers",
+            Param::State => "the plan's state",
+            Param::NoResidual => "PixelEstimate::FitOnly",
+            Param::Overwrite => "overwrite",
+            Param::Budget => "StopParams::budget",
+            Param::BelowPixel => "QuadTreeParams::below_pixel",
+            Param::MemoryLimit => "resources::set_memory_limit",
+            Param::Scratch => "TiledParams::scratch",
+        }
+    }
 }
 
 impl Fix {
     /// Every fix, so a front end can check that it spells each one.
-    pub const ALL: [Fix; 13] = [
+    pub const ALL: [Fix; 34] = [
         Fix::RegularizedAnswer,
         Fix::RegularizeOrLocal,
         Fix::Cutoff,
@@ -56,6 +159,27 @@ impl Fix {
         Fix::MethodDense,
         Fix::SolverQr,
         Fix::DropNonfinite,
+        Fix::PixelsAuto,
+        Fix::Set(Param::ALL[0]),
+        Fix::Set(Param::ALL[1]),
+        Fix::Set(Param::ALL[2]),
+        Fix::Set(Param::ALL[3]),
+        Fix::Set(Param::ALL[4]),
+        Fix::Set(Param::ALL[5]),
+        Fix::Set(Param::ALL[6]),
+        Fix::Set(Param::ALL[7]),
+        Fix::Set(Param::ALL[8]),
+        Fix::Set(Param::ALL[9]),
+        Fix::Set(Param::ALL[10]),
+        Fix::Set(Param::ALL[11]),
+        Fix::Set(Param::ALL[12]),
+        Fix::Set(Param::ALL[13]),
+        Fix::Set(Param::ALL[14]),
+        Fix::Set(Param::ALL[15]),
+        Fix::Set(Param::ALL[16]),
+        Fix::Set(Param::ALL[17]),
+        Fix::Set(Param::ALL[18]),
+        Fix::SolverPcg,
     ];
 
     /// The fix in the library's terms: the parameter to set and its value.
@@ -80,6 +204,9 @@ impl Fix {
             Fix::MethodDense => "Method::Dense",
             Fix::SolverQr => "Solver::Qr",
             Fix::DropNonfinite => "NonFinitePolicy::Drop",
+            Fix::Set(param) => param.in_library(),
+            Fix::PixelsAuto => "UniformEstimate::Auto",
+            Fix::SolverPcg => "TreeSolver::Pcg",
         }
     }
 }

@@ -28,6 +28,7 @@ pub mod adaptive;
 pub mod equivalent_filter;
 pub mod estimate;
 pub mod fit;
+pub mod job;
 pub mod method;
 pub mod nonfinite;
 pub mod pixels;
@@ -419,6 +420,42 @@ impl PixelImage {
         self.channels.len()
     }
 }
+
+impl ImageError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ImageError::AbsurdResolution { .. } => crate::error::ErrorKind::ResourceLimit,
+            ImageError::EmptyResolution { .. }
+            | ImageError::ParseResolution { .. }
+            | ImageError::PositionLengths { .. }
+            | ImageError::ChannelCount { .. }
+            | ImageError::ChannelLength { .. }
+            | ImageError::OutsideImage { .. }
+            | ImageError::NonFiniteValue { .. }
+            | ImageError::NonFiniteSamples { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(ImageError);
+
+// EstimateError is defined in `estimate/`, which another session is changing: its kind
+// sits here, in the parent module, until it can move beside the enum.
+impl estimate::EstimateError {
+    /// The kind of this error ([`crate::error`]): a failed fit keeps its own; pixels without
+    /// the samples an estimate needs are undetermined.
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            estimate::EstimateError::Wavelet(e) => e.kind(),
+            estimate::EstimateError::EmptyPixels { .. } | estimate::EstimateError::NoSpread => {
+                crate::error::ErrorKind::Undetermined
+            }
+        }
+    }
+}
+
+crate::error::classified!(estimate::EstimateError);
 
 #[cfg(test)]
 mod tests {

@@ -33,6 +33,18 @@ pub enum NonFinitePolicy {
     Drop,
 }
 
+impl NonFinitePolicy {
+    /// The policy of a front end's switch (`--drop-nonfinite`, `drop_nonfinite=True`):
+    /// [`NonFinitePolicy::Drop`] when `drop`, else [`NonFinitePolicy::Refuse`].
+    pub fn dropping(drop: bool) -> Self {
+        if drop {
+            NonFinitePolicy::Drop
+        } else {
+            NonFinitePolicy::Refuse
+        }
+    }
+}
+
 /// The first non-finite sample: where it is and what it holds.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct NonFiniteSample {

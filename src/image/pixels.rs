@@ -407,3 +407,22 @@ fn cubic_interpolant(g: impl Fn(f64) -> f64, a: f64, b: f64) -> ([f64; 4], f64) 
         .fold(0.0, f64::max);
     (coef, err)
 }
+
+impl PixelError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            PixelError::Basis(e) => e.kind(),
+            PixelError::DomainMismatch { .. }
+            | PixelError::NoPixels
+            | PixelError::CoefficientLength { .. }
+            | PixelError::VanishingWeight { .. }
+            | PixelError::SubCell { .. }
+            | PixelError::PixelOutside { .. }
+            | PixelError::SampleLengths { .. }
+            | PixelError::SampleOutside { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(PixelError);

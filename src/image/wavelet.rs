@@ -390,6 +390,20 @@ pub fn wavelet_equivalent_filter(
         .collect())
 }
 
+impl WaveletError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            WaveletError::Fit(e) => e.kind(),
+            WaveletError::Pixels(e) => e.kind(),
+            WaveletError::Solve(e) => e.kind(),
+            WaveletError::PixelOutside { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(WaveletError);
+
 #[cfg(test)]
 mod tests {
     use super::*;

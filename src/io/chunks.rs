@@ -16,7 +16,7 @@ use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use super::{IoError, SampleSet};
+use super::table::{IoError, SampleSet};
 use crate::reconstruct::stream::{ChunkSink, SampleChunks, StreamError};
 
 /// Rows per chunk of the streamed paths: 64 Ki rows of a few columns is a few MB.
@@ -53,7 +53,7 @@ impl SampleChunkReader {
     /// Opens `path` (`.npy` by its extension, CSV otherwise) and checks a `.npy` header.
     pub fn open(path: &Path) -> Result<Self, IoError> {
         let file = path.to_path_buf();
-        if !super::is_npy(path) {
+        if !super::table::is_npy(path) {
             File::open(path).map_err(|e| read_error(path, e))?;
             return Ok(Self {
                 file,

@@ -16,7 +16,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{check_for_writing, read_bytes, shorten, write_bytes, IoError, SampleSet};
+use super::table::{check_for_writing, read_bytes, shorten, write_bytes, IoError, SampleSet};
 
 /// Longest field or line quoted in an error message, in characters.
 const QUOTE_MAX: usize = 60;

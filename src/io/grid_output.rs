@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use npyz::WriterBuilder;
 
 use super::output::{persist, temporary, OutputError};
-use super::IoError;
+use super::table::IoError;
 
 /// Output buffer size: large writes, few system calls.
 const BUFFER: usize = 1 << 20;

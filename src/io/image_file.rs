@@ -200,3 +200,16 @@ mod tests {
         std::fs::remove_dir_all(dir).unwrap();
     }
 }
+
+impl ImageFileError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ImageFileError::UnknownFormat { .. } => crate::error::ErrorKind::InvalidInput,
+            ImageFileError::Write { .. } => crate::error::ErrorKind::WriteFailed,
+            ImageFileError::Output(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(ImageFileError);

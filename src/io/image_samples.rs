@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use super::{IoError, SampleSet};
+use super::table::{IoError, SampleSet};
 use crate::image::{split_finite, DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 
 /// Image samples on `plane` from the sample table `table` read from `file` (module docs),
@@ -72,8 +72,8 @@ pub fn read_image_samples_with(
 ) -> Result<(ImageSamples, DroppedSamples), IoError> {
     // x and y must be finite; the channels are split by `policy`
     const POSITIONS: usize = 2;
-    let bytes = super::read_bytes(path)?;
-    let table = if super::is_npy(path) {
+    let bytes = super::table::read_bytes(path)?;
+    let table = if super::table::is_npy(path) {
         super::npy::parse_npy_named(&bytes, path, image_column_names, POSITIONS)?
     } else {
         super::csv::parse_csv_cells(&bytes, path, POSITIONS)?

@@ -18,7 +18,7 @@ use std::path::Path;
 
 use npyz::{DType, Endianness, NpyFile, NpyHeader, Order, TypeChar, TypeStr, WriterBuilder};
 
-use super::{check_for_writing, read_bytes, shorten, write_bytes, IoError, SampleSet};
+use super::table::{check_for_writing, read_bytes, shorten, write_bytes, IoError, SampleSet};
 
 /// The `.npy` magic string.
 const MAGIC: &[u8; 6] = b"\x93NUMPY";

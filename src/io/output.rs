@@ -19,7 +19,11 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum OutputError {
     /// The output exists and overwriting was not allowed.
-    #[error("`{}` exists: allow overwriting (--force) or choose another path", .file.display())]
+    #[error(
+        "`{}` exists: allow overwriting ({}) or choose another path",
+        .file.display(),
+        crate::error::Fix::Set(crate::error::Param::Overwrite)
+    )]
     Exists {
         /// The output.
         file: PathBuf,
@@ -27,8 +31,9 @@ pub enum OutputError {
     /// The output appeared while the result was computed.
     #[error(
         "`{}` appeared while the result was computed and was left alone: allow overwriting \
-         (--force) or choose another path",
-        .file.display()
+         ({}) or choose another path",
+        .file.display(),
+        crate::error::Fix::Set(crate::error::Param::Overwrite)
     )]
     Appeared {
         /// The output.
@@ -179,6 +184,20 @@ pub fn persist(tmp: &Path, path: &Path, overwrite: bool) -> Result<(), OutputErr
     let _ = std::fs::remove_file(tmp);
     result
 }
+
+impl OutputError {
+    /// The kind of this error ([`crate::error`]): always [`ErrorKind::OutputRefused`].
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            OutputError::Exists { .. }
+            | OutputError::Appeared { .. }
+            | OutputError::SameFile { .. }
+            | OutputError::NotWritable { .. } => crate::error::ErrorKind::OutputRefused,
+        }
+    }
+}
+
+crate::error::classified!(OutputError);
 
 #[cfg(test)]
 mod tests {

@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use proptest::prelude::*;
 
 use super::*;
+use crate::sampling::Domain;
 
 /// A fresh path in the temporary directory.
 fn temp_path(name: &str) -> PathBuf {

@@ -71,3 +71,16 @@ pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>
     );
     Ok(assemble((positions.len(), active.len()), blocks))
 }
+
+impl KernelError {
+    /// The kind of this error ([`crate::error`]): always [`ErrorKind::InvalidInput`].
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            KernelError::PositionOutside { .. } | KernelError::Empty => {
+                crate::error::ErrorKind::InvalidInput
+            }
+        }
+    }
+}
+
+crate::error::classified!(KernelError);

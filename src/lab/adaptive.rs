@@ -326,3 +326,16 @@ pub fn adaptive_rows_markdown(rows: &[AdaptiveComparison]) -> String {
     }
     s
 }
+
+impl AdaptiveRunError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            AdaptiveRunError::Adaptive(e) => e.kind(),
+            AdaptiveRunError::Run(e) => e.kind(),
+            AdaptiveRunError::Image(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(AdaptiveRunError);

@@ -329,6 +329,19 @@ impl ImageReport {
     }
 }
 
+impl ImageRunError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ImageRunError::Image(e) => e.kind(),
+            ImageRunError::Parameter { .. } => crate::error::ErrorKind::InvalidInput,
+            ImageRunError::Wavelet(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(ImageRunError);
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -112,3 +112,17 @@ pub enum PlotError {
     #[error(transparent)]
     Output(#[from] crate::io::output::OutputError),
 }
+
+impl PlotError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            PlotError::Draw { .. } | PlotError::Write { .. } => {
+                crate::error::ErrorKind::WriteFailed
+            }
+            PlotError::Output(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(PlotError);

@@ -583,3 +583,21 @@ impl Fit {
         self.evaluator()?.evaluate(xs)
     }
 }
+
+impl ReconstructError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ReconstructError::Basis(e) => e.kind(),
+            ReconstructError::Kernel(e) => e.kind(),
+            ReconstructError::Solve(e) => e.kind(),
+            ReconstructError::Undersampled { .. } => crate::error::ErrorKind::Undetermined,
+            ReconstructError::Resources(e) => e.kind(),
+            ReconstructError::NonFiniteValue { .. } | ReconstructError::LengthMismatch { .. } => {
+                crate::error::ErrorKind::InvalidInput
+            }
+        }
+    }
+}
+
+crate::error::classified!(ReconstructError);

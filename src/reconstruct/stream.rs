@@ -91,6 +91,8 @@ impl StreamError {
     }
 }
 
+crate::error::classified!(StreamError);
+
 /// The banded QR triangle of the samples seen so far, at the single-scale level `J = N + 1`
 /// of a basis `Psi(n, N)` (module docs).
 ///
@@ -541,9 +543,11 @@ pub fn fit_streamed(
                         "the samples are strongly non-uniform (a support of level {level} \
                          holds {least})"
                     ),
-                    fix: "the density tree that fits them needs the samples in memory: fit \
-                          them in memory (a larger --memory-limit) or give fixed levels"
-                        .into(),
+                    fix: format!(
+                        "the density tree that fits them needs the samples in memory: fit \
+                         them in memory (a larger {}) or give fixed levels",
+                        crate::error::Fix::Set(crate::error::Param::MemoryLimit)
+                    ),
                 });
             }
         }
@@ -613,9 +617,11 @@ fn deficient(rep: &SingleScaleReport) -> StreamError {
             "{} single-scale directions are undetermined ({} functions without a sample)",
             rep.deficient, rep.unsampled
         ),
-        fix: "local inversion, which decides them, needs the samples in memory: fit them in \
-              memory (a larger --memory-limit) or lower the fine level"
-            .into(),
+        fix: format!(
+            "local inversion, which decides them, needs the samples in memory: fit them in \
+             memory (a larger {}) or lower the fine level",
+            crate::error::Fix::Set(crate::error::Param::MemoryLimit)
+        ),
     }
 }
 

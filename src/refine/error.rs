@@ -93,3 +93,23 @@ pub enum RefineError {
     #[error(transparent)]
     Reconstruct(#[from] ReconstructError),
 }
+
+impl RefineError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            RefineError::InvalidParameter { .. }
+            | RefineError::MaxDepthBelowBase { .. }
+            | RefineError::BudgetBelowBase { .. }
+            | RefineError::NonFiniteValue { .. }
+            | RefineError::Unresolvable { .. } => crate::error::ErrorKind::InvalidInput,
+            RefineError::RankDeficient { .. } => crate::error::ErrorKind::Undetermined,
+            RefineError::Basis(e) => e.kind(),
+            RefineError::Kernel(e) => e.kind(),
+            RefineError::Solve(e) => e.kind(),
+            RefineError::Reconstruct(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(RefineError);

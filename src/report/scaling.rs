@@ -228,3 +228,15 @@ pub fn scaling_run(setting: &ScalingSetting) -> Result<ScalingRow, ScalingError>
         }),
     })
 }
+
+impl ScalingError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ScalingError::GridTooSmall { .. } => crate::error::ErrorKind::InvalidInput,
+            ScalingError::Reconstruct(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(ScalingError);

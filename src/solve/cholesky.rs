@@ -243,3 +243,16 @@ impl SparseCholesky {
         );
     }
 }
+
+impl CholeskyError {
+    /// The kind of this error ([`crate::error`]): a failed factorization is numerical.
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            CholeskyError::Symbolic { .. } | CholeskyError::NotPositive { .. } => {
+                crate::error::ErrorKind::Numerical
+            }
+        }
+    }
+}
+
+crate::error::classified!(CholeskyError);

@@ -154,3 +154,25 @@ pub enum SolveError {
         tol: f64,
     },
 }
+
+impl SolveError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            SolveError::Undersampled { .. } | SolveError::RankDeficient { .. } => {
+                crate::error::ErrorKind::Undetermined
+            }
+            SolveError::Resources(e) => e.kind(),
+            SolveError::Factorization { .. }
+            | SolveError::DenseSvd { .. }
+            | SolveError::NonFiniteOutput { .. } => crate::error::ErrorKind::Numerical,
+            SolveError::DimensionMismatch { .. }
+            | SolveError::InvalidParameter { .. }
+            | SolveError::NonFiniteInput { .. } => crate::error::ErrorKind::InvalidInput,
+            SolveError::TooLarge { .. } => crate::error::ErrorKind::ResourceLimit,
+            SolveError::NotConverged { .. } => crate::error::ErrorKind::NotConverged,
+        }
+    }
+}
+
+crate::error::classified!(SolveError);

@@ -213,9 +213,10 @@ fn check_direct_memory(
         },
         kernel + normal,
         || {
-            "a smaller budget or depth limit, or the matrix-free PCG solve (`--solver pcg` \
-             on `image --adaptive`)"
-                .into()
+            format!(
+                "a smaller budget or depth limit, or the matrix-free PCG solve (`{}`)",
+                crate::error::Fix::SolverPcg
+            )
         },
     )?;
     Ok(())

@@ -199,3 +199,21 @@ impl ImageOracle for NoisyOracle<'_> {
         }
     }
 }
+
+impl AdaptiveError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            AdaptiveError::Parameter { .. }
+            | AdaptiveError::BudgetTooSmall { .. }
+            | AdaptiveError::History { .. } => crate::error::ErrorKind::InvalidInput,
+            AdaptiveError::Tensor(e) => e.kind(),
+            AdaptiveError::Samples(e) => e.kind(),
+            AdaptiveError::Solve(e) => e.kind(),
+            AdaptiveError::Pixels(e) => e.kind(),
+            AdaptiveError::Resource(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(AdaptiveError);

@@ -701,3 +701,22 @@ impl PlanState {
         })
     }
 }
+
+impl ProtocolError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ProtocolError::Adaptive(e) => e.kind(),
+            ProtocolError::Plane { .. }
+            | ProtocolError::Mismatch { .. }
+            | ProtocolError::Channels { .. }
+            | ProtocolError::OtherParameters { .. }
+            | ProtocolError::State { .. } => crate::error::ErrorKind::InvalidInput,
+            ProtocolError::AlreadyPlanned { .. } => crate::error::ErrorKind::OutputRefused,
+            ProtocolError::Read { .. } => crate::error::ErrorKind::Unreadable,
+            ProtocolError::Write(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(ProtocolError);

@@ -121,8 +121,11 @@ pub(crate) fn fitting_solver(
                 )
             },
             || {
-                "a smaller budget (--budget, --spp) or depth limit (--below-pixel) for a new plan"
-                    .into()
+                format!(
+                    "a smaller budget ({}) or depth limit ({}) for a new plan",
+                    crate::error::Fix::Set(crate::error::Param::Budget),
+                    crate::error::Fix::Set(crate::error::Param::BelowPixel)
+                )
             },
         )
     };
@@ -158,7 +161,7 @@ pub(crate) fn fallback_note(refused: &crate::resources::ResourceError) -> String
     };
     format!(
         "the direct solve does not fit in memory ({why}): this fit uses the matrix-free PCG \
-         solve instead (to a relative residual of {tolerance:e}; `--solver pcg` for the \
-         whole plan)"
+         solve instead (to a relative residual of {tolerance:e}; `{}` for the whole plan)",
+        crate::error::Fix::SolverPcg
     )
 }

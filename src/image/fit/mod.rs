@@ -658,3 +658,22 @@ impl ImageFit {
         self.basis.analysis(&self.coefficients[c])
     }
 }
+
+impl ImageFitError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            ImageFitError::Tensor(e) => e.kind(),
+            ImageFitError::SampleOutside { .. }
+            | ImageFitError::LengthMismatch { .. }
+            | ImageFitError::Empty { .. }
+            | ImageFitError::NonFiniteValue { .. }
+            | ImageFitError::Smoothing { .. } => crate::error::ErrorKind::InvalidInput,
+            ImageFitError::Factor(e) => e.kind(),
+            ImageFitError::NonFiniteCoefficients { .. } => crate::error::ErrorKind::Numerical,
+            ImageFitError::Local(e) => e.kind(),
+        }
+    }
+}
+
+crate::error::classified!(ImageFitError);

@@ -493,6 +493,22 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
     h
 }
 
+impl SceneError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            SceneError::Read { .. } | SceneError::Image { .. } => {
+                crate::error::ErrorKind::Unreadable
+            }
+            SceneError::Json { .. }
+            | SceneError::BadField { .. }
+            | SceneError::UnknownShape { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(SceneError);
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -103,7 +103,9 @@ pub enum TileError {
     /// A smoothing penalty (its weight is relative to the whole image's normal matrix).
     #[error(
         "smoothing {smoothing} with tiles: the tiled fit has no smoothing penalty; use \
-         --smoothing 0 or fit the image untiled (no --tile)"
+         {} 0 or fit the image untiled (no {})",
+        crate::error::Fix::Set(crate::error::Param::Smoothing),
+        crate::error::Fix::Set(crate::error::Param::Tile)
     )]
     Smoothing {
         /// The weight given.

@@ -57,13 +57,17 @@ impl std::fmt::Display for PixelRect {
 #[non_exhaustive]
 pub enum TileGeometryError {
     /// A tile of 0 pixels.
-    #[error("tile size 0: give a tile size of at least 1 pixel (for example --tile 128)")]
+    #[error(
+        "tile size 0: give a tile size of at least 1 pixel (for example {} 128)",
+        crate::error::Fix::Set(crate::error::Param::Tile)
+    )]
     ZeroTile,
     /// A tile larger than the image on one axis.
     #[error(
         "tile size {tile} is larger than the {width} x {height} image: give a tile size of at \
-         most {} pixels, or fit the image untiled (no --tile)",
-        (*width).min(*height)
+         most {} pixels, or fit the image untiled (no {})",
+        (*width).min(*height),
+        crate::error::Fix::Set(crate::error::Param::Tile)
     )]
     TileLargerThanImage {
         /// Tile size asked for.

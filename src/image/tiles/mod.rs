@@ -53,6 +53,8 @@ impl TileGeometryError {
     }
 }
 
+crate::error::classified!(TileGeometryError);
+
 impl TileError {
     /// The kind of this error ([`crate::error`]).
     pub fn kind(&self) -> ErrorKind {
@@ -67,6 +69,8 @@ impl TileError {
     }
 }
 
+crate::error::classified!(TileError);
+
 impl TiledError {
     /// The kind of this error ([`crate::error`]).
     pub fn kind(&self) -> ErrorKind {
@@ -79,3 +83,5 @@ impl TiledError {
         }
     }
 }
+
+crate::error::classified!(TiledError);

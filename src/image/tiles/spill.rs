@@ -23,8 +23,9 @@ use super::geometry::TileGeometry;
 #[derive(Debug, Error)]
 #[error(
     "the band files in `{}` (about {needed} bytes): {source}; free space there or choose \
-     another scratch folder (--scratch DIR)",
-    .folder.display()
+     another scratch folder ({} DIR)",
+    .folder.display(),
+    crate::error::Fix::Set(crate::error::Param::Scratch)
 )]
 pub struct ScratchError {
     /// The scratch folder.

@@ -74,7 +74,8 @@ pub enum TiledError {
     /// A sample outside the image.
     #[error(
         "sample {row} (0-based row) at ({x}, {y}) is outside the {width} x {height} image: give \
-         positions in pixel units within [0, W] x [0, H] (or the right --resolution)"
+         positions in pixel units within [0, W] x [0, H] (or the right {})",
+        crate::error::Fix::Set(crate::error::Param::Resolution)
     )]
     SampleOutside {
         /// 0-based row of the input.
@@ -290,7 +291,9 @@ pub fn reconstruct_tiled(
         },
         || {
             format!(
-                "smaller --tile or fewer --workers (the limit is {})",
+                "smaller {} or fewer {} (the limit is {})",
+                crate::error::Fix::Set(crate::error::Param::Tile),
+                crate::error::Fix::Set(crate::error::Param::Workers),
                 format_bytes(crate::resources::memory_limit() as f64)
             )
         },
