@@ -30,11 +30,13 @@
 pub mod auto;
 pub mod blend;
 pub mod clamp;
+pub mod gate;
 pub mod haar;
 pub mod noise;
 pub mod shrink;
 pub mod statistics;
 pub mod sure;
+pub mod sureshrink;
 
 use std::fmt;
 use std::str::FromStr;
@@ -46,6 +48,7 @@ use thiserror::Error;
 pub use auto::{AutoReport, FilmCount};
 pub use blend::{blend_by_risk, inverse_risk_weight};
 pub use clamp::clamp_to_sample_range;
+pub use gate::GateCount;
 pub use haar::{Haar2d, HaarCoefficients};
 pub use noise::PixelNoise;
 pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
@@ -181,9 +184,17 @@ pub struct EstimateReport {
     pub window: Option<usize>,
     /// Estimated risk per pixel of the choice and of each film alone (`auto` only).
     pub risk: Option<FilmRisks>,
-    /// Noise level of the chosen films' pixels per channel, the shrinkage's `sigma` (`auto`
+    /// Pixels per candidate of the risk gate (`auto` only: box, films, SureShrink, their
+    /// mixtures).
+    pub gate: Option<Vec<GateCount>>,
+    /// The output's estimated risk per pixel (SURE against the box, summed over channels,
+    /// averaged over pixels; `auto` only).
+    pub estimated_risk: Option<f64>,
+    /// The box pixels' estimated risk per pixel, `sum_c v_{P,c}` averaged over pixels (`auto`
     /// only).
-    pub output_noise: Option<Vec<f64>>,
+    pub box_risk: Option<f64>,
+    /// The median SureShrink `lambda` per channel (`auto` only).
+    pub lambda: Option<Vec<f64>>,
     /// Pooled noise level `sigma_c` per channel (`None` for `fit`, which does not need it).
     pub noise_level: Option<Vec<f64>>,
     /// Pixels whose noise is estimated (two samples or more; for `auto`, a block of strata),
@@ -193,7 +204,8 @@ pub struct EstimateReport {
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
     pub shrink: Option<ShrinkParams>,
-    /// Values (pixels x channels) the clamp moved (`fit-clamped` only).
+    /// Values (pixels x channels) the clamp moved (`fit-clamped`); for `auto`, the pixels the
+    /// projection onto the range of their 3x3 neighbourhood's samples moved.
     pub clamped_values: Option<usize>,
     /// Pixels without samples, left unclamped (`fit-clamped` only).
     pub unclamped_empty_pixels: Option<usize>,
@@ -222,7 +234,10 @@ pub fn reconstruct_estimated(
         films: None,
         window: None,
         risk: None,
-        output_noise: None,
+        gate: None,
+        estimated_risk: None,
+        box_risk: None,
+        lambda: None,
         noise_level: None,
         pixels_with_spread: None,
         threshold: None,
