@@ -1,14 +1,15 @@
 //! Noise-aware pixel estimates on the uniform path: what a pixel's
 //! value is, given the samples in it and the noise they carry.
 //!
-//! * [`UniformEstimate::Auto`] (the default): per pixel, the film filter (box, tent, Gaussian,
-//!   Mitchell, Lanczos at their standard radii) of least risk by Stein's unbiased risk estimate
-//!   over the 17 x 17 window around it ([`sure`]), with the noise of each pixel's mean estimated
-//!   from second differences of its stratified samples ([`noise`]); then the result shrunk in
-//!   cycle-spun Haar at the universal threshold of the chosen films' median noise ([`shrink`];
-//!   where the noise is negligible the threshold is too and nothing changes). Where the samples
-//!   do not permit it (a pixel without samples, or fewer than half the pixels with two), the fit
-//!   instead, with the reason in the report.
+//! * [`UniformEstimate::Auto`] (the default): per pixel, the candidate of least estimated
+//!   risk against the box pixels (the per-pixel mean, itself a candidate) by SURE over the
+//!   9 x 9 window ([`gate`]): the film filters chosen by SURE ([`sure`]), heteroscedastic
+//!   SureShrink of the box pixels ([`sureshrink`]), their mixtures and their projections onto
+//!   each pixel's own sample range, with the noise of each pixel's mean from second
+//!   differences of its stratified samples ([`noise`]); then every pixel projected onto the
+//!   range of the samples in its 3 x 3 neighbourhood ([`auto`] states the steps). Where the
+//!   samples do not permit it (a pixel without samples, or fewer than half the pixels with
+//!   two), the fit instead, with the reason in the report.
 //! * [`UniformEstimate::Fit`]: the least-squares fit's box pixels ([`crate::image::reconstruct`]),
 //!   unchanged.
 //! * [`UniformEstimate::FitClamped`]: the fit, each pixel clamped to the range of its own samples
@@ -64,7 +65,8 @@ use super::{ImageSamples, PixelImage};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(into = "String")]
 pub enum UniformEstimate {
-    /// The film filter of least SURE per pixel, then Haar shrinkage at the remaining noise.
+    /// Per pixel the candidate of least SURE against the box (films, SureShrink, mixtures,
+    /// their own-range projections, the box), projected onto the local sample range.
     #[default]
     Auto,
     /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).
