@@ -90,15 +90,12 @@ use crate::image::estimate::{
 };
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
+pub use crate::image::estimate::clamp::{clamp_to_local_range, CLAMP_COUNT_TOLERANCE};
+
 /// Standard errors of the residual mean beyond which a pixel is corrected (the default of
 /// [`super::AdaptiveParams::residual_z`]): a pixel of pure noise is corrected with probability
 /// about `0.27%` (one channel, known `sigma`).
 pub const RESIDUAL_Z: f64 = 3.0;
-
-/// Moves of the range clamp at most this large are applied but not counted in
-/// [`ResidualCorrection::clamped`] (the fit's rounding in regions of constant value, where
-/// every sample has the same value and the fit is within ulps of it).
-pub const CLAMP_COUNT_TOLERANCE: f64 = 1e-9;
 
 /// Which pixels the adaptive engine outputs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -394,55 +391,6 @@ pub fn add_significant_mean_residual(
         }
     }
     (sampled, corrected, largest)
-}
-
-/// Clamps every channel of `pixels` (per channel, `W H` row-major on `plane`) to the range
-/// `[lo_P, hi_P]` of `values` over the samples at `(xs[i], ys[i])` in the pixel and its eight
-/// neighbours (pixels with none keep their value). Returns the pixels moved by more than
-/// [`CLAMP_COUNT_TOLERANCE`] in some channel and the largest move.
-pub fn clamp_to_local_range(
-    pixels: &mut [Vec<f64>],
-    plane: ImagePlane,
-    xs: &[f64],
-    ys: &[f64],
-    values: &[Vec<f64>],
-) -> (usize, f64) {
-    let (w, h) = (plane.width(), plane.height());
-    // the range of each pixel's own samples, then of its 3x3 neighbourhood
-    let mut own = vec![(f64::INFINITY, f64::NEG_INFINITY); w * h * values.len()];
-    for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
-        let (px, py) = plane.pixel_of(x, y);
-        for (c, v) in values.iter().enumerate() {
-            let r = &mut own[(py * w + px) * values.len() + c];
-            *r = (r.0.min(v[i]), r.1.max(v[i]));
-        }
-    }
-    let (mut clamped, mut largest) = (0, 0.0f64);
-    for py in 0..h {
-        for px in 0..w {
-            let p = py * w + px;
-            let mut moved = false;
-            for (c, channel) in pixels.iter_mut().enumerate() {
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for qy in py.saturating_sub(1)..(py + 2).min(h) {
-                    for qx in px.saturating_sub(1)..(px + 2).min(w) {
-                        let r = own[(qy * w + qx) * values.len() + c];
-                        (lo, hi) = (lo.min(r.0), hi.max(r.1));
-                    }
-                }
-                if lo > hi {
-                    continue;
-                }
-                let v = channel[p].clamp(lo, hi);
-                let d = (v - channel[p]).abs();
-                moved |= d > CLAMP_COUNT_TOLERANCE;
-                largest = largest.max(d);
-                channel[p] = v;
-            }
-            clamped += usize::from(moved);
-        }
-    }
-    (clamped, largest)
 }
 
 /// The output pixels of `fit` on `tree` for the samples `(xs, ys, values)`: with

@@ -32,6 +32,7 @@
 
 use serde::Serialize;
 
+use super::clamp::clamp_to_local_range;
 use super::gate::{gate, GateCandidate, GateCount};
 use super::noise::PixelNoise;
 use super::shrink::ShrinkParams;
@@ -39,7 +40,6 @@ use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
 use super::sureshrink::sure_shrink_channel;
 use super::EstimateReport;
-use crate::image::adaptive::correction::clamp_to_local_range;
 use crate::image::filters::FilmFilterKind;
 use crate::image::splat::PixelBins;
 use crate::image::{ImageSamples, PixelImage};

@@ -25,7 +25,7 @@
 //! killed ones ([`Haar2d::inverse_squared`]); the threshold's own dependence on the data is
 //! neglected, as SureShrink does. Cycle spinning averages the `S²` shifted estimates; the
 //! divergence of the average is the average of the divergences, and the per-pixel SURE
-//! `(x^_P - m_P)² - v_P + 2 v_P div_P` of the average is what [`super::gate`] compares with the
+//! `(x^_P - m_P)² - v_P + 2 v_P div_P` of the average is what the gate (`gate.rs`) compares with the
 //! box's `v_P`.
 
 use super::haar::{Haar2d, HaarCoefficients};
