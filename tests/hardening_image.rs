@@ -166,7 +166,7 @@ fn a_plan_round_above_the_limit_is_refused_and_the_state_survives() {
     );
     assert!(!n1.exists());
     assert_eq!(std::fs::read(d.join("state.json")).unwrap(), state);
-    let mut tight = vec!["--memory-limit".to_string(), "20M".to_string()];
+    let mut tight = vec!["--memory-limit".to_string(), "40M".to_string()];
     tight.extend(plan_round(&d, &s0, &n1));
     let text = succeeds(&tight);
     assert!(
@@ -428,7 +428,8 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
             let e = estimate(&args, limit, cwd);
             if let (Some(dir), Some(state)) = (restore, saved) {
                 std::fs::write(dir.join("state.json"), state).unwrap();
-                std::fs::remove_file(dir.join("n1.npy")).unwrap();
+                // absent where the estimate refused the round outright (no PCG take-over)
+                let _ = std::fs::remove_file(dir.join("n1.npy"));
                 let _ = std::fs::remove_file(dir.join("pcg.bin"));
             }
             let m = peak(&args, cwd);
@@ -533,8 +534,10 @@ fn each_path_estimate_is_within_a_factor_two_of_the_peak() {
         ]
         .map(String::from)
         .to_vec();
-        // above the reading (3 x the file) and the budget (168 bytes a sample)
-        let limit = format!("{}", 200 * 4 * r * r);
+        // above the reading (3 x the file), the budget (168 bytes a sample) and the PCG fit of
+        // the base (half the budget at 4 spp since the base covers every pixel: about 24.5 MB
+        // at 128²), below the direct fit's
+        let limit = format!("{}", 500 * 4 * r * r);
         ratios.push(measure(
             format!("plan round 1 {res} (direct)"),
             args,

@@ -95,7 +95,7 @@ fn auto_is_the_uniform_auto_of_the_same_samples() {
     let films = report.films.as_ref().expect("the films chosen");
     assert_eq!(films, &uniform_report.films);
     assert_eq!(films.iter().map(|f| f.pixels).sum::<usize>(), W * H);
-    assert_eq!(report.shrink_threshold, Some(uniform_report.threshold));
+    assert_eq!(report.auto_description, Some(uniform_report.describe()));
     assert!(report.note().contains("least SURE"), "{}", report.note());
 }
 

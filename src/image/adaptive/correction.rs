@@ -90,15 +90,12 @@ use crate::image::estimate::{
 };
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
+pub use crate::image::estimate::clamp::{clamp_to_local_range, CLAMP_COUNT_TOLERANCE};
+
 /// Standard errors of the residual mean beyond which a pixel is corrected (the default of
 /// [`super::AdaptiveParams::residual_z`]): a pixel of pure noise is corrected with probability
 /// about `0.27%` (one channel, known `sigma`).
 pub const RESIDUAL_Z: f64 = 3.0;
-
-/// Moves of the range clamp at most this large are applied but not counted in
-/// [`ResidualCorrection::clamped`] (the fit's rounding in regions of constant value, where
-/// every sample has the same value and the fit is within ulps of it).
-pub const CLAMP_COUNT_TOLERANCE: f64 = 1e-9;
 
 /// Which pixels the adaptive engine outputs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -222,6 +219,14 @@ pub struct ResidualCorrection {
     /// `auto`, so that the output is [`PixelEstimate::Shrunk`]'s.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_fallback: Option<String>,
+    /// [`PixelEstimate::Auto`] and [`PixelEstimate::Blend`]: what `auto` did, in words (its
+    /// risk gate, films, SureShrink and range projection; `None` when it fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_description: Option<String>,
+    /// [`PixelEstimate::Blend`]: the range projection of the blended pixels onto the samples
+    /// of their 3x3 neighbourhood: pixels moved (`None` when it fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend_clamped: Option<usize>,
     /// [`PixelEstimate::Blend`]: the mean over pixels of the weight of the `shrunk` pixel
     /// (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -246,15 +251,10 @@ impl ResidualCorrection {
             return match (self.blend_weight, &self.auto_fallback) {
                 (Some(w), _) => format!(
                     "output pixels: blend, per pixel the inverse-risk combination of shrunk and \
-                     auto (risks: the residuals' spread of a pixel's mean and the chosen film's \
-                     SURE, each averaged over the {side} x {side} window; mean weight of \
-                     shrunk {w:.3}; auto's films: {}{}); shrunk: {shrunk}",
-                    self.films
-                        .iter()
-                        .flatten()
-                        .map(|f| format!("{} {}", f.film, f.pixels))
-                        .collect::<Vec<_>>()
-                        .join(", "),
+                     auto (risks: the residuals' spread of a pixel's mean and auto's SURE, each \
+                     averaged over the {side} x {side} window; mean weight of shrunk {w:.3}{}); \
+                     {} blended pixels projected onto the range of the samples in their 3x3 \
+                     neighbourhood; auto: {}; shrunk: {shrunk}",
                     match self.blend_unknown_risk {
                         Some(n) if n > 0 => format!(
                             "; {n} pixels without a pixel of two samples in their window: \
@@ -262,6 +262,11 @@ impl ResidualCorrection {
                         ),
                         _ => String::new(),
                     },
+                    self.blend_clamped.unwrap_or(0),
+                    self.auto_description
+                        .as_deref()
+                        .unwrap_or("")
+                        .trim_start_matches("pixels: auto, "),
                     side = 2 * WINDOW_HALF + 1,
                 ),
                 (None, reason) => format!(
@@ -271,20 +276,10 @@ impl ResidualCorrection {
             };
         }
         if self.estimate == PixelEstimate::Auto {
-            return match (&self.films, &self.auto_fallback) {
-                (Some(films), _) => format!(
-                    "output pixels: auto, the film of least SURE over the {side} x {side} window \
-                     around each pixel on the plan's samples (pixels per film: {}), shrunk \
-                     (soft, orthonormal Haar, 16 shifts) at the universal threshold {} of the \
-                     chosen films' noise {} per channel",
-                    films
-                        .iter()
-                        .map(|f| format!("{} {}", f.film, f.pixels))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    fmt_list(self.shrink_threshold.as_deref().unwrap_or_default()),
-                    fmt_list(self.shrink_sigma.as_deref().unwrap_or_default()),
-                    side = 2 * WINDOW_HALF + 1,
+            return match (&self.auto_description, &self.auto_fallback) {
+                (Some(auto), _) => format!(
+                    "output pixels: auto on the plan's samples; {}",
+                    auto.trim_start_matches("pixels: auto, ")
                 ),
                 (None, reason) => {
                     let shrunk = ResidualCorrection {
@@ -398,55 +393,6 @@ pub fn add_significant_mean_residual(
     (sampled, corrected, largest)
 }
 
-/// Clamps every channel of `pixels` (per channel, `W H` row-major on `plane`) to the range
-/// `[lo_P, hi_P]` of `values` over the samples at `(xs[i], ys[i])` in the pixel and its eight
-/// neighbours (pixels with none keep their value). Returns the pixels moved by more than
-/// [`CLAMP_COUNT_TOLERANCE`] in some channel and the largest move.
-pub fn clamp_to_local_range(
-    pixels: &mut [Vec<f64>],
-    plane: ImagePlane,
-    xs: &[f64],
-    ys: &[f64],
-    values: &[Vec<f64>],
-) -> (usize, f64) {
-    let (w, h) = (plane.width(), plane.height());
-    // the range of each pixel's own samples, then of its 3x3 neighbourhood
-    let mut own = vec![(f64::INFINITY, f64::NEG_INFINITY); w * h * values.len()];
-    for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
-        let (px, py) = plane.pixel_of(x, y);
-        for (c, v) in values.iter().enumerate() {
-            let r = &mut own[(py * w + px) * values.len() + c];
-            *r = (r.0.min(v[i]), r.1.max(v[i]));
-        }
-    }
-    let (mut clamped, mut largest) = (0, 0.0f64);
-    for py in 0..h {
-        for px in 0..w {
-            let p = py * w + px;
-            let mut moved = false;
-            for (c, channel) in pixels.iter_mut().enumerate() {
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for qy in py.saturating_sub(1)..(py + 2).min(h) {
-                    for qx in px.saturating_sub(1)..(px + 2).min(w) {
-                        let r = own[(qy * w + qx) * values.len() + c];
-                        (lo, hi) = (lo.min(r.0), hi.max(r.1));
-                    }
-                }
-                if lo > hi {
-                    continue;
-                }
-                let v = channel[p].clamp(lo, hi);
-                let d = (v - channel[p]).abs();
-                moved |= d > CLAMP_COUNT_TOLERANCE;
-                largest = largest.max(d);
-                channel[p] = v;
-            }
-            clamped += usize::from(moved);
-        }
-    }
-    (clamped, largest)
-}
-
 /// The output pixels of `fit` on `tree` for the samples `(xs, ys, values)`: with
 /// [`PixelEstimate::ResidualCorrected`], the box pixels plus the significant mean residual
 /// (`z` standard errors at noise `sigma`); with [`PixelEstimate::ResidualClamped`], those
@@ -485,9 +431,11 @@ pub fn output_pixels(
             .and_then(|samples| auto::estimate(&samples, &ShrinkParams::default()));
         match chosen {
             Ok((image, auto)) => {
+                report.auto_description = Some(auto.describe());
                 report.films = Some(auto.films);
-                report.shrink_sigma = Some(auto.output_noise);
-                report.shrink_threshold = Some(auto.threshold);
+                report.shrink_sigma = Some(auto.sigma);
+                report.clamped = auto.range_clamped;
+                report.largest_clamp = auto.largest_clamp;
                 return Ok((fit_image, image, report));
             }
             Err(reason) => report.auto_fallback = Some(reason),
@@ -595,8 +543,11 @@ fn blend_shrunk_and_auto(
     let sum = window_sum(&zeroed, w, h, WINDOW_HALF);
     let count = window_sum(&known, w, h, WINDOW_HALF);
     let risk_shrunk: Vec<f64> = sum.iter().zip(&count).map(|(s, n)| s / n).collect();
-    let (image, weight) =
+    let (mut image, weight) =
         blend_by_risk(&shrunk, &risk_shrunk, &auto_image, &auto_report.window_risk);
+    let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
+    report.blend_clamped = Some(moved);
+    report.auto_description = Some(auto_report.describe());
     report.films = Some(auto_report.films);
     report.blend_weight = Some(weight.iter().sum::<f64>() / weight.len() as f64);
     report.blend_unknown_risk = Some(risk_shrunk.iter().filter(|r| r.is_nan()).count());

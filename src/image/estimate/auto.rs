@@ -1,20 +1,44 @@
-//! `--pixels auto`: the film of least SURE per pixel ([`super::sure`]) with the noise of the
-//! samples themselves ([`super::noise`]), then cycle-spun Haar shrinkage ([`super::shrink`]) of
-//! the result at the universal threshold `t_c = k sigma'_c sqrt(2 ln N)`, `sigma'_c` the median
-//! over pixels of the chosen films' standard deviation `sqrt(Var F_P)` in channel `c`. Where the
-//! samples carry no pixel-scale noise `sigma'` is negligible and the shrinkage moves nothing
-//! visible; where they carry Monte Carlo noise, it removes what the films left.
+//! `--pixels auto`: per pixel, the candidate estimate of least estimated risk against the box
+//! pixels `m_P` (the mean of the pixel's own samples), the box itself among the candidates, so
+//! no pixel takes a step its risk estimate says raises the risk ([`super::gate`]).
+//!
+//! 1. **Noise per pixel**, not a global level: `v_P`, the variance of `m_P` from second
+//!    differences of adjacent strata ([`super::noise`]), which cancel the signal's variation
+//!    between strata (an edge or gradient across the pixel) and keep only what the
+//!    stratified mean really varies by.
+//! 2. **Films**: the film filter of least SURE over the window around each pixel
+//!    ([`super::sure`]; the box film `F = m`, `A = 1`, is one of the five).
+//! 3. **SureShrink of the box pixels**: cycle-spun Haar, heteroscedastic coefficient variances
+//!    propagated exactly from `v_P`, a SURE-chosen threshold per level with "no shrinkage"
+//!    among the candidates ([`super::sureshrink`]).
+//! 4. **Gate**: candidates box, films, SureShrink and the convex combinations
+//!    `alpha F + (1 - alpha) S` (`alpha` in `1/4, 1/2, 3/4`), each with its exact per-pixel
+//!    divergence, and each of those projected onto the range of the pixel's own samples
+//!    `[min_i v_i, max_i v_i]` (a clamped value moves with the pixel's samples: divergence 1);
+//!    each pixel takes the one of least SURE over its 9 x 9 window ([`super::gate`]), the
+//!    window's pixels weighted by `1 / (x² + 0.01)` (`x` the half-and-half candidate), the
+//!    relative error that relMSE measures, so that the bright pixels of an HDR window (an
+//!    emitter, a firefly) do not decide for the dark ones. The weights depend on the data
+//!    only through a smooth candidate; the per-pixel estimates stay unbiased.
+//! 5. **Range**: each pixel is projected onto the range of the samples in it and its eight
+//!    neighbours (the samples that shaped it at the finest scale): no negative radiance, no
+//!    overshoot beside an emitter (a film with negative lobes, or a shrunk coefficient).
+//!    The box pixel lies in its own samples' range and never moves; the pixels moved are
+//!    counted in the report.
 //!
 //! It needs a sample in every pixel (the box pixels `m_P` are SURE's observation) and the
 //! noise of at least half the pixels (two samples or more each); otherwise
-//! [`estimate`] returns the reason and the caller falls back to the fit.
+//! [`estimate`] returns the reason and the caller falls back.
 
 use serde::Serialize;
 
+use super::clamp::clamp_to_local_range;
+use super::gate::{gate, GateCandidate, GateCount};
 use super::noise::PixelNoise;
-use super::shrink::{shrink_channel, universal_threshold, ShrinkParams};
+use super::shrink::ShrinkParams;
 use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
+use super::sureshrink::sure_shrink_channel;
 use super::EstimateReport;
 use crate::image::filters::FilmFilterKind;
 use crate::image::splat::PixelBins;
@@ -33,56 +57,110 @@ pub struct FilmCount {
     pub pixels: usize,
 }
 
+/// The weights `alpha` of the films in the candidates `alpha F + (1 - alpha) S`.
+pub const MIX_WEIGHTS: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// Half the side of the gate's window: `(2 h + 1)²` = 9 x 9 pixels (chosen on the suite's
+/// tuning half against 5 x 5, 17 x 17 and 25 x 25: `docs/measurements/estimators.md`).
+pub const GATE_HALF: usize = 4;
+
+/// `eps` of the relative weights `1 / (x² + eps)` of the gate's window sums (the relMSE's).
+pub const RELATIVE_EPS: f64 = 0.01;
+
 /// What `auto` found and did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AutoReport {
     /// Pixels per film.
     pub films: Vec<FilmCount>,
-    /// Estimated risks.
+    /// Estimated risks of the films.
     pub risk: FilmRisks,
-    /// The chosen films' SURE per pixel, averaged over the window ([`super::sure::FilmChoice::window_risk`],
-    /// before the shrinkage).
+    /// The output's SURE per pixel, averaged over the window (before the range projection).
     pub window_risk: Vec<f64>,
-    /// The noise of a pixel's mean `sigma_c` ([`PixelNoise::sigma`]).
+    /// The noise of a pixel's mean `sigma_c` ([`PixelNoise::sigma`]; reported, not used: every
+    /// step uses each pixel's own `v_P`).
     pub sigma: Vec<f64>,
     /// Pixels whose noise was estimated.
     pub pixels_with_blocks: usize,
-    /// The chosen films' noise `sigma'_c`.
-    pub output_noise: Vec<f64>,
-    /// The shrinkage's thresholds.
-    pub threshold: Vec<f64>,
+    /// Pixels per gate candidate.
+    pub gate: Vec<GateCount>,
+    /// Mean estimated risk per pixel of the output (summed over channels).
+    pub estimated_risk: f64,
+    /// Mean estimated risk per pixel of the box (`sum_c v_{P,c}`).
+    pub box_risk: f64,
+    /// The median SureShrink `lambda` per channel (over shifts and levels).
+    pub lambda: Vec<f64>,
+    /// The fraction of Haar detail coefficients SureShrink killed, per channel.
+    pub killed: Vec<f64>,
+    /// Pixels the range projection moved.
+    pub range_clamped: usize,
+    /// Its largest move.
+    pub largest_clamp: f64,
     /// The shrinkage's parameters.
     pub shrink: ShrinkParams,
 }
 
 impl AutoReport {
-    /// Writes the fields and the description into `report`.
-    pub fn fill(self, report: &mut EstimateReport) {
+    /// The report in words.
+    pub fn describe(&self) -> String {
         let films = self
             .films
             .iter()
             .map(|f| format!("{} {}", f.film, f.pixels))
             .collect::<Vec<_>>()
             .join(", ");
-        report.description = format!(
-            "pixels: auto, the film of least SURE over the {side} x {side} window around each \
-             pixel (pixels per film: {films}) for the noise sigma = {} per channel of a pixel's \
-             mean (second differences of adjacent strata, median over {} pixels); then Haar \
-             shrinkage ({} shifts) at the universal threshold {} of the chosen films' noise {}",
-            super::list(&self.sigma),
-            self.pixels_with_blocks,
+        let gate = self
+            .gate
+            .iter()
+            .map(|g| format!("{} {}", g.candidate, g.pixels))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let gain = if self.box_risk > 0.0 {
+            format!(
+                "{:.2} dB",
+                10.0 * (self.box_risk / self.estimated_risk.max(1e-300)).log10()
+            )
+        } else {
+            "none (no noise)".into()
+        };
+        format!(
+            "pixels: auto, per pixel the candidate of least SURE against the box over the \
+             {gside} x {gside} window, each pixel weighted by 1 / (x² + {RELATIVE_EPS}) (pixels \
+             per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
+             shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
+             coefficients killed); noise of each pixel's mean from second differences of \
+             adjacent strata ({} pixels; median sigma {}); estimated risk per pixel {:.3e} \
+             against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
+             samples in their 3x3 neighbourhood (largest move {:.3e})",
             self.shrink.shifts * self.shrink.shifts,
-            super::list(&self.threshold),
-            super::list(&self.output_noise),
-            side = 2 * WINDOW_HALF + 1,
-        );
+            super::list(&self.lambda),
+            self.killed
+                .iter()
+                .map(|k| format!("{:.1}%", 100.0 * k))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.pixels_with_blocks,
+            super::list(&self.sigma),
+            self.estimated_risk,
+            self.box_risk,
+            self.range_clamped,
+            self.largest_clamp,
+            gside = 2 * GATE_HALF + 1,
+        )
+    }
+
+    /// Writes the fields and the description into `report`.
+    pub fn fill(self, report: &mut EstimateReport) {
+        report.description = self.describe();
         report.films = Some(self.films);
         report.window = Some(2 * WINDOW_HALF + 1);
         report.risk = Some(self.risk);
         report.noise_level = Some(self.sigma);
         report.pixels_with_spread = Some(self.pixels_with_blocks);
-        report.output_noise = Some(self.output_noise);
-        report.threshold = Some(self.threshold);
+        report.gate = Some(self.gate);
+        report.estimated_risk = Some(self.estimated_risk);
+        report.box_risk = Some(self.box_risk);
+        report.lambda = Some(self.lambda);
+        report.clamped_values = Some(self.range_clamped);
         report.shrink = Some(self.shrink);
     }
 }
@@ -93,13 +171,14 @@ pub fn estimate(
     shrink: &ShrinkParams,
 ) -> Result<(PixelImage, AutoReport), String> {
     let plane = samples.plane();
+    let (w, h) = (plane.width(), plane.height());
     let bins = PixelBins::new(samples);
     let pixels = plane.pixels();
+    let channels = samples.channels();
     let empty: Vec<usize> = (0..pixels)
         .filter(|&p| bins.in_pixel(p).is_empty())
         .collect();
     if let Some(&first) = empty.first() {
-        let w = plane.width();
         return Err(format!(
             "{} pixels have no sample (the first at ({}, {})), and SURE compares each film with \
              the mean of the pixel's own samples",
@@ -129,6 +208,9 @@ pub fn estimate(
                 .collect()
         })
         .collect();
+    let variance: Vec<Vec<f64>> = (0..channels)
+        .map(|c| (0..pixels).map(|p| noise.pixel_variance(c, p)).collect())
+        .collect();
     let choice = choose_films(
         samples,
         &bins,
@@ -137,35 +219,123 @@ pub fn estimate(
         &FilmFilterKind::ALL,
         WINDOW_HALF,
     );
-    let output_noise: Vec<f64> = choice
-        .variance
-        .iter()
-        .map(|v| median(&mut v.clone()).max(0.0).sqrt())
+    let shrunk: Vec<_> = (0..channels)
+        .map(|c| sure_shrink_channel(&mean[c], &variance[c], w, h, shrink.shifts))
         .collect();
-    let threshold: Vec<f64> = output_noise
-        .iter()
-        .map(|&s| universal_threshold(s, pixels, shrink.threshold_factor))
-        .collect();
-    let mut image = choice.image.clone();
-    for (channel, &t) in image.channels.iter_mut().zip(&threshold) {
-        *channel = shrink_channel(channel, plane.width(), plane.height(), t, shrink.shifts);
+    let boxed = GateCandidate {
+        name: "box".into(),
+        image: PixelImage {
+            plane,
+            channels: mean.clone(),
+        },
+        divergence: vec![vec![1.0; pixels]; channels],
+    };
+    let films = GateCandidate {
+        name: "films".into(),
+        image: choice.image.clone(),
+        divergence: vec![choice.own_weight.clone(); channels],
+    };
+    let sure_shrunk = GateCandidate {
+        name: "sureshrink".into(),
+        image: PixelImage {
+            plane,
+            channels: shrunk.iter().map(|s| s.image.clone()).collect(),
+        },
+        divergence: shrunk.iter().map(|s| s.divergence.clone()).collect(),
+    };
+    let mut candidates = vec![boxed, films.clone(), sure_shrunk.clone()];
+    for alpha in MIX_WEIGHTS {
+        let mix = |a: &[Vec<f64>], b: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| {
+                    x.iter()
+                        .zip(y)
+                        .map(|(u, v)| alpha * u + (1.0 - alpha) * v)
+                        .collect()
+                })
+                .collect()
+        };
+        candidates.push(GateCandidate {
+            name: format!("{alpha} films + {} sureshrink", 1.0 - alpha),
+            image: PixelImage {
+                plane,
+                channels: mix(&films.image.channels, &sure_shrunk.image.channels),
+            },
+            divergence: mix(&films.divergence, &sure_shrunk.divergence),
+        });
     }
+    let stats = super::PixelStatistics::new(samples);
+    let in_range: Vec<GateCandidate> = candidates[1..]
+        .iter()
+        .map(|c| own_range_candidate(c, &stats))
+        .collect();
+    // relative weights 1 / (x² + eps) from the half-and-half candidate (module docs, 4.)
+    let weight: Vec<Vec<f64>> = candidates[2 + MIX_WEIGHTS.len() / 2 + 1]
+        .image
+        .channels
+        .iter()
+        .map(|ch| ch.iter().map(|x| 1.0 / (x * x + RELATIVE_EPS)).collect())
+        .collect();
+    candidates.extend(in_range);
+    let gated = gate(&candidates, &mean, &variance, Some(&weight), GATE_HALF);
+    let mut image = gated.image;
+    let (range_clamped, largest_clamp) = clamp_to_local_range(
+        &mut image.channels,
+        plane,
+        samples.xs(),
+        samples.ys(),
+        samples.values(),
+    );
     let films = choice
         .counts()
         .into_iter()
         .map(|(film, pixels)| FilmCount { film, pixels })
+        .collect();
+    let lambda = shrunk
+        .iter()
+        .map(|s| median(&mut s.lambdas.clone()))
         .collect();
     Ok((
         image,
         AutoReport {
             films,
             risk: choice.risk,
-            window_risk: choice.window_risk,
+            window_risk: gated.window_risk,
             sigma: noise.sigma.clone(),
             pixels_with_blocks: noise.pixels_with_blocks(),
-            output_noise,
-            threshold,
+            gate: gated.counts,
+            estimated_risk: gated.risk,
+            box_risk: gated.box_risk,
+            lambda,
+            killed: shrunk.iter().map(|s| s.killed_fraction).collect(),
+            range_clamped,
+            largest_clamp,
             shrink: *shrink,
         },
     ))
+}
+
+/// `candidate` projected onto the range of each pixel's own samples: a clamped value moves
+/// with the pixel's samples (shifting every sample of the pixel by `delta` shifts its range by
+/// `delta`), so its divergence is 1; an unclamped one keeps its own.
+fn own_range_candidate(candidate: &GateCandidate, stats: &super::PixelStatistics) -> GateCandidate {
+    let mut out = candidate.clone();
+    out.name = format!("{} in range", candidate.name);
+    for (c, (channel, div)) in out
+        .image
+        .channels
+        .iter_mut()
+        .zip(&mut out.divergence)
+        .enumerate()
+    {
+        for (p, (x, d)) in channel.iter_mut().zip(div.iter_mut()).enumerate() {
+            let y = x.clamp(stats.min[c][p], stats.max[c][p]);
+            if y != *x {
+                *x = y;
+                *d = 1.0;
+            }
+        }
+    }
+    out
 }

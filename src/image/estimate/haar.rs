@@ -61,9 +61,28 @@ fn axis_steps(n: usize, offset: usize) -> Vec<Vec<Merge>> {
     steps
 }
 
+/// The weights of one merge: `(c_a, c_b)`, or their squares `(c_a², c_b²)` for the transform
+/// of variances ([`Haar2d::forward_squared`]).
+#[inline]
+fn weights(ca: f64, cb: f64, squared: bool) -> (f64, f64, f64) {
+    if squared {
+        // s = ca² x_a + cb² x_b, d = cb² x_a + ca² x_b: the sign of d's second weight squares away
+        (ca * ca, cb * cb, 1.0)
+    } else {
+        (ca, cb, -1.0)
+    }
+}
+
 /// One merge step on every row (`lines` rows of `n`): the low half (`lines` rows of the step's
-/// length) and the details (`lines` rows of the number of pairs).
-fn forward_rows(data: &[f64], n: usize, lines: usize, step: &[Merge]) -> (Vec<f64>, Vec<f64>) {
+/// length) and the details (`lines` rows of the number of pairs); with the squared weights
+/// where `squared`.
+fn forward_rows_with(
+    data: &[f64],
+    n: usize,
+    lines: usize,
+    step: &[Merge],
+    squared: bool,
+) -> (Vec<f64>, Vec<f64>) {
     let pairs = step
         .iter()
         .filter(|m| matches!(m, Merge::Pair { .. }))
@@ -76,8 +95,9 @@ fn forward_rows(data: &[f64], n: usize, lines: usize, step: &[Merge]) -> (Vec<f6
         for m in step {
             match *m {
                 Merge::Pair { a, ca, cb } => {
+                    let (ca, cb, sign) = weights(ca, cb, squared);
                     low.push(ca * row[a] + cb * row[a + 1]);
-                    high.push(cb * row[a] - ca * row[a + 1]);
+                    high.push(cb * row[a] + sign * ca * row[a + 1]);
                 }
                 Merge::Single { a } => low.push(row[a]),
             }
@@ -86,8 +106,17 @@ fn forward_rows(data: &[f64], n: usize, lines: usize, step: &[Merge]) -> (Vec<f6
     (low, high)
 }
 
-/// The inverse of [`forward_rows`]: rows of `n` from the low half and the details.
-fn inverse_rows(low: &[f64], high: &[f64], n: usize, lines: usize, step: &[Merge]) -> Vec<f64> {
+/// The inverse of [`forward_rows_with`]: rows of `n` from the low half and the details; with
+/// the squared weights where `squared` (the transpose of the squared forward step, which is
+/// symmetric).
+fn inverse_rows_with(
+    low: &[f64],
+    high: &[f64],
+    n: usize,
+    lines: usize,
+    step: &[Merge],
+    squared: bool,
+) -> Vec<f64> {
     let pairs = high.len() / lines.max(1);
     let mut out = vec![0.0; n * lines];
     for line in 0..lines {
@@ -99,9 +128,10 @@ fn inverse_rows(low: &[f64], high: &[f64], n: usize, lines: usize, step: &[Merge
         for (m, &s) in step.iter().zip(l) {
             match *m {
                 Merge::Pair { a, ca, cb } => {
+                    let (ca, cb, sign) = weights(ca, cb, squared);
                     let d = *h.next().expect("one detail per pair");
                     row[a] = ca * s + cb * d;
-                    row[a + 1] = cb * s - ca * d;
+                    row[a + 1] = cb * s + sign * ca * d;
                 }
                 Merge::Single { a } => row[a] = s,
             }
@@ -186,14 +216,37 @@ impl Haar2d {
 
     /// The coefficients of `image` (`width x height`, row-major).
     pub fn forward(&self, image: &[f64]) -> HaarCoefficients {
+        self.forward_with(image, false)
+    }
+
+    /// The variances of the coefficients of an image of independent pixels with variances
+    /// `variance` (`width x height`, row-major): `Var d_k = sum_P W_{kP}² v_P`, `W` the
+    /// transform's matrix. Each pixel reaches each coefficient along one path of merges (the
+    /// partition is a tree), so `W_{kP}` is the product of the merge weights along it and
+    /// `W_{kP}²` the product of their squares: the same pyramid with `(c_a², c_b²)` in place of
+    /// `(c_a, c_b)` and no sign.
+    pub fn forward_squared(&self, variance: &[f64]) -> HaarCoefficients {
+        self.forward_with(variance, true)
+    }
+
+    /// `sum_k W_{kP}² g_k` for every pixel `P` (`g` per coefficient, in the layout of
+    /// [`Haar2d::forward`]): the transpose of [`Haar2d::forward_squared`]. With `g_k = 1` for
+    /// the coefficients a shrinkage keeps and 0 for those it kills, the derivative
+    /// `d x^_P / d y_P` of the hard-kept / soft-shrunk image at pixel `P` (the divergence SURE
+    /// needs).
+    pub fn inverse_squared(&self, g: &HaarCoefficients) -> Vec<f64> {
+        self.inverse_with(g, true)
+    }
+
+    fn forward_with(&self, image: &[f64], squared: bool) -> HaarCoefficients {
         assert_eq!(image.len(), self.width * self.height, "image size");
         let (mut a, mut nx, mut ny) = (image.to_vec(), self.width, self.height);
         let mut levels = vec![];
         for (sx, sy) in self.x_steps.iter().zip(&self.y_steps) {
-            let (l, h) = forward_rows(&a, nx, ny, sx);
+            let (l, h) = forward_rows_with(&a, nx, ny, sx, squared);
             let (nxl, nxh) = (sx.len(), h.len() / ny);
-            let (llt, lh) = forward_rows(&transpose(&l, nxl, ny), ny, nxl, sy);
-            let (hl, hh) = forward_rows(&transpose(&h, nxh, ny), ny, nxh, sy);
+            let (llt, lh) = forward_rows_with(&transpose(&l, nxl, ny), ny, nxl, sy, squared);
+            let (hl, hh) = forward_rows_with(&transpose(&h, nxh, ny), ny, nxh, sy, squared);
             a = transpose(&llt, sy.len(), nxl);
             (nx, ny) = (nxl, sy.len());
             levels.push(DetailBands { lh, hl, hh });
@@ -206,6 +259,10 @@ impl Haar2d {
 
     /// The image of `coefficients` (the inverse of [`Haar2d::forward`]).
     pub fn inverse(&self, coefficients: &HaarCoefficients) -> Vec<f64> {
+        self.inverse_with(coefficients, false)
+    }
+
+    fn inverse_with(&self, coefficients: &HaarCoefficients, squared: bool) -> Vec<f64> {
         // The approximation sizes per level, finest first.
         let mut sizes = vec![(self.width, self.height)];
         for (sx, sy) in self.x_steps.iter().zip(&self.y_steps) {
@@ -216,10 +273,10 @@ impl Haar2d {
             let ((nx, ny), (nxl, nyl)) = (sizes[j], sizes[j + 1]);
             let (sx, sy) = (&self.x_steps[j], &self.y_steps[j]);
             let nxh = bands.hl.len() / nyl.max(1);
-            let lt = inverse_rows(&transpose(&a, nxl, nyl), &bands.lh, ny, nxl, sy);
-            let ht = inverse_rows(&bands.hl, &bands.hh, ny, nxh, sy);
+            let lt = inverse_rows_with(&transpose(&a, nxl, nyl), &bands.lh, ny, nxl, sy, squared);
+            let ht = inverse_rows_with(&bands.hl, &bands.hh, ny, nxh, sy, squared);
             let (l, h) = (transpose(&lt, ny, nxl), transpose(&ht, ny, nxh));
-            a = inverse_rows(&l, &h, nx, ny, sx);
+            a = inverse_rows_with(&l, &h, nx, ny, sx, squared);
         }
         a
     }

@@ -1,14 +1,15 @@
 //! Noise-aware pixel estimates on the uniform path: what a pixel's
 //! value is, given the samples in it and the noise they carry.
 //!
-//! * [`UniformEstimate::Auto`] (the default): per pixel, the film filter (box, tent, Gaussian,
-//!   Mitchell, Lanczos at their standard radii) of least risk by Stein's unbiased risk estimate
-//!   over the 17 x 17 window around it ([`sure`]), with the noise of each pixel's mean estimated
-//!   from second differences of its stratified samples ([`noise`]); then the result shrunk in
-//!   cycle-spun Haar at the universal threshold of the chosen films' median noise ([`shrink`];
-//!   where the noise is negligible the threshold is too and nothing changes). Where the samples
-//!   do not permit it (a pixel without samples, or fewer than half the pixels with two), the fit
-//!   instead, with the reason in the report.
+//! * [`UniformEstimate::Auto`] (the default): per pixel, the candidate of least estimated
+//!   risk against the box pixels (the per-pixel mean, itself a candidate) by SURE over the
+//!   9 x 9 window ([`gate`]): the film filters chosen by SURE ([`sure`]), heteroscedastic
+//!   SureShrink of the box pixels ([`sureshrink`]), their mixtures and their projections onto
+//!   each pixel's own sample range, with the noise of each pixel's mean from second
+//!   differences of its stratified samples ([`noise`]); then every pixel projected onto the
+//!   range of the samples in its 3 x 3 neighbourhood ([`auto`] states the steps). Where the
+//!   samples do not permit it (a pixel without samples, or fewer than half the pixels with
+//!   two), the fit instead, with the reason in the report.
 //! * [`UniformEstimate::Fit`]: the least-squares fit's box pixels ([`crate::image::reconstruct`]),
 //!   unchanged.
 //! * [`UniformEstimate::FitClamped`]: the fit, each pixel clamped to the range of its own samples
@@ -31,11 +32,13 @@
 pub mod auto;
 pub mod blend;
 pub mod clamp;
+pub mod gate;
 pub mod haar;
 pub mod noise;
 pub mod shrink;
 pub mod statistics;
 pub mod sure;
+pub mod sureshrink;
 
 use std::fmt;
 use std::str::FromStr;
@@ -47,6 +50,7 @@ use thiserror::Error;
 pub use auto::{AutoReport, FilmCount};
 pub use blend::{blend_by_risk, inverse_risk_weight};
 pub use clamp::clamp_to_sample_range;
+pub use gate::GateCount;
 pub use haar::{Haar2d, HaarCoefficients};
 pub use noise::PixelNoise;
 pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
@@ -62,7 +66,8 @@ use super::{ImageSamples, PixelImage};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(into = "String")]
 pub enum UniformEstimate {
-    /// The film filter of least SURE per pixel, then Haar shrinkage at the remaining noise.
+    /// Per pixel the candidate of least SURE against the box (films, SureShrink, mixtures,
+    /// their own-range projections, the box), projected onto the local sample range.
     #[default]
     Auto,
     /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).
@@ -182,9 +187,17 @@ pub struct EstimateReport {
     pub window: Option<usize>,
     /// Estimated risk per pixel of the choice and of each film alone (`auto` only).
     pub risk: Option<FilmRisks>,
-    /// Noise level of the chosen films' pixels per channel, the shrinkage's `sigma` (`auto`
+    /// Pixels per candidate of the risk gate (`auto` only: box, films, SureShrink, their
+    /// mixtures).
+    pub gate: Option<Vec<GateCount>>,
+    /// The output's estimated risk per pixel (SURE against the box, summed over channels,
+    /// averaged over pixels; `auto` only).
+    pub estimated_risk: Option<f64>,
+    /// The box pixels' estimated risk per pixel, `sum_c v_{P,c}` averaged over pixels (`auto`
     /// only).
-    pub output_noise: Option<Vec<f64>>,
+    pub box_risk: Option<f64>,
+    /// The median SureShrink `lambda` per channel (`auto` only).
+    pub lambda: Option<Vec<f64>>,
     /// Pooled noise level `sigma_c` per channel (`None` for `fit`, which does not need it).
     pub noise_level: Option<Vec<f64>>,
     /// Pixels whose noise is estimated (two samples or more; for `auto`, a block of strata),
@@ -194,7 +207,8 @@ pub struct EstimateReport {
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
     pub shrink: Option<ShrinkParams>,
-    /// Values (pixels x channels) the clamp moved (`fit-clamped` only).
+    /// Values (pixels x channels) the clamp moved (`fit-clamped`); for `auto`, the pixels the
+    /// projection onto the range of their 3x3 neighbourhood's samples moved.
     pub clamped_values: Option<usize>,
     /// Pixels without samples, left unclamped (`fit-clamped` only).
     pub unclamped_empty_pixels: Option<usize>,
@@ -223,7 +237,10 @@ pub fn reconstruct_estimated(
         films: None,
         window: None,
         risk: None,
-        output_noise: None,
+        gate: None,
+        estimated_risk: None,
+        box_risk: None,
+        lambda: None,
         noise_level: None,
         pixels_with_spread: None,
         threshold: None,

@@ -231,6 +231,9 @@ pub struct FilmChoice {
     pub films: Vec<FilmFilterKind>,
     /// `Var` of each output pixel per channel (the chosen film's).
     pub variance: Vec<Vec<f64>>,
+    /// `A_P` of each pixel's chosen film: the weight of the pixel's own samples, the
+    /// derivative of the output pixel in the pixel's own mean.
+    pub own_weight: Vec<f64>,
     /// The estimated risk (window-averaged SURE per pixel, summed over channels) of the choice
     /// and of each film alone, per pixel averaged over the image.
     pub risk: FilmRisks,
@@ -294,8 +297,10 @@ pub fn choose_films(
     let channels = samples.channels();
     let mut image = PixelImage::zeros(plane, channels);
     let mut variance = vec![vec![0.0; plane.pixels()]; channels];
+    let mut own_weight = vec![0.0; plane.pixels()];
     for (p, &k) in choice.iter().enumerate() {
         let chosen = &candidates[k];
+        own_weight[p] = chosen.own_weight[p];
         for (c, (out, var)) in image.channels.iter_mut().zip(&mut variance).enumerate() {
             out[p] = chosen.image.channels[c][p];
             var[p] = chosen.variance[c][p];
@@ -321,6 +326,7 @@ pub fn choose_films(
         choice,
         films: films.to_vec(),
         variance,
+        own_weight,
         risk,
         window_risk,
     }

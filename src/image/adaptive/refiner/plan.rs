@@ -78,6 +78,8 @@ pub struct ImagePlan {
     /// state only, kept for [`TreeSolver::Pcg`]: the tree only grows, so they are a point of
     /// the next tree's space with its new functions at 0; a resumed plan starts from 0).
     pub(super) start: Option<Vec<Vec<f64>>>,
+    /// What the low-budget rule did to the base tree (`None`: nothing), for the notes.
+    pub(super) coverage: Option<String>,
 }
 
 impl ImagePlan {
@@ -116,7 +118,7 @@ impl ImagePlan {
         let (cx, cy) = basis.coarse_levels();
         let per_slot = params.tree.rho.ceil() as usize;
         let base_cost = |s: u32| (1usize << (cx + s)) * (1usize << (cy + s)) * per_slot;
-        let s0 = match params.quad.base_level {
+        let mut s0 = match params.quad.base_level {
             Some(level) => {
                 if level <= cx || level > cx + steps {
                     return Err(AdaptiveError::Parameter {
@@ -134,6 +136,44 @@ impl ImagePlan {
                 })
                 .unwrap_or(1),
         };
+        // Low budgets: at one sample a pixel or more the base tree's slots are no larger than
+        // a pixel, so that every pixel holds a sample (issue 38; a base level given by the
+        // user is kept as given).
+        let mut coverage = None;
+        let pixels = w * h;
+        if params.quad.base_level.is_none() && params.stop.budget >= pixels {
+            let covers = |level: u32, size: usize| {
+                let cells = 1usize << level;
+                cells >= size && (cells % size == 0 || cells >= 2 * size)
+            };
+            if let Some(sp) = (1..=steps).find(|&s| covers(cx + s, w) && covers(cy + s, h)) {
+                if sp > s0 {
+                    coverage = Some(if base_cost(sp) <= params.stop.budget {
+                        let note = format!(
+                            "low budget: the base tree raised from level {} to {} (slots no \
+                             larger than a pixel, {} of the {} samples) so that every pixel \
+                             holds a sample",
+                            cx + s0,
+                            cx + sp,
+                            base_cost(sp),
+                            params.stop.budget
+                        );
+                        s0 = sp;
+                        note
+                    } else {
+                        format!(
+                            "low budget: slots no larger than a pixel would cost {} samples \
+                             ({} a slot) and the budget is {}: some pixels may hold no sample \
+                             (raise the budget to {} or lower rho)",
+                            base_cost(sp),
+                            per_slot,
+                            params.stop.budget,
+                            base_cost(sp)
+                        )
+                    });
+                }
+            }
+        }
         if base_cost(s0) > params.stop.budget {
             return Err(AdaptiveError::BudgetTooSmall {
                 budget: params.stop.budget,
@@ -151,6 +191,7 @@ impl ImagePlan {
             progress: PlanProgress::default(),
             state: FitState::default(),
             start: None,
+            coverage,
         })
     }
 
@@ -323,6 +364,7 @@ impl ImagePlan {
     ) -> AdaptiveReport {
         let (cx, cy) = self.tree.basis().coarse_levels();
         let mut notes = fit_notes(&fit.report);
+        notes.extend(self.coverage.clone());
         notes.extend(noise_notes(&rounds, self.params.noise.false_alarm));
         let spread: Vec<String> = rounds
             .iter()

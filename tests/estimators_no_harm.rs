@@ -1,0 +1,322 @@
+//! Do no harm by construction (issue 38): the default uniform pixels (`auto`) against the
+//! per-pixel mean of the same samples on random synthetic textures with and without noise,
+//! their range, the stored Mitsuba renders, and the plan's coverage at low budgets.
+
+use std::path::Path;
+
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use rkwave::image::adaptive::{AdaptiveParams, ImagePlan};
+use rkwave::image::estimate::{
+    reconstruct_estimated, EstimateReport, PixelStatistics, ShrinkParams, UniformEstimate,
+};
+use rkwave::image::{ImagePlane, ImageSamples, Method, PixelImage, WaveletParams};
+use rkwave::io::read_samples;
+
+/// A standard normal deviate (Box–Muller).
+fn normal(rng: &mut Pcg64) -> f64 {
+    let u: f64 = rng.random::<f64>().max(1e-300);
+    let v: f64 = rng.random();
+    (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+}
+
+/// A random texture with analytic pixel integrals: a constant, separable sinusoids
+/// `a sin(kx x + px) sin(ky y + py)` with frequencies up to 3 cycles a pixel (far past
+/// Nyquist) and axis-aligned steps `b 1{x > x0}` / `b 1{y > y0}` (edges inside pixels).
+struct Texture {
+    base: f64,
+    waves: Vec<(f64, f64, f64, f64, f64)>,
+    steps: Vec<(bool, f64, f64)>,
+}
+
+impl Texture {
+    fn random(rng: &mut Pcg64, w: usize) -> Self {
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let waves = (0..rng.random_range(1..4))
+            .map(|_| {
+                let f = |rng: &mut Pcg64| two_pi * rng.random_range(0.01..3.0);
+                (
+                    rng.random_range(0.05..0.3),
+                    f(rng),
+                    rng.random_range(0.0..two_pi),
+                    f(rng),
+                    rng.random_range(0.0..two_pi),
+                )
+            })
+            .collect();
+        let steps = (0..rng.random_range(0..4))
+            .map(|_| {
+                (
+                    rng.random(),
+                    rng.random_range(0.0..w as f64),
+                    rng.random_range(-0.4..0.4),
+                )
+            })
+            .collect();
+        Self {
+            base: rng.random_range(0.3..0.7),
+            waves,
+            steps,
+        }
+    }
+
+    fn value(&self, x: f64, y: f64) -> f64 {
+        let mut v = self.base;
+        for &(a, kx, px, ky, py) in &self.waves {
+            v += a * (kx * x + px).sin() * (ky * y + py).sin();
+        }
+        for &(along_x, at, b) in &self.steps {
+            let t = if along_x { x } else { y };
+            if t > at {
+                v += b;
+            }
+        }
+        v
+    }
+
+    /// The mean over the pixel `[X, X + 1) x [Y, Y + 1)`.
+    fn integral(&self, px: usize, py: usize) -> f64 {
+        let (x0, y0) = (px as f64, py as f64);
+        // int_a^{a+1} sin(k t + p) dt = (cos(k a + p) - cos(k (a + 1) + p)) / k
+        let one = |k: f64, p: f64, a: f64| ((k * a + p).cos() - (k * (a + 1.0) + p).cos()) / k;
+        let mut v = self.base;
+        for &(a, kx, px_, ky, py_) in &self.waves {
+            v += a * one(kx, px_, x0) * one(ky, py_, y0);
+        }
+        for &(along_x, at, b) in &self.steps {
+            let t0 = if along_x { x0 } else { y0 };
+            v += b * (t0 + 1.0 - at).clamp(0.0, 1.0);
+        }
+        v
+    }
+}
+
+/// `g x g` jittered samples a pixel of `texture` plus Gaussian noise `sigma`, three channels
+/// (the texture scaled by 1, 0.5 and 2: a dynamic range), and the pixel integrals.
+fn textured(w: usize, h: usize, g: usize, sigma: f64, seed: u64) -> (ImageSamples, Vec<Vec<f64>>) {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let tex = Texture::random(&mut rng, w);
+    let scale = [1.0, 0.5, 2.0];
+    let (mut xs, mut ys) = (vec![], vec![]);
+    let mut values = vec![vec![]; 3];
+    for py in 0..h {
+        for px in 0..w {
+            for j in 0..g {
+                for i in 0..g {
+                    let x = px as f64 + (i as f64 + rng.random::<f64>()) / g as f64;
+                    let y = py as f64 + (j as f64 + rng.random::<f64>()) / g as f64;
+                    let f = tex.value(x, y);
+                    for (c, v) in values.iter_mut().enumerate() {
+                        v.push(scale[c] * (f + sigma * normal(&mut rng)));
+                    }
+                    xs.push(x);
+                    ys.push(y);
+                }
+            }
+        }
+    }
+    let truth = scale
+        .iter()
+        .map(|s| (0..w * h).map(|p| s * tex.integral(p % w, p / w)).collect())
+        .collect();
+    let plane = ImagePlane::new(w, h).unwrap();
+    (ImageSamples::new(plane, xs, ys, values).unwrap(), truth)
+}
+
+fn auto(samples: &ImageSamples) -> (PixelImage, EstimateReport) {
+    let (r, report) = reconstruct_estimated(
+        UniformEstimate::Auto,
+        Method::Wavelet,
+        samples,
+        &WaveletParams::default(),
+        &ShrinkParams::default(),
+    )
+    .unwrap();
+    assert_eq!(report.estimate, UniformEstimate::Auto, "no fallback");
+    (r.image, report)
+}
+
+/// Squared error summed over pixels and channels.
+fn sse(image: &[Vec<f64>], truth: &[Vec<f64>]) -> f64 {
+    image
+        .iter()
+        .zip(truth)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)))
+        .sum()
+}
+
+/// On random textures past Nyquist with edges, with and without noise, at 4 and 16 samples a
+/// pixel: the error of `auto` against the pixel integrals is at most the box's estimated risk
+/// (`sum_P sum_c v_{P,c}`, the report's `box_risk` times the pixels) times 1.1, and at most the
+/// box's actual error times 1.1.
+///
+/// Tolerance 10 %: the gate compares SUREs over 81-pixel windows, which estimate the risk with
+/// a relative error of the order of `sqrt(2 / 81) = 16 %` per window before averaging over the
+/// image's windows, and picks the least of 11 candidates there (an optimism of the same order
+/// per window); over 48 x 48 = 2304 pixels (28 disjoint windows) what is left is a few
+/// percent, and the box's own error fluctuates by `sqrt(2 / 6912) = 1.7 %` around its risk.
+/// The noise-free cases (sigma = 0: only the jitter's variance, texture inside the pixels)
+/// are the ones that catch a noise level taken from textured pixels.
+#[test]
+fn auto_never_exceeds_the_box_risk_on_random_textures() {
+    let (w, h) = (48, 48);
+    let mut worst: f64 = 0.0;
+    for seed in 0..16u64 {
+        let g = if seed % 2 == 0 { 2 } else { 4 };
+        let sigma = [0.0, 0.02, 0.1, 0.3][(seed / 2 % 4) as usize];
+        let (samples, truth) = textured(w, h, g, sigma, 1000 + seed);
+        let (image, report) = auto(&samples);
+        let stats = PixelStatistics::new(&samples);
+        let err_auto = sse(&image.channels, &truth);
+        let err_box = sse(&stats.mean, &truth);
+        let box_risk = report.box_risk.unwrap() * (w * h) as f64;
+        worst = worst.max(err_auto / err_box);
+        assert!(
+            err_auto <= 1.1 * box_risk && err_auto <= 1.1 * err_box,
+            "seed {seed} (g {g}, sigma {sigma}): auto {err_auto:.4e}, box {err_box:.4e}, box's \
+             estimated risk {box_risk:.4e}"
+        );
+    }
+    eprintln!("worst ratio of auto's error to the box's: {worst:.3}");
+}
+
+/// On the stored Mitsuba renders (64², 4 spp), `auto` is at least the per-pixel mean of the
+/// same samples less 0.1 dB (PSNR of the clipped images), and its relMSE (eps 0.01) at most
+/// the mean's times 1.02 — the targets of issue 38 (the 2 % on relMSE: the reference's own
+/// noise at 1024 spp, about 1/256 of a 4 spp pixel's variance, and round-off of the ratio).
+/// `direct` has no Monte Carlo noise: only texture and edges inside the pixels.
+#[test]
+fn auto_is_not_below_the_mean_on_the_stored_renders() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/renders");
+    for scene in ["direct", "cornell", "thinlens"] {
+        let set = read_samples(dir.join(format!("{scene}-64x64-4spp-samples.npy"))).unwrap();
+        let reference = read_samples(dir.join(format!("{scene}-64x64-reference.npy"))).unwrap();
+        let plane = ImagePlane::new(64, 64).unwrap();
+        let s = ImageSamples::new(
+            plane,
+            set.positions.clone(),
+            set.values[0].clone(),
+            set.values[1..].to_vec(),
+        )
+        .unwrap();
+        let refs = &reference.values[1..];
+        let (image, _) = auto(&s);
+        let mean = PixelStatistics::new(&s).mean;
+        let psnr = |img: &[Vec<f64>]| {
+            let clip = |v: &[Vec<f64>]| -> Vec<Vec<f64>> {
+                v.iter()
+                    .map(|c| c.iter().map(|x| x.clamp(0.0, 1.0)).collect())
+                    .collect()
+            };
+            let n = (3 * 64 * 64) as f64;
+            10.0 * (n / sse(&clip(img), &clip(refs))).log10()
+        };
+        let relmse = |img: &[Vec<f64>]| -> f64 {
+            img.iter()
+                .zip(refs)
+                .flat_map(|(a, b)| {
+                    a.iter()
+                        .zip(b)
+                        .map(|(x, r)| (x - r).powi(2) / (r * r + 0.01))
+                })
+                .sum::<f64>()
+                / (3 * 64 * 64) as f64
+        };
+        let (pa, pm) = (psnr(&image.channels), psnr(&mean));
+        let (ra, rm) = (relmse(&image.channels), relmse(&mean));
+        assert!(pa >= pm - 0.1, "{scene}: auto {pa:.2} dB, mean {pm:.2} dB");
+        assert!(
+            ra <= 1.02 * rm,
+            "{scene}: auto relMSE {ra:.4e}, mean {rm:.4e}"
+        );
+    }
+}
+
+/// Random HDR samples (a few values up to 1e4 beside values near 0, the emitter's ring), at 2
+/// to 5 samples a pixel on small odd planes.
+fn hdr_samples() -> impl Strategy<Value = ImageSamples> {
+    (3usize..12, 3usize..12, 2usize..6, any::<u64>()).prop_map(|(w, h, n, seed)| {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let (mut xs, mut ys, mut vs) = (vec![], vec![], vec![vec![]; 2]);
+        for py in 0..h {
+            for px in 0..w {
+                for _ in 0..n {
+                    xs.push(px as f64 + rng.random::<f64>());
+                    ys.push(py as f64 + rng.random::<f64>());
+                    for v in vs.iter_mut() {
+                        let x: f64 = if rng.random::<f64>() < 0.05 {
+                            rng.random_range(10.0..1e4)
+                        } else {
+                            rng.random_range(0.0..1.0)
+                        };
+                        v.push(x);
+                    }
+                }
+            }
+        }
+        ImageSamples::new(ImagePlane::new(w, h).unwrap(), xs, ys, vs).unwrap()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Range: every `auto` pixel lies in the range of the samples in its 3x3 neighbourhood,
+    /// the samples that shaped it at the finest scale (no negative radiance, no overshoot
+    /// beside an emitter), exactly: the last step is that projection.
+    #[test]
+    fn auto_pixels_lie_in_their_neighbourhoods_sample_range(samples in hdr_samples()) {
+        let (image, report) = auto(&samples);
+        prop_assert!(report.description.contains("projected onto the range"));
+        let plane = samples.plane();
+        let (w, h) = (plane.width(), plane.height());
+        let stats = PixelStatistics::new(&samples);
+        for c in 0..samples.channels() {
+            for py in 0..h {
+                for px in 0..w {
+                    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                    for qy in py.saturating_sub(1)..(py + 2).min(h) {
+                        for qx in px.saturating_sub(1)..(px + 2).min(w) {
+                            lo = lo.min(stats.min[c][qy * w + qx]);
+                            hi = hi.max(stats.max[c][qy * w + qx]);
+                        }
+                    }
+                    let v = image.channels[c][py * w + px];
+                    prop_assert!(lo <= v && v <= hi, "({px}, {py}) c {c}: {v} not in [{lo}, {hi}]");
+                }
+            }
+        }
+    }
+}
+
+/// Low budgets: a plan of 2, 4 or 8 samples a pixel on power-of-two planes places a base
+/// sample in every pixel, within the budget. (Planes whose side is not a power of two are not
+/// covered yet: their cells do not align with the pixels, and cells of half a pixel cost four
+/// times the samples; 64 x 48 at 4 spp leaves 1138 pixels without a base sample. Stated in
+/// docs/measurements/estimators.md as a gap.) (Between 1 and `ceil(rho) = 2` samples a
+/// pixel, slots of a pixel cannot each hold their `ceil(rho)` samples; the plan says so in its
+/// notes and keeps the coarser base.)
+#[test]
+fn the_plan_leaves_no_pixel_unsampled_at_one_sample_a_pixel_or_more() {
+    for (w, h) in [(128, 128), (64, 64), (256, 128)] {
+        for spp in [2usize, 4, 8] {
+            let plane = ImagePlane::new(w, h).unwrap();
+            let mut params = AdaptiveParams::default();
+            params.stop.budget = spp * w * h;
+            let plan = ImagePlan::new(plane, &params).unwrap();
+            let base = plan.base_positions();
+            let mut hit = vec![false; w * h];
+            for (&x, &y) in base.xs.iter().zip(&base.ys) {
+                let (px, py) = plane.pixel_of(x, y);
+                hit[py * w + px] = true;
+            }
+            let empty = hit.iter().filter(|&&b| !b).count();
+            assert_eq!(
+                empty, 0,
+                "{w}x{h} at {spp} spp: {empty} pixels without a base sample"
+            );
+            assert!(base.xs.len() <= params.stop.budget);
+        }
+    }
+}
