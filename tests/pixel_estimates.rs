@@ -285,7 +285,11 @@ fn empty_pixels_and_single_samples_are_refused_with_the_way_out() {
         ),
         "{err}"
     );
-    assert!(err.to_string().contains("--pixels fit"));
+    // The library names the parameter, not the command line's flag (the front ends spell it).
+    assert!(
+        err.to_string().contains("set ImageParams::pixels to `fit`"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -440,23 +440,6 @@ impl ImageError {
 
 crate::error::classified!(ImageError);
 
-// EstimateError is defined in `estimate/`, which another session is changing: its kind
-// sits here, in the parent module, until it can move beside the enum.
-impl estimate::EstimateError {
-    /// The kind of this error ([`crate::error`]): a failed fit keeps its own; pixels without
-    /// the samples an estimate needs are undetermined.
-    pub fn kind(&self) -> crate::error::ErrorKind {
-        match self {
-            estimate::EstimateError::Wavelet(e) => e.kind(),
-            estimate::EstimateError::EmptyPixels { .. } | estimate::EstimateError::NoSpread => {
-                crate::error::ErrorKind::Undetermined
-            }
-        }
-    }
-}
-
-crate::error::classified!(estimate::EstimateError);
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -57,6 +57,8 @@ pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
 pub use statistics::PixelStatistics;
 pub use sure::{choose_films, FilmChoice, FilmRisks};
 
+use crate::error::{ErrorKind, Fix, Param};
+
 use super::method::{reconstruct, ImageReconstruction, Method, StageTimes};
 use super::wavelet::{WaveletError, WaveletParams};
 use super::{ImageSamples, PixelImage};
@@ -151,7 +153,8 @@ pub enum EstimateError {
     /// The estimate needs samples in every pixel.
     #[error(
         "pixel estimate `{estimate}` needs samples in every pixel, and {count} pixels have none \
-         (the first at ({x}, {y})): render at least one sample per pixel or use --pixels fit"
+         (the first at ({x}, {y})): render at least one sample per pixel or set {pixels} to `fit`",
+        pixels = Fix::Set(Param::Pixels)
     )]
     EmptyPixels {
         /// The estimate asked for.
@@ -166,11 +169,25 @@ pub enum EstimateError {
     /// No pixel has two samples, so the noise level is unknown.
     #[error(
         "pixel estimate `shrunk` takes the noise level from the spread of the samples within a \
-         pixel, and no pixel has two samples: render at least 2 samples per pixel or use \
-         --pixels box"
+         pixel, and no pixel has two samples: render at least 2 samples per pixel or set \
+         {pixels} to `box`",
+        pixels = Fix::Set(Param::Pixels)
     )]
     NoSpread,
 }
+
+impl EstimateError {
+    /// The kind of this error ([`crate::error`]): a failed fit keeps its own; pixels without
+    /// the samples an estimate needs are undetermined.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            EstimateError::Wavelet(e) => e.kind(),
+            EstimateError::EmptyPixels { .. } | EstimateError::NoSpread => ErrorKind::Undetermined,
+        }
+    }
+}
+
+crate::error::classified!(EstimateError);
 
 /// What a pixel estimate did: the noise level and the thresholds used, the clamped values.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -282,8 +299,9 @@ pub fn reconstruct_estimated(
         report.description = "pixels: the least-squares fit's box pixels, unchanged".into();
         if let Some(reason) = &report.fallback {
             report.description = format!(
-                "pixels: the least-squares fit's box pixels (--pixels auto fell back to fit: \
-                 {reason})"
+                "pixels: the least-squares fit's box pixels ({auto} fell back to fit: \
+                 {reason})",
+                auto = Fix::PixelsAuto
             );
             done.notes.push(report.description.clone());
         }
