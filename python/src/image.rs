@@ -121,8 +121,9 @@ fn sizes(xy: &Bound<'_, PyAny>, values: &Bound<'_, PyAny>) -> Option<(usize, usi
 /// box-integrated over each pixel), `"local"` (its local inversion), or a film filter;
 /// `filter="gaussian"` (or `box`, `triangle`, `mitchell`, `lanczos`) splats the same samples
 /// through that film filter for comparison. `pixels` is the pixel estimate of the wavelet
-/// path, as the command line's `--pixels`: `"auto"` (the film of least SURE per pixel, then
-/// Haar shrinkage; falls back to the fit, with a warning, where a pixel has no sample or
+/// path, as the command line's `--pixels`: `"auto"` (per pixel the candidate of least estimated
+/// risk against the mean of its samples: the mean, the films by SURE, shrinkage of the pixel
+/// means, mixtures; every pixel within the range of the samples around it; falls back to the fit, with a warning, where a pixel has no sample or
 /// most have one), `"fit"`, `"fit-clamped"`, `"box"` or `"shrunk"`; by default `"auto"`,
 /// or `"fit"` (with a warning) when `p`, `rho`, `ridge`, `smoothing` or `method="local"` is
 /// given, as on the command line. `rho` (samples per tensor function, default 4), `ridge`

@@ -60,9 +60,11 @@ pub struct ReconstructArgs {
     /// of the samples in the pixel's 3x3 neighbourhood (the plan's `pixels` parameter).
     #[arg(long)]
     pub no_residual: bool,
-    /// With `--dim 2` (no `--state`): the pixel estimate. `auto` (default) the film filter
-    /// (box, tent, Gaussian, Mitchell, Lanczos) of least SURE per pixel at the samples' own
-    /// noise, then Haar shrinkage of what noise is left (falls back to `fit`, with a note,
+    /// With `--dim 2` (no `--state`): the pixel estimate. `auto` (default) per pixel the
+    /// candidate of least estimated risk against the mean of the pixel's samples (the mean,
+    /// the films by SURE, shrinkage of the pixel means at their own noise, mixtures, their
+    /// projections onto the samples' range), every pixel within the range of the samples
+    /// around it (falls back to `fit`, with a note,
     /// when a pixel has no sample or most have one; the default is `fit` when a flag only the
     /// fit reads is given: --p, --family, --method, --levels, --rho, --ridge, --smoothing);
     /// `fit` the least-squares fit's box pixels; `fit-clamped` the fit clamped to the range of each pixel's samples;
