@@ -1,8 +1,6 @@
 //! `--pixels auto`: the noise of a pixel's mean from second differences of stratified samples,
 //! SURE of a linear film against its true risk, the stored Mitsuba renders, the fallbacks.
 
-use std::path::Path;
-
 mod common;
 use common::{psnr, succeeds};
 
@@ -13,7 +11,6 @@ use rkwave::image::estimate::{reconstruct_estimated, PixelNoise, ShrinkParams, U
 use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::splat::{splat, PixelBins};
 use rkwave::image::{ImagePlane, ImageSamples, Method, WaveletParams};
-use rkwave::io::read_samples;
 
 /// A standard normal deviate (Box–Muller).
 fn normal(rng: &mut Pcg64) -> f64 {
@@ -174,19 +171,9 @@ fn candidates_are_the_splat() {
 /// box: `docs/measurements/real-renders.md`, "`--pixels auto`").
 #[test]
 fn auto_against_single_films_on_real_renders() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/renders");
-    for scene in ["direct", "cornell", "thinlens"] {
-        let set = read_samples(dir.join(format!("{scene}-64x64-4spp-samples.npy"))).unwrap();
-        let reference = read_samples(dir.join(format!("{scene}-64x64-reference.npy"))).unwrap();
-        let plane = ImagePlane::new(64, 64).unwrap();
-        let s = ImageSamples::new(
-            plane,
-            set.positions.clone(),
-            set.values[0].clone(),
-            set.values[1..].to_vec(),
-        )
-        .unwrap();
-        let refs = &reference.values[1..];
+    for scene in common::stored::STORED_SCENES {
+        let (s, refs) = common::stored::stored_render(scene);
+        let refs = &refs;
         let (auto, report) = reconstruct_estimated(
             UniformEstimate::Auto,
             Method::Wavelet,

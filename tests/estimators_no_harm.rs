@@ -2,7 +2,7 @@
 //! per-pixel mean of the same samples on random synthetic textures with and without noise,
 //! their range, the stored Mitsuba renders, and the plan's coverage at low budgets.
 
-use std::path::Path;
+mod common;
 
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -12,7 +12,6 @@ use rkwave::image::estimate::{
     reconstruct_estimated, EstimateReport, PixelStatistics, ShrinkParams, UniformEstimate,
 };
 use rkwave::image::{ImagePlane, ImageSamples, Method, PixelImage, WaveletParams};
-use rkwave::io::read_samples;
 
 /// A standard normal deviate (Box–Muller).
 fn normal(rng: &mut Pcg64) -> f64 {
@@ -188,41 +187,13 @@ fn auto_never_exceeds_the_box_risk_on_random_textures() {
 /// `direct` has no Monte Carlo noise: only texture and edges inside the pixels.
 #[test]
 fn auto_is_not_below_the_mean_on_the_stored_renders() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/renders");
-    for scene in ["direct", "cornell", "thinlens"] {
-        let set = read_samples(dir.join(format!("{scene}-64x64-4spp-samples.npy"))).unwrap();
-        let reference = read_samples(dir.join(format!("{scene}-64x64-reference.npy"))).unwrap();
-        let plane = ImagePlane::new(64, 64).unwrap();
-        let s = ImageSamples::new(
-            plane,
-            set.positions.clone(),
-            set.values[0].clone(),
-            set.values[1..].to_vec(),
-        )
-        .unwrap();
-        let refs = &reference.values[1..];
+    for scene in common::stored::STORED_SCENES {
+        let (s, refs) = common::stored::stored_render(scene);
+        let refs = &refs;
         let (image, _) = auto(&s);
         let mean = PixelStatistics::new(&s).mean;
-        let psnr = |img: &[Vec<f64>]| {
-            let clip = |v: &[Vec<f64>]| -> Vec<Vec<f64>> {
-                v.iter()
-                    .map(|c| c.iter().map(|x| x.clamp(0.0, 1.0)).collect())
-                    .collect()
-            };
-            let n = (3 * 64 * 64) as f64;
-            10.0 * (n / sse(&clip(img), &clip(refs))).log10()
-        };
-        let relmse = |img: &[Vec<f64>]| -> f64 {
-            img.iter()
-                .zip(refs)
-                .flat_map(|(a, b)| {
-                    a.iter()
-                        .zip(b)
-                        .map(|(x, r)| (x - r).powi(2) / (r * r + 0.01))
-                })
-                .sum::<f64>()
-                / (3 * 64 * 64) as f64
-        };
+        let psnr = |img: &[Vec<f64>]| common::metrics::psnr(img, refs);
+        let relmse = |img: &[Vec<f64>]| common::metrics::relmse(img, refs);
         let (pa, pm) = (psnr(&image.channels), psnr(&mean));
         let (ra, rm) = (relmse(&image.channels), relmse(&mean));
         assert!(pa >= pm - 0.1, "{scene}: auto {pa:.2} dB, mean {pm:.2} dB");

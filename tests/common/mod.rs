@@ -24,6 +24,7 @@ pub mod oracle;
 pub mod rendered;
 pub mod runner;
 pub mod scenes;
+pub mod stored;
 pub mod trees;
 
 pub use metrics::psnr;
