@@ -116,13 +116,17 @@ impl AutoReport {
             .map(|g| format!("{} {}", g.candidate, g.pixels))
             .collect::<Vec<_>>()
             .join(", ");
-        let gain = if self.box_risk > 0.0 {
+        // SURE is unbiased but not positive: where the output's estimated risk is at or below
+        // 0 (its own noise exceeds the risk left), a ratio in dB would be meaningless.
+        let gain = if self.box_risk <= 0.0 {
+            "none (no noise)".into()
+        } else if self.estimated_risk <= 0.0 {
+            "not resolved: the estimated risk is not above 0, within SURE's own noise".into()
+        } else {
             format!(
                 "{:.2} dB",
-                10.0 * (self.box_risk / self.estimated_risk.max(1e-300)).log10()
+                10.0 * (self.box_risk / self.estimated_risk).log10()
             )
-        } else {
-            "none (no noise)".into()
         };
         format!(
             "pixels: auto, per pixel the candidate of least SURE against the box over the \
