@@ -49,6 +49,8 @@ fn tiled_matches_untiled_and_ignores_the_worker_count() {
     let json: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(json["tiled"]["tiles"].as_array().unwrap().len(), 12);
     assert_eq!(json["tiled"]["halo"], 12);
+    // Every tile is solved exactly, whatever the untiled fit would choose (tests/tiles_nyquist.rs).
+    assert_eq!(json["tiled"]["solver"], "Cholesky");
     let n = 64 * 48 * 2;
     let (u, a, b) = (pixels(&untiled, n), pixels(&one, n), pixels(&three, n));
     assert_eq!(a, b, "the worker count changed the image");

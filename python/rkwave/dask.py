@@ -10,12 +10,14 @@
     so a rerun gives the same bits).
 
 ``reconstruct_image_tiles(sample_paths, resolution, tile, halo, output, client=None)``
-    One task per tile reads the samples of its window from the ``.npy`` files
-    (``x, y, c1..`` in pixel units, memory-mapped; files whose rows lie outside the window's
-    band are skipped) and fits the tile (``rkwave.fit_tile``); the client assembles the
-    interiors and writes the ``(H, W, C)`` image through a temporary file and a rename. The
-    image is that of ``rkwave reconstruct --dim 2 --tile T --halo H`` on the concatenated
-    files, bit for bit.
+    One task per band of tile rows (as the one-process tiled fit takes its samples: band
+    ``ty`` is the tile row ``ty`` with its halo, the rows ``[ty T - H_a, (ty + 1) T + H_a]``)
+    reads the samples of the band from the ``.npy`` files once (``x, y, c1..`` in pixel
+    units, memory-mapped; files whose rows lie outside the band are skipped), gives each
+    tile of the row the samples of its window in file order and fits it
+    (``rkwave.fit_tile``); the client assembles the bands' interiors and writes the
+    ``(H, W, C)`` image through a temporary file and a rename. The image is that of
+    ``rkwave reconstruct --dim 2 --tile T --halo H`` on the concatenated files, bit for bit.
 
 Every task is a pure function of its inputs, so a lost worker costs a re-run of its tasks
 (``retries``) and the same result. The inputs are checked on the client before any task is
@@ -271,17 +273,70 @@ def _window_rows(paths, bands, window):
     return np.concatenate(parts)
 
 
-def _tile_task(paths, bands, columns, geometry, tile, total, p, rho, ridge, before_tile):
-    """Task: the interior pixels of one tile, ``(tile, pixels (h, w, C))``."""
-    if before_tile is not None:
-        before_tile(tile)
-    rows = _window_rows(paths, bands, geometry.window(tile))
+#: glibc's ``mallopt`` parameters (malloc.h): ``M_TRIM_THRESHOLD``, ``M_MMAP_THRESHOLD``.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+
+#: Whether this process's heap keeps freed memory (:func:`_keep_heap`): None until tried.
+_HEAP_KEPT = None
+
+
+def _keep_heap():
+    """Makes glibc's allocator in this (worker) process keep freed memory, as the command line
+    does (``mallopt`` in src/main.rs): blocks up to 32 MiB come from the heap, not a fresh
+    ``mmap``, and the heap is never trimmed. Each tile's fit allocates and frees its normal
+    matrix and factor (megabytes); with glibc's defaults every one of them is a new mapping
+    whose pages fault in again, which made the tiles' fits 15 to 30 % slower in a Dask worker
+    than in the command line (docs/measurements/scale-out.md). Once per process; returns
+    whether it took (False off glibc: nothing is changed). The worker then keeps the memory
+    of its largest tile fit until it exits."""
+    global _HEAP_KEPT
+    if _HEAP_KEPT is None:
+        _HEAP_KEPT = False
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL("libc.so.6")
+            # mallopt returns 1 on success; both must take.
+            _HEAP_KEPT = bool(
+                libc.mallopt(_M_MMAP_THRESHOLD, 32 << 20)
+                and libc.mallopt(_M_TRIM_THRESHOLD, 2**31 - 1)
+            )
+        except (OSError, AttributeError):
+            _HEAP_KEPT = False
+    return _HEAP_KEPT
+
+
+def _band_task(
+    paths, bands, columns, geometry, band, total, p, rho, ridge, before_tile, keep_heap
+):
+    """Task: the interior pixels of band ``band`` (tile row ``ty``), ``(band, strip (h, W, C),
+    reports)``. The band's window rows (``[ty T - H_a, (ty + 1) T + H_a]``, clipped) are read
+    once from the files they meet; each tile of the band takes the rows of its window
+    (``x0 <= x <= x1``) from them, in file order, and is fitted (``rkwave.fit_tile``) in turn."""
+    heap_kept = _keep_heap() if keep_heap else False
+    nx, _ = geometry.grid
+    w, _ = geometry.resolution
+    first = band * nx
+    _, _, wy0, wy1 = geometry.window(first)
+    _, _, iy0, iy1 = geometry.interior(first)
+    rows = _window_rows(paths, bands, (0, w, wy0, wy1))
     if rows is None:
         rows = np.empty((0, columns))
-    pixels, report = _rkwave.fit_tile(
-        rows[:, :2], rows[:, 2:], geometry, tile, total, p, rho=rho, ridge=ridge
-    )
-    return tile, pixels, report
+    x = rows[:, 0]
+    strip = np.empty((iy1 - iy0, w, columns - 2))
+    reports = []
+    for tile in range(first, first + nx):
+        if before_tile is not None:
+            before_tile(tile)
+        x0, x1, _, _ = geometry.window(tile)
+        mine = rows[(x >= x0) & (x <= x1)]
+        pixels, report = _rkwave.fit_tile(
+            mine[:, :2], mine[:, 2:], geometry, tile, total, p, rho=rho, ridge=ridge
+        )
+        ix0, ix1, _, _ = geometry.interior(tile)
+        strip[:, ix0:ix1, :] = pixels
+        reports.append(report)
+    return band, strip, reports, heap_kept
 
 
 def _check_image_file(path, resolution):
@@ -334,12 +389,15 @@ def reconstruct_image_tiles(
     force=False,
     retries=3,
     before_tile=None,
+    keep_heap=True,
 ):
-    """The tiled image-plane fit with one Dask task per tile; returns ``(image, report)``.
+    """The tiled image-plane fit with one Dask task per band of tile rows; returns
+    ``(image, report)``.
 
     ``sample_paths`` lists ``.npy`` files of samples ``x, y, c1..`` (3 to 6 columns, pixel
     units, float64 or float32) on storage every worker reads: one file per chunk, or per
-    band of tile rows (a tile then opens only the files of its band). ``resolution=(W, H)``,
+    band of tile rows (a band's task then opens only the files its rows meet: its own and
+    its neighbours'). ``resolution=(W, H)``,
     ``tile`` and ``halo`` (at most ``tile``) set the grid (``rkwave.TileGeometry``); ``p``,
     ``rho`` and ``ridge`` the fit (as ``rkwave reconstruct --dim 2``). The image ``(H, W, C)``
     is returned and, with ``output`` (a ``.npy`` path), written through a temporary file in
@@ -349,7 +407,14 @@ def reconstruct_image_tiles(
     Checked on the client before any task: the files (present, 2-D float arrays of 3 to 6
     columns), the grid, every position inside the image and every value finite. ``client``:
     as :func:`fit_chunks`. ``before_tile(tile)``, if given, runs at the start of each tile's
-    task (a hook for progress or fault injection); it must be picklable.
+    fit in its band's task (a hook for progress or fault injection); it must be picklable. A
+    failed band's task is rerun whole (``retries``), with the same result.
+
+    ``keep_heap`` (default True): each worker process's glibc allocator is set to keep freed
+    memory, as the command line's is (blocks up to 32 MiB from the heap, never trimmed): the
+    tiles' fits are then as fast as the command line's; the worker keeps the memory of its
+    largest tile fit until it exits. The report's ``notes`` say whether it took on every band
+    (``heap_kept`` per band); ``keep_heap=False`` leaves the workers' allocators alone.
     """
     client = _client(client)
     geometry = rkwave.TileGeometry(tuple(resolution), tile, halo)
@@ -387,19 +452,22 @@ def reconstruct_image_tiles(
         np.empty((0, 2)), np.empty((0, columns - 2)), geometry, 0, total, p, rho=rho,
         ridge=ridge,
     )
-    task = dask.delayed(_tile_task, pure=True)
+    task = dask.delayed(_band_task, pure=True)
+    nx, ny = geometry.grid
     tasks = [
-        task(paths, bands, columns, geometry, t, total, p, rho, ridge, before_tile)
-        for t in range(geometry.count)
+        task(paths, bands, columns, geometry, band, total, p, rho, ridge, before_tile, keep_heap)
+        for band in range(ny)
     ]
     results = _compute(tasks, client, retries)
     w, h = geometry.resolution
     image = np.zeros((h, w, columns - 2))
     reports = []
-    for t, pixels, report in results:
-        x0, x1, y0, y1 = geometry.interior(t)
-        image[y0:y1, x0:x1, :] = pixels
-        reports.append(report)
+    heap_kept = []
+    for band, strip, band_reports, kept in results:
+        _, _, y0, y1 = geometry.interior(band * nx)
+        image[y0:y1, :, :] = strip
+        reports.extend(band_reports)
+        heap_kept.append(kept)
     if output is not None:
         _write_atomic(output, image)
     report = {
@@ -410,7 +478,9 @@ def reconstruct_image_tiles(
         "samples": total,
         "channels": columns - 2,
         "files": len(paths),
+        "tasks": ny,
         "tiles": reports,
+        "heap_kept": heap_kept,
         "notes": [
             f"tile {r['tile']} (pixels {r['interior']}): {r['unsampled']} functions without "
             f"samples pinned to 0, {r['replaced_pivots']} Cholesky pivots replaced"
@@ -418,6 +488,18 @@ def reconstruct_image_tiles(
             if r["unsampled"] > 0 or r["replaced_pivots"] > 0
         ],
     }
+    if keep_heap:
+        kept = sum(heap_kept)
+        report["notes"].append(
+            f"worker heap: freed memory kept by the allocator (as the command line does) in the "
+            f"tasks of {kept} of {ny} bands"
+            + ("" if kept == ny else " (the others' workers are not on glibc: left alone)")
+        )
+    else:
+        report["notes"].append(
+            "worker heap: left alone (keep_heap=False): each tile's factor is a fresh mapping, "
+            "which made the fits 15 to 30 % slower than the command line's"
+        )
     return image, report
 
 

@@ -6,6 +6,7 @@ whether Dask is installed or not; the cluster tests are skipped without Dask."""
 
 import os
 import pickle
+import platform
 import subprocess
 import sys
 import textwrap
@@ -109,7 +110,27 @@ def test_tiles_on_the_cluster_are_the_cli_tiled_image_bit_for_bit(
     assert np.array_equal(image, cli_image)
     assert np.array_equal(np.load(out), cli_image)
     assert report["samples"] == 4 * W * H and len(report["tiles"]) == 9
+    # One task per band of tile rows (3 x 3 tiles: 3 bands), every tile reported in order.
+    assert report["tasks"] == 3
+    assert [r["tile"] for r in report["tiles"]] == list(range(9))
     assert os.listdir(tmp_path) == ["image.npy"]
+
+
+def test_the_workers_heap_setting_is_said_and_leaves_the_bits_alone(
+    rd, client, image_files, cli_image
+):
+    """keep_heap (the allocator keeps freed memory, as the command line's) changes speed
+    only: the same bits with it and without, and the notes say which was done."""
+    _, paths = image_files
+    kept, r1 = rd.reconstruct_image_tiles(paths, (W, H), TILE, HALO, client=client)
+    alone, r2 = rd.reconstruct_image_tiles(
+        paths, (W, H), TILE, HALO, client=client, keep_heap=False
+    )
+    assert np.array_equal(kept, cli_image) and np.array_equal(alone, cli_image)
+    if platform.libc_ver()[0] == "glibc":
+        assert r1["heap_kept"] == [True, True, True]
+    assert any(n.startswith("worker heap: freed memory kept") for n in r1["notes"])
+    assert any(n.startswith("worker heap: left alone") for n in r2["notes"])
 
 
 def test_files_per_band_of_tile_rows_give_the_same_image(rd, client, image_files, tmp_path):

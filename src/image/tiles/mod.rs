@@ -20,7 +20,10 @@
 //! pixels `I = B_y Z_t B_x^T` of its interior. Functions near the window's edge are only
 //! partly sampled; their error, like the local inversion's, decays away from the edge, so the
 //! interior's difference to the untiled fit falls with the halo; a window that covers the
-//! whole image is the untiled fit (up to summation order).
+//! whole image is the untiled fit (up to summation order). Every tile is solved by the sparse
+//! Cholesky, so "the untiled fit" here is its exact solution: the untiled default's CG
+//! iterate (relative residual `1e-6`) differs from it by up to `cond(G) 1e-6`, which near
+//! Nyquist is `1e-4` to `1e-2` of the value range, for every halo ([`TiledReport::solver`]).
 //!
 //! **Purity.** [`fit_tile`] reads nothing but its arguments and sums samples in the order
 //! given, on the calling thread: the same samples give the same bits whatever the worker
