@@ -2,10 +2,11 @@
 //! pixels `m_P` (the mean of the pixel's own samples), the box itself among the candidates, so
 //! no pixel takes a step its risk estimate says raises the risk ([`super::gate`]).
 //!
-//! 1. **Noise per pixel**, not a global level: `v_P`, the variance of `m_P` from second
-//!    differences of adjacent strata ([`super::noise`]), which cancel the signal's variation
-//!    between strata (an edge or gradient across the pixel) and keep only what the
-//!    stratified mean really varies by.
+//! 1. **Noise per pixel**, not a global level: `v_P`, the variance of `m_P`, the least of
+//!    three difference estimates of the strata (2D second differences, successive differences
+//!    along `x` and along `y`, [`super::noise`]), each cancelling a class of the signal's
+//!    variation between strata (an edge or gradient across the pixel, texture coarser than a
+//!    stratum) and keeping what the stratified mean really varies by.
 //! 2. **Films**: the film filter of least SURE over the window around each pixel
 //!    ([`super::sure`]; the box film `F = m`, `A = 1`, is one of the five).
 //! 3. **SureShrink of the box pixels**: cycle-spun Haar, heteroscedastic coefficient variances
@@ -34,7 +35,7 @@ use serde::Serialize;
 
 use super::clamp::clamp_to_local_range;
 use super::gate::{gate, GateCandidate, GateCount};
-use super::noise::PixelNoise;
+use super::noise::{DifferenceCount, PixelNoise};
 use super::shrink::ShrinkParams;
 use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
@@ -83,6 +84,8 @@ pub struct AutoReport {
     pub sigma: Vec<f64>,
     /// Pixels whose noise was estimated.
     pub pixels_with_blocks: usize,
+    /// Pixels per difference estimate of the noise.
+    pub noise_estimators: Vec<DifferenceCount>,
     /// Pixels per gate candidate.
     pub gate: Vec<GateCount>,
     /// Mean estimated risk per pixel of the output (summed over channels).
@@ -110,6 +113,12 @@ impl AutoReport {
             .map(|f| format!("{} {}", f.film, f.pixels))
             .collect::<Vec<_>>()
             .join(", ");
+        let noise = self
+            .noise_estimators
+            .iter()
+            .map(|d| format!("{} {}", d.estimator.name(), d.pixels))
+            .collect::<Vec<_>>()
+            .join(", ");
         let gate = self
             .gate
             .iter()
@@ -133,8 +142,8 @@ impl AutoReport {
              {gside} x {gside} window, each pixel weighted by 1 / (x² + {RELATIVE_EPS}) (pixels \
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
-             coefficients killed); noise of each pixel's mean from second differences of \
-             adjacent strata ({} pixels; median sigma {}); estimated risk per pixel {:.3e} \
+             coefficients killed); noise of each pixel's mean from the least of three difference \
+             estimates of its strata ({} pixels: {noise}; median sigma {}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
              samples in their 3x3 neighbourhood (largest move {:.3e})",
             self.shrink.shifts * self.shrink.shifts,
@@ -162,6 +171,7 @@ impl AutoReport {
         report.risk = Some(self.risk);
         report.noise_level = Some(self.sigma);
         report.pixels_with_spread = Some(self.pixels_with_blocks);
+        report.noise_estimators = Some(self.noise_estimators);
         report.gate = Some(self.gate);
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
@@ -315,6 +325,7 @@ pub fn estimate(
             window_risk: gated.window_risk,
             sigma: noise.sigma.clone(),
             pixels_with_blocks: noise.pixels_with_blocks(),
+            noise_estimators: noise.estimator_counts(),
             gate: gated.counts,
             estimated_risk: gated.risk,
             box_risk: gated.box_risk,

@@ -52,7 +52,7 @@ pub use blend::{blend_by_risk, inverse_risk_weight};
 pub use clamp::clamp_to_sample_range;
 pub use gate::GateCount;
 pub use haar::{Haar2d, HaarCoefficients};
-pub use noise::PixelNoise;
+pub use noise::{DifferenceCount, PixelNoise, StrataDifference};
 pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
 pub use statistics::PixelStatistics;
 pub use sure::{choose_films, FilmChoice, FilmRisks};
@@ -220,6 +220,10 @@ pub struct EstimateReport {
     /// Pixels whose noise is estimated (two samples or more; for `auto`, a block of strata),
     /// over which the noise level's median is taken.
     pub pixels_with_spread: Option<usize>,
+    /// Pixels per difference estimate of the noise of a pixel's mean (`auto` only: the 2D
+    /// strata's second differences, the successive differences along `x` or along `y`,
+    /// [`noise`]).
+    pub noise_estimators: Option<Vec<DifferenceCount>>,
     /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
@@ -260,6 +264,7 @@ pub fn reconstruct_estimated(
         lambda: None,
         noise_level: None,
         pixels_with_spread: None,
+        noise_estimators: None,
         threshold: None,
         shrink: None,
         clamped_values: None,
