@@ -36,6 +36,7 @@ use serde::Serialize;
 use super::clamp::clamp_to_local_range;
 use super::gate::{gate, GateCandidate, GateCount};
 use super::noise::{DifferenceCount, PixelNoise};
+use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
 use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
@@ -92,6 +93,8 @@ pub struct AutoReport {
     pub estimated_risk: f64,
     /// Mean estimated risk per pixel of the box (`sum_c v_{P,c}`).
     pub box_risk: f64,
+    /// The robust candidate's report.
+    pub robust: RobustReport,
     /// The median SureShrink `lambda` per channel (over shifts and levels).
     pub lambda: Vec<f64>,
     /// The fraction of Haar detail coefficients SureShrink killed, per channel.
@@ -145,7 +148,7 @@ impl AutoReport {
              coefficients killed); noise of each pixel's mean from the least of three difference \
              estimates of its strata ({} pixels: {noise}; median sigma {}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
-             samples in their 3x3 neighbourhood (largest move {:.3e})",
+             samples in their 3x3 neighbourhood (largest move {:.3e}); {}",
             self.shrink.shifts * self.shrink.shifts,
             super::list(&self.lambda),
             self.killed
@@ -159,6 +162,7 @@ impl AutoReport {
             self.box_risk,
             self.range_clamped,
             self.largest_clamp,
+            self.robust.describe(),
             gside = 2 * GATE_HALF + 1,
         )
     }
@@ -176,6 +180,7 @@ impl AutoReport {
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
         report.lambda = Some(self.lambda);
+        report.robust = Some(self.robust);
         report.clamped_values = Some(self.range_clamped);
         report.shrink = Some(self.shrink);
     }
@@ -281,6 +286,15 @@ pub fn estimate(
             divergence: mix(&films.divergence, &sure_shrunk.divergence),
         });
     }
+    // the robust candidate for heavy tails (its bias estimated and reported, `robust`)
+    let (robust_image, robust_divergence, mut robust) =
+        robust_estimate(samples, &bins, KAPPA, ROBUST_HALF);
+    let robust_index = candidates.len();
+    candidates.push(GateCandidate {
+        name: "robust".into(),
+        image: robust_image,
+        divergence: robust_divergence,
+    });
     let stats = super::PixelStatistics::new(samples);
     let in_range: Vec<GateCandidate> = candidates[1..]
         .iter()
@@ -300,6 +314,16 @@ pub fn estimate(
         .collect();
     candidates.extend(in_range);
     let gated = gate(&candidates, &mean, &variance, Some(&weight), GATE_HALF);
+    // the robust candidate and its own-range projection
+    robust.gated_pixels = gated
+        .choice
+        .iter()
+        .filter(|&&k| {
+            candidates[k]
+                .name
+                .starts_with(&candidates[robust_index].name)
+        })
+        .count();
     let mut image = gated.image;
     let (range_clamped, largest_clamp) = clamp_to_local_range(
         &mut image.channels,
@@ -329,6 +353,7 @@ pub fn estimate(
             gate: gated.counts,
             estimated_risk: gated.risk,
             box_risk: gated.box_risk,
+            robust,
             lambda,
             killed: shrunk.iter().map(|s| s.killed_fraction).collect(),
             range_clamped,
