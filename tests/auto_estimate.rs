@@ -36,10 +36,11 @@ fn jittered(w: usize, h: usize, g: usize, rng: &mut Pcg64) -> (Vec<f64>, Vec<f64
 }
 
 /// The noise of a constant image with Gaussian noise `sigma`, and of a ramp with the same
-/// noise: the global level is `sigma / sqrt(n)` and the per-pixel estimate is unbiased for
-/// the stratified variance `sigma² + G² / (12 g²)` (the ramp `G x` jittered within cells of
+/// noise: the global level is `sigma / sqrt(n)` and the per-pixel estimate of the 2D strata's
+/// second differences is unbiased for the stratified variance `sigma² + G² / (12 g²)` (the ramp `G x` jittered within cells of
 /// width `1 / g`), where the plain spread of the samples would also count the ramp across the
-/// pixel, `G² / 12`.
+/// pixel, `G² / 12`; the estimate `auto` uses, the least of three difference estimates per
+/// pixel, is below it and above half of it.
 ///
 /// Tolerances: 64 x 64 pixels. The per-pixel estimates average 4096 independent `chi²_K / K`
 /// variables (K = 1 for 2 x 2, 4 for 4 x 4): relative standard deviation `sqrt(2 / (K 4096))`
@@ -69,21 +70,36 @@ fn noise_level_matches_a_known_sigma_and_ignores_a_ramp() {
             (global / expect - 1.0).abs() < 0.08,
             "g {g}: global sigma {global} against {expect}"
         );
-        let mean_of = |c: usize| noise.mean_variance[c].iter().sum::<f64>() / (w * h) as f64 * n;
-        let flat_var = mean_of(0);
+        let mean_of = |v: &[Vec<f64>], c: usize| v[c].iter().sum::<f64>() / (w * h) as f64 * n;
+        // the 2D strata's second differences: unbiased
+        let flat_var = mean_of(&noise.grid_variance, 0);
         assert!(
             (flat_var / (sigma * sigma) - 1.0).abs() < 0.1,
             "g {g}: per-sample variance {flat_var} against {}",
             sigma * sigma
         );
         let stratified = sigma * sigma + gradient * gradient / (12.0 * n.sqrt() * n.sqrt());
-        let ramp_var = mean_of(1);
+        let ramp_var = mean_of(&noise.grid_variance, 1);
         assert!(
             (ramp_var / stratified - 1.0).abs() < 0.1,
             "g {g}: ramp per-sample variance {ramp_var} against the stratified {stratified} \
              (plain spread {})",
             sigma * sigma + gradient * gradient / 12.0
         );
+        // the least of the three estimates: biased low for pure noise, by the factor
+        // `tests/estimators_noise.rs` measures (0.56 to 0.91 there; 0.5 allowed), never above
+        // the grid's in a pixel's channel sum
+        for (c, reference) in [(0, sigma * sigma), (1, stratified)] {
+            let chosen = mean_of(&noise.mean_variance, c);
+            assert!(
+                (0.5..=1.0).contains(&(chosen / reference)),
+                "g {g} channel {c}: the chosen estimate {chosen} against {reference}"
+            );
+        }
+        for p in 0..w * h {
+            let total = |v: &[Vec<f64>]| v.iter().map(|ch| ch[p]).sum::<f64>();
+            assert!(total(&noise.mean_variance) <= total(&noise.grid_variance));
+        }
     }
 }
 
@@ -166,8 +182,9 @@ fn candidates_are_the_splat() {
 }
 
 /// On the stored Mitsuba renders (64², 4 spp): `auto` is no more than a margin below any single
-/// film of the same samples, and not below the Gaussian film (Mitsuba's default). The margin,
-/// 3.6 dB, is the largest loss to a single film measured at 128² (direct, 8 spp, against the
+/// film of the same samples, and not below the Gaussian film (Mitsuba's default) by more than
+/// 0.1 dB (issue 38's tolerance against the mean; thinlens is 0.02 dB below it since the noise
+/// estimate stopped counting the signal between strata as noise). The margin, 3.6 dB, is the largest loss to a single film measured at 128² (direct, 8 spp, against the
 /// box: `docs/measurements/real-renders.md`, "`--pixels auto`").
 #[test]
 fn auto_against_single_films_on_real_renders() {
@@ -200,7 +217,7 @@ fn auto_against_single_films_on_real_renders() {
             let (img, _) = splat(&s, film.build().as_ref());
             let film_psnr = psnr(&img.channels, refs);
             let margin = if film == FilmFilterKind::Gaussian {
-                0.0
+                0.1
             } else {
                 3.6
             };

@@ -2,10 +2,11 @@
 //! pixels `m_P` (the mean of the pixel's own samples), the box itself among the candidates, so
 //! no pixel takes a step its risk estimate says raises the risk ([`super::gate`]).
 //!
-//! 1. **Noise per pixel**, not a global level: `v_P`, the variance of `m_P` from second
-//!    differences of adjacent strata ([`super::noise`]), which cancel the signal's variation
-//!    between strata (an edge or gradient across the pixel) and keep only what the
-//!    stratified mean really varies by.
+//! 1. **Noise per pixel**, not a global level: `v_P`, the variance of `m_P`, the least of
+//!    three difference estimates of the strata (2D second differences, successive differences
+//!    along `x` and along `y`, [`super::noise`]), each cancelling a class of the signal's
+//!    variation between strata (an edge or gradient across the pixel, texture coarser than a
+//!    stratum) and keeping what the stratified mean really varies by.
 //! 2. **Films**: the film filter of least SURE over the window around each pixel
 //!    ([`super::sure`]; the box film `F = m`, `A = 1`, is one of the five).
 //! 3. **SureShrink of the box pixels**: cycle-spun Haar, heteroscedastic coefficient variances
@@ -34,7 +35,8 @@ use serde::Serialize;
 
 use super::clamp::clamp_to_local_range;
 use super::gate::{gate, GateCandidate, GateCount};
-use super::noise::PixelNoise;
+use super::noise::{DifferenceCount, PixelNoise};
+use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
 use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
@@ -83,12 +85,16 @@ pub struct AutoReport {
     pub sigma: Vec<f64>,
     /// Pixels whose noise was estimated.
     pub pixels_with_blocks: usize,
+    /// Pixels per difference estimate of the noise.
+    pub noise_estimators: Vec<DifferenceCount>,
     /// Pixels per gate candidate.
     pub gate: Vec<GateCount>,
     /// Mean estimated risk per pixel of the output (summed over channels).
     pub estimated_risk: f64,
     /// Mean estimated risk per pixel of the box (`sum_c v_{P,c}`).
     pub box_risk: f64,
+    /// The robust candidate's report.
+    pub robust: RobustReport,
     /// The median SureShrink `lambda` per channel (over shifts and levels).
     pub lambda: Vec<f64>,
     /// The fraction of Haar detail coefficients SureShrink killed, per channel.
@@ -108,6 +114,12 @@ impl AutoReport {
             .films
             .iter()
             .map(|f| format!("{} {}", f.film, f.pixels))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let noise = self
+            .noise_estimators
+            .iter()
+            .map(|d| format!("{} {}", d.estimator.name(), d.pixels))
             .collect::<Vec<_>>()
             .join(", ");
         let gate = self
@@ -133,10 +145,10 @@ impl AutoReport {
              {gside} x {gside} window, each pixel weighted by 1 / (x² + {RELATIVE_EPS}) (pixels \
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
-             coefficients killed); noise of each pixel's mean from second differences of \
-             adjacent strata ({} pixels; median sigma {}); estimated risk per pixel {:.3e} \
+             coefficients killed); noise of each pixel's mean from the least of three difference \
+             estimates of its strata ({} pixels: {noise}; median sigma {}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
-             samples in their 3x3 neighbourhood (largest move {:.3e})",
+             samples in their 3x3 neighbourhood (largest move {:.3e}); {}",
             self.shrink.shifts * self.shrink.shifts,
             super::list(&self.lambda),
             self.killed
@@ -150,6 +162,7 @@ impl AutoReport {
             self.box_risk,
             self.range_clamped,
             self.largest_clamp,
+            self.robust.describe(),
             gside = 2 * GATE_HALF + 1,
         )
     }
@@ -162,10 +175,12 @@ impl AutoReport {
         report.risk = Some(self.risk);
         report.noise_level = Some(self.sigma);
         report.pixels_with_spread = Some(self.pixels_with_blocks);
+        report.noise_estimators = Some(self.noise_estimators);
         report.gate = Some(self.gate);
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
         report.lambda = Some(self.lambda);
+        report.robust = Some(self.robust);
         report.clamped_values = Some(self.range_clamped);
         report.shrink = Some(self.shrink);
     }
@@ -271,6 +286,15 @@ pub fn estimate(
             divergence: mix(&films.divergence, &sure_shrunk.divergence),
         });
     }
+    // the robust candidate for heavy tails (its bias estimated and reported, `robust`)
+    let (robust_image, robust_divergence, mut robust) =
+        robust_estimate(samples, &bins, KAPPA, ROBUST_HALF);
+    let robust_index = candidates.len();
+    candidates.push(GateCandidate {
+        name: "robust".into(),
+        image: robust_image,
+        divergence: robust_divergence,
+    });
     let stats = super::PixelStatistics::new(samples);
     let in_range: Vec<GateCandidate> = candidates[1..]
         .iter()
@@ -290,6 +314,16 @@ pub fn estimate(
         .collect();
     candidates.extend(in_range);
     let gated = gate(&candidates, &mean, &variance, Some(&weight), GATE_HALF);
+    // the robust candidate and its own-range projection
+    robust.gated_pixels = gated
+        .choice
+        .iter()
+        .filter(|&&k| {
+            candidates[k]
+                .name
+                .starts_with(&candidates[robust_index].name)
+        })
+        .count();
     let mut image = gated.image;
     let (range_clamped, largest_clamp) = clamp_to_local_range(
         &mut image.channels,
@@ -315,9 +349,11 @@ pub fn estimate(
             window_risk: gated.window_risk,
             sigma: noise.sigma.clone(),
             pixels_with_blocks: noise.pixels_with_blocks(),
+            noise_estimators: noise.estimator_counts(),
             gate: gated.counts,
             estimated_risk: gated.risk,
             box_risk: gated.box_risk,
+            robust,
             lambda,
             killed: shrunk.iter().map(|s| s.killed_fraction).collect(),
             range_clamped,

@@ -35,6 +35,7 @@ pub mod clamp;
 pub mod gate;
 pub mod haar;
 pub mod noise;
+pub mod robust;
 pub mod shrink;
 pub mod statistics;
 pub mod sure;
@@ -52,7 +53,8 @@ pub use blend::{blend_by_risk, inverse_risk_weight};
 pub use clamp::clamp_to_sample_range;
 pub use gate::GateCount;
 pub use haar::{Haar2d, HaarCoefficients};
-pub use noise::PixelNoise;
+pub use noise::{DifferenceCount, PixelNoise, StrataDifference};
+pub use robust::RobustReport;
 pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
 pub use statistics::PixelStatistics;
 pub use sure::{choose_films, FilmChoice, FilmRisks};
@@ -213,6 +215,9 @@ pub struct EstimateReport {
     /// The box pixels' estimated risk per pixel, `sum_c v_{P,c}` averaged over pixels (`auto`
     /// only).
     pub box_risk: Option<f64>,
+    /// The robust candidate for heavy tails: what it cut, its estimated bias and the pixels the
+    /// gate gave it (`auto` only; [`robust`]).
+    pub robust: Option<RobustReport>,
     /// The median SureShrink `lambda` per channel (`auto` only).
     pub lambda: Option<Vec<f64>>,
     /// Pooled noise level `sigma_c` per channel (`None` for `fit`, which does not need it).
@@ -220,6 +225,10 @@ pub struct EstimateReport {
     /// Pixels whose noise is estimated (two samples or more; for `auto`, a block of strata),
     /// over which the noise level's median is taken.
     pub pixels_with_spread: Option<usize>,
+    /// Pixels per difference estimate of the noise of a pixel's mean (`auto` only: the 2D
+    /// strata's second differences, the successive differences along `x` or along `y`,
+    /// [`noise`]).
+    pub noise_estimators: Option<Vec<DifferenceCount>>,
     /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
@@ -257,9 +266,11 @@ pub fn reconstruct_estimated(
         gate: None,
         estimated_risk: None,
         box_risk: None,
+        robust: None,
         lambda: None,
         noise_level: None,
         pixels_with_spread: None,
+        noise_estimators: None,
         threshold: None,
         shrink: None,
         clamped_values: None,

@@ -2,34 +2,51 @@
 //! pixel's own signal variation.
 //!
 //! A renderer stratifies the samples of a pixel: `n_P = g_x g_y` samples, one in each cell of a
-//! `g_x x g_y` grid, at a uniform position within its cell (jittered or multi-jittered). The box
-//! estimate `m_P = (1 / n_P) sum_i v_i` is then an unbiased estimate of the pixel integral with
-//! variance `Var(m_P) = (1 / n_P²) sum_k Var_k(v)`, `Var_k` the variance of a sample within cell
-//! `k` (Monte Carlo noise plus the signal's variation inside the cell). The plain spread of the
-//! samples `s²_P` also counts the signal's variation *between* cells (a gradient, an edge
-//! crossing the pixel), which the stratification has already removed from `m_P`.
+//! `g_x x g_y` grid, at a uniform position within its cell (jittered), and a multi-jittered
+//! sampler (Mitsuba's default, Kensler's correlated multi-jitter) puts them in addition one in
+//! each of the `n_P` columns `[k / n, (k + 1) / n)` and one in each of the `n_P` rows (a Latin
+//! hypercube). The box estimate `m_P = (1 / n_P) sum_i v_i` is then an unbiased estimate of the
+//! pixel integral with a variance much smaller than `s² / n_P` (`s²` the spread of one sample)
+//! wherever the signal varies smoothly at the scale of the strata: the strata remove the
+//! variation *between* them (a gradient, an edge crossing the pixel, texture coarser than a
+//! stratum), which is signal of the pixel integral, not noise. What is left is the variation
+//! *within* a stratum: Monte Carlo noise and texture finer than a stratum.
 //!
-//! **Second differences of adjacent strata.** The samples are put in their grid (sorted by `y`
-//! into `g_y` rows of `g_x`, each row sorted by `x`; `g_x >= g_y`, `g_x g_y = n_P` as square as
-//! `n_P` allows). For each 2 x 2 block of adjacent cells `a b / c d`,
+//! **Three difference estimates**, each with expectation `s²` for independent samples of
+//! equal variance (pure noise) and each blind to a class of signal variation between strata:
 //!
-//! `D = (v_a - v_b) - (v_c - v_d)`,
+//! 1. *Second differences of the 2D strata.* The samples are put in their grid (sorted by `y`
+//!    into `g_y` rows of `g_x`, each row sorted by `x`; `g_x >= g_y`, `g_x g_y = n_P` as square
+//!    as `n_P` allows). For each 2 x 2 block of adjacent cells `a b / c d`,
+//!    `D = (v_a - v_b) - (v_c - v_d)` cancels every function linear over the block at the
+//!    cells' centres and every step between two rows or two columns of cells, so
+//!    `E[D²] = sum_{k in block} Var_k` and `D² / 4` estimates `s²`. With a single row
+//!    (`g_y = 1`) the pairs `(v_a - v_b)² / 2`. Blocks are disjoint, `K_P` of them;
+//!    `s²_grid = (1 / K_P) sum_blocks D² / |block|`.
+//! 2. *Successive differences in `x`.* Sorted by `x`, `x_(1) < ... < x_(n)`, a Latin
+//!    hypercube puts consecutive samples in adjacent columns of width `1 / n`:
+//!    `s²_x = sum_i (v_(i+1) - v_(i))² / (2 (n - 1))`. A signal varying along `x` only
+//!    contributes `f'(x)² (x_(i+1) - x_(i))²` with spacing `<= 2 / n`, an edge across `x`
+//!    one difference among `n - 1`: the variation the columns stratify away.
+//! 3. *Successive differences in `y`*, the same with the rows: `s²_y`.
 //!
-//! a difference of two pairs, cancels every function linear over the block at the cells'
-//! centres; what is left is the samples' deviations from their cells' means, so for independent
-//! samples `E[D²] = sum_{k in block} Var_k`, i.e. `D² / 4` estimates the per-sample variance
-//! `s²` of the block. With a single row (`g_y = 1`) the pairs alone are used:
-//! `E[(v_a - v_b)²] = Var_a + Var_b` (plus the signal's step across the pair), `(v_a - v_b)² / 2`.
-//! The blocks of a pixel are disjoint, `K_P` of them; the per-pixel estimate is
+//! Each is the stratified variance plus a non-negative bias, the squared signal variation
+//! its differences do not cancel. The pixel takes the estimate of least sum over channels,
+//! `s²_P = s²_{e*}`, `e* = argmin_e sum_c s²_{e,c}`, and `sigma²_P = s²_P / n_P` (variance of
+//! the mean). The least of three is biased low for pure noise (the minimum of three estimates
+//! of one `s²`, each a sum of a few squared differences): by 28-44 % at 4 to 16 samples a pixel
+//! (measured by `tests/estimators_noise.rs` against the exact variance), which makes the risk
+//! gate ([`super::gate`]) keep the box a little more often; the bias of the single estimates
+//! on textured and edged pixels, which made the gate smooth away signal, is what it removes
+//! (docs/measurements/estimators.md). The per-pixel choice is counted in the report.
 //!
-//! `s²_P = (1 / K_P) sum_blocks D² / |block|`, `sigma²_P = s²_P / n_P` (variance of the mean).
-//!
-//! **Global level.** `sigma_c = sqrt(median_P sigma²_{P,c} / q_K)` over the pixels with a block,
-//! `q_K` the median of `chi²_K / K` (`K` the most common block count): for Gaussian noise
-//! `sigma²_P ~ sigma² chi²_K / K`, and the median, which ignores the pixels whose blocks see an
-//! edge or texture, is unbiased after that division. `q_1 = 0.4549`, `q_2 = ln 2`,
-//! `q_3 = 0.7887`, `q_4 = 0.8392` (the chi-square medians), Wilson–Hilferty
-//! `(1 - 2 / (9K))³` beyond.
+//! **Global level.** `sigma_c = sqrt(median_P sigma²_{grid,P,c} / q_K)` (the 2D strata's
+//! differences alone, `sigma²_{grid,P} = s²_grid / n_P`) over the pixels with two samples or
+//! more, `q_K` the median of `chi²_K / K` (`K` the most common count of 2 x 2
+//! blocks; reported, not used by `auto`): for Gaussian noise `sigma²_{grid,P} ~ sigma² chi²_K / K`,
+//! and the median ignores the pixels whose differences see an edge or texture.
+//! `q_1 = 0.4549`, `q_2 = ln 2`, `q_3 = 0.7887`, `q_4 = 0.8392` (the chi-square medians),
+//! Wilson–Hilferty `(1 - 2 / (9K))³` beyond.
 
 use super::statistics::median;
 use crate::image::splat::PixelBins;
@@ -54,6 +71,51 @@ pub struct PixelNoise {
     pub sample_sigma: Vec<f64>,
     /// The most common block count `K` whose chi-square median corrects the global level.
     pub typical_blocks: usize,
+    /// The 2D strata's second differences alone as the variance of the mean,
+    /// `s²_{grid,P,c} / n_P` (NaN where `n_P < 2`): the estimate before the three were
+    /// compared, kept for the tests and the report.
+    pub grid_variance: Vec<Vec<f64>>,
+    /// The difference estimate each pixel took (`None` where `n_P < 2`).
+    pub estimator: Vec<Option<StrataDifference>>,
+}
+
+/// The three difference estimates of a pixel's per-sample variance (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StrataDifference {
+    /// Second differences of 2 x 2 blocks of the 2D strata (pairs in a single row).
+    Grid,
+    /// Successive differences of the samples sorted by `x` (the Latin hypercube's columns).
+    Columns,
+    /// Successive differences of the samples sorted by `y` (its rows).
+    Rows,
+}
+
+impl StrataDifference {
+    /// All three, in the order of the report.
+    pub const ALL: [StrataDifference; 3] = [
+        StrataDifference::Grid,
+        StrataDifference::Columns,
+        StrataDifference::Rows,
+    ];
+
+    /// The name in the report.
+    pub fn name(self) -> &'static str {
+        match self {
+            StrataDifference::Grid => "grid",
+            StrataDifference::Columns => "columns",
+            StrataDifference::Rows => "rows",
+        }
+    }
+}
+
+/// Pixels whose noise came from one difference estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct DifferenceCount {
+    /// The estimate.
+    pub estimator: StrataDifference,
+    /// Its pixels.
+    pub pixels: usize,
 }
 
 /// The grid `(g_x, g_y)` of `n` strata: `g_x g_y = n`, `g_x >= g_y`, as square as possible.
@@ -87,8 +149,13 @@ impl PixelNoise {
         let mut count = vec![0usize; pixels];
         let mut blocks = vec![0usize; pixels];
         let mut mean_variance = vec![vec![f64::NAN; pixels]; channels];
+        let mut estimator = vec![None; pixels];
+        let mut grid_variance = vec![vec![f64::NAN; pixels]; channels];
         let mut order: Vec<usize> = Vec::new();
-        let mut sum = vec![0.0; channels];
+        let mut grid = vec![0.0; channels];
+        let mut columns = vec![0.0; channels];
+        let mut rows = vec![0.0; channels];
+        let v = samples.values();
         for p in 0..pixels {
             let idx = bins.in_pixel(p);
             let n = idx.len();
@@ -96,6 +163,20 @@ impl PixelNoise {
             if n < 2 {
                 continue;
             }
+            // 2. and 3.: successive differences along x, then along y
+            for (sum, coord) in [(&mut columns, samples.xs()), (&mut rows, samples.ys())] {
+                order.clear();
+                order.extend_from_slice(idx);
+                order.sort_by(|&a, &b| coord[a].total_cmp(&coord[b]));
+                for (s, vc) in sum.iter_mut().zip(v) {
+                    *s = order
+                        .windows(2)
+                        .map(|w| (vc[w[1]] - vc[w[0]]).powi(2))
+                        .sum::<f64>()
+                        / (2.0 * (n - 1) as f64);
+                }
+            }
+            // 1.: second differences of 2 x 2 blocks of the grid (pairs in a single row)
             let (gx, gy) = strata_grid(n);
             order.clear();
             order.extend_from_slice(idx);
@@ -103,12 +184,11 @@ impl PixelNoise {
             for row in order.chunks_mut(gx) {
                 row.sort_by(|&a, &b| samples.xs()[a].total_cmp(&samples.xs()[b]));
             }
-            sum.iter_mut().for_each(|s| *s = 0.0);
+            grid.iter_mut().for_each(|s| *s = 0.0);
             let mut k = 0usize;
-            let v = samples.values();
             if gy == 1 {
                 for pair in order.chunks_exact(2) {
-                    for (s, vc) in sum.iter_mut().zip(v) {
+                    for (s, vc) in grid.iter_mut().zip(v) {
                         let d = vc[pair[0]] - vc[pair[1]];
                         *s += d * d / 2.0;
                     }
@@ -119,7 +199,7 @@ impl PixelNoise {
                     for col in (0..gx - 1).step_by(2) {
                         let (a, b) = (order[r * gx + col], order[r * gx + col + 1]);
                         let (c, d) = (order[(r + 1) * gx + col], order[(r + 1) * gx + col + 1]);
-                        for (s, vc) in sum.iter_mut().zip(v) {
+                        for (s, vc) in grid.iter_mut().zip(v) {
                             let dd = (vc[a] - vc[b]) - (vc[c] - vc[d]);
                             *s += dd * dd / 4.0;
                         }
@@ -127,9 +207,25 @@ impl PixelNoise {
                     }
                 }
             }
+            grid.iter_mut().for_each(|s| *s /= k as f64);
             blocks[p] = k;
-            for (mv, s) in mean_variance.iter_mut().zip(&sum) {
-                mv[p] = s / k as f64 / n as f64;
+            // the least of the three over channels (ties to the grid)
+            let total = |s: &[f64]| s.iter().sum::<f64>();
+            let mut best = (StrataDifference::Grid, &grid);
+            for (e, s) in [
+                (StrataDifference::Columns, &columns),
+                (StrataDifference::Rows, &rows),
+            ] {
+                if total(s) < total(best.1) {
+                    best = (e, s);
+                }
+            }
+            estimator[p] = Some(best.0);
+            for (gv, s) in grid_variance.iter_mut().zip(&grid) {
+                gv[p] = s / n as f64;
+            }
+            for (mv, s) in mean_variance.iter_mut().zip(best.1) {
+                mv[p] = s / n as f64;
             }
         }
         let with_blocks: Vec<usize> = (0..pixels).filter(|&p| blocks[p] > 0).collect();
@@ -144,7 +240,8 @@ impl PixelNoise {
                 .collect::<Vec<_>>(),
         );
         let q = chi_square_median_ratio(typical_blocks);
-        let sigma: Vec<f64> = mean_variance
+        // from the grid's differences alone, whose chi-square law `q` describes
+        let sigma: Vec<f64> = grid_variance
             .iter()
             .map(|mv| {
                 (median(&mut with_blocks.iter().map(|&p| mv[p]).collect::<Vec<_>>()) / q).sqrt()
@@ -159,12 +256,25 @@ impl PixelNoise {
             sigma,
             sample_sigma,
             typical_blocks,
+            grid_variance,
+            estimator,
         })
     }
 
-    /// Pixels with at least one block (whose own noise is estimated).
+    /// Pixels whose own noise is estimated (two samples or more).
     pub fn pixels_with_blocks(&self) -> usize {
-        self.blocks.iter().filter(|&&k| k > 0).count()
+        self.estimator.iter().filter(|e| e.is_some()).count()
+    }
+
+    /// Pixels per difference estimate.
+    pub fn estimator_counts(&self) -> Vec<DifferenceCount> {
+        StrataDifference::ALL
+            .into_iter()
+            .map(|e| DifferenceCount {
+                estimator: e,
+                pixels: self.estimator.iter().filter(|&&x| x == Some(e)).count(),
+            })
+            .collect()
     }
 
     /// The variance of one sample of pixel `p` in channel `c`: `n_P sigma²_{P,c}`, or the global
