@@ -127,7 +127,9 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let mut filter_file = None;
     if let Some((x, y)) = show {
         let samples = sample_scene(&scene, &sampling)?;
-        let weights = sample_weights(method, &samples, &wavelet, x, y)?;
+        let weights = sample_weights(method, &samples, &wavelet, x, y).map_err(|e| {
+            CliError::reworded(&e, format!("the wavelet reconstruction failed: {e}"))
+        })?;
         let path = filter_csv_path(&args.out, x, y);
         let mut text = String::from("index,x,y,weight\n");
         for w in &weights {
