@@ -32,7 +32,7 @@ use rkwave::basis::fwt::analysis_step;
 use rkwave::basis::tensor::TensorBasis;
 use rkwave::basis::FilterFamily;
 use rkwave::image::filters::GaussianFilter;
-use rkwave::image::fit::{NormalSolver, Preconditioner};
+use rkwave::image::fit::{NormalSolver, StencilPreconditioner};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
 use rkwave::image::sampler::Sampler;
 use rkwave::image::splat::splat;
@@ -78,7 +78,7 @@ fn params(p: usize, solver: NormalSolver) -> ImageFitParams {
     }
 }
 
-fn cg(preconditioner: Preconditioner) -> NormalSolver {
+fn cg(preconditioner: StencilPreconditioner) -> NormalSolver {
     NormalSolver::Cg {
         preconditioner,
         tolerance: 1e-10,
@@ -103,7 +103,7 @@ fn end_to_end(c: &mut Criterion) {
         for p in [2usize, 3] {
             for (name, solver) in [
                 ("cholesky", NormalSolver::Cholesky),
-                ("cg_jacobi", cg(Preconditioner::Jacobi)),
+                ("cg_jacobi", cg(StencilPreconditioner::Jacobi)),
             ] {
                 let prm = params(p, solver);
                 group.bench_with_input(BenchmarkId::new(format!("p{p}_{name}"), w), &w, |b, _| {
@@ -128,7 +128,7 @@ fn large(c: &mut Criterion) {
     let w = 1024;
     let d = data(w);
     group.throughput(Throughput::Elements(d.len() as u64));
-    let prm = params(2, cg(Preconditioner::Jacobi));
+    let prm = params(2, cg(StencilPreconditioner::Jacobi));
     group.bench_with_input(BenchmarkId::new("p2_cg_jacobi", w), &w, |b, _| {
         b.iter(|| run(&d, &prm))
     });
@@ -145,9 +145,9 @@ fn preconditioners(c: &mut Criterion) {
     let w = PRECONDITIONER_SIZE;
     let d = data(w);
     for (name, pre) in [
-        ("none", Preconditioner::None),
-        ("jacobi", Preconditioner::Jacobi),
-        ("local", Preconditioner::Local),
+        ("none", StencilPreconditioner::None),
+        ("jacobi", StencilPreconditioner::Jacobi),
+        ("local", StencilPreconditioner::Local),
     ] {
         let prm = params(2, cg(pre));
         group.bench_with_input(BenchmarkId::new(name, w), &w, |b, _| {

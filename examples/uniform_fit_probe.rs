@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use rkwave::image::filters::GaussianFilter;
-use rkwave::image::fit::{NormalSolver, Preconditioner};
+use rkwave::image::fit::{NormalSolver, StencilPreconditioner};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
 use rkwave::image::splat::splat;
 use rkwave::image::{fit_image, ImageFitParams, ImagePlane, NonFinitePolicy};
@@ -31,7 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut solvers = vec![("cholesky".to_string(), NormalSolver::Cholesky)];
     for tolerance in [1e-4, 1e-6, 1e-8, 1e-10] {
         let cg = NormalSolver::Cg {
-            preconditioner: Preconditioner::Jacobi,
+            preconditioner: StencilPreconditioner::Jacobi,
             tolerance,
             max_iterations: 1000,
         };

@@ -100,20 +100,10 @@
 //!   that does not), and has a `kind()` returning one shared [`error::ErrorKind`]
 //!   (`InvalidInput`, `Undetermined`, `ResourceLimit`, `NotConverged`, `Numerical`,
 //!   `Unreadable`, `OutputRefused`, `WriteFailed`, `Internal`; [`error`] gives each its
-//!   meaning). Callers decide by kind, never by message text. The complete list:
-//!   - the engine: [`basis::BasisError`], [`basis::tensor::TensorError`],
-//!     [`domain::DomainError`], [`kernel::KernelError`], [`solve::SolveError`],
-//!     [`reconstruct::ReconstructError`], [`refine::RefineError`],
-//!     [`resources::ResourceError`];
-//!   - the image plane: [`image::job::JobError`], [`image::ImageError`], [`image::ImageFitError`],
-//!     [`image::pixels::PixelError`], [`image::WaveletError`],
-//!     [`image::scene::SceneError`], [`image::adaptive::AdaptiveError`],
-//!     [`image::adaptive::protocol::ProtocolError`];
-//!   - input and output: [`io::IoError`], [`io::output::OutputError`],
-//!     [`io::image_file::ImageFileError`];
-//!   - reports and the lab: [`report::scaling::ScalingError`]; with feature `plot`,
-//!     `plot::PlotError`, `lab::experiment::ImageRunError` and
-//!     `lab::adaptive::AdaptiveRunError`.
+//!   meaning). Callers decide by kind, never by message text. Each enum implements
+//!   [`error::Classified`] beside its definition (rustdoc lists them all on that trait's
+//!   page): the command line and Python map any of them by its kind, so no other place
+//!   lists the library's errors.
 //!
 //!   A parse error of a name (`ParseMethodError`, `ParseSamplerError`, ...) is a struct
 //!   holding the name given; its kind is always `InvalidInput`.

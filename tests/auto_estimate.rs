@@ -10,7 +10,7 @@ use rkwave::image::estimate::sure::{film_candidate, sure};
 use rkwave::image::estimate::{reconstruct_estimated, PixelNoise, ShrinkParams, UniformEstimate};
 use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::splat::{splat, PixelBins};
-use rkwave::image::{ImagePlane, ImageSamples, Method, WaveletParams};
+use rkwave::image::{ImageMethod, ImagePlane, ImageSamples, WaveletParams};
 
 /// A standard normal deviate (Box–Muller).
 fn normal(rng: &mut Pcg64) -> f64 {
@@ -193,7 +193,7 @@ fn auto_against_single_films_on_real_renders() {
         let refs = &refs;
         let (auto, report) = reconstruct_estimated(
             UniformEstimate::Auto,
-            Method::Wavelet,
+            ImageMethod::Wavelet,
             &s,
             &WaveletParams::default(),
             &ShrinkParams::default(),

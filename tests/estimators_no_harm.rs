@@ -11,7 +11,7 @@ use rkwave::image::adaptive::{AdaptiveParams, ImagePlan};
 use rkwave::image::estimate::{
     reconstruct_estimated, EstimateReport, PixelStatistics, ShrinkParams, UniformEstimate,
 };
-use rkwave::image::{ImagePlane, ImageSamples, Method, PixelImage, WaveletParams};
+use rkwave::image::{ImageMethod, ImagePlane, ImageSamples, PixelImage, WaveletParams};
 
 /// A standard normal deviate (Box–Muller).
 fn normal(rng: &mut Pcg64) -> f64 {
@@ -126,7 +126,7 @@ fn textured(w: usize, h: usize, g: usize, sigma: f64, seed: u64) -> (ImageSample
 fn auto(samples: &ImageSamples) -> (PixelImage, EstimateReport) {
     let (r, report) = reconstruct_estimated(
         UniformEstimate::Auto,
-        Method::Wavelet,
+        ImageMethod::Wavelet,
         samples,
         &WaveletParams::default(),
         &ShrinkParams::default(),

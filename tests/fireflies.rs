@@ -30,7 +30,7 @@
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rkwave::image::estimate::{reconstruct_estimated, ShrinkParams, UniformEstimate};
-use rkwave::image::{ImagePlane, ImageSamples, Method, WaveletParams};
+use rkwave::image::{ImageMethod, ImagePlane, ImageSamples, WaveletParams};
 
 const SIDE: usize = 32;
 const SPP: usize = 8;
@@ -77,7 +77,7 @@ fn spread(estimate: UniformEstimate, factor: f64) -> (usize, f64) {
         let samples = ImageSamples::new(plane, xs.clone(), ys.clone(), vec![vs]).unwrap();
         let (done, _) = reconstruct_estimated(
             estimate,
-            Method::Wavelet,
+            ImageMethod::Wavelet,
             &samples,
             &WaveletParams::default(),
             &ShrinkParams::default(),

@@ -11,7 +11,7 @@ use rand_pcg::Pcg64;
 use rkwave::basis::facts::orthonormality_error;
 use rkwave::basis::tensor::{TensorBasis, TensorError};
 use rkwave::basis::FilterFamily;
-use rkwave::image::fit::{NormalSolver, Preconditioner};
+use rkwave::image::fit::{NormalSolver, StencilPreconditioner};
 use rkwave::image::{fit_image, ImageFitError, ImageFitParams, ImageLevels};
 
 const SEED: u64 = 0x1a2b_3c4d;
@@ -275,9 +275,9 @@ fn cg_and_cholesky_agree() {
     )
     .unwrap();
     for pre in [
-        Preconditioner::None,
-        Preconditioner::Jacobi,
-        Preconditioner::Local,
+        StencilPreconditioner::None,
+        StencilPreconditioner::Jacobi,
+        StencilPreconditioner::Local,
     ] {
         let solver = NormalSolver::Cg {
             preconditioner: pre,

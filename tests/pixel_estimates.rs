@@ -17,7 +17,8 @@ use rkwave::image::estimate::{
     EstimateError, EstimateReport, Haar2d, PixelStatistics, ShrinkParams, UniformEstimate,
 };
 use rkwave::image::{
-    reconstruct, ImagePlane, ImageReconstruction, ImageSamples, Method, PixelImage, WaveletParams,
+    reconstruct, ImageMethod, ImagePlane, ImageReconstruction, ImageSamples, PixelImage,
+    WaveletParams,
 };
 
 /// Image sizes with odd sides, one-pixel lines and a power of two: the borders' truncated
@@ -184,7 +185,7 @@ fn estimate(
 ) -> Result<(ImageReconstruction, EstimateReport), EstimateError> {
     reconstruct_estimated(
         e,
-        Method::Wavelet,
+        ImageMethod::Wavelet,
         samples,
         &WaveletParams::default(),
         &ShrinkParams::default(),
@@ -223,7 +224,7 @@ fn box_is_the_pixel_mean_and_fit_is_reconstruct_unchanged() {
     let stats = PixelStatistics::new(&samples);
     let go = |e| estimate(&samples, e).unwrap().0;
     assert_eq!(go(UniformEstimate::Box).image.channels, stats.mean);
-    let plain = reconstruct(Method::Wavelet, &samples, &WaveletParams::default()).unwrap();
+    let plain = reconstruct(ImageMethod::Wavelet, &samples, &WaveletParams::default()).unwrap();
     assert_eq!(go(UniformEstimate::Fit).image, plain.image, "bit for bit");
 }
 

@@ -33,7 +33,7 @@ use rkwave::basis::{minimum_level, CdvBasis, FilterFamily};
 use rkwave::image::adaptive::fit::tree_kernel;
 use rkwave::image::adaptive::{fit_tree_with, QuadTree, TreeSolver};
 use rkwave::image::fit::{
-    fit_image, kernel_matrix_2d, ImageFitParams, ImageLevels, NormalSolver, Preconditioner,
+    fit_image, kernel_matrix_2d, ImageFitParams, ImageLevels, NormalSolver, StencilPreconditioner,
 };
 use rkwave::kernel::{kernel_matrix, ActiveSet, LevelChoice};
 use rkwave::reconstruct::{fit_active, single_scale_ls, single_scale_qr, Method};
@@ -437,15 +437,15 @@ fn uniform_image_solvers_match_the_dense_svd() {
             NormalSolver::Cholesky,
             Accuracy::NormalEquations,
         ),
-        ("CG", cg(Preconditioner::None), Accuracy::Iterative),
+        ("CG", cg(StencilPreconditioner::None), Accuracy::Iterative),
         (
             "Jacobi PCG",
-            cg(Preconditioner::Jacobi),
+            cg(StencilPreconditioner::Jacobi),
             Accuracy::Iterative,
         ),
         (
             "local-inversion PCG",
-            cg(Preconditioner::Local),
+            cg(StencilPreconditioner::Local),
             Accuracy::Iterative,
         ),
         (

@@ -18,7 +18,9 @@ mod common;
 
 use common::image_cli::reconstruct2d;
 use common::runner::{rkwave, scratch, succeeds};
-use rkwave::image::fit::{NormalSolver, Preconditioner, CG_TOLERANCE, CHOLESKY_MAX_FUNCTIONS};
+use rkwave::image::fit::{
+    NormalSolver, StencilPreconditioner, CG_TOLERANCE, CHOLESKY_MAX_FUNCTIONS,
+};
 use rkwave::image::pixels::{fit_pixels, PixelFilter};
 use rkwave::image::sampler::Sampler;
 use rkwave::image::{fit_image, ImageFit, ImageFitParams, ImagePlane};
@@ -168,7 +170,7 @@ fn a_capped_cg_falls_back_to_the_cholesky_and_says_so() {
     let (xs, ys) = Sampler::Stratified.positions(plane, 4, 5);
     let v = values(&xs, &ys, w as f64, 5);
     let capped = NormalSolver::Cg {
-        preconditioner: Preconditioner::Jacobi,
+        preconditioner: StencilPreconditioner::Jacobi,
         tolerance: 1e-14,
         max_iterations: 2,
     };

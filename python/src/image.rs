@@ -12,7 +12,7 @@ use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::job::{FitOptions, ImageParams, JobError, UniformJob};
 use rkwave::image::report::FileReconstructionReport;
 use rkwave::image::{
-    split_finite, DroppedSamples, ImagePlane, ImageSamples, Method, NonFinitePolicy,
+    split_finite, DroppedSamples, ImageMethod, ImagePlane, ImageSamples, NonFinitePolicy,
 };
 
 use crate::arrays::{columns, floats, image_out};
@@ -21,8 +21,8 @@ use crate::report::to_dict;
 
 /// The method from `method` and `filter` (a film filter by name: `box`, `triangle`,
 /// `gaussian`, `mitchell`, `lanczos`).
-fn method_of(method: &str, filter: Option<&str>) -> PyResult<Method> {
-    let chosen: Method = method
+fn method_of(method: &str, filter: Option<&str>) -> PyResult<ImageMethod> {
+    let chosen: ImageMethod = method
         .parse()
         .map_err(|e| invalid(format!("method: {e}")))?;
     match filter {
@@ -30,8 +30,8 @@ fn method_of(method: &str, filter: Option<&str>) -> PyResult<Method> {
         Some(name) => {
             let kind: FilmFilterKind = name.parse().map_err(|e| invalid(format!("filter: {e}")))?;
             match chosen {
-                Method::Wavelet => Ok(Method::Film(kind)),
-                Method::Film(k) if k == kind => Ok(chosen),
+                ImageMethod::Wavelet => Ok(ImageMethod::Film(kind)),
+                ImageMethod::Film(k) if k == kind => Ok(chosen),
                 other => Err(invalid(format!(
                     "method={:?} and filter={name:?} ask for two methods: give one",
                     other.name()

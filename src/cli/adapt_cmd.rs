@@ -211,15 +211,18 @@ impl AdaptArgs {
 /// Refiner errors, by their kind (a wrapped basis or reconstruction error as itself).
 fn refine_error(e: RefineError) -> CliError {
     match e {
-        RefineError::Basis(b) => CliError::Basis(b),
+        RefineError::Basis(b) => CliError::from(b),
         RefineError::Reconstruct(r) => r.into(),
-        other => CliError::Refine(other),
+        other => CliError::from(other),
     }
 }
 
 /// Runs `rkwave adapt`.
 pub fn run(args: &AdaptArgs) -> Result<(), CliError> {
-    let domain: Domain = args.domain.parse()?;
+    let domain: Domain = args
+        .domain
+        .parse()
+        .map_err(|e| CliError::reworded(&e, format!("invalid --domain: {e}")))?;
     let params = args.params(domain)?;
     let source = Source::parse(&args.signal, domain)?;
     if let Some(plot) = &args.plot {

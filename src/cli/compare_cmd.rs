@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::scene::Scene;
-use rkwave::image::{Method, WaveletParams};
+use rkwave::image::{ImageMethod, WaveletParams};
 use rkwave::lab::adaptive::{
     adaptive_markdown, adaptive_rows_markdown, compare_adaptive, AdaptiveComparison,
 };
@@ -88,8 +88,8 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let plane = parse_resolution(&args.resolution)?;
     let sampler = parse_sampler(&args.sampler)?;
     let p = check_p(args.p)?;
-    let methods: Vec<Method> = if args.methods.is_empty() {
-        Method::all()
+    let methods: Vec<ImageMethod> = if args.methods.is_empty() {
+        ImageMethod::all()
     } else {
         args.methods
             .iter()

@@ -10,7 +10,7 @@ use rkwave::image::adaptive::figure::save_adaptive_figure;
 use rkwave::image::adaptive::AdaptiveParams;
 use rkwave::image::sampler::Sampler;
 use rkwave::image::scene::Scene;
-use rkwave::image::{ImagePlane, Method, WaveletParams};
+use rkwave::image::{ImageMethod, ImagePlane, WaveletParams};
 use rkwave::lab::adaptive::{adaptive_markdown, compare_adaptive};
 use rkwave::lab::experiment::{compare_methods, SamplingParams, TruthParams};
 use rkwave::lab::figure::save_side_by_side;
@@ -42,7 +42,7 @@ pub fn run(out: &Path, summary: &mut String) -> Result<(), CliError> {
     let cmp = compare_methods(
         &scene,
         &sampling,
-        &Method::all(),
+        &ImageMethod::all(),
         &WaveletParams::default(),
         &truth,
     )?;

@@ -39,8 +39,8 @@ pub fn save_new(fig: &Figure, path: &Path, force: bool) -> Result<(), CliError> 
         })?;
     }
     fig.write(path, force).map_err(|e| match e {
-        PlotError::Output(o) => CliError::Output(o),
-        other => CliError::Plot(other),
+        PlotError::Output(o) => CliError::from(o),
+        other => CliError::from(other),
     })
 }
 

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::scene::Scene;
-use rkwave::image::{sample_weights, Method, WaveletParams};
+use rkwave::image::{sample_weights, ImageMethod, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::lab::experiment::{
     compare_methods, sample_scene, ImageReport, SamplingParams, TruthParams,
@@ -48,14 +48,14 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     check_outputs(&[&args.out], args.force, &[&scene_file])?;
     let plane = parse_resolution(&args.resolution)?;
     let sampler = parse_sampler(&args.sampler)?;
-    let method: Method = args
+    let method: ImageMethod = args
         .method
         .parse()
         .map_err(|e| CliError::parse("--method", e))?;
     let pixel_filter = match &args.pixel_filter {
         None => None,
         Some(name) => {
-            if matches!(method, Method::Film(_)) {
+            if matches!(method, ImageMethod::Film(_)) {
                 return Err(CliError::Invalid(format!(
                     "--pixel-filter {name} applies to the wavelet methods only; \
                      --method {method} is itself a pixel filter"
@@ -127,7 +127,9 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     let mut filter_file = None;
     if let Some((x, y)) = show {
         let samples = sample_scene(&scene, &sampling)?;
-        let weights = sample_weights(method, &samples, &wavelet, x, y)?;
+        let weights = sample_weights(method, &samples, &wavelet, x, y).map_err(|e| {
+            CliError::reworded(&e, format!("the wavelet reconstruction failed: {e}"))
+        })?;
         let path = filter_csv_path(&args.out, x, y);
         let mut text = String::from("index,x,y,weight\n");
         for w in &weights {

@@ -27,11 +27,9 @@ pub mod sweep_cmd;
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use rkwave::basis::{BasisError, FilterFamily};
-use rkwave::error::ErrorKind;
-use rkwave::plot::PlotError;
-use rkwave::refine::RefineError;
-use rkwave::sampling::{Domain, DomainError};
+use rkwave::basis::FilterFamily;
+use rkwave::error::{Classified, ErrorKind};
+use rkwave::sampling::Domain;
 use thiserror::Error;
 
 /// rkwave: least-squares reconstruction from scattered samples in CDV interval wavelet bases.
@@ -216,72 +214,27 @@ pub struct DemoArgs {
     pub out: PathBuf,
 }
 
-/// Everything that can go wrong on the command line: the library's typed errors, wrapped as
-/// they are, and the command line's own checks of its flags. [`CliError::kind`] classifies
-/// each ([`rkwave::error`]); [`CliError::exit_code`] maps the kind to the exit code.
+/// Everything that can go wrong on the command line: any library error, kept as it is and
+/// classified by its own kind ([`rkwave::error::Classified`]: no list of the library's error
+/// types here, so a new library error needs no edit of the command line), and the command
+/// line's own checks of its flags. [`CliError::kind`] classifies each;
+/// [`CliError::exit_code`] maps the kind to the exit code. The library's messages name
+/// parameters through typed fixes ([`rkwave::error::Fix`]), spelled as flags where the error
+/// is printed ([`hints::in_flags`]).
 #[derive(Debug, Error)]
 pub enum CliError {
-    /// Invalid basis parameters or positions.
-    #[error(transparent)]
-    Basis(#[from] BasisError),
-    /// Invalid domain.
-    #[error("invalid --domain: {0}")]
-    Domain(#[from] DomainError),
-    /// Reading or writing samples.
-    #[error(transparent)]
-    Io(#[from] rkwave::io::IoError),
-    /// Reconstruction.
-    #[error(transparent)]
-    Reconstruct(#[from] rkwave::reconstruct::ReconstructError),
-    /// The adaptive refiner (`adapt`).
-    #[error(transparent)]
-    Refine(#[from] RefineError),
-    /// A scaling measurement.
-    #[error(transparent)]
-    Scaling(#[from] rkwave::report::scaling::ScalingError),
-    /// A figure could not be drawn or written.
-    #[error(transparent)]
-    Plot(#[from] PlotError),
-    /// The image plane's wavelet reconstruction.
-    #[error("the wavelet reconstruction failed: {0}")]
-    Wavelet(#[from] rkwave::image::WaveletError),
-    /// The image plane or its samples.
-    #[error(transparent)]
-    Image(#[from] rkwave::image::ImageError),
-    /// A scene file.
-    #[error(transparent)]
-    Scene(#[from] rkwave::image::scene::SceneError),
-    /// An image-plane experiment.
-    #[error(transparent)]
-    ImageRun(#[from] rkwave::lab::experiment::ImageRunError),
-    /// An adaptive image-plane experiment.
-    #[error(transparent)]
-    AdaptiveRun(#[from] rkwave::lab::adaptive::AdaptiveRunError),
-    /// The plan protocol (`plan`, `reconstruct --dim 2 --state`).
-    #[error(transparent)]
-    Protocol(#[from] rkwave::image::adaptive::protocol::ProtocolError),
-    /// An image file.
-    #[error(transparent)]
-    ImageFile(#[from] rkwave::io::image_file::ImageFileError),
-    /// A pixel estimate (`reconstruct --dim 2 --pixels`).
-    #[error(transparent)]
-    Estimate(rkwave::image::estimate::EstimateError),
+    /// A library error: its message and its kind are the library's.
+    #[error("{0}")]
+    Library(Box<dyn Classified + Send + Sync>),
     /// A library error said in the command line's words: the message names the flag or the
     /// file; the kind is the library error's, so the exit code stays the library's.
     #[error("{message}")]
-    Library {
+    Reworded {
         /// The library error's kind.
         kind: ErrorKind,
         /// What the command line says.
         message: String,
     },
-    /// An image-plane job (`reconstruct --dim 2`): its message names parameters, spelled
-    /// as flags where it is printed.
-    #[error(transparent)]
-    Job(rkwave::image::job::JobError),
-    /// The tiled image fit (`reconstruct --dim 2 --tile`).
-    #[error(transparent)]
-    Tiled(#[from] rkwave::image::tiles::TiledError),
     /// A file operation failed.
     #[error("cannot write {path}: {source}")]
     Write {
@@ -296,9 +249,6 @@ pub enum CliError {
         /// The file.
         path: PathBuf,
     },
-    /// An output that cannot or must not be written (checked before computing).
-    #[error(transparent)]
-    Output(#[from] rkwave::io::output::OutputError),
     /// A flag's value the library refused: the flag, then the library's error.
     #[error("{flag}: {source}")]
     Flag {
@@ -318,12 +268,17 @@ pub enum CliError {
     /// A flag's value the command line itself refuses (its message names the flag).
     #[error("{0}")]
     Invalid(String),
-    /// A request refused before allocating: what it would need, and the flag to change.
-    #[error(transparent)]
-    Resources(rkwave::resources::ResourceError),
     /// A broken contract of the command line itself (a bug to report).
     #[error("internal error, please report: {0}")]
     Internal(String),
+}
+
+/// Any error the library classifies becomes [`CliError::Library`] (`?` on every library
+/// call). `CliError` itself is not [`Classified`], so this does not overlap `From<T> for T`.
+impl<E: Classified + Send + Sync + 'static> From<E> for CliError {
+    fn from(e: E) -> Self {
+        CliError::Library(Box::new(e))
+    }
 }
 
 impl CliError {
@@ -343,51 +298,35 @@ impl CliError {
         }
     }
 
+    /// A library error `e` said as `message` (the command line's words), keeping `e`'s kind.
+    pub fn reworded(e: &impl Classified, message: String) -> Self {
+        CliError::Reworded {
+            kind: e.kind(),
+            message,
+        }
+    }
+
     /// The kind of failure: the wrapped library error's, or the command line's own.
     pub fn kind(&self) -> ErrorKind {
         match self {
-            CliError::Basis(e) => e.kind(),
-            CliError::Domain(e) => e.kind(),
-            CliError::Io(e) => e.kind(),
-            CliError::Reconstruct(e) => e.kind(),
-            CliError::Refine(e) => e.kind(),
-            CliError::Scaling(e) => e.kind(),
-            CliError::Plot(e) => e.kind(),
-            CliError::Wavelet(e) => e.kind(),
-            CliError::Image(e) => e.kind(),
-            CliError::Scene(e) => e.kind(),
-            CliError::ImageRun(e) => e.kind(),
-            CliError::AdaptiveRun(e) => e.kind(),
-            CliError::Protocol(e) => e.kind(),
-            CliError::ImageFile(e) => e.kind(),
-            CliError::Estimate(e) => e.kind(),
-            CliError::Library { kind, .. } => *kind,
-            CliError::Tiled(e) => e.kind(),
-            CliError::Job(e) => e.kind(),
+            CliError::Library(e) => e.kind(),
+            CliError::Reworded { kind, .. } => *kind,
             CliError::Write { .. } => ErrorKind::WriteFailed,
             CliError::WouldOverwrite { .. } => ErrorKind::OutputRefused,
-            CliError::Output(e) => e.kind(),
             CliError::Flag { source, .. } => source.kind(),
             CliError::Parse { .. } | CliError::Invalid(_) => ErrorKind::InvalidInput,
-            CliError::Resources(e) => e.kind(),
             CliError::Internal(_) => ErrorKind::Internal,
         }
     }
 
     /// Exit code: 2 when the request can be fixed by the caller (bad input, a refusal, an
-    /// undetermined or unconverged fit, an unreadable input), 1 when the machine failed
-    /// (writing or drawing an output, a broken internal contract).
+    /// undetermined or unconverged fit, an unreadable input: [`ErrorKind::is_caller_fixable`]),
+    /// 1 when the machine failed (writing or drawing an output, a broken internal contract).
     pub fn exit_code(&self) -> i32 {
-        match self.kind() {
-            ErrorKind::InvalidInput
-            | ErrorKind::Undetermined
-            | ErrorKind::ResourceLimit
-            | ErrorKind::NotConverged
-            | ErrorKind::Numerical
-            | ErrorKind::Unreadable
-            | ErrorKind::OutputRefused => 2,
-            ErrorKind::WriteFailed | ErrorKind::Internal => 1,
-            _ => 1,
+        if self.kind().is_caller_fixable() {
+            2
+        } else {
+            1
         }
     }
 }
@@ -416,37 +355,20 @@ pub fn check_writable(path: &std::path::Path, force: bool) -> Result<(), CliErro
         rkwave::io::output::check_output(path, true, &[])?;
     } else {
         rkwave::io::output::check_output(&probe_dir.join(".rkwave-probe"), true, &[]).map_err(
-            |e| CliError::Library {
-                kind: e.kind(),
-                message: format!(
-                    "cannot write {}: its directory would be created in {}, which refuses \
-                     new files ({e})",
-                    path.display(),
-                    probe_dir.display()
-                ),
+            |e| {
+                CliError::reworded(
+                    &e,
+                    format!(
+                        "cannot write {}: its directory would be created in {}, which \
+                         refuses new files ({e})",
+                        path.display(),
+                        probe_dir.display()
+                    ),
+                )
             },
         )?;
     }
     Ok(())
-}
-
-impl From<rkwave::resources::ResourceError> for CliError {
-    fn from(e: rkwave::resources::ResourceError) -> Self {
-        CliError::Resources(e)
-    }
-}
-
-impl From<rkwave::image::job::JobError> for CliError {
-    fn from(e: rkwave::image::job::JobError) -> Self {
-        match e {
-            rkwave::image::job::JobError::Wavelet(e) => CliError::Wavelet(e),
-            rkwave::image::job::JobError::Estimate(
-                rkwave::image::estimate::EstimateError::Wavelet(e),
-            ) => CliError::Wavelet(e),
-            rkwave::image::job::JobError::Estimate(e) => CliError::Estimate(e),
-            e => CliError::Job(e),
-        }
-    }
 }
 
 /// Before a sample file is read ([`rkwave::resources::check_reading`]).

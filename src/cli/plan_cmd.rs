@@ -171,8 +171,8 @@ fn params(
 
 fn protocol(e: ProtocolError) -> CliError {
     match e {
-        ProtocolError::Write(e) => CliError::Output(e),
-        e => CliError::Protocol(e),
+        ProtocolError::Write(e) => CliError::from(e),
+        e => CliError::from(e),
     }
 }
 

@@ -8,7 +8,7 @@ use rkwave::error::Param;
 use rkwave::image::estimate::ShrinkParams;
 use rkwave::image::job::{FitOptions, ImageParams, UniformJob};
 use rkwave::image::report::FileReconstructionReport;
-use rkwave::image::{Method, UniformEstimate};
+use rkwave::image::{ImageMethod, UniformEstimate};
 use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::io::output::check_output;
 use rkwave::io::read_image_samples_with;
@@ -22,8 +22,8 @@ use super::CliError;
 /// library's default, not asked for), and the method the flags ask for.
 fn image_params(args: &ReconstructArgs) -> Result<ImageParams, CliError> {
     let method = match args.method {
-        MethodArg::Local => Method::Local,
-        MethodArg::Single | MethodArg::Global => Method::Wavelet,
+        MethodArg::Local => ImageMethod::Local,
+        MethodArg::Single | MethodArg::Global => ImageMethod::Wavelet,
         MethodArg::Dense => {
             return Err(CliError::Invalid(
                 "--method dense is 1D only; on the image plane use single, global or local".into(),

@@ -70,7 +70,7 @@ pub fn chooses_streaming(args: &ReconstructArgs, params: &FitParams) -> Result<b
                 needed,
                 || STREAMING_FIX.to_string(),
             )
-            .map_err(CliError::Resources)?;
+            .map_err(CliError::from)?;
             Ok(false)
         }
     }
@@ -86,9 +86,9 @@ struct StreamedReport<'a> {
 
 fn from_stream(e: StreamError) -> CliError {
     match e {
-        StreamError::Reconstruct(e) => CliError::Reconstruct(e),
+        StreamError::Reconstruct(e) => CliError::from(e),
         StreamError::Source(e) => match e.downcast::<IoError>() {
-            Ok(io) => CliError::Io(*io),
+            Ok(io) => CliError::from(*io),
             Err(other) => CliError::Invalid(other.to_string()),
         },
         other => CliError::Invalid(other.to_string()),

@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::image::tiles::{
     reconstruct_tiled, TileGeometry, TiledInput, TiledParams, TiledReport, DEFAULT_HALO,
 };
-use rkwave::image::{ImagePlane, Method, UniformEstimate, WaveletParams};
+use rkwave::image::{ImageMethod, ImagePlane, UniformEstimate, WaveletParams};
 use rkwave::io::image_file::write_image;
 use serde::Serialize;
 
@@ -45,12 +45,12 @@ struct Times {
 pub fn run(
     args: &ReconstructArgs,
     plane: ImagePlane,
-    method: Method,
+    method: ImageMethod,
     tile: usize,
     wavelet: &WaveletParams,
     started: Instant,
 ) -> Result<(), CliError> {
-    if method != Method::Wavelet {
+    if method != ImageMethod::Wavelet {
         return Err(CliError::Invalid(
             "--tile fits each tile by the global solve of its window: use --method single or \
              global (the default), or drop --tile"

@@ -1,6 +1,6 @@
 //! Typed fixes: the change a refused request can make, named as data ([`Fix`]), and how each
 //! front end spells it ([`spelled`]). A leaf module: the library's errors name their fixes
-//! through it without depending on the error-kind table of [`crate::error`].
+//! through it without depending on the error-kind table of its parent module.
 
 /// A change that can make a refused request work, named as data: the library's messages
 /// write each [`Fix`] through [`std::fmt::Display`], which spells it in the terms of whoever

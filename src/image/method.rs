@@ -1,11 +1,11 @@
 //! Samples to pixels, the library's entry point on the image plane: [`reconstruct`] turns
-//! scattered samples `(x_i, y_i, f_i)` into a [`PixelImage`] by one [`Method`] and reports what
+//! scattered samples `(x_i, y_i, f_i)` into a [`PixelImage`] by one [`ImageMethod`] and reports what
 //! it did.
 //!
-//! * [`Method::Wavelet`] and [`Method::Local`]: the least-squares fit in the tensor CDV
+//! * [`ImageMethod::Wavelet`] and [`ImageMethod::Local`]: the least-squares fit in the tensor CDV
 //!   single-scale space (global solve, or local inversion `c = K~ f`), then each pixel's exact
 //!   integral against the pixel filter ([`super::wavelet`]);
-//! * [`Method::Film`]: a film filter's weighted average `I(X, Y) = sum_i w_i f_i / sum_i w_i`,
+//! * [`ImageMethod::Film`]: a film filter's weighted average `I(X, Y) = sum_i w_i f_i / sum_i w_i`,
 //!   `w_i = f(x_i - X - 1/2) f(y_i - Y - 1/2)` ([`super::splat`]).
 //!
 //! [`sample_weights`] gives the same linear map for one pixel: `I(X, Y) = sum_i w_i f_i`.
@@ -29,7 +29,7 @@ use super::{ImageSamples, PixelImage};
 /// A way of turning samples into pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 #[serde(into = "String")]
-pub enum Method {
+pub enum ImageMethod {
     /// The wavelet least-squares fit (global solve of the normal equations), box-filtered
     /// exactly over each pixel.
     Wavelet,
@@ -39,31 +39,31 @@ pub enum Method {
     Film(FilmFilterKind),
 }
 
-impl Method {
+impl ImageMethod {
     /// Every method, wavelet first.
-    pub fn all() -> Vec<Method> {
-        let mut v = vec![Method::Wavelet, Method::Local];
-        v.extend(FilmFilterKind::ALL.map(Method::Film));
+    pub fn all() -> Vec<ImageMethod> {
+        let mut v = vec![ImageMethod::Wavelet, ImageMethod::Local];
+        v.extend(FilmFilterKind::ALL.map(ImageMethod::Film));
         v
     }
 
     /// The lowercase name (`wavelet`, `local`, `box`, ...).
     pub fn name(self) -> &'static str {
         match self {
-            Method::Wavelet => "wavelet",
-            Method::Local => "local",
-            Method::Film(k) => k.name(),
+            ImageMethod::Wavelet => "wavelet",
+            ImageMethod::Local => "local",
+            ImageMethod::Film(k) => k.name(),
         }
     }
 }
 
-impl From<Method> for String {
-    fn from(m: Method) -> String {
+impl From<ImageMethod> for String {
+    fn from(m: ImageMethod) -> String {
         m.name().to_string()
     }
 }
 
-impl fmt::Display for Method {
+impl fmt::Display for ImageMethod {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
@@ -80,17 +80,18 @@ pub struct ParseMethodError {
     pub name: String,
 }
 
-impl FromStr for Method {
+impl FromStr for ImageMethod {
     type Err = ParseMethodError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.trim().to_ascii_lowercase().as_str() {
-            "wavelet" => Ok(Method::Wavelet),
-            "local" => Ok(Method::Local),
-            other => other.parse::<FilmFilterKind>().map(Method::Film).map_err(
-                |ParseFilmFilterError { .. }| ParseMethodError {
+            "wavelet" => Ok(ImageMethod::Wavelet),
+            "local" => Ok(ImageMethod::Local),
+            other => other
+                .parse::<FilmFilterKind>()
+                .map(ImageMethod::Film)
+                .map_err(|ParseFilmFilterError { .. }| ParseMethodError {
                     name: s.to_string(),
-                },
-            ),
+                }),
         }
     }
 }
@@ -126,15 +127,15 @@ pub struct ImageReconstruction {
 /// Reconstructs the pixels of `samples` by `method`; `wavelet` sets the wavelet methods (a
 /// film filter ignores it).
 pub fn reconstruct(
-    method: Method,
+    method: ImageMethod,
     samples: &ImageSamples,
     wavelet: &WaveletParams,
 ) -> Result<ImageReconstruction, WaveletError> {
     let start = Instant::now();
     let solve = match method {
-        Method::Wavelet => CoefficientSolve::Global,
-        Method::Local => CoefficientSolve::Local,
-        Method::Film(kind) => {
+        ImageMethod::Wavelet => CoefficientSolve::Global,
+        ImageMethod::Local => CoefficientSolve::Local,
+        ImageMethod::Film(kind) => {
             let filter = kind.build();
             let (image, report) = splat(samples, filter.as_ref());
             let t = start.elapsed().as_secs_f64();
@@ -186,7 +187,7 @@ pub fn reconstruct(
 /// f(dx_j) f(dy_j)` over the samples within the radius (the plain formula; the fallbacks of
 /// [`splat`] are not reproduced).
 pub fn sample_weights(
-    method: Method,
+    method: ImageMethod,
     samples: &ImageSamples,
     wavelet: &WaveletParams,
     px: usize,
@@ -202,9 +203,9 @@ pub fn sample_weights(
         });
     }
     let solve = match method {
-        Method::Wavelet => CoefficientSolve::Global,
-        Method::Local => CoefficientSolve::Local,
-        Method::Film(kind) => return Ok(film_weights(kind, samples, px, py)),
+        ImageMethod::Wavelet => CoefficientSolve::Global,
+        ImageMethod::Local => CoefficientSolve::Local,
+        ImageMethod::Film(kind) => return Ok(film_weights(kind, samples, px, py)),
     };
     wavelet_equivalent_filter(samples, wavelet, solve, px, py)
 }
@@ -244,10 +245,10 @@ mod tests {
     #[test]
     fn methods_parse() {
         assert_eq!(
-            "Lanczos".parse::<Method>(),
-            Ok(Method::Film(FilmFilterKind::Lanczos))
+            "Lanczos".parse::<ImageMethod>(),
+            Ok(ImageMethod::Film(FilmFilterKind::Lanczos))
         );
-        assert_eq!("local".parse::<Method>(), Ok(Method::Local));
-        assert!("bilinear".parse::<Method>().is_err());
+        assert_eq!("local".parse::<ImageMethod>(), Ok(ImageMethod::Local));
+        assert!("bilinear".parse::<ImageMethod>().is_err());
     }
 }

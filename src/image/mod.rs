@@ -11,7 +11,7 @@
 //! * [`pixels`]: pixel values of a reconstruction as exact integrals against a pixel filter;
 //!   [`equivalent_filter`]: the weight of each sample in one pixel's value.
 //! * [`PixelImage`] is a grid of pixel values, per channel, row-major (`Y * W + X`).
-//! * [`reconstruct`] is the entry point: samples to pixels by one [`Method`] (the wavelet fit,
+//! * [`reconstruct`] is the entry point: samples to pixels by one [`ImageMethod`] (the wavelet fit,
 //!   its local inversion, or a film filter), with a report of what it did ([`method`]).
 //! * [`filters`]: the film filters renderers ship; [`splat`]: their weighted-average
 //!   reconstruction; [`wavelet`]: the wavelet method's pixels.
@@ -37,7 +37,7 @@ pub use estimate::{reconstruct_estimated, EstimateReport, UniformEstimate};
 pub use fit::{
     fit_image, fit_samples, ImageFit, ImageFitError, ImageFitParams, ImageLevels, ImageSolveReport,
 };
-pub use method::{reconstruct, sample_weights, ImageReconstruction, Method, StageTimes};
+pub use method::{reconstruct, sample_weights, ImageMethod, ImageReconstruction, StageTimes};
 pub use nonfinite::{split_finite, DroppedSamples, NonFinitePolicy};
 pub use wavelet::{CoefficientSolve, WaveletError, WaveletParams};
 

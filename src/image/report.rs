@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::adaptive::protocol::{PlanReconstruction, PlanState, PlanStep};
 use super::adaptive::{ResidualCorrection, SamplePositions, TreeFitReport};
-use super::method::{ImageReconstruction, Method};
+use super::method::{ImageMethod, ImageReconstruction};
 use super::wavelet::WaveletReport;
 use super::{ImagePlane, ImageSamples};
 use crate::refine::StopReason;
@@ -82,7 +82,7 @@ impl FileReconstructionReport {
         output: &Path,
         plane: ImagePlane,
         samples: &ImageSamples,
-        method: Method,
+        method: ImageMethod,
         p: usize,
         done: &ImageReconstruction,
         read: f64,
@@ -121,7 +121,7 @@ impl FileReconstructionReport {
         match estimated.estimate {
             UniformEstimate::Auto => self.method = UniformEstimate::Auto.name().into(),
             UniformEstimate::Box | UniformEstimate::Shrunk => {
-                self.method = Method::Film(super::filters::FilmFilterKind::Box).into()
+                self.method = ImageMethod::Film(super::filters::FilmFilterKind::Box).into()
             }
             UniformEstimate::Fit | UniformEstimate::FitClamped => {}
         }

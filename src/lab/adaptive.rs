@@ -31,8 +31,8 @@ use crate::image::metrics::{compare, ImageMetrics};
 use crate::image::sampler::Sampler;
 use crate::image::scene::Scene;
 use crate::image::truth::truth_cached;
+use crate::image::{ImageMethod, WaveletParams};
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
-use crate::image::{Method, WaveletParams};
 
 /// Why an adaptive comparison failed.
 #[derive(Debug, thiserror::Error)]
@@ -196,11 +196,11 @@ pub fn compare_adaptive(
     let adaptive_set =
         ImageSamples::new(plane, run.xs.clone(), run.ys.clone(), run.values.clone())?;
     let wavelet = WaveletParams::default();
-    let mut methods = vec![Method::Wavelet];
-    methods.extend(FilmFilterKind::ALL.map(Method::Film));
+    let mut methods = vec![ImageMethod::Wavelet];
+    methods.extend(FilmFilterKind::ALL.map(ImageMethod::Film));
     for (set, from) in [(&uniform, "stratified"), (&adaptive_set, "adaptive")] {
         for &m in &methods {
-            if from == "adaptive" && m == Method::Wavelet {
+            if from == "adaptive" && m == ImageMethod::Wavelet {
                 continue;
             }
             let r = run_method(m, set, &wavelet, &truth_image)?;

@@ -4,7 +4,7 @@
 //! One run is: samples `(x_i, y_i)` from a [`Sampler`], values `f_i = L(x_i, y_i) + n_i`
 //! (optional Gaussian noise `n_i ~ N(0, sigma^2)` per channel, seeded, because renderer
 //! samples are Monte Carlo estimates), then the library's [`reconstruct`] turns them into
-//! pixels by one [`Method`], timed by stage, and [`compare`] measures the result against
+//! pixels by one [`ImageMethod`], timed by stage, and [`compare`] measures the result against
 //! [`truth_cached`]. A [`Comparison`] runs every method on the same samples (the `table`
 //! module beside this one renders it).
 
@@ -25,7 +25,7 @@ use crate::image::splat::SplatReport;
 use crate::image::truth::{truth_cached, TruthSource, DEFAULT_RATE};
 use crate::image::wavelet::{WaveletError, WaveletParams, WaveletReport};
 use crate::image::{
-    reconstruct, ImageError, ImagePlane, ImageSamples, Method, PixelImage, StageTimes,
+    reconstruct, ImageError, ImageMethod, ImagePlane, ImageSamples, PixelImage, StageTimes,
 };
 
 /// How the samples are drawn.
@@ -131,7 +131,7 @@ fn standard_normal(rng: &mut Pcg64) -> f64 {
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodResult {
     /// The method.
-    pub method: Method,
+    pub method: ImageMethod,
     /// Metrics against the truth.
     pub metrics: ImageMetrics,
     /// Timing by stage.
@@ -154,7 +154,7 @@ pub struct MethodResult {
 
 /// Reconstructs by `method` and measures against `truth`.
 pub fn run_method(
-    method: Method,
+    method: ImageMethod,
     samples: &ImageSamples,
     wavelet: &WaveletParams,
     truth: &PixelImage,
@@ -203,7 +203,7 @@ pub struct Comparison {
 pub fn compare_methods(
     scene: &Scene,
     sampling: &SamplingParams,
-    methods: &[Method],
+    methods: &[ImageMethod],
     wavelet: &WaveletParams,
     truth: &TruthParams,
 ) -> Result<Comparison, ImageRunError> {
@@ -220,7 +220,7 @@ pub fn compare_methods(
         .collect::<Result<Vec<_>, _>>()?;
     let gaussian = results
         .iter()
-        .find(|r| r.method == Method::Film(FilmFilterKind::Gaussian))
+        .find(|r| r.method == ImageMethod::Film(FilmFilterKind::Gaussian))
         .map(|r| r.time_s.total);
     if let Some(g) = gaussian.filter(|&g| g > 0.0) {
         for r in &mut results {
@@ -266,7 +266,7 @@ pub struct ImageReport {
     /// How the samples were drawn.
     pub sampling: SamplingParams,
     /// The method.
-    pub method: Method,
+    pub method: ImageMethod,
     /// PSNR (dB, peak 1) against the box-filtered truth.
     pub psnr: f64,
     /// RMSE.

@@ -2,7 +2,7 @@
 //! `plot`). Nothing in the library's production path calls into it; the command line's
 //! measuring commands (`image`, `compare`, the demo) do.
 //!
-//! * [`experiment`]: a scene sampled (with seeded noise), every image-plane [`Method`] run on
+//! * [`experiment`]: a scene sampled (with seeded noise), every image-plane [`ImageMethod`] run on
 //!   the same samples through the library's [`reconstruct`], each measured against the
 //!   box-filtered ground truth (PSNR, RMSE, relative MSE, SSIM), as typed `Serialize` reports;
 //! * [`table`]: those comparisons as CSV and Markdown tables;
@@ -11,7 +11,7 @@
 //! * [`refine`]: the 1D refiner against uniform sampling at equal sample counts (figure 4);
 //! * [`refine_figures`]: the layout of the 1D adaptive refiner's figures.
 //!
-//! [`Method`]: crate::image::Method
+//! [`ImageMethod`]: crate::image::ImageMethod
 //! [`reconstruct`]: crate::image::reconstruct
 
 pub mod adaptive;

@@ -4,7 +4,7 @@
 
 use super::experiment::Comparison;
 use crate::image::filters::FilmFilterKind;
-use crate::image::Method;
+use crate::image::ImageMethod;
 
 /// Header of [`comparison_csv`].
 pub const CSV_HEADER: &str = "scene,resolution,spp,sampler,noise,method,psnr,rmse,rel_mse,ssim,\
@@ -43,7 +43,7 @@ pub fn comparison_csv(comparisons: &[Comparison]) -> String {
     out
 }
 
-fn psnr_of(c: &Comparison, m: Method) -> Option<f64> {
+fn psnr_of(c: &Comparison, m: ImageMethod) -> Option<f64> {
     c.results
         .iter()
         .find(|r| r.method == m)
@@ -56,7 +56,7 @@ pub fn comparison_markdown(comparisons: &[Comparison]) -> String {
     let Some(first) = comparisons.first() else {
         return String::new();
     };
-    let methods: Vec<Method> = first.results.iter().map(|r| r.method).collect();
+    let methods: Vec<ImageMethod> = first.results.iter().map(|r| r.method).collect();
     let mut out = String::from("| scene | noise |");
     for m in &methods {
         out.push_str(&format!(" {m} |"));
@@ -79,8 +79,8 @@ pub fn comparison_markdown(comparisons: &[Comparison]) -> String {
             }
         }
         match (
-            psnr_of(c, Method::Wavelet),
-            psnr_of(c, Method::Film(FilmFilterKind::Gaussian)),
+            psnr_of(c, ImageMethod::Wavelet),
+            psnr_of(c, ImageMethod::Film(FilmFilterKind::Gaussian)),
         ) {
             (Some(w), Some(g)) => out.push_str(&format!(" {:+.2} |\n", w - g)),
             _ => out.push_str(" |\n"),
@@ -95,7 +95,7 @@ pub fn comparison_times_markdown(comparisons: &[Comparison]) -> String {
     let Some(first) = comparisons.first() else {
         return String::new();
     };
-    let methods: Vec<Method> = first.results.iter().map(|r| r.method).collect();
+    let methods: Vec<ImageMethod> = first.results.iter().map(|r| r.method).collect();
     let mut out = String::from("| scene | noise |");
     for m in &methods {
         out.push_str(&format!(" {m} (s) |"));
@@ -111,7 +111,7 @@ pub fn comparison_times_markdown(comparisons: &[Comparison]) -> String {
         let ratio = c
             .results
             .iter()
-            .find(|r| r.method == Method::Wavelet)
+            .find(|r| r.method == ImageMethod::Wavelet)
             .and_then(|r| r.time_over_gaussian);
         out.push_str(&format!(" {} |\n", opt(ratio.map(|t| format!("{t:.1}")))));
     }

@@ -315,8 +315,9 @@ fn cgls(
         condition: ConditionEstimate::Skip,
     };
     let (y, report) = cg::cgls(&prep.k, &prep.kt, &d, &f, ch, &cg);
-    // The one CG reports the iteration limit; the global solve's contract makes it an error.
-    if let Some(c) = report.first_unconverged() {
+    // The one CG reports the iteration limit; the global solve's contract is the tolerance.
+    const ON_LIMIT: cg::IterationLimit = cg::IterationLimit::Fail;
+    if let (Some(c), cg::IterationLimit::Fail) = (report.first_unconverged(), ON_LIMIT) {
         return Err(SolveError::NotConverged {
             channel: c,
             iterations: report.iterations[c],

@@ -40,7 +40,7 @@ use super::AdaptiveError;
 use crate::basis::tensor::TensorValue;
 use crate::image::fit::ImageFitError;
 use crate::image::pixels::{filter_image, PixelIntegrals};
-use crate::solve::cg::CgReport;
+use crate::solve::cg::{CgReport, IterationLimit};
 use crate::solve::transpose_with_positions;
 use crate::solve::{normal_ls, GlobalLsParams, RankPolicy};
 
@@ -290,7 +290,14 @@ pub fn fit_tree_updating(
             state.rows = Some(rows);
             let (coefficients, report) = solved;
             let converged = report.all_converged();
-            if !converged && tree.len() <= DIRECT_FALLBACK_MAX {
+            // The tree system's policy at PCG's iteration limit: the direct solve while it is
+            // small enough, the iterate (reported as not converged) above.
+            let on_limit = if tree.len() <= DIRECT_FALLBACK_MAX {
+                IterationLimit::FallBack
+            } else {
+                IterationLimit::Accept
+            };
+            if !converged && on_limit == IterationLimit::FallBack {
                 let mut fit = fit_direct(tree, xs, ys, values, &mut None, TreeSolver::Direct)?;
                 let worst = (0..report.iterations.len())
                     .max_by(|&a, &b| {
@@ -391,6 +398,7 @@ fn fit_direct(
                 solver: "schwarz".into(),
                 iterations: cg.iterations.iter().copied().max().unwrap_or(0),
                 relative_residual: largest(&cg.relative_residual),
+                // At the iteration limit: IterationLimit::Accept, reported here.
                 converged: cg.all_converged(),
                 schwarz: Some(pre.report()),
                 schwarz_setup_s: setup_s,

@@ -61,7 +61,7 @@ pub use sure::{choose_films, FilmChoice, FilmRisks};
 
 use crate::error::{ErrorKind, Fix, Param};
 
-use super::method::{reconstruct, ImageReconstruction, Method, StageTimes};
+use super::method::{reconstruct, ImageMethod, ImageReconstruction, StageTimes};
 use super::wavelet::{WaveletError, WaveletParams};
 use super::{ImageSamples, PixelImage};
 
@@ -250,7 +250,7 @@ pub struct EstimateReport {
 /// is [`reconstruct`]'s unchanged).
 pub fn reconstruct_estimated(
     estimate: UniformEstimate,
-    method: Method,
+    method: ImageMethod,
     samples: &ImageSamples,
     wavelet: &WaveletParams,
     shrink: &ShrinkParams,

@@ -21,13 +21,14 @@ use thiserror::Error;
 
 use crate::basis::tensor::{TensorBasis, TensorError, TensorLevelParams, TensorValue};
 use crate::basis::{CdvBasis, FilterFamily};
+use crate::solve::cg::IterationLimit;
 use crate::solve::cholesky::CholeskyError;
 use crate::solve::SolveError;
 
 pub use normal::{NormalEquations2d, StencilPattern};
 pub use precondition::kernel_matrix_2d;
 pub use system::{
-    CgReport, FactorReport, FillOrdering, NormalSolver, NormalSystem, Preconditioner,
+    FactorReport, FillOrdering, NormalSolver, NormalSystem, StencilCgReport, StencilPreconditioner,
     CG_MAX_ITERATIONS, CG_TOLERANCE, CHOLESKY_MAX_FUNCTIONS,
 };
 
@@ -216,7 +217,7 @@ pub struct ImageSolveReport {
     /// Cholesky facts (Cholesky solver).
     pub factor: Option<FactorReport>,
     /// CG facts (CG solver).
-    pub cg: Option<CgReport>,
+    pub cg: Option<StencilCgReport>,
     /// Local inversion statistics (local solver).
     pub local: Option<crate::solve::LocalStats>,
     /// Stage times.
@@ -412,13 +413,15 @@ pub fn fit_image(
         } => {
             let t = Instant::now();
             let local = match preconditioner {
-                Preconditioner::Local => Some(precondition::local_preconditioner(&basis, xs, ys)?),
+                StencilPreconditioner::Local => {
+                    Some(precondition::local_preconditioner(&basis, xs, ys)?)
+                }
                 _ => None,
             };
             let setup_s = t.elapsed().as_secs_f64();
             timings.factor_s = setup_s;
             let t = Instant::now();
-            let mut report = CgReport {
+            let mut report = StencilCgReport {
                 preconditioner,
                 iterations: Vec::new(),
                 residual: Vec::new(),
@@ -440,7 +443,9 @@ pub fn fit_image(
                 z.push(zc);
             }
             timings.solve_s = t.elapsed().as_secs_f64();
-            if report.converged {
+            // The stencil system's policy at CG's iteration limit: the sparse Cholesky.
+            const ON_LIMIT: IterationLimit = IterationLimit::FallBack;
+            if report.converged || ON_LIMIT != IterationLimit::FallBack {
                 (z, None, Some(report))
             } else {
                 // short of the tolerance (the cap, or a breakdown): the direct solve instead
@@ -647,7 +652,13 @@ impl ImageFit {
         } else {
             Ok(self
                 .system
-                .solve_cg(&[b], Preconditioner::Jacobi, None, 1e-12, 100 * n.max(10))
+                .solve_cg(
+                    &[b],
+                    StencilPreconditioner::Jacobi,
+                    None,
+                    1e-12,
+                    100 * n.max(10),
+                )
                 .remove(0)
                 .0)
         }

@@ -22,7 +22,7 @@
 //!   the samples
 //!   leave directions nearly undetermined `k` grows with the ridge's `1 / lambda`; CG then
 //!   stops at its iteration cap and the fit falls back to the Cholesky (reported,
-//!   [`CgReport::fallback`]), so a hard case costs at most the cap's iterations more.
+//!   [`StencilCgReport::fallback`]), so a hard case costs at most the cap's iterations more.
 
 use faer::{Mat, Par};
 use rayon::prelude::*;
@@ -35,9 +35,11 @@ use crate::solve::cg::{
 };
 use crate::solve::cholesky::{CholeskyError, Pivots, SparseCholesky};
 
-/// Preconditioner of conjugate gradients.
+/// The preconditioner of conjugate gradients on the stencil system (the uniform 2D normal
+/// equations), as a choice: `None`, Jacobi or local inversion. Each is applied through the
+/// one preconditioner trait of the solver layer, [`crate::solve::cg::Preconditioner`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum Preconditioner {
+pub enum StencilPreconditioner {
     /// Plain CG on `G + lambda diag(G)`.
     None,
     /// `M = diag(G)^{-1}`: free, and removes the scale differences between functions.
@@ -72,12 +74,12 @@ pub enum NormalSolver {
     /// Preconditioned conjugate gradients (memory of `G` only).
     Cg {
         /// The preconditioner.
-        preconditioner: Preconditioner,
+        preconditioner: StencilPreconditioner,
         /// Stop at `||b - A x|| <= tolerance ||b||`.
         tolerance: f64,
         /// Stop after this many iterations: a channel short of the tolerance then makes the
         /// fit solve the system by the sparse Cholesky instead (reported,
-        /// [`CgReport::fallback`]).
+        /// [`StencilCgReport::fallback`]).
         max_iterations: usize,
     },
     /// Local inversion instead of a global solve (docs/design.md §4): `z_c = K~ f_c` with `K~ ≈ K^+`
@@ -116,18 +118,20 @@ impl NormalSolver {
     /// Jacobi PCG to [`CG_TOLERANCE`], at most [`CG_MAX_ITERATIONS`] (then the Cholesky).
     pub const fn default_cg() -> Self {
         NormalSolver::Cg {
-            preconditioner: Preconditioner::Jacobi,
+            preconditioner: StencilPreconditioner::Jacobi,
             tolerance: CG_TOLERANCE,
             max_iterations: CG_MAX_ITERATIONS,
         }
     }
 }
 
-/// What one CG solve did.
+/// What one CG solve of the stencil system did: per channel what the solver layer's
+/// [`crate::solve::cg::CgReport`] says, with the preconditioner chosen, its setup time and
+/// the fallback taken.
 #[derive(Clone, Debug, Serialize)]
-pub struct CgReport {
+pub struct StencilCgReport {
     /// The preconditioner.
-    pub preconditioner: Preconditioner,
+    pub preconditioner: StencilPreconditioner,
     /// Iterations per channel.
     pub iterations: Vec<usize>,
     /// Final relative residual per channel.
@@ -364,14 +368,14 @@ impl NormalSystem {
 
     /// PCG for `(G + lambda D^{-2}) z_c = b_c`, all right-hand sides together (one pass over
     /// `G` per iteration serves every channel still iterating: [`crate::solve::cg::pcg`]);
-    /// `local` is `K~` (CSC, `P x m`) and its CSR form for [`Preconditioner::Local`].
+    /// `local` is `K~` (CSC, `P x m`) and its CSR form for [`StencilPreconditioner::Local`].
     /// Returns per channel the solution, the iterations and the final recurred relative
     /// residual `||b - A z|| / ||b||`. Components of `b` where a function is unsampled are
     /// outside the range of `G` and dropped.
     pub fn solve_cg(
         &self,
         rhs: &[&[f64]],
-        preconditioner: Preconditioner,
+        preconditioner: StencilPreconditioner,
         local: Option<&(CsMat<f64>, CsMat<f64>)>,
         tolerance: f64,
         max_iterations: usize,
@@ -398,8 +402,8 @@ impl NormalSystem {
         };
         let local = local.map(|(csc, csr)| LocalInverse::new(csc, csr));
         let pre: &dyn cg::Preconditioner = match (preconditioner, &local) {
-            (Preconditioner::Jacobi, _) => &jacobi,
-            (Preconditioner::Local, Some(local)) => local,
+            (StencilPreconditioner::Jacobi, _) => &jacobi,
+            (StencilPreconditioner::Local, Some(local)) => local,
             _ => &Identity,
         };
         let (x, report) = cg::pcg(self, pre, &b, None, &params);

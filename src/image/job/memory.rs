@@ -4,10 +4,10 @@
 //! refuses above the memory limit ([`super::JobError::TooLarge`]) before it allocates.
 
 use crate::image::film_weights::film_cache_bytes;
-use crate::image::{ImagePlane, Method, UniformEstimate};
+use crate::image::{ImageMethod, ImagePlane, UniformEstimate};
 use crate::resources::{ImageRequest, ImageSolve};
 
-/// The uniform fit (`Method::Wavelet`, or local inversion with `local`) of `samples`
+/// The uniform fit (`ImageMethod::Wavelet`, or local inversion with `local`) of `samples`
 /// samples on `plane`, `images` output images held ([`ImageRequest::uniform`]).
 pub fn uniform_request(
     plane: ImagePlane,
@@ -70,7 +70,7 @@ pub fn method_request(
     plane: ImagePlane,
     channels: usize,
     samples: f64,
-    method: Method,
+    method: ImageMethod,
     p: usize,
     rho: f64,
     images: usize,
@@ -81,11 +81,11 @@ pub fn method_request(
         samples,
         p,
         rho,
-        method == Method::Local,
+        method == ImageMethod::Local,
         images,
     );
     match method {
-        Method::Film(_) => ImageRequest {
+        ImageMethod::Film(_) => ImageRequest {
             solve: ImageSolve::None,
             positions: request.positions + film_cache_bytes(plane.height(), samples) / 16.0,
             ..request

@@ -33,7 +33,7 @@ use thiserror::Error;
 
 use crate::error::{ErrorKind, Fix, Param};
 use crate::image::estimate::{EstimateError, ShrinkParams};
-use crate::image::{ImagePlane, Method, UniformEstimate, WaveletError};
+use crate::image::{ImageMethod, ImagePlane, UniformEstimate, WaveletError};
 use crate::resources::ResourceError;
 
 /// The parameters of an image-plane job, in the few groups a user meets. Every `Option` left
@@ -41,11 +41,11 @@ use crate::resources::ResourceError;
 /// estimate depends on which fit parameters were asked for: [`PixelChoice`]).
 #[derive(Debug, Clone)]
 pub struct ImageParams {
-    /// How samples become pixels: the least-squares fit ([`Method::Wavelet`], the default),
-    /// its local inversion ([`Method::Local`]: faster on large images, slightly less
-    /// accurate where samples are sparse) or a film filter ([`Method::Film`], the renderer's
+    /// How samples become pixels: the least-squares fit ([`ImageMethod::Wavelet`], the default),
+    /// its local inversion ([`ImageMethod::Local`]: faster on large images, slightly less
+    /// accurate where samples are sparse) or a film filter ([`ImageMethod::Film`], the renderer's
     /// baseline; no fit, no pixel estimate).
-    pub method: Method,
+    pub method: ImageMethod,
     /// The least-squares fit's basis and regularization (read only where the fit runs).
     pub fit: FitOptions,
     /// The pixel estimate of the fit's path; `None`: [`UniformEstimate::Auto`] (a film per
@@ -80,7 +80,7 @@ pub struct FitOptions {
 impl Default for ImageParams {
     fn default() -> Self {
         ImageParams {
-            method: Method::Wavelet,
+            method: ImageMethod::Wavelet,
             fit: FitOptions::default(),
             pixels: None,
             shrink: ShrinkParams::default(),
@@ -98,7 +98,7 @@ impl ImageParams {
             (Param::Family, self.also_asked.contains(&Param::Family)),
             (
                 Param::Method,
-                self.method == Method::Local || self.also_asked.contains(&Param::Method),
+                self.method == ImageMethod::Local || self.also_asked.contains(&Param::Method),
             ),
             (Param::Levels, self.also_asked.contains(&Param::Levels)),
             (Param::Rho, self.fit.rho.is_some()),
@@ -191,7 +191,7 @@ crate::error::classified!(JobError);
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum By {
     /// A method's own reconstruction (the fit, its local inversion, a film).
-    Method(Method),
+    Method(ImageMethod),
     /// A pixel estimate that uses no fit.
     Estimate(UniformEstimate),
 }

@@ -88,7 +88,7 @@ fn the_default_estimate_follows_the_parameters_asked() {
     assert_eq!(auto.estimate, UniformEstimate::Auto);
     assert!(auto.note().is_none());
     let asked = ImageParams {
-        method: Method::Local,
+        method: ImageMethod::Local,
         fit: FitOptions {
             p: Some(3),
             smoothing: Some(0.1),
@@ -116,7 +116,7 @@ fn the_default_estimate_follows_the_parameters_asked() {
         Some(UniformEstimate::Shrunk)
     );
     let film = ImageParams {
-        method: Method::Film(crate::image::filters::FilmFilterKind::Gaussian),
+        method: ImageMethod::Film(crate::image::filters::FilmFilterKind::Gaussian),
         ..Default::default()
     };
     assert!(PixelChoice::of(&film).is_none());
@@ -148,7 +148,7 @@ fn the_job_computes_what_the_stage_computes() {
         let out = job.run(&s).expect("reconstructs");
         let (direct, _) = reconstruct_estimated(
             pixels,
-            Method::Wavelet,
+            ImageMethod::Wavelet,
             &s,
             &crate::image::WaveletParams::default(),
             &ShrinkParams::default(),

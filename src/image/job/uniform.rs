@@ -7,7 +7,7 @@ use crate::error::{Fix, Param};
 use crate::image::estimate::{EstimateReport, PixelStatistics};
 use crate::image::filters::FilmFilterKind;
 use crate::image::{
-    reconstruct, reconstruct_estimated, ImagePlane, ImageReconstruction, ImageSamples, Method,
+    reconstruct, reconstruct_estimated, ImageMethod, ImagePlane, ImageReconstruction, ImageSamples,
     UniformEstimate, WaveletParams,
 };
 use crate::resources::{ImageRequest, ResourceError};
@@ -30,7 +30,7 @@ pub struct PixelChoice {
 impl PixelChoice {
     /// The estimate of `params` (a film filter makes none: `None`).
     pub fn of(params: &ImageParams) -> Option<PixelChoice> {
-        if matches!(params.method, Method::Film(_)) {
+        if matches!(params.method, ImageMethod::Film(_)) {
             return None;
         }
         if let Some(estimate) = params.pixels {
@@ -81,7 +81,7 @@ impl fmt::Display for PixelChoice {
 #[derive(Debug, Clone)]
 pub struct UniformJob {
     plane: ImagePlane,
-    method: Method,
+    method: ImageMethod,
     wavelet: WaveletParams,
     pixels: Option<PixelChoice>,
     shrink: crate::image::estimate::ShrinkParams,
@@ -96,7 +96,7 @@ pub struct UniformOutput {
     pub estimate: Option<EstimateReport>,
     /// The method whose pixels these are: the one asked for, or the box film where the
     /// estimate used no fit.
-    pub method: Method,
+    pub method: ImageMethod,
     /// The estimate decided and why (`None` for a film filter).
     pub pixels: Option<PixelChoice>,
 }
@@ -137,7 +137,7 @@ impl UniformJob {
             ridge,
             smoothing,
         };
-        if matches!(params.method, Method::Film(_)) && params.pixels.is_some() {
+        if matches!(params.method, ImageMethod::Film(_)) && params.pixels.is_some() {
             return Err(JobError::Conflict {
                 first: Param::Pixels,
                 second: Param::Method,
@@ -237,7 +237,7 @@ impl UniformJob {
         let method = if estimated.estimate.uses_fit() {
             self.method
         } else {
-            Method::Film(FilmFilterKind::Box)
+            ImageMethod::Film(FilmFilterKind::Box)
         };
         Ok(UniformOutput {
             reconstruction,
@@ -254,7 +254,7 @@ impl UniformJob {
             m,
             self.wavelet.p,
             self.wavelet.rho,
-            self.method == Method::Local,
+            self.method == ImageMethod::Local,
             1,
         )
     }

@@ -19,8 +19,9 @@
 //! A channel with `b = 0` has the solution 0 and no iteration.
 //!
 //! **Iteration limit**: [`pcg`] never fails. Past [`CgParams::max_iterations`] it returns
-//! its iterate with [`CgReport::converged`] false for that channel; a caller that must fail
-//! turns that into its own typed error (the 1D global solve's
+//! its iterate with [`CgReport::converged`] false for that channel; each caller names what
+//! it then does, one [`IterationLimit`] (fail, fall back to a direct solve, or accept),
+//! written at the call (the 1D global solve fails with
 //! [`crate::solve::SolveError::NotConverged`]).
 //!
 //! The report gives per channel the iterations, the relative residual (the recurred
@@ -38,6 +39,7 @@
 
 mod cgls;
 mod lanczos;
+mod limit;
 mod operator;
 mod pcg;
 mod precondition;
@@ -45,6 +47,7 @@ mod schwarz;
 
 pub use cgls::cgls;
 pub use lanczos::lanczos_condition;
+pub use limit::IterationLimit;
 pub use operator::SparseOperator;
 pub use pcg::pcg;
 pub use precondition::{Identity, Jacobi, LocalInverse};

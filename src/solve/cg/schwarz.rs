@@ -6,7 +6,7 @@
 //!
 //! `R_t` the restriction to block `t`'s unknowns. The blocks (which unknowns go together)
 //! are the caller's: the tree fit's are spatial tiles holding every level
-//! (`crate::image::adaptive::schwarz`). Each `A_tt` is read from an assembled `A` and
+//! (the adaptive image fit's Schwarz solve). Each `A_tt` is read from an assembled `A` and
 //! factored densely (faer's Cholesky); an unknown without an entry has a zero row and is
 //! pinned by a unit diagonal (the block's largest); a block that is still singular gets a
 //! relative ridge `1e-12`, times 100 until it factors, counted.
