@@ -34,7 +34,7 @@
 use serde::Serialize;
 
 use super::clamp::clamp_to_local_range;
-use super::gate::{gate, GateCandidate, GateCount};
+use super::gate::{gate, GateCandidate, GateCount, GATE_HALF};
 use super::noise::{DifferenceCount, PixelNoise};
 use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
@@ -63,10 +63,6 @@ pub struct FilmCount {
 
 /// The weights `alpha` of the films in the candidates `alpha F + (1 - alpha) S`.
 pub const MIX_WEIGHTS: [f64; 3] = [0.25, 0.5, 0.75];
-
-/// Half the side of the gate's window: `(2 h + 1)²` = 9 x 9 pixels (chosen on the suite's
-/// tuning half against 5 x 5, 17 x 17 and 25 x 25: `docs/measurements/estimators.md`).
-pub const GATE_HALF: usize = 4;
 
 /// `eps` of the relative weights `1 / (x² + eps)` of the gate's window sums (the relMSE's).
 pub const RELATIVE_EPS: f64 = 0.01;

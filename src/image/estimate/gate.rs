@@ -25,6 +25,10 @@ use serde::Serialize;
 use super::sure::window_sum;
 use crate::image::PixelImage;
 
+/// Half the side of the gate's window: `(2 h + 1)²` = 9 x 9 pixels (chosen on the suite's
+/// tuning half against 5 x 5, 17 x 17 and 25 x 25: `docs/measurements/estimators.md`).
+pub const GATE_HALF: usize = 4;
+
 /// One candidate: its pixels and their divergence in their own pixel's mean, per channel.
 #[derive(Debug, Clone)]
 pub struct GateCandidate {

@@ -36,7 +36,7 @@
 //! the mean). The least of three is biased low for pure noise (the minimum of three estimates
 //! of one `s²`, each a sum of a few squared differences): by 28-44 % at 4 to 16 samples a pixel
 //! (measured by `tests/estimators_noise.rs` against the exact variance), which makes the risk
-//! gate ([`super::gate`]) keep the box a little more often; the bias of the single estimates
+//! gate (`gate.rs`) keep the box a little more often; the bias of the single estimates
 //! on textured and edged pixels, which made the gate smooth away signal, is what it removes
 //! (docs/measurements/estimators.md). The per-pixel choice is counted in the report.
 //!

@@ -53,7 +53,7 @@ pub const KAPPA: f64 = 6.0;
 
 /// Half the side of the window over which the cut energy is put back, `(2 h + 1)²` pixels
 /// (the gate's window).
-pub const ROBUST_HALF: usize = super::auto::GATE_HALF;
+pub const ROBUST_HALF: usize = super::gate::GATE_HALF;
 
 /// What the robust estimate cut and put back.
 #[derive(Debug, Clone, PartialEq, Serialize)]
