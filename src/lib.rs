@@ -108,7 +108,7 @@
 //!   - the image plane: [`image::job::JobError`], [`image::ImageError`], [`image::ImageFitError`],
 //!     [`image::pixels::PixelError`], [`image::WaveletError`],
 //!     [`image::scene::SceneError`], [`image::adaptive::AdaptiveError`],
-//!     [`image::adaptive::protocol::ProtocolError`];
+//!     [`image::plan::ProtocolError`];
 //!   - input and output: [`io::IoError`], [`io::output::OutputError`],
 //!     [`io::image_file::ImageFileError`];
 //!   - reports and the lab: [`report::scaling::ScalingError`]; with feature `plot`,

@@ -18,7 +18,6 @@ pub mod reconstruct2d_cmd;
 pub mod reconstruct_args;
 pub mod reconstruct_cmd;
 pub mod reconstruct_stream;
-pub mod reconstruct_tiles_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
 pub mod solve_args;
@@ -259,7 +258,7 @@ pub enum CliError {
     AdaptiveRun(#[from] rkwave::lab::adaptive::AdaptiveRunError),
     /// The plan protocol (`plan`, `reconstruct --dim 2 --state`).
     #[error(transparent)]
-    Protocol(#[from] rkwave::image::adaptive::protocol::ProtocolError),
+    Protocol(#[from] rkwave::image::plan::ProtocolError),
     /// An image file.
     #[error(transparent)]
     ImageFile(#[from] rkwave::io::image_file::ImageFileError),
