@@ -249,7 +249,8 @@ pub struct PlanStep {
     /// plan's output pixels, without fitting the samples again (under the direct solve, the
     /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
     /// iterative solve, the stopping round's fit continued to the solver's tolerance);
-    /// `None` otherwise.
+    /// `None` otherwise, and when the caller did not ask for it
+    /// ([`PlanState::advance_imaging`]).
     #[serde(skip)]
     pub reconstruction: Option<Box<PlanReconstruction>>,
 }

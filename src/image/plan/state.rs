@@ -285,6 +285,20 @@ impl PlanState {
         samples: &ImageSamples,
         dropped: DroppedSamples,
     ) -> Result<PlanStep, ProtocolError> {
+        self.advance_imaging(samples, dropped, true)
+    }
+
+    /// [`PlanState::advance_dropped`], making the stopping round's output pixels
+    /// ([`PlanStep::reconstruction`]) only with `image_at_stop`: a caller that makes the final
+    /// image another way (the plan's final-image job under an iterative solver, which solves
+    /// again from the carried coefficients) skips their cost. The round is the same either
+    /// way.
+    pub fn advance_imaging(
+        &mut self,
+        samples: &ImageSamples,
+        dropped: DroppedSamples,
+        image_at_stop: bool,
+    ) -> Result<PlanStep, ProtocolError> {
         let k = self.matching_round(samples, &dropped)?;
         let last = self.issued.len() - 1;
         if k < last {
@@ -331,7 +345,7 @@ impl PlanState {
         // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
         // output pixels are those `reconstruct` would compute again from the same samples.
         let reconstruction = match round.decision {
-            Decision::Stop(_) => {
+            Decision::Stop(_) if image_at_stop => {
                 let sigma = round.log.noise.as_ref().map_or(0.0, |n| n.sigma);
                 let (fit_image, image, correction) = output_pixels(
                     plan.tree(),
@@ -355,7 +369,7 @@ impl PlanState {
                     solver_note: solver_note.clone(),
                 }))
             }
-            Decision::Sample(_) => None,
+            Decision::Stop(_) | Decision::Sample(_) => None,
         };
         self.channels = Some(samples.channels());
         let (next, next_round, stop) = match round.decision {
