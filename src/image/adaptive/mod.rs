@@ -15,7 +15,7 @@
 //!   so that every slot keeps `ceil(rho)` samples; stop at a tolerance, the depth limit or
 //!   the sample budget;
 //!   (a renderer outside the process drives the same rounds through the plan's state machine,
-//!   [`crate::image::plan`]);
+//!   `image::plan`);
 //! * [`correction`]: the output pixels, the fit as a control variate (box pixels plus the
 //!   significant mean residual of each pixel's samples; the default output);
 //! * `figure`: the image, the local depth and the samples side by side.

@@ -108,7 +108,7 @@ impl TiledJob {
         }
         Ok(TiledJob {
             geometry,
-            wavelet: job.wavelet().clone(),
+            wavelet: *job.wavelet(),
             tiled: TiledParams {
                 workers,
                 scratch: tiles.scratch.clone(),

@@ -59,14 +59,14 @@
 //!
 //! *Files.* This module knows no paths: the state is JSON text ([`PlanState::to_json`],
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
-//! [`CarriedPcg::to_bytes`]); [`crate::io::plan_files`] reads and writes them in the plan's
+//! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
 //! folder (`state.json`, `gram.bin`, `pcg.bin`) and commits a round (the state and the
 //! positions, both or neither).
 //!
 //! *Why `image::plan`.* The state machine drives the refiner's rounds
 //! ([`crate::image::adaptive`]: the tree, its fits, the output pixels) from outside, so it
-//! sits beside it, not inside it; the plan's jobs ([`crate::image::job`]) and the files
-//! ([`crate::io::plan_files`]) sit on top of it, and nothing below calls back into it.
+//! sits beside it, not inside it; the plan's jobs (`image::job`) and the files
+//! (`io::plan_files`) sit on top of it, and nothing below calls back into it.
 
 mod state;
 
