@@ -10,8 +10,8 @@ mod common;
 use std::time::Duration;
 
 use proptest::prelude::*;
-use rkwave::image::adaptive::protocol::PlanState;
 use rkwave::image::adaptive::AdaptiveParams;
+use rkwave::image::plan::PlanState;
 use rkwave::io::{parse_csv, read_samples};
 use rkwave::refine::{ExpressionOracle, SampleOracle};
 use rkwave::sampling::Domain;

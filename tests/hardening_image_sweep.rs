@@ -226,6 +226,5 @@ fn sweep_concurrent_plan_calls() {
     }
     assert!(a.status.success() || b.status.success());
     let state = std::fs::read_to_string(d.join("state.json")).unwrap();
-    rkwave::image::adaptive::protocol::PlanState::from_json(&state, Path::new("state.json"))
-        .unwrap();
+    rkwave::image::plan::PlanState::from_json(&state, Path::new("state.json")).unwrap();
 }

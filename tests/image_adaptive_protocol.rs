@@ -6,13 +6,11 @@ mod common;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use rkwave::image::adaptive::protocol::{
-    PlanReconstruction, PlanState, ProtocolError, STATE_VERSION,
-};
 use rkwave::image::adaptive::{
     refine_image, AdaptiveImage, AdaptiveParams, ImageOracle, NoisyOracle, PixelEstimate,
     SamplePositions, SceneOracle,
 };
+use rkwave::image::plan::{PlanReconstruction, PlanState, ProtocolError, STATE_VERSION};
 use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples};
 use rkwave::io::{read_npy, write_npy, SampleSet};

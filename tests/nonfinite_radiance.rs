@@ -13,8 +13,8 @@ use common::image_cli::{
     arg, plan_round, plan_start, reconstruct2d, render, samples_npy, write_npy_unchecked,
 };
 use common::{succeeds, user_error, Scratch};
-use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
 use rkwave::image::adaptive::AdaptiveParams;
+use rkwave::image::plan::{PlanState, ProtocolError};
 use rkwave::image::{split_finite, ImageError, ImagePlane, NonFinitePolicy};
 use rkwave::io::{read_npy, SampleSet};
 

@@ -5,11 +5,12 @@
 
 mod common;
 
-use rkwave::image::adaptive::protocol::{PlanState, GRAM_FILE};
 use rkwave::image::adaptive::{
     fit_tree_updating, FitState, NoisyOracle, SamplePositions, TreeGram, TreeSolver,
 };
+use rkwave::image::plan::PlanState;
 use rkwave::image::ImagePlane;
+use rkwave::io::plan_files::GRAM_FILE;
 
 use common::rendered::{small_plan, Rendered, NOISY_EDGE};
 

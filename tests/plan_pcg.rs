@@ -7,11 +7,12 @@
 
 mod common;
 
-use rkwave::image::adaptive::protocol::{CarriedPcg, PlanState, PCG_FILE};
 use rkwave::image::adaptive::{
     refine_image, AdaptiveParams, ImagePlan, NoisyOracle, SamplePositions, TreeSolver,
 };
+use rkwave::image::plan::{CarriedPcg, PlanState};
 use rkwave::image::ImagePlane;
+use rkwave::io::plan_files::PCG_FILE;
 
 use common::image_cli::{arg, plan_round, plan_start, render};
 use common::rendered::{small_plan, Rendered, NOISY_EDGE};

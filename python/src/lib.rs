@@ -8,7 +8,7 @@
 //! | `fit(x, y, ...)` → `Fit` | `reconstruct::fit` | `rkwave reconstruct` |
 //! | `local_vs_global(...)` | `report::local_vs_global` | `rkwave report` |
 //! | `reconstruct_image(xy, values, resolution, ...)` | `image::reconstruct` | `rkwave reconstruct --dim 2` |
-//! | `Plan(...)`, `positions`, `add`, `image`, `save`, `load` | `image::adaptive::protocol::PlanState` | `rkwave plan`, `reconstruct --dim 2 --state` |
+//! | `Plan(...)`, `positions`, `add`, `image`, `save`, `load` | `image::job::{PlanStart, PlanRound, PlanFinal}` on `image::plan::PlanState` | `rkwave plan`, `reconstruct --dim 2 --state` |
 //! | `adapt(f, domain, ...)` | `refine::refine` | `rkwave adapt` |
 //! | `partial(...)` → `PartialFits` (`merge`, `finish`), `auto_levels` | `reconstruct::stream::SingleScaleAccumulator` | `rkwave reconstruct --stream` |
 //! | `TileGeometry(...)`, `fit_tile(...)` | `image::tiles::fit_tile` | `rkwave reconstruct --dim 2 --tile` |

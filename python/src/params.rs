@@ -5,11 +5,8 @@
 
 use pyo3::prelude::*;
 use rkwave::basis::FilterFamily;
-use rkwave::image::adaptive::{
-    AdaptiveParams, FitParams as ImageFit, ImageSampling, NoiseParams, OutputParams, PixelEstimate,
-    QuadTreeParams, StopParams as ImageStop, TreeParams as ImageTree, TreeSolver,
-};
-use rkwave::image::ImagePlane;
+use rkwave::image::adaptive::PixelEstimate;
+use rkwave::image::job::{PlanBudget, PlanOptions, PlanSolver};
 use rkwave::kernel::LevelParams;
 use rkwave::reconstruct::{FitParams, Levels, Method, SingleScaleSolver};
 use rkwave::refine::{
@@ -237,79 +234,50 @@ pub struct PlanArgs<'a> {
     pub seed: Option<u64>,
     /// False-alarm rate of the noise test.
     pub false_alarm: Option<f64>,
-    /// The rounds' solver: `"pcg"` or `"direct"`.
+    /// The rounds' solver: `"pcg"`, `"direct"` or `"schwarz"`.
     pub solver: Option<&'a str>,
     /// The final image's pixels, by [`PixelEstimate`]'s name.
     pub output_pixels: Option<&'a str>,
 }
 
-/// The plan's solver by name, as `rkwave plan --solver`: `"pcg"` (the renderer plan's
-/// warm-started conjugate gradients, [`TreeSolver::plan_pcg`]) or `"direct"` (the sparse
-/// Cholesky of the carried normal matrix).
-fn plan_solver(name: &str) -> PyResult<TreeSolver> {
-    match name.trim().to_ascii_lowercase().as_str() {
-        "pcg" => Ok(TreeSolver::plan_pcg()),
-        "direct" => Ok(TreeSolver::Direct),
-        other => Err(invalid(format!(
-            "solver={other:?}: expected \"pcg\" (conjugate gradients, the default) or \"direct\" \
-             (sparse Cholesky)"
-        ))),
-    }
-}
-
-/// The plan's parameters for a new plan on `plane`: the arguments given, the library's
-/// defaults of a renderer's plan for the rest (as `rkwave plan` on its first call).
-pub fn plan_params(plane: ImagePlane, a: &PlanArgs<'_>) -> PyResult<AdaptiveParams> {
-    let base = AdaptiveParams::renderer_plan();
+/// The plan's options from `rkwave.Plan`'s keywords, as `rkwave plan` takes its flags:
+/// parsing only (one of `budget=` and `spp=`; the names of `solver=` and `output_pixels=`);
+/// the library's plan jobs ([`rkwave::image::job::PlanStart`]) validate them and decide the
+/// defaults for both front ends.
+pub fn plan_options(a: &PlanArgs<'_>) -> PyResult<PlanOptions> {
     let budget = match (a.budget, a.spp) {
         (Some(_), Some(_)) => {
             return Err(invalid(
                 "give budget= (total samples) or spp= (samples per pixel), not both",
             ))
         }
-        (Some(b), None) => b,
-        (None, Some(s)) => s.saturating_mul(plane.pixels()),
-        (None, None) => {
-            return Err(invalid(
-                "a new plan needs budget= (total samples) or spp= (samples per pixel)",
-            ))
-        }
+        (budget, spp) => budget
+            .map(PlanBudget::Samples)
+            .or(spp.map(PlanBudget::PerPixel)),
     };
-    Ok(AdaptiveParams {
-        tree: ImageTree {
-            p: a.p.map_or(Ok(base.tree.p), image_p)?,
-            rho: a.rho.unwrap_or(base.tree.rho),
-        },
-        quad: QuadTreeParams {
-            below_pixel: a.below_pixel.unwrap_or(base.quad.below_pixel),
-            ..base.quad
-        },
-        sampling: ImageSampling {
-            seed: a.seed.unwrap_or(base.sampling.seed),
-            ..base.sampling
-        },
-        noise: NoiseParams {
-            false_alarm: a.false_alarm.unwrap_or(base.noise.false_alarm),
-            ..base.noise
-        },
-        stop: ImageStop {
-            budget,
-            ..base.stop
-        },
-        output: OutputParams {
-            pixels: match a.output_pixels {
-                None => base.output.pixels,
-                Some(name) => name
-                    .parse::<PixelEstimate>()
-                    .map_err(|e| invalid(format!("output_pixels={name:?}: {e}")))?,
-            },
-            ..base.output
-        },
-        fit: ImageFit {
-            solver: a.solver.map_or(Ok(base.fit.solver), plan_solver)?,
-            ..base.fit
-        },
-        ..base
+    let named = |keyword: &str, name: &str, e: String| invalid(format!("{keyword}={name:?}: {e}"));
+    Ok(PlanOptions {
+        budget,
+        p: a.p,
+        rho: a.rho,
+        below_pixel: a.below_pixel,
+        seed: a.seed,
+        false_alarm: a.false_alarm,
+        output_pixels: a
+            .output_pixels
+            .map(|name| {
+                name.parse::<PixelEstimate>()
+                    .map_err(|e| named("output_pixels", name, e.to_string()))
+            })
+            .transpose()?,
+        solver: a
+            .solver
+            .map(|name| {
+                name.parse::<PlanSolver>()
+                    .map_err(|e| named("solver", name, e))
+            })
+            .transpose()?,
+        ..PlanOptions::default()
     })
 }
 

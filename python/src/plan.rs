@@ -1,8 +1,9 @@
 //! Adaptive sampling of the image plane in process: `rkwave.Plan`, the renderer's loop of
-//! `rkwave plan` without files. The plan is the library's [`PlanState`] (the protocol of
-//! `src/image/adaptive/protocol.rs`: start, advance with every sample so far, reconstruct on
-//! the tree the samples were planned for); this class keeps every sample so far in memory
-//! and the positions it handed out for the next round.
+//! `rkwave plan` without files. The plan is the library's [`PlanState`] (the state machine of
+//! `rkwave::image::plan`), driven by the library's plan jobs as the command line drives it
+//! (`rkwave::image::job`: [`PlanStart`], [`PlanRound`], [`PlanFinal`]); this class parses the
+//! keywords, keeps every sample so far in memory and the positions it handed out for the
+//! next round.
 //!
 //! The state in memory carries the last round's solver state to the next round (under PCG,
 //! the plan's default, its start and diagonal, [`PlanState::pcg`]; under the direct solve,
@@ -19,8 +20,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use pyo3::prelude::*;
-use rkwave::image::adaptive::protocol::{PlanState, PlanStep, ProtocolError};
-use rkwave::image::adaptive::{PixelEstimate, SamplePositions};
+use rkwave::image::adaptive::SamplePositions;
+use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
+use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
 use rkwave::io::output::write_new;
@@ -30,7 +32,7 @@ use serde::Serialize;
 use crate::arrays::{image_out, positions_out};
 use crate::errors::{invalid, raise, to_py, warn_all};
 use crate::image::{plane_of, samples_of};
-use crate::params::{plan_params, PlanArgs};
+use crate::params::{plan_options, PlanArgs};
 use crate::report::to_dict;
 use rkwave::error::ErrorKind;
 
@@ -73,25 +75,14 @@ pub struct PyPlan {
     /// The folder this plan was loaded from or last saved to (canonical): `save` replaces
     /// its own folder, and another plan's only when asked (`overwrite=True`).
     home: Option<PathBuf>,
+    /// The final image made since the last `add`, and whether it is the fit alone
+    /// (`image(residual=False)`): asked again, it is not fitted again.
+    made: Option<(bool, PlanReconstruction)>,
 }
 
 /// `dir` with links and spellings resolved (as given where it does not exist yet).
 fn canonical(dir: &Path) -> PathBuf {
     std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf())
-}
-
-fn state_hint(dir: &Path, e: ProtocolError) -> PyErr {
-    match e {
-        ProtocolError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
-            invalid(format!(
-                "no plan in {}: start one with rkwave.Plan(resolution=(W, H), spp=S) or \
-                 `rkwave plan --resolution WxH --spp S --out next.npy --state {}`",
-                dir.display(),
-                dir.display()
-            ))
-        }
-        e => to_py(e),
-    }
 }
 
 /// A path from a Python `str` or `os.PathLike`, `None` for anything else.
@@ -216,24 +207,20 @@ impl PyPlan {
         output_pixels: Option<&str>,
     ) -> PyResult<Self> {
         let plane = plane_of(resolution)?;
-        let params = plan_params(
-            plane,
-            &PlanArgs {
-                budget,
-                spp,
-                p,
-                rho,
-                below_pixel,
-                seed,
-                false_alarm,
-                solver,
-                output_pixels,
-            },
-        )?;
+        let options = plan_options(&PlanArgs {
+            budget,
+            spp,
+            p,
+            rho,
+            below_pixel,
+            seed,
+            false_alarm,
+            solver,
+            output_pixels,
+        })?;
         let t = Instant::now();
-        let (state, next) = py
-            .detach(|| PlanState::start(plane, &params))
-            .map_err(to_py)?;
+        let start = PlanStart::new(plane, &options).map_err(to_py)?;
+        let (state, next) = py.detach(|| start.run()).map_err(to_py)?;
         Ok(Self {
             state,
             next,
@@ -245,6 +232,7 @@ impl PyPlan {
                 glue: 0.0,
             },
             home: None,
+            made: None,
         })
     }
 
@@ -302,8 +290,9 @@ impl PyPlan {
         let state = &mut self.state;
         let so_far = all_dropped.clone();
         let step = py
-            .detach(|| state.advance_dropped(&all, so_far))
+            .detach(|| PlanRound::new(state, None, &PlanOptions::default())?.run(&all, so_far))
             .map_err(to_py)?;
+        self.made = None;
         self.dropped = all_dropped;
         let notes: Vec<String> = step
             .dropped
@@ -336,11 +325,12 @@ impl PyPlan {
         self.state.round()
     }
 
-    /// The image `(H, W, C)` from every sample so far on the tree they were planned for: by
-    /// default the fit's box pixels plus the significant mean residual (as `rkwave
-    /// reconstruct --dim 2 --state`); `residual=False` gives the fit's box pixels alone (as
-    /// `--no-residual`). Before the plan is done this is an intermediate image (a warning
-    /// says so).
+    /// The image `(H, W, C)` from every sample so far on the tree they were planned for: the
+    /// plan's output pixels (`output_pixels=`, by default `blend`), made by the library's
+    /// final-image job, the one `rkwave plan --final-image` and `rkwave reconstruct --dim 2
+    /// --state` call, so the three give the same pixels; `residual=False` gives the fit's box
+    /// pixels alone (as `--no-residual`). Before the plan is done this is an intermediate
+    /// image (a warning says so).
     ///
     /// >>> import rkwave, warnings
     /// >>> plan = rkwave.Plan(resolution=(16, 16), spp=4)
@@ -356,25 +346,18 @@ impl PyPlan {
                 "the plan has no samples yet: render positions() and add() them first",
             ));
         };
-        let estimate = if residual {
-            self.state.params.output.pixels
-        } else {
-            PixelEstimate::FitOnly
-        };
         let t = Instant::now();
-        let state = &self.state;
-        let dropped = self.dropped.clone();
-        // the stopping round's own reconstruction, when it is the one asked for
-        let stopped = self
-            .steps
-            .last()
-            .and_then(|s| s.reconstruction.as_deref())
-            .filter(|_| estimate == self.state.params.output.pixels);
-        let done = match stopped {
-            Some(done) => done.clone(),
-            None => py
-                .detach(|| state.reconstruct_dropped(samples, dropped, estimate))
-                .map_err(to_py)?,
+        let fit_only = !residual;
+        let done = match self.made.take() {
+            Some((made, done)) if made == fit_only => done,
+            _ => {
+                // the plan's final image job, as `rkwave plan --final-image` and `rkwave
+                // reconstruct --dim 2 --state` make it
+                let (state, dropped) = (&self.state, self.dropped.clone());
+                let stopping = self.steps.last().filter(|s| s.stop.is_some());
+                py.detach(|| PlanFinal::of(state, fit_only).run(samples, dropped, stopping))
+                    .map_err(to_py)?
+            }
         };
         self.time_s.library += t.elapsed().as_secs_f64();
         let t = Instant::now();
@@ -384,6 +367,7 @@ impl PyPlan {
         warn_all(py, &notes)?;
         let plane = self.state.plane;
         let out = image_out(py, &done.image.channels, plane.width(), plane.height());
+        self.made = Some((fit_only, done));
         self.time_s.glue += t.elapsed().as_secs_f64();
         Ok(out)
     }
@@ -488,7 +472,7 @@ impl PyPlan {
         samples: Option<&Bound<'_, PyAny>>,
         positions: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let state = PlanState::load(&dir).map_err(|e| state_hint(&dir, e))?;
+        let state = PlanState::load(&dir).map_err(to_py)?;
         let plane = state.plane;
         let samples = match samples {
             Some(obj) => Some(samples_from(plane, obj)?),
@@ -528,6 +512,7 @@ impl PyPlan {
             steps: Vec::new(),
             time_s: PlanSeconds::default(),
             home: Some(canonical(&dir)),
+            made: None,
         })
     }
 

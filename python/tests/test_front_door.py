@@ -135,3 +135,86 @@ def test_the_default_estimate_names_the_keywords_that_changed_it():
         rkwave.reconstruct_image(xy, values, (W, H), p=2, rho=4.0, smoothing=0.0)
     texts = [str(w.message) for w in seen if issubclass(w.category, rkwave.RkwaveWarning)]
     assert any("because p=, rho=, smoothing= (read by the fit only)" in t for t in texts), texts
+
+
+# The plan's jobs (rkwave::image::job: PlanStart, PlanRound, PlanFinal): the same refusals and
+# the same final image as `rkwave plan` and `rkwave reconstruct --dim 2 --state`.
+
+
+def cli_plan_error(cli, tmp_path, *flags):
+    code, _, err = cli(
+        "plan", "--resolution", f"{W}x{H}", "--state", tmp_path / "state", "--out",
+        tmp_path / "n0.npy", *flags, check=False,
+    )
+    assert code == 2, err
+    assert not (tmp_path / "state" / "state.json").exists()
+    return cli_error(err)
+
+
+@pytest.mark.parametrize(
+    "keyword, flag, value",
+    [("p", "--p", 7), ("rho", "--rho", 0.5), ("false_alarm", "--false-alarm", 2.0),
+     ("below_pixel", "--below-pixel", 9)],
+)
+def test_same_plan_refusals_as_the_command_line(tmp_path, cli, keyword, flag, value):
+    with pytest.raises(rkwave.RkwaveError) as py_err:
+        rkwave.Plan(resolution=(W, H), spp=4, **{keyword: value})
+    assert py_err.value.kind == "InvalidInput"
+    theirs = cli_plan_error(cli, tmp_path, "--spp", 4, f"{flag}={value}")
+    # The same message, a parameter the library names as data spelled as a flag there and as
+    # a keyword here (the refiner's own ranges name the parameter itself in both).
+    assert theirs.replace(f"{flag} ", f"{keyword}=", 1) == str(py_err.value)
+
+
+def test_a_plan_without_a_budget_is_refused_alike(tmp_path, cli):
+    with pytest.raises(rkwave.RkwaveError) as py_err:
+        rkwave.Plan(resolution=(W, H))
+    assert py_err.value.kind == "InvalidInput"
+    theirs = cli_plan_error(cli, tmp_path)
+    assert theirs.replace("--budget", "budget=") == str(py_err.value)
+    assert str(py_err.value).startswith("a new plan needs a sample budget: set budget=")
+
+
+def test_a_plan_too_large_raises_memory_error_before_it_allocates(tmp_path, cli):
+    # In a child interpreter: before the fix the start built the tree's flags of a 65536^2
+    # image, whose allocation failure aborts the process.
+    script = textwrap.dedent(
+        """
+        import rkwave
+        rkwave.set_memory_limit("8G")
+        try:
+            rkwave.Plan(resolution=(65536, 65536), budget=100000)
+        except MemoryError as e:
+            assert isinstance(e, rkwave.ResourceLimitError)
+            print("REFUSED", e)
+        """
+    )
+    child = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert child.returncode == 0, child.stderr
+    assert child.stdout.startswith("REFUSED "), child.stdout
+    message = child.stdout[len("REFUSED ") :].strip()
+    assert "budget=" in message and "below_pixel=" in message, message
+    code, _, err = cli(
+        "--memory-limit", "8G", "plan", "--resolution", "65536x65536", "--budget", 100000,
+        "--state", tmp_path / "state", "--out", tmp_path / "n0.npy", check=False,
+    )
+    assert code == 2
+    theirs = cli_error(err)
+    needs = re.compile(r"would need about .*? of memory .*?, above the limit of \S+")
+    assert needs.search(theirs).group(0) == needs.search(message).group(0)
+
+
+def test_plan_image_is_the_command_lines_final_image(tmp_path, cli):
+    from conftest import disc_scene
+
+    plan = rkwave.Plan(resolution=(W, H), spp=4)
+    while not plan.done:
+        xy = plan.positions()
+        plan.add(xy, disc_scene(xy))
+    plan.save(tmp_path / "plan")
+    cli("reconstruct", "--dim", 2, "--state", tmp_path / "plan", "--input",
+        tmp_path / "plan" / "samples.npy", "--output", tmp_path / "final.npy")
+    # one library call (PlanFinal) on both sides: the same pixels, bit for bit
+    np.testing.assert_array_equal(np.load(tmp_path / "final.npy"), plan.image())

@@ -1,8 +1,7 @@
 """rkwave.Plan: the renderer's loop in process gives the positions, tree and image of
 `rkwave plan` driven through files, bit for bit, and its state moves between the two. The
-image compared is the stopping call's (`--final-image`): `reconstruct --dim 2 --state` fits the
-samples again with its own noise estimate, so under the plan's default solver (PCG) it is
-another image (tests/plan_pcg.rs)."""
+image compared is the stopping call's (`--final-image`), which is also `reconstruct --dim 2
+--state`'s: all three make it by the library's one final-image job (test_front_door.py)."""
 
 import json
 import warnings

@@ -248,3 +248,20 @@ pub fn spinner(message: &str) -> ProgressBar {
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     bar
 }
+
+/// The plan in the folder `dir` ([`rkwave::io::plan_files`]), its errors as the command
+/// line's: a refusal of the plan's state machine or of an output as those, the rest (no plan
+/// there, an unreadable state) by their kind.
+pub fn load_plan(dir: &std::path::Path) -> Result<rkwave::image::plan::PlanState, CliError> {
+    rkwave::image::plan::PlanState::load(dir).map_err(plan_file)
+}
+
+/// A plan's file error as the command line's (see [`load_plan`]).
+pub fn plan_file(e: rkwave::io::plan_files::PlanFileError) -> CliError {
+    use rkwave::io::plan_files::PlanFileError;
+    match e {
+        PlanFileError::Write(e) => CliError::from(e),
+        PlanFileError::Plan(e) => CliError::from(e),
+        e => CliError::from(e),
+    }
+}

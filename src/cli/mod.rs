@@ -18,7 +18,6 @@ pub mod reconstruct2d_cmd;
 pub mod reconstruct_args;
 pub mod reconstruct_cmd;
 pub mod reconstruct_stream;
-pub mod reconstruct_tiles_cmd;
 pub mod report_cmd;
 pub mod scaling_cmd;
 pub mod solve_args;

@@ -1,27 +1,24 @@
-//! `rkwave plan`: the adaptive image refiner driven by a renderer through files
-//! ([`rkwave::image::adaptive::protocol`]). The first call (no `--samples`) writes the base
-//! positions; each later call takes every sample so far and writes the next round's positions
-//! (none once the plan stops); `rkwave reconstruct --dim 2 --state DIR` fits on the tree built.
+//! `rkwave plan`: the adaptive image refiner driven by a renderer through files. The first
+//! call (no `--samples`) writes the base positions ([`rkwave::image::job::PlanStart`]); each
+//! later call takes every sample so far and writes the next round's positions, none once the
+//! plan stops ([`rkwave::image::job::PlanRound`]; the stopping call writes `--final-image` by
+//! [`rkwave::image::job::PlanFinal`]); the plan's files are [`rkwave::io::plan_files`]'s.
+//! This file parses the flags and prints: the decisions are the library's.
 
 use std::path::PathBuf;
 
 use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
-use rkwave::image::adaptive::protocol::{PlanState, ProtocolError};
-use rkwave::image::adaptive::{
-    AdaptiveParams, PixelEstimate, PositionPattern, SamplePositions, TreeSolver,
-};
-use rkwave::image::report::{PlanCallReport, PlanReconstructionReport};
-use rkwave::image::{ImagePlane, NonFinitePolicy};
+use rkwave::image::adaptive::{PixelEstimate, PositionPattern, SamplePositions};
+use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
+use rkwave::image::plan::PlanState;
+use rkwave::image::report::PlanCallReport;
+use rkwave::image::NonFinitePolicy;
 use rkwave::io::output::{same_file, OutputError};
 use rkwave::io::{npy_bytes, read_image_samples_with, SampleSet};
 
-use super::image_args::{check_p, parse_resolution, SolverChoice};
+use super::image_args::{load_plan, parse_resolution, plan_file, SolverChoice};
 use super::{check_writable, CliError};
-use rkwave::image::adaptive::{
-    FitParams, GrowthParams, ImageSampling, NoiseParams, OutputParams, QuadTreeParams, StopParams,
-    TreeParams,
-};
 
 /// `rkwave plan`.
 #[derive(Args, Debug)]
@@ -114,81 +111,29 @@ pub struct PlanArgs {
     pub json: bool,
 }
 
-/// The parameters of this call: the flags given, the rest from `base` (the state's on later
-/// calls, the defaults on the first).
-fn params(
-    args: &PlanArgs,
-    plane: ImagePlane,
-    base: &AdaptiveParams,
-) -> Result<AdaptiveParams, CliError> {
-    let budget = match (args.budget, args.spp) {
-        (Some(b), _) => b,
-        (None, Some(s)) => s.saturating_mul(plane.pixels()),
-        (None, None) => base.stop.budget,
-    };
-    Ok(AdaptiveParams {
-        tree: TreeParams {
-            p: args.p.map_or(Ok(base.tree.p), check_p)?,
-            rho: args.rho.unwrap_or(base.tree.rho),
-        },
-        quad: QuadTreeParams {
-            below_pixel: args.below_pixel.unwrap_or(base.quad.below_pixel),
-            ..base.quad
-        },
-        sampling: ImageSampling {
-            seed: args.seed.unwrap_or(base.sampling.seed),
-            pattern: args.pattern.unwrap_or(base.sampling.pattern),
-            ..base.sampling
-        },
-        noise: NoiseParams {
-            false_alarm: args.false_alarm.unwrap_or(base.noise.false_alarm),
-            ..base.noise
-        },
-        stop: StopParams {
-            budget,
-            ..base.stop
-        },
-        growth: GrowthParams {
-            min_growth: args.min_growth.unwrap_or(base.growth.min_growth),
-            spread: args.spread.unwrap_or(base.growth.spread),
-            ..base.growth
-        },
-        output: OutputParams {
-            pixels: args.output_pixels.unwrap_or(base.output.pixels),
-            ..base.output
-        },
-        fit: FitParams {
-            solver: match args.solver {
-                None => base.fit.solver,
-                Some(SolverChoice::Pcg) => TreeSolver::plan_pcg(),
-                Some(choice) => choice.solver(),
-            },
-            ..base.fit
-        },
-        ..*base
-    })
-}
-
-fn protocol(e: ProtocolError) -> CliError {
-    match e {
-        ProtocolError::Write(e) => CliError::from(e),
-        e => CliError::from(e),
+/// The plan's options from the flags (each flag not given stays `None`: the plan's value, or
+/// for a new plan the library's default).
+fn options(args: &PlanArgs) -> PlanOptions {
+    PlanOptions {
+        budget: args
+            .budget
+            .map(PlanBudget::Samples)
+            .or(args.spp.map(PlanBudget::PerPixel)),
+        p: args.p,
+        rho: args.rho,
+        below_pixel: args.below_pixel,
+        seed: args.seed,
+        false_alarm: args.false_alarm,
+        min_growth: args.min_growth,
+        pattern: args.pattern,
+        spread: args.spread,
+        output_pixels: args.output_pixels,
+        solver: args.solver.map(|choice| match choice {
+            SolverChoice::Pcg => PlanSolver::Pcg,
+            SolverChoice::Direct => PlanSolver::Direct,
+            SolverChoice::Schwarz => PlanSolver::Schwarz,
+        }),
     }
-}
-
-/// Loads the plan in `--state`, with a hint when there is none.
-pub fn load_state(dir: &std::path::Path) -> Result<PlanState, CliError> {
-    PlanState::load(dir).map_err(|e| match e {
-        ProtocolError::Read { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
-            CliError::Invalid(format!(
-                "no plan in {}: start one with `rkwave plan --resolution WxH --budget B --out \
-                 next.npy --state {}` (without --samples)",
-                dir.display(),
-                dir.display()
-            ))
-        }
-        e => protocol(e),
-    })
 }
 
 fn positions_npy(next: &SamplePositions) -> Vec<u8> {
@@ -222,7 +167,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         rkwave::io::output::check_output(image, args.force, &inputs)?;
     }
     let state_file = PlanState::path(&args.state);
-    let (state, next, step) = match &args.samples {
+    let options = options(args);
+    let (state, next, step, final_image) = match &args.samples {
         None => {
             if state_file.exists() && !args.force {
                 return Err(CliError::Invalid(format!(
@@ -236,42 +182,41 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 .as_deref()
                 .ok_or_else(|| CliError::Invalid("a new plan needs --resolution WxH".into()))?;
             let plane = parse_resolution(resolution)?;
-            if args.budget.is_none() && args.spp.is_none() {
-                return Err(CliError::Invalid(
-                    "a new plan needs --budget B (total samples) or --spp S".into(),
-                ));
-            }
-            let params = params(args, plane, &AdaptiveParams::renderer_plan())?;
-            let (state, base) = PlanState::start(plane, &params).map_err(protocol)?;
-            (state, base, None)
+            let (state, base) = PlanStart::new(plane, &options)?.run()?;
+            (state, base, None, None)
         }
         Some(path) => {
-            let mut state = load_state(&args.state)?;
-            let plane = match &args.resolution {
-                Some(r) => parse_resolution(r)?,
-                None => state.plane,
-            };
-            let params = params(args, plane, &state.params)?;
-            state.check_params(plane, &params).map_err(protocol)?;
+            let mut state = load_plan(&args.state)?;
+            let plane = args
+                .resolution
+                .as_deref()
+                .map(parse_resolution)
+                .transpose()?;
+            let round = PlanRound::new(&mut state, plane, &options)?;
             super::check_reading(path)?;
             let (samples, dropped) = read_image_samples_with(
                 path,
-                state.plane,
+                round.plane(),
                 NonFinitePolicy::dropping(args.drop_nonfinite),
             )?;
-            let step = state.advance_dropped(&samples, dropped).map_err(protocol)?;
+            let step = round.run(&samples, dropped.clone())?;
+            // The stopping round's call makes the final image, as `reconstruct --dim 2
+            // --state` would from these samples (the same library call).
+            let final_image = match (&args.final_image, step.stop) {
+                (Some(_), Some(_)) => {
+                    Some(PlanFinal::of(&state, false).run(&samples, dropped, Some(&step))?)
+                }
+                _ => None,
+            };
             let next = step.next.clone();
-            (state, next, Some(step))
+            (state, next, Some(step), final_image)
         }
     };
     // The round is committed as one step: the positions and the state, or neither.
     state
         .commit(&args.state, &args.out, &positions_npy(&next), args.force)
-        .map_err(protocol)?;
-    let final_image = match (
-        &args.final_image,
-        step.as_ref().and_then(|s| s.reconstruction.as_ref()),
-    ) {
+        .map_err(plan_file)?;
+    let final_image = match (&args.final_image, final_image) {
         (Some(path), Some(done)) => {
             rkwave::io::image_file::write_image(path, &done.image, args.force)?;
             Some(path)
@@ -327,18 +272,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         ),
     }
     if let Some(path) = final_image {
-        println!(
-            "wrote the final image to {} (the stopping round's fit)",
-            path.display()
-        );
-        if matches!(state.params.fit.solver, TreeSolver::Pcg { .. }) {
-            super::print_note(
-                "the final image is the stopping round's conjugate-gradient fit continued to the \
-                 solver's tolerance; `reconstruct --dim 2 --state` on the same samples solves \
-                 again from the carried coefficients to that tolerance, so the two agree to it, \
-                 not bit for bit (under --solver direct they are the same pixels)",
-            );
-        }
+        println!("wrote the final image to {}", path.display());
     }
     if let Some(s) = &step {
         if let Some(note) = s.dropped.note() {
@@ -356,91 +290,6 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                  added",
                 s.log.fit.ridge
             );
-        }
-    }
-    Ok(())
-}
-
-/// `rkwave reconstruct --dim 2 --state DIR`: the samples fitted on the tree of the plan in
-/// `dir`, the output pixels (by default the fit's box pixels plus the significant mean
-/// residual, clamped to the local sample range; with `--no-residual` the box pixels alone)
-/// written to `--output`.
-pub fn reconstruct(
-    args: &super::reconstruct_args::ReconstructArgs,
-    dir: &std::path::Path,
-    started: std::time::Instant,
-) -> Result<(), CliError> {
-    let state = load_state(dir)?;
-    if let Some(r) = &args.resolution {
-        let plane = parse_resolution(r)?;
-        if plane != state.plane {
-            return Err(CliError::Invalid(format!(
-                "--resolution {plane}: the plan in {} is for {}; drop --resolution or give the \
-                 plan's",
-                dir.display(),
-                state.plane
-            )));
-        }
-    }
-    super::check_reading(&args.input)?;
-    let (samples, dropped) = read_image_samples_with(
-        &args.input,
-        state.plane,
-        NonFinitePolicy::dropping(args.drop_nonfinite),
-    )?;
-    let estimate = if args.no_residual {
-        PixelEstimate::FitOnly
-    } else {
-        state.params.output.pixels
-    };
-    let done = state
-        .reconstruct_dropped(&samples, dropped, estimate)
-        .map_err(protocol)?;
-    rkwave::io::image_file::write_image(&args.output, &done.image, args.force)?;
-    let mut overridden: Vec<String> = done.solver_note.iter().cloned().collect();
-    // The plan fixes the basis and the solve: say so when the user asked for others.
-    if let Some(p) = args.p.filter(|&p| p != state.params.tree.p) {
-        overridden.push(format!(
-            "p = {} from the plan's tree (--p, {p} here, is not used with --state)",
-            state.params.tree.p
-        ));
-    }
-    if args.family.is_some() {
-        overridden
-            .push("--family is not used: the plan's tree fixes the filter family".to_string());
-    }
-    if args.method != super::solve_args::MethodArg::Single {
-        overridden.push(
-            "--method is not used: the plan's tree is fitted by its own least squares".to_string(),
-        );
-    }
-    let report = PlanReconstructionReport::new(
-        &state,
-        dir,
-        &args.input,
-        &args.output,
-        &samples,
-        &done,
-        overridden,
-        started.elapsed().as_secs_f64(),
-    );
-    if args.json {
-        super::print_json(&report);
-    } else {
-        println!(
-            "{} samples x {} channels (rounds 0..={}) -> {} pixels on the plan's tree ({} \
-             functions, p = {}), {:.3} s; wrote {}",
-            report.samples,
-            report.channels,
-            report.round,
-            state.plane,
-            report.fit.functions,
-            report.p,
-            report.time_s,
-            args.output.display()
-        );
-        for note in &report.notes {
-            super::print_note(note);
         }
     }
     Ok(())

@@ -32,6 +32,7 @@ pub mod job;
 pub mod method;
 pub mod nonfinite;
 pub mod pixels;
+pub mod plan;
 
 pub use estimate::{reconstruct_estimated, EstimateReport, UniformEstimate};
 pub use fit::{

@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::adaptive::protocol::{PlanReconstruction, PlanState, PlanStep};
 use super::adaptive::{ResidualCorrection, SamplePositions, TreeFitReport};
 use super::method::{ImageMethod, ImageReconstruction};
+use super::plan::{PlanReconstruction, PlanState, PlanStep};
 use super::wavelet::WaveletReport;
 use super::{ImagePlane, ImageSamples};
 use crate::refine::StopReason;

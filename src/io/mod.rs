@@ -26,6 +26,7 @@ pub mod image_file;
 mod image_samples;
 mod npy;
 pub mod output;
+pub mod plan_files;
 mod table;
 
 pub use self::csv::{csv_string, format_f64, parse_csv, read_csv, write_csv};

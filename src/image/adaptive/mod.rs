@@ -14,7 +14,8 @@
 //!   fit, indicate, mark (Dörfler, within the budget), deepen, add samples in the new slots
 //!   so that every slot keeps `ceil(rho)` samples; stop at a tolerance, the depth limit or
 //!   the sample budget;
-//! * [`protocol`]: the rounds driven by a renderer through files (state, fingerprints);
+//!   (a renderer outside the process drives the same rounds through the plan's state machine,
+//!   `image::plan`);
 //! * [`correction`]: the output pixels, the fit as a control variate (box pixels plus the
 //!   significant mean residual of each pixel's samples; the default output);
 //! * `figure`: the image, the local depth and the samples side by side.
@@ -28,12 +29,14 @@ pub mod gram;
 mod indicator;
 mod operator;
 pub mod pcg;
-pub mod protocol;
 mod refiner;
 pub mod schwarz;
 pub mod significance;
 mod single_scale;
 mod solver;
+
+/// The plan's solver choice under the memory limit, for the plan's state machine.
+pub(crate) use solver::{fallback_note, fitting_solver};
 
 pub use crate::adaptive::marking;
 /// The quadtree under its old path, for the solver modules' `super::tree` imports.
@@ -155,7 +158,7 @@ impl<F: Fn(f64, f64) -> f64 + Sync> ImageOracle for F {
 }
 
 /// 64-bit mix (SplitMix64's finaliser).
-fn mix64(mut z: u64) -> u64 {
+pub(crate) fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)

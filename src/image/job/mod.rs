@@ -10,6 +10,10 @@
 //!   from [`ImageParams`] ([`UniformJob::new`], no allocation beyond the parameters), checked
 //!   against the memory limit from the sizes alone ([`UniformJob::check_memory`], before the
 //!   samples are read or converted), then run ([`UniformJob::run`]).
+//! * [`TiledJob`]: the same fit tile by tile, the samples read in chunks from a file
+//!   ([`crate::image::tiles`]), for images whose fit does not fit in memory at once.
+//! * The plan's jobs ([`PlanStart`], [`PlanRound`], [`PlanFinal`]): a renderer's adaptive
+//!   loop, one call per step, on the plan's state machine ([`crate::image::plan`]).
 //! * [`memory`]: the memory requests of every image-plane path; [`text`]: notes wrapped at
 //!   a readable width for the front ends to print.
 //!
@@ -22,9 +26,13 @@
 //! `image/`, but in a room of their own so that the stages never call back into them.
 
 pub mod memory;
+mod plan;
 pub mod text;
+mod tiled;
 mod uniform;
 
+pub use plan::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
+pub use tiled::{TileOptions, TiledJob, TiledRun};
 pub use uniform::{PixelChoice, UniformJob, UniformOutput};
 
 use std::fmt;
@@ -33,6 +41,8 @@ use thiserror::Error;
 
 use crate::error::{ErrorKind, Fix, Param};
 use crate::image::estimate::{EstimateError, ShrinkParams};
+use crate::image::plan::ProtocolError;
+use crate::image::tiles::TiledError;
 use crate::image::{ImageMethod, ImagePlane, UniformEstimate, WaveletError};
 use crate::resources::ResourceError;
 
@@ -161,6 +171,62 @@ pub enum JobError {
         /// The limit in bytes.
         limit: u64,
     },
+    /// A parameter the request needs and lacks.
+    #[error("{what}: set {} {how}", Fix::Set(*param))]
+    Missing {
+        /// The parameter.
+        param: Param,
+        /// What needs it.
+        what: &'static str,
+        /// The other ways to give it, in words.
+        how: &'static str,
+    },
+    /// An image size other than the plan's.
+    #[error(
+        "{}{given}: the plan is for {plan}; drop {} or give the plan's",
+        named(Param::Resolution),
+        Fix::Set(Param::Resolution)
+    )]
+    OtherPlane {
+        /// The size given.
+        given: ImagePlane,
+        /// The plan's.
+        plan: ImagePlane,
+    },
+    /// A plan that would need more memory than the limit: refused before allocating.
+    #[error("{}", plan::too_large(*plane, *budget, *functions, parts, *needed, *limit))]
+    PlanTooLarge {
+        /// The image.
+        plane: ImagePlane,
+        /// The sample budget.
+        budget: usize,
+        /// Functions of the basis at the depth limit.
+        functions: f64,
+        /// The estimate's parts, in words.
+        parts: String,
+        /// Estimated bytes.
+        needed: f64,
+        /// The limit in bytes.
+        limit: u64,
+    },
+    /// The plan's state machine refused the call (samples of another plan, parameters
+    /// other than the plan's, the refiner's ranges, the fit).
+    #[error(transparent)]
+    Plan(#[from] ProtocolError),
+    /// A tiled fit asked to drop non-finite samples.
+    #[error("{}", tiled::keeps_nonfinite())]
+    TilesKeepNonFinite,
+    /// A tile grid refused (its size, its halo).
+    #[error("{}: {source}", Fix::Set(*param))]
+    TileGrid {
+        /// The parameter at fault.
+        param: Param,
+        /// Why.
+        source: TiledError,
+    },
+    /// The tiled fit failed (reading the samples, a tile's fit, the memory).
+    #[error(transparent)]
+    Tiled(TiledError),
     /// A memory limit that cannot be read ([`ResourceError::BadLimit`]).
     #[error(transparent)]
     Resources(ResourceError),
@@ -176,8 +242,14 @@ impl JobError {
     /// The kind of this error ([`crate::error`]).
     pub fn kind(&self) -> ErrorKind {
         match self {
-            JobError::OutOfRange { .. } | JobError::Conflict { .. } => ErrorKind::InvalidInput,
-            JobError::TooLarge { .. } => ErrorKind::ResourceLimit,
+            JobError::OutOfRange { .. }
+            | JobError::Conflict { .. }
+            | JobError::Missing { .. }
+            | JobError::OtherPlane { .. }
+            | JobError::TilesKeepNonFinite => ErrorKind::InvalidInput,
+            JobError::TileGrid { source, .. } | JobError::Tiled(source) => source.kind(),
+            JobError::TooLarge { .. } | JobError::PlanTooLarge { .. } => ErrorKind::ResourceLimit,
+            JobError::Plan(e) => e.kind(),
             JobError::Resources(e) => e.kind(),
             JobError::Estimate(e) => e.kind(),
             JobError::Wavelet(e) => e.kind(),

@@ -1,307 +1,69 @@
-//! The renderer in the loop: the refiner's rounds driven through files.
-//!
-//! A renderer is not in the process, so the rounds of [`ImagePlan`] are split at the oracle
-//! calls. The plan's state between calls is a [`PlanState`]: the plane, the parameters, the
-//! refinement history ([`PlanProgress`]: the cells marked per round) and a record of every
-//! position it handed out. A call
-//!
-//! 1. *starts* a plan ([`PlanState::start`]): the base positions for the seed;
-//! 2. *advances* it ([`PlanState::advance`]) with every sample so far (positions as handed out,
-//!    values rendered): the round's fit on the tree, then the next positions or the stop;
-//! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for:
-//!    the fit, and the output pixels ([`super::correction`]: by default the fit's box pixels
-//!    plus the significant mean residual, with the noise estimate of the same fit and the
-//!    plan's `z`).
-//!
-//! Driven with the positions as handed out (in order, as `f64`), this is the in-process loop
-//! [`super::refine_image`] step for step: the same tree, the same fits, the same pixels
-//! (`tests/image_adaptive_protocol.rs`).
-//!
-//! *Which samples.* The plan recognises its positions by a fingerprint of the multiset
-//! `F = sum_i h(x_i, y_i) mod 2^64` (`h` a 64-bit mix of the coordinates' bits; order-free, so
-//! a renderer may return samples in any order) and the count, recorded per round
-//! cumulatively. Samples from another run, another seed, a lost or repeated round, or
-//! positions rounded on the way (`float32`) do not match and are refused, naming the round
-//! the plan expects; the samples of an earlier round are recognised as such.
-//!
-//! *Non-finite radiance.* Samples whose value is NaN or infinite are split off before a call
-//! ([`crate::image::nonfinite`]); under the drop policy their positions still count in the
-//! fingerprint (the sum over kept and dropped positions is the sum over all), so the round is
-//! recognised and fitted on the finite samples, and the drop is reported
-//! ([`PlanStep::dropped`]). A refused round changes nothing: the state is only written when a
-//! call succeeds, so the same round can be answered again.
-//!
-//! The state is JSON with a format name and version ([`STATE_FORMAT`], [`STATE_VERSION`]);
-//! a state of another format or version, or one whose history does not fit its own
-//! parameters, is refused.
-//!
-//! *Work carried between calls.* Beside the state, `gram.bin` ([`GRAM_FILE`]) holds the
-//! normal matrix `G = K_T^T K_T` of the last round's fit ([`TreeGram::to_bytes`]), so the next
-//! call continues it with the new samples' rows instead of summing every sample again
-//! ([`super::gram`]: the continued matrix is the rebuilt one bit for bit, so the rounds are
-//! the same with or without it). It is a cache: tagged with the plan ([`PlanState::tag`]:
-//! plane and parameters) and checksummed; a missing file is assembled afresh silently (the
-//! first fit), a damaged one, one of another plan, or one whose samples are not the first of
-//! the call's is assembled afresh with a note ([`PlanStep::gram_note`]). Under PCG (the
-//! renderer plan's default), `pcg.bin` ([`PCG_FILE`], [`CarriedPcg`], tagged and checksummed
-//! the same way) holds the last round's coefficients, image and probe channels, as the next
-//! round's start and its exact diagonal `G_aa` with a hash of the samples summed, continued
-//! when they are the first of the call's in order: the calls are then the in-process loop's
-//! rounds bit for bit; without it (missing, damaged: a note, [`PlanStep::pcg_note`]) a round
-//! starts from zero and reaches the same tolerance. A process that keeps the state in memory
-//! (Python's `Plan`) carries both without the files.
-//!
-//! *Memory.* A fit whose assembled solve (the direct one) would exceed the memory limit is
-//! fitted by matrix-free PCG instead, with a note ([`PlanStep::solver_note`]); only a fit that
-//! does not fit under PCG either is refused.
+//! The plan's calls on its state: start, advance, reconstruct (module docs of
+//! [`super`]), and the state as JSON.
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
-use thiserror::Error;
-
-use super::correction::{output_pixels, PixelEstimate, ResidualCorrection};
-use super::fit::{FitState, TreeFit};
-use super::gram::TreeGram;
-use super::mix64;
-use super::pcg::TreeSolver;
-use super::refiner::{
-    AdaptiveParams, Decision, ImagePlan, ImageRound, PlanProgress, SamplePositions,
+use super::{
+    fingerprint, parse_hex, IssuedRound, PlanReconstruction, PlanState, PlanStep, ProtocolError,
+    STATE_FORMAT, STATE_VERSION,
 };
-use super::solver::{fallback_note, fitting_solver};
-use super::AdaptiveError;
-use crate::adaptive::QuadTree;
-use crate::adaptive::StopReason;
-use crate::image::{DroppedSamples, ImagePlane, ImageSamples, PixelImage};
-use crate::io::output::OutputError;
+use crate::image::adaptive::correction::output_pixels;
+use crate::image::adaptive::{
+    fallback_note, fitting_solver, mix64, AdaptiveError, AdaptiveParams, Decision, FitState,
+    ImagePlan, PixelEstimate, PlanProgress, SamplePositions, TreeGram, TreeSolver,
+};
+use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
 
-/// The `format` field of a plan state.
-pub const STATE_FORMAT: &str = "rkwave-image-plan";
-/// The version of the state layout this build reads and writes.
-pub const STATE_VERSION: u32 = 1;
-/// The state's file name inside its directory.
-pub const STATE_FILE: &str = "state.json";
-/// The carried normal matrix's file name inside the state's directory (module docs).
-pub const GRAM_FILE: &str = "gram.bin";
-/// The carried PCG start's file name inside the state's directory (module docs).
-pub const PCG_FILE: &str = "pcg.bin";
+use super::{CarriedGram, CarriedPcg};
 
-mod files;
-
-pub use super::gram::CarriedGram;
-pub use super::pcg::CarriedPcg;
-
-/// Why a protocol call was refused.
-#[derive(Debug, Error)]
-#[non_exhaustive]
-pub enum ProtocolError {
-    /// The refiner (parameters, solve).
-    #[error(transparent)]
-    Adaptive(#[from] AdaptiveError),
-    /// The samples do not lie on the state's image plane.
-    #[error(
-        "the samples lie on a {given} image but the plan is for {state}: use the samples of \
-         this plan or another state"
-    )]
-    Plane {
-        /// The plan's plane.
-        state: ImagePlane,
-        /// The samples' plane.
-        given: ImagePlane,
-    },
-    /// The samples are not the positions the plan handed out.
-    #[error(
-        "the {given} samples are not the positions this plan handed out (it expects the \
-         {expected} positions of rounds 0..={round}, as written, in float64): they come from \
-         another run, miss a round or were moved; pass every sample of this plan, or start a \
-         new state"
-    )]
-    Mismatch {
-        /// Samples given.
-        given: usize,
-        /// Positions handed out so far.
-        expected: usize,
-        /// The last round handed out.
-        round: usize,
-    },
-    /// The samples are those of an earlier round: that round was planned already.
-    #[error(
-        "the {given} samples are the positions of rounds 0..={matched}, which this plan has \
-         advanced past: it handed out round {round} ({expected} positions in all); render \
-         those too and pass every sample"
-    )]
-    AlreadyPlanned {
-        /// Samples given.
-        given: usize,
-        /// The round they complete.
-        matched: usize,
-        /// The last round handed out.
-        round: usize,
-        /// Positions handed out so far.
-        expected: usize,
-    },
-    /// The samples' channels differ from earlier calls.
-    #[error(
-        "the samples have {given} channels but earlier rounds had {state}: render the same \
-         channels every round"
-    )]
-    Channels {
-        /// Channels of earlier rounds.
-        state: usize,
-        /// Channels given.
-        given: usize,
-    },
-    /// A parameter differs from the one the state was planned with.
-    #[error(
-        "the plan in this state was made with {parameter} = {state}, this call gives \
-         {given}: pass the same parameters on every call, or start a new state"
-    )]
-    OtherParameters {
-        /// The parameter.
-        parameter: String,
-        /// The state's value.
-        state: String,
-        /// The value given.
-        given: String,
-    },
-    /// The state file is not a plan state this build reads.
-    #[error("{}: not a plan state ({problem}): start a new state", .file.display())]
-    State {
-        /// The file.
-        file: PathBuf,
-        /// What is wrong.
-        problem: String,
-    },
-    /// The state file could not be read.
-    #[error("cannot read the plan state {}: {source}", .file.display())]
-    Read {
-        /// The file.
-        file: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// The state could not be written.
-    #[error(transparent)]
-    Write(#[from] OutputError),
-}
-
-/// Positions handed out, cumulative up to one round.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct IssuedRound {
-    /// The round whose positions these are (0: the base).
-    pub round: usize,
-    /// Positions of this round.
-    pub positions: usize,
-    /// Positions of rounds `0..=round`.
-    pub total: usize,
-    /// Fingerprint of the positions of rounds `0..=round` (hex).
-    pub fingerprint: String,
-}
-
-/// A plan between calls: everything [`ImagePlan::resume`] needs and the record of the
-/// positions handed out.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PlanState {
-    /// Always [`STATE_FORMAT`].
-    pub format: String,
-    /// Always [`STATE_VERSION`] when written by this build.
-    pub version: u32,
-    /// The image plane.
-    pub plane: ImagePlane,
-    /// The refiner's parameters (seed and budget included).
-    pub params: AdaptiveParams,
-    /// Channels of the samples (`None` before the first samples).
-    pub channels: Option<usize>,
-    /// The refinement history.
-    pub progress: PlanProgress,
-    /// Positions handed out, per round.
-    pub issued: Vec<IssuedRound>,
-    /// Why the plan stopped (`None` while it runs).
-    pub stop: Option<StopReason>,
-    /// The last fit's normal matrix, continued by the next round (module docs; kept in
-    /// [`GRAM_FILE`], not in the JSON).
-    #[serde(skip)]
-    pub carried: CarriedGram,
-    /// The last round's PCG start and diagonal (module docs; kept in [`PCG_FILE`]).
-    #[serde(skip)]
-    pub pcg: CarriedPcg,
-}
-
-/// What one call of [`PlanState::advance`] did.
-#[derive(Clone, Debug, Serialize)]
-pub struct PlanStep {
-    /// The round's log (its fit on the samples given).
-    pub log: ImageRound,
-    /// Positions to render next (empty when the plan stopped).
-    #[serde(skip)]
-    pub next: SamplePositions,
-    /// Number of positions to render next.
-    pub next_positions: usize,
-    /// The round those positions belong to (`None` when the plan stopped).
-    pub next_round: Option<usize>,
-    /// Why the plan stopped (`None`: render the next positions and call again).
-    pub stop: Option<StopReason>,
-    /// Positions handed out in all, including the next ones.
-    pub total_positions: usize,
-    /// The budget.
-    pub budget: usize,
-    /// The samples dropped for a non-finite value (none unless the caller's policy drops).
-    pub dropped: DroppedSamples,
-    /// Why the normal matrix carried from the last call was not continued and the round's was
-    /// assembled afresh (`None`: continued, or the first fit).
-    pub gram_note: Option<String>,
-    /// Why PCG's start carried from the last call was not used, or its diagonal not continued
-    /// (`None`: used, or there was none).
-    pub pcg_note: Option<String>,
-    /// Why this round was fitted by another solver than the plan's (the direct solve would
-    /// not fit in memory; `None`: the plan's solver).
-    pub solver_note: Option<String>,
-    /// When this round stopped the plan: the final reconstruction from its fit, with the
-    /// plan's output pixels, without fitting the samples again (under the direct solve, the
-    /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
-    /// iterative solve, the stopping round's fit continued to the solver's tolerance);
-    /// `None` otherwise.
-    #[serde(skip)]
-    pub reconstruction: Option<Box<PlanReconstruction>>,
-}
-
-/// A reconstruction on the tree a plan built.
-#[derive(Clone, Debug)]
-pub struct PlanReconstruction {
-    /// The tree the samples were planned for.
-    pub tree: QuadTree,
-    /// The fit on it.
-    pub fit: TreeFit,
-    /// The fit's box pixels alone.
-    pub fit_image: PixelImage,
-    /// The output pixels (by the estimate asked for; by default the fit's box pixels plus
-    /// the significant mean residual).
-    pub image: PixelImage,
-    /// What the residual correction did.
-    pub correction: ResidualCorrection,
-    /// The last round of the samples.
-    pub round: usize,
-    /// Whether the plan has stopped at that round (the samples are the final set).
-    pub complete: bool,
-    /// The samples dropped for a non-finite value (none unless the caller's policy drops).
-    pub dropped: DroppedSamples,
-    /// Why the fit used another solver than the plan's (the direct solve would not fit in
-    /// memory; `None`: the plan's solver).
-    pub solver_note: Option<String>,
-}
-
-/// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.
-fn fingerprint(start: u64, xs: &[f64], ys: &[f64]) -> u64 {
-    xs.iter().zip(ys).fold(start, |acc, (x, y)| {
-        acc.wrapping_add(mix64(x.to_bits() ^ mix64(y.to_bits()).rotate_left(17)))
-    })
-}
-
-fn parse_hex(s: &str) -> Option<u64> {
-    u64::from_str_radix(s, 16).ok()
-}
+/// The state file's name, as the state's own faults name it.
+const STATE_FILE: &str = "state.json";
 
 impl PlanState {
+    /// The state as JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a plan state serialises")
+    }
+
+    /// Parses a state written by [`PlanState::to_json`] (`file` names it in errors), checking
+    /// its format, version and history against its own parameters.
+    pub fn from_json(text: &str, file: &Path) -> Result<Self, ProtocolError> {
+        let state: Self = serde_json::from_str(text).map_err(|e| ProtocolError::State {
+            file: file.to_path_buf(),
+            problem: e.to_string(),
+        })?;
+        state.check_layout(file)?;
+        ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
+            match e {
+                // A memory limit below the plan's budget is no fault of the state.
+                AdaptiveError::Resource(e) => ProtocolError::Adaptive(e.into()),
+                e => ProtocolError::State {
+                    file: file.to_path_buf(),
+                    problem: e.to_string(),
+                },
+            }
+        })?;
+        Ok(state)
+    }
+
+    /// The tag of this plan's carried normal matrix: a hash of the state's version, plane
+    /// and parameters (a matrix of another plan is not continued).
+    pub fn tag(&self) -> u64 {
+        let params = serde_json::to_string(&self.params).expect("parameters serialise");
+        format!("{}/{}/{params}", STATE_VERSION, self.plane)
+            .bytes()
+            .fold(0u64, |h, b| mix64(h ^ u64::from(b)))
+    }
+
+    /// Functions of the plan's basis at its depth limit (the length of a carried PCG
+    /// start, [`CarriedPcg::from_bytes`]).
+    pub fn basis_len(&self) -> Result<usize, ProtocolError> {
+        Ok(ImagePlan::new(self.plane, &self.params)?
+            .tree()
+            .basis()
+            .len())
+    }
+
     /// Starts a plan: the state and the base positions for the seed.
     pub fn start(
         plane: ImagePlane,
@@ -523,6 +285,20 @@ impl PlanState {
         samples: &ImageSamples,
         dropped: DroppedSamples,
     ) -> Result<PlanStep, ProtocolError> {
+        self.advance_imaging(samples, dropped, true)
+    }
+
+    /// [`PlanState::advance_dropped`], making the stopping round's output pixels
+    /// ([`PlanStep::reconstruction`]) only with `image_at_stop`: a caller that makes the final
+    /// image another way (the plan's final-image job under an iterative solver, which solves
+    /// again from the carried coefficients) skips their cost. The round is the same either
+    /// way.
+    pub fn advance_imaging(
+        &mut self,
+        samples: &ImageSamples,
+        dropped: DroppedSamples,
+        image_at_stop: bool,
+    ) -> Result<PlanStep, ProtocolError> {
         let k = self.matching_round(samples, &dropped)?;
         let last = self.issued.len() - 1;
         if k < last {
@@ -569,7 +345,7 @@ impl PlanState {
         // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
         // output pixels are those `reconstruct` would compute again from the same samples.
         let reconstruction = match round.decision {
-            Decision::Stop(_) => {
+            Decision::Stop(_) if image_at_stop => {
                 let sigma = round.log.noise.as_ref().map_or(0.0, |n| n.sigma);
                 let (fit_image, image, correction) = output_pixels(
                     plan.tree(),
@@ -593,7 +369,7 @@ impl PlanState {
                     solver_note: solver_note.clone(),
                 }))
             }
-            Decision::Sample(_) => None,
+            Decision::Stop(_) | Decision::Sample(_) => None,
         };
         self.channels = Some(samples.channels());
         let (next, next_round, stop) = match round.decision {
@@ -701,22 +477,3 @@ impl PlanState {
         })
     }
 }
-
-impl ProtocolError {
-    /// The kind of this error ([`crate::error`]).
-    pub fn kind(&self) -> crate::error::ErrorKind {
-        match self {
-            ProtocolError::Adaptive(e) => e.kind(),
-            ProtocolError::Plane { .. }
-            | ProtocolError::Mismatch { .. }
-            | ProtocolError::Channels { .. }
-            | ProtocolError::OtherParameters { .. }
-            | ProtocolError::State { .. } => crate::error::ErrorKind::InvalidInput,
-            ProtocolError::AlreadyPlanned { .. } => crate::error::ErrorKind::OutputRefused,
-            ProtocolError::Read { .. } => crate::error::ErrorKind::Unreadable,
-            ProtocolError::Write(e) => e.kind(),
-        }
-    }
-}
-
-crate::error::classified!(ProtocolError);
