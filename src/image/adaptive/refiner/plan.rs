@@ -136,10 +136,42 @@ impl ImagePlan {
                 })
                 .unwrap_or(1),
         };
+        // Coverage up front (module `coverage`): at two samples a pixel or more, where the
+        // budget pays for base slots no larger than a pixel, the base tree is raised to them,
+        // so that every pixel holds `ceil(rho)` base samples before the tree adapts (on the
+        // suite's 4 spp this is ahead of topping the pixels up after the rounds:
+        // docs/measurements/plan-quality.md); elsewhere (planes whose sides are not powers of
+        // two, between 1 and 2 samples a pixel) the reserve and the fill round below cover
+        // the pixels. A base level given by the user is kept as given.
+        let mut coverage = None;
+        let pixels = w * h;
+        if params.sampling.cover_pixels
+            && params.quad.base_level.is_none()
+            && params.stop.budget >= per_slot * pixels
+        {
+            let covers = |level: u32, size: usize| {
+                let cells = 1usize << level;
+                cells >= size && (cells % size == 0 || cells >= 2 * size)
+            };
+            if let Some(sp) = (1..=steps).find(|&s| covers(cx + s, w) && covers(cy + s, h)) {
+                if sp > s0 && base_cost(sp) <= params.stop.budget {
+                    coverage = Some(format!(
+                        "coverage: the base tree raised from level {} to {} (slots no larger \
+                         than a pixel, {} of the {} samples) so that every pixel holds {} base \
+                         samples",
+                        cx + s0,
+                        cx + sp,
+                        base_cost(sp),
+                        params.stop.budget,
+                        per_slot
+                    ));
+                    s0 = sp;
+                }
+            }
+        }
         // The coverage rule (module `coverage`): the samples that top every pixel up to `m`
         // after the base must fit in the budget beside it; the automatic base level comes down
         // until they do (a base level given by the user is kept as given).
-        let mut coverage = None;
         let m = per_slot.min(params.stop.budget / plane.pixels());
         if params.sampling.cover_pixels && params.quad.base_level.is_none() && m > 0 {
             let chosen = s0;
