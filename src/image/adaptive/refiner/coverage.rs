@@ -8,6 +8,10 @@
 //! `m = min(ceil(rho), floor(N / (W H)))` samples (one between 1 and 2 samples a pixel, two
 //! from 2 on with the default `rho = 2`):
 //!
+//! * *Up front* ([`super::ImagePlan::new`]): from `ceil(rho)` samples a pixel on, where the
+//!   budget pays for base slots no larger than a pixel (sides that are powers of two, or
+//!   large enough), the base tree is raised to them, so every pixel holds `ceil(rho)` base
+//!   samples before the tree adapts. Elsewhere:
 //! * *Reserve.* Every round, with `n` samples so far and `n_P` of them in pixel `P`, the
 //!   marking and spreading of the round may spend at most `N - n - R`, `R = sum_P max(0, m -
 //!   n_P)`: the samples that top every pixel up to `m` are held back. A sample in a pixel
@@ -20,9 +24,10 @@
 //!   least one base step; a base level the user gives is kept, and if it leaves no room the
 //!   plan says how many samples are missing).
 //!
-//! This costs the samples the tree left short, instead of raising the whole base tree to
-//! slots no larger than a pixel (`ceil(rho)` samples in each: half the budget at 4 samples a
-//! pixel, the rule it replaces; docs/measurements/plan-quality.md).
+//! Topping up after the rounds is cheaper than the base up front, but on the suite's 4 spp it
+//! is behind it (adapting on a sparse base, the rounds decide on noisier fits and leave an
+//! uneven density): docs/measurements/plan-quality.md. So the base goes up front wherever the
+//! budget holds it, and the reserve and fill cover only what it cannot.
 
 use rand_pcg::Pcg64;
 
