@@ -1,13 +1,12 @@
 //! Do no harm by construction (issue 38): the default uniform pixels (`auto`) against the
 //! per-pixel mean of the same samples on random synthetic textures with and without noise,
-//! their range, the stored Mitsuba renders, and the plan's coverage at low budgets.
+//! their range and the stored Mitsuba renders.
 
 mod common;
 
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use rkwave::image::adaptive::{AdaptiveParams, ImagePlan};
 use rkwave::image::estimate::{
     reconstruct_estimated, EstimateReport, PixelStatistics, ShrinkParams, UniformEstimate,
 };
@@ -261,36 +260,8 @@ proptest! {
     }
 }
 
-/// Low budgets: a plan of 2, 4 or 8 samples a pixel on power-of-two planes places a base
-/// sample in every pixel, within the budget. (Planes whose side is not a power of two are not
-/// covered yet: their cells do not align with the pixels, and cells of half a pixel cost four
-/// times the samples; 64 x 48 at 4 spp leaves 1138 pixels without a base sample. Stated in
-/// docs/measurements/estimators.md as a gap.) (Between 1 and `ceil(rho) = 2` samples a
-/// pixel, slots of a pixel cannot each hold their `ceil(rho)` samples; the plan says so in its
-/// notes and keeps the coarser base.)
-#[test]
-fn the_plan_leaves_no_pixel_unsampled_at_one_sample_a_pixel_or_more() {
-    for (w, h) in [(128, 128), (64, 64), (256, 128)] {
-        for spp in [2usize, 4, 8] {
-            let plane = ImagePlane::new(w, h).unwrap();
-            let mut params = AdaptiveParams::default();
-            params.stop.budget = spp * w * h;
-            let plan = ImagePlan::new(plane, &params).unwrap();
-            let base = plan.base_positions();
-            let mut hit = vec![false; w * h];
-            for (&x, &y) in base.xs.iter().zip(&base.ys) {
-                let (px, py) = plane.pixel_of(x, y);
-                hit[py * w + px] = true;
-            }
-            let empty = hit.iter().filter(|&&b| !b).count();
-            assert_eq!(
-                empty, 0,
-                "{w}x{h} at {spp} spp: {empty} pixels without a base sample"
-            );
-            assert!(base.xs.len() <= params.stop.budget);
-        }
-    }
-}
+// The plan's coverage at low budgets (every pixel a sample at one sample a pixel or more,
+// any plane) is tested on the whole run in tests/plan_coverage.rs.
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(12))]

@@ -356,7 +356,7 @@ fn edge_and_chirp(x: f64, y: f64) -> f64 {
 }
 
 /// The round schedule: every round that samples adds at least `min_growth` times the
-/// samples of its fit, or the whole rest of the budget (the marked slots' children, and the
+/// samples of its fit, or the whole rest of the budget (less the coverage rule's reserve) (the marked slots' children, and the
 /// spare samples spread over the other slots); so a run that stops at the budget has spent it
 /// exactly, in at most `log(budget / base) / log(1 + min_growth) + 1` sampling rounds.
 /// Both spreading rules, two budgets and scenes (a lone edge: few significant slots; an edge
@@ -384,8 +384,14 @@ fn every_round_grows_by_the_least_growth_or_spends_the_budget() {
                 let what = format!("{name}, {spread:?}, budget {budget}");
                 for pair in rounds.windows(2) {
                     let (now, next) = (pair[0].samples, pair[1].samples);
-                    let least =
-                        ((p.growth.min_growth * now as f64).ceil() as usize).min(budget - now);
+                    // the coverage rule's reserve is not the round's to spend, and a fill
+                    // round adds exactly the samples it tops the pixels up with
+                    let least = ((p.growth.min_growth * now as f64).ceil() as usize)
+                        .min(budget - now - pair[0].reserved);
+                    if pair[0].filled > 0 {
+                        assert_eq!(next - now, pair[0].filled, "{what}");
+                        continue;
+                    }
                     assert!(
                         next - now >= least,
                         "{what}: round {} added {} samples to {now}, least {least}",

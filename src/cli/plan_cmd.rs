@@ -275,6 +275,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         println!("wrote the final image to {}", path.display());
     }
     if let Some(s) = &step {
+        if let Some(note) = &s.log.coverage {
+            super::print_note(note);
+        }
         if let Some(note) = s.dropped.note() {
             super::print_note(&note);
         }

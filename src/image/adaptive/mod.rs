@@ -48,10 +48,10 @@ pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, FitState, TreeFit, Tre
 pub use gram::TreeGram;
 pub use pcg::TreeSolver;
 pub use refiner::{
-    refine_image, slot_sobol, AdaptiveImage, AdaptiveParams, AdaptiveReport, AdaptiveTimes,
-    Decision, FitParams, GrowthParams, ImagePlan, ImageRound, ImageSampling, IndicatorParams,
-    NoiseParams, OutputParams, ParsePatternError, PlanProgress, PositionPattern, QuadTreeParams,
-    RebuildCost, Round, SamplePositions,
+    empty_pixels, pixel_shortfall, refine_image, slot_sobol, AdaptiveImage, AdaptiveParams,
+    AdaptiveReport, AdaptiveTimes, Decision, FitParams, GrowthParams, ImagePlan, ImageRound,
+    ImageSampling, IndicatorParams, NoiseParams, OutputParams, ParsePatternError, PlanProgress,
+    PositionPattern, QuadTreeParams, RebuildCost, Round, SamplePositions,
 };
 pub use significance::{NoiseLevel, Significance};
 

@@ -17,7 +17,8 @@ use crate::adaptive::QuadTree;
 
 impl ImagePlan {
     /// The slots' samples, the oversampling so far, the round's least growth and the
-    /// indicator of every slot (the weights of the spare samples).
+    /// indicator of every slot (the weights of the spare samples); `reserve` samples of the
+    /// budget's rest are held back (the coverage rule, module `coverage`).
     pub(super) fn tally(
         &self,
         xs: &[f64],
@@ -25,9 +26,11 @@ impl ImagePlan {
         values: &[&[f64]],
         fit: &TreeFit,
         ind: &Indication,
+        reserve: usize,
     ) -> Tally {
         let params = &self.params;
-        let left = params.stop.budget.saturating_sub(xs.len());
+        // the samples this round may spend: the budget's rest less the coverage reserve
+        let left = params.stop.budget.saturating_sub(xs.len() + reserve);
         // the slots' moments: of the fit's residuals under the uncertainty rule (the output
         // is the fit plus the mean residual, whose variance is the residuals' spread over n)
         let residuals = (params.growth.spread == SpreadRule::Uncertainty).then(|| {
@@ -116,7 +119,8 @@ impl ImagePlan {
     /// Mark: Dörfler's set ([`super::super::marking::dorfler`], at least one slot), extended
     /// in indicator order to the least growth (less the share reserved for spreading), cut to
     /// the prefix the budget pays for ([`super::super::marking::within_budget`]); the spare
-    /// samples beside. `None` when neither a slot nor a spare sample fits the budget.
+    /// samples beside. `None` when the round would hand out no position (neither a slot's
+    /// new samples nor a spare sample fits the budget).
     pub(super) fn mark(
         &self,
         xs: &[f64],
@@ -165,7 +169,9 @@ impl ImagePlan {
         let spent: usize = costs[..k].iter().sum();
         // the spare samples: the least growth the marked slots do not take
         let extra = goal.saturating_sub(spent).max(reserved).min(left - spent);
-        if k == 0 && extra == 0 {
+        // a round must hand out positions: marks whose children already hold their samples
+        // and no spare sample (the coverage reserve took the rest) end the marking
+        if spent + extra == 0 {
             return None;
         }
         Some(Marking {
@@ -233,7 +239,7 @@ pub(super) struct Tally {
     counts: HashMap<Cell, usize>,
     /// The least samples of a slot, at least `ceil(rho)`: the oversampling so far.
     target: usize,
-    /// Samples left in the budget.
+    /// Samples left in the budget, less the coverage reserve.
     left: usize,
     /// The round's least growth.
     goal: usize,

@@ -28,13 +28,20 @@
 //!    the slot), and a tree deep wherever its detail is significant densifies instead of
 //!    stopping while budget remains.
 //!
+//! 3. Coverage ([`coverage`]): at a budget of at least one sample a pixel, each round holds
+//!    back the samples that top every pixel up to `min(ceil(rho), floor(budget / (W H)))`,
+//!    and the round that would stop tops the pixels left short up instead (one more round
+//!    fits on them and stops), so no pixel is left without a sample
+//!    ([`ImageSampling::cover_pixels`]).
+//!
 //! One round is [`ImagePlan::step`]: given the tree and every sample so far, it fits and either
 //! stops or deepens the tree and returns the next positions. [`refine_image`] is a loop over
 //! it with a scene as the oracle; the file protocol (module `protocol`) runs the same step
 //! once per call, so a renderer outside the process gets the same rounds.
 //!
 //! Invariant after every round: every slot holds at least `ceil(rho)` samples, and the samples
-//! never exceed the budget. Deterministic for a seed: the marked slots are processed in
+//! never exceed the budget (nor, under the coverage rule, the budget less the samples held
+//! back for the pixels). Deterministic for a seed: the marked slots are processed in
 //! indicator order (ties by cell) with one PCG-64 stream per round.
 //!
 //! Every round refits: by default the direct solve (kernel rows, `G` continued from the last
@@ -48,8 +55,10 @@
 //! The files, by job: [`params`] (the parameters and their ranges), [`report`] (what a round
 //! and a run report), [`positions`] (drawing new sample positions), [`plan`] (the plan between
 //! rounds: construction, resumption, the fit), [`step`] (one round as named steps: fit,
-//! indicate, stop), [`deepen`] (densify, or mark, deepen and sample), [`run`] (the in-process loop).
+//! indicate, stop), [`deepen`] (densify, or mark, deepen and sample), [`coverage`] (every
+//! pixel a sample at low budgets), [`run`] (the in-process loop).
 
+mod coverage;
 mod deepen;
 mod params;
 mod plan;
@@ -58,6 +67,7 @@ mod report;
 mod run;
 mod step;
 
+pub use coverage::{empty_pixels, pixel_shortfall};
 pub use params::{
     AdaptiveParams, FitParams, GrowthParams, ImageSampling, IndicatorParams, NoiseParams,
     OutputParams, QuadTreeParams,

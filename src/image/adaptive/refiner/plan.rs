@@ -78,7 +78,7 @@ pub struct ImagePlan {
     /// state only, kept for [`TreeSolver::Pcg`]: the tree only grows, so they are a point of
     /// the next tree's space with its new functions at 0; a resumed plan starts from 0).
     pub(super) start: Option<Vec<Vec<f64>>>,
-    /// What the low-budget rule did to the base tree (`None`: nothing), for the notes.
+    /// What the coverage rule did to the base level (`None`: nothing), for the notes.
     pub(super) coverage: Option<String>,
 }
 
@@ -136,43 +136,71 @@ impl ImagePlan {
                 })
                 .unwrap_or(1),
         };
-        // Low budgets: at one sample a pixel or more the base tree's slots are no larger than
-        // a pixel, so that every pixel holds a sample (issue 38; a base level given by the
-        // user is kept as given).
+        // Coverage up front (module `coverage`): at two samples a pixel or more, where the
+        // budget pays for base slots no larger than a pixel, the base tree is raised to them,
+        // so that every pixel holds `ceil(rho)` base samples before the tree adapts (on the
+        // suite's 4 spp this is ahead of topping the pixels up after the rounds:
+        // docs/measurements/plan-quality.md); elsewhere (planes whose sides are not powers of
+        // two, between 1 and 2 samples a pixel) the reserve and the fill round below cover
+        // the pixels. A base level given by the user is kept as given.
         let mut coverage = None;
         let pixels = w * h;
-        if params.quad.base_level.is_none() && params.stop.budget >= pixels {
+        if params.sampling.cover_pixels
+            && params.quad.base_level.is_none()
+            && params.stop.budget >= per_slot * pixels
+        {
             let covers = |level: u32, size: usize| {
                 let cells = 1usize << level;
                 cells >= size && (cells % size == 0 || cells >= 2 * size)
             };
             if let Some(sp) = (1..=steps).find(|&s| covers(cx + s, w) && covers(cy + s, h)) {
-                if sp > s0 {
-                    coverage = Some(if base_cost(sp) <= params.stop.budget {
-                        let note = format!(
-                            "low budget: the base tree raised from level {} to {} (slots no \
-                             larger than a pixel, {} of the {} samples) so that every pixel \
-                             holds a sample",
-                            cx + s0,
-                            cx + sp,
-                            base_cost(sp),
-                            params.stop.budget
-                        );
-                        s0 = sp;
-                        note
-                    } else {
-                        format!(
-                            "low budget: slots no larger than a pixel would cost {} samples \
-                             ({} a slot) and the budget is {}: some pixels may hold no sample \
-                             (raise the budget to {} or lower rho)",
-                            base_cost(sp),
-                            per_slot,
-                            params.stop.budget,
-                            base_cost(sp)
-                        )
-                    });
+                if sp > s0 && base_cost(sp) <= params.stop.budget {
+                    coverage = Some(format!(
+                        "coverage: the base tree raised from level {} to {} (slots no larger \
+                         than a pixel, {} of the {} samples) so that every pixel holds {} base \
+                         samples",
+                        cx + s0,
+                        cx + sp,
+                        base_cost(sp),
+                        params.stop.budget,
+                        per_slot
+                    ));
+                    s0 = sp;
                 }
             }
+        }
+        // The coverage rule (module `coverage`): the samples that top every pixel up to `m`
+        // after the base must fit in the budget beside it; the automatic base level comes down
+        // until they do (a base level given by the user is kept as given).
+        let m = per_slot.min(params.stop.budget / plane.pixels());
+        if params.sampling.cover_pixels && params.quad.base_level.is_none() && m > 0 {
+            let chosen = s0;
+            let need = |s: u32| {
+                let base = base_positions_of(&basis, s, per_slot, params);
+                let short = super::coverage::pixel_shortfall(plane, &base.xs, &base.ys, m);
+                base.len() + short.iter().map(|s| s.1).sum::<usize>()
+            };
+            while s0 > 1 && need(s0) > params.stop.budget {
+                s0 -= 1;
+            }
+            if s0 < chosen {
+                coverage = Some(format!(
+                    "coverage: the base level lowered from {} to {} so that the budget of {} \
+                     holds the base and the samples that top every pixel up to {m} ({} in all)",
+                    cx + chosen,
+                    cx + s0,
+                    params.stop.budget,
+                    need(s0)
+                ));
+            }
+        }
+        if params.sampling.cover_pixels && params.stop.budget < plane.pixels() {
+            coverage = Some(format!(
+                "coverage: the budget of {} is below one sample a pixel ({} pixels): pixels the \
+                 tree leaves empty keep the fit's value",
+                params.stop.budget,
+                plane.pixels()
+            ));
         }
         if base_cost(s0) > params.stop.budget {
             return Err(AdaptiveError::BudgetTooSmall {
@@ -262,13 +290,12 @@ impl ImagePlan {
     /// The base positions: `ceil(rho)` positions in every base slot by the plan's pattern
     /// (module `positions`), the same for every call.
     pub fn base_positions(&self) -> SamplePositions {
-        let base = QuadTree::uniform(self.tree.basis().clone(), self.base_steps);
-        let mut placer = self.placer(0);
-        let mut out = SamplePositions::default();
-        for slot in base.leaves() {
-            placer.place(&mut out, slot, base.rect(slot), 0, self.per_slot);
-        }
-        out
+        base_positions_of(
+            self.tree.basis(),
+            self.base_steps,
+            self.per_slot,
+            &self.params,
+        )
     }
 
     /// The placer of round `round`'s positions (0: the base) by the plan's pattern.
@@ -365,6 +392,7 @@ impl ImagePlan {
         let (cx, cy) = self.tree.basis().coarse_levels();
         let mut notes = fit_notes(&fit.report);
         notes.extend(self.coverage.clone());
+        notes.extend(rounds.iter().filter_map(|r| r.coverage.clone()));
         notes.extend(noise_notes(&rounds, self.params.noise.false_alarm));
         let spread: Vec<String> = rounds
             .iter()
@@ -396,6 +424,24 @@ impl ImagePlan {
             notes,
         }
     }
+}
+
+/// The base positions of a plan on `basis` with base step `s0`: `per_slot` positions in every
+/// base slot by the plan's pattern.
+fn base_positions_of(
+    basis: &TensorBasis,
+    s0: u32,
+    per_slot: usize,
+    params: &AdaptiveParams,
+) -> SamplePositions {
+    let base = QuadTree::uniform(basis.clone(), s0);
+    let s = &params.sampling;
+    let mut placer = Placer::new(s.pattern, s.seed, 0);
+    let mut out = SamplePositions::default();
+    for slot in base.leaves() {
+        placer.place(&mut out, slot, base.rect(slot), 0, per_slot);
+    }
+    out
 }
 
 /// The finest level along an axis of `size` pixels, `below` levels under the pixel.

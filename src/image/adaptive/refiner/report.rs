@@ -38,6 +38,14 @@ pub struct ImageRound {
     /// Samples spread over the slots that stay slots (beyond the marked slots' children), so
     /// that the round adds at least `min_growth` times the samples or spends the budget.
     pub spread: usize,
+    /// Samples held back for the pixels short of the coverage rule's samples so far (module
+    /// `coverage`; 0 when it is off).
+    pub reserved: usize,
+    /// Samples that topped pixels up after this round's fit instead of stopping (the
+    /// coverage rule's fill round; 0 otherwise).
+    pub filled: usize,
+    /// What the coverage rule did in this round, or the pixels it could not fill, in words.
+    pub coverage: Option<String>,
     /// The solve.
     pub fit: TreeFitReport,
     /// The last round's fit continued to the solver's tolerance from the round's

@@ -75,15 +75,18 @@ impl ImagePlan {
         let ind = self.indicate(&fit, significance.as_ref());
         let mut log = self.round_log(round, xs.len(), &fit, &ind, significance, rebuild);
         let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
+        // the coverage rule (module `coverage`): the samples every pixel lacks are held back
+        let empty = self.shortfall(xs, ys);
+        log.reserved = empty.iter().map(|s| s.1).sum();
         let stop = self.stop_reason(&ind, log.estimate_rms, nothing_significant, round, xs.len());
         if let Some(stop) = stop {
-            return Ok(stopped(log, fit, stop, fit_s, t.elapsed().as_secs_f64()));
+            return Ok(self.fill_or_stop(log, fit, stop, &empty, fit_s, t));
         }
-        let tally = self.tally(xs, ys, values, &fit, &ind);
+        let tally = self.tally(xs, ys, values, &fit, &ind, log.reserved);
         if nothing_significant {
             let refine_s = t.elapsed().as_secs_f64();
             return Ok(match self.densify(round, xs.len(), &tally, &mut log) {
-                None => stopped(log, fit, StopReason::Budget, fit_s, refine_s),
+                None => self.fill_or_stop(log, fit, StopReason::Budget, &empty, fit_s, t),
                 Some((next, position_s)) => Round {
                     log,
                     fit,
@@ -95,8 +98,7 @@ impl ImagePlan {
             });
         }
         let Some(marking) = self.mark(xs, ys, &ind, &tally) else {
-            let refine_s = t.elapsed().as_secs_f64();
-            return Ok(stopped(log, fit, StopReason::Budget, fit_s, refine_s));
+            return Ok(self.fill_or_stop(log, fit, StopReason::Budget, &empty, fit_s, t));
         };
         log.marked = marking.k;
         let refine_s = t.elapsed().as_secs_f64();
@@ -110,6 +112,38 @@ impl ImagePlan {
             refine_s,
             position_s: t.elapsed().as_secs_f64(),
         })
+    }
+
+    /// The round would stop for `stop`: under the coverage rule with pixels short of their
+    /// samples (`empty`: pixel, samples it lacks), it tops them up instead (module `coverage`),
+    /// and the next round fits on them; otherwise it stops. The note (what was filled, or the pixels left empty) goes in
+    /// the round's log.
+    fn fill_or_stop(
+        &mut self,
+        mut log: ImageRound,
+        fit: TreeFit,
+        stop: StopReason,
+        empty: &[(usize, usize)],
+        fit_s: f64,
+        t: Instant,
+    ) -> Round {
+        let (next, note) = self.fill(log.round, log.samples, empty);
+        log.coverage = note;
+        let refine_s = t.elapsed().as_secs_f64();
+        match next {
+            Some(next) => {
+                log.filled = next.len();
+                Round {
+                    log,
+                    fit,
+                    decision: Decision::Sample(next),
+                    fit_s,
+                    refine_s,
+                    position_s: 0.0,
+                }
+            }
+            None => stopped(log, fit, stop, fit_s, refine_s),
+        }
     }
 
     /// Fit: the round's fit by `solver`, continuing the plan's solver state (and, under PCG,
@@ -194,6 +228,9 @@ impl ImagePlan {
             insignificant: ind.insignificant.len(),
             densified_to: None,
             spread: 0,
+            reserved: 0,
+            filled: 0,
+            coverage: None,
             fit: fit.report.clone(),
             final_fit: None,
             rebuild,

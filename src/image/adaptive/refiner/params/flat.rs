@@ -54,6 +54,13 @@ pub(super) struct FlatParams {
     /// Older files lack it: they continue with jittered strata, as they were written.
     #[serde(default = "pattern_of_old_files")]
     pattern: PositionPattern,
+    /// Older files lack it: the plan covers every pixel at one sample a pixel or more.
+    #[serde(default = "cover_pixels_default")]
+    cover_pixels: bool,
+}
+
+fn cover_pixels_default() -> bool {
+    true
 }
 
 fn spread_of_old_files() -> SpreadRule {
@@ -114,6 +121,7 @@ impl From<AdaptiveParams> for FlatParams {
             residual_z: a.output.residual_z,
             measure_rebuild: a.fit.measure_rebuild,
             pattern: a.sampling.pattern,
+            cover_pixels: a.sampling.cover_pixels,
         }
     }
 }
@@ -131,6 +139,7 @@ impl From<FlatParams> for AdaptiveParams {
                 rho_limit: f.rho_limit,
                 seed: f.seed,
                 pattern: f.pattern,
+                cover_pixels: f.cover_pixels,
             },
             marking: MarkingParams { theta: f.theta },
             indicator: IndicatorParams {

@@ -75,6 +75,11 @@ pub struct ImageSampling {
     /// Where a slot's positions go (module `positions`): the continued per-slot Sobol
     /// sequence or per-batch jittered strata.
     pub pattern: PositionPattern,
+    /// At a budget of at least one sample a pixel, give every pixel a sample (module
+    /// `coverage`): each round holds back one sample for every pixel still without one, and
+    /// the round that would stop first gives each such pixel one sample (false: pixels the
+    /// tree leaves empty keep the fit's value).
+    pub cover_pixels: bool,
 }
 
 /// The indicator of the image refiner.
@@ -163,6 +168,7 @@ impl Default for AdaptiveParams {
                 rho_limit: 2.0,
                 seed: 1,
                 pattern: PositionPattern::Sobol,
+                cover_pixels: true,
             },
             marking: MarkingParams { theta: 0.5 },
             indicator: IndicatorParams { max_ratio: 0.5 },
