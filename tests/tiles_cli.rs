@@ -51,6 +51,15 @@ fn tiled_matches_untiled_and_ignores_the_worker_count() {
     assert_eq!(json["tiled"]["halo"], 12);
     // Every tile is solved exactly, whatever the untiled fit would choose (tests/tiles_nyquist.rs).
     assert_eq!(json["tiled"]["solver"], "Cholesky");
+    // No `--pixels` given: the tiles' box pixels are not the untiled default (`auto`); said.
+    assert!(
+        json["notes"].as_array().unwrap().iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .starts_with("pixels: the fit's box pixels")),
+        "{}",
+        json["notes"]
+    );
     let n = 64 * 48 * 2;
     let (u, a, b) = (pixels(&untiled, n), pixels(&one, n), pixels(&three, n));
     assert_eq!(a, b, "the worker count changed the image");

@@ -35,6 +35,9 @@ pub struct TiledJob {
     wavelet: WaveletParams,
     tiled: TiledParams,
     clipped_halo: bool,
+    /// No pixel estimate was asked for: the tiles make the fit's box pixels, where the
+    /// untiled job's default is `auto` (said in the notes).
+    fit_pixels_by_default: bool,
 }
 
 /// What a [`TiledJob`] made.
@@ -115,6 +118,7 @@ impl TiledJob {
                 ..defaults
             },
             clipped_halo: tiles.halo.is_none() && tiles.tile < DEFAULT_HALO,
+            fit_pixels_by_default: params.pixels.is_none(),
         })
     }
 
@@ -146,6 +150,14 @@ impl TiledJob {
                  at most one tile)",
                 r.tile
             ));
+        }
+        if self.fit_pixels_by_default {
+            notes.push(
+                "pixels: the fit's box pixels (the tiled fit makes only these; the untiled \
+                 default is `auto`, a per-pixel choice by estimated risk, so the two images \
+                 differ by more than the tiling)"
+                    .to_string(),
+            );
         }
         notes.extend(pinned_note(&r.tiles));
         if let Some(spill) = &r.spill {
