@@ -165,39 +165,6 @@ pub(super) fn unseal<'a>(
     Ok(words)
 }
 
-/// A carried state read from `file` by `parse`: none, silently, when there is no file; none,
-/// with a note naming the file, the fault and `consequence`, when it cannot be read or parsed.
-pub(super) fn read_carried<T>(
-    file: &std::path::Path,
-    consequence: &str,
-    parse: impl FnOnce(&[u8]) -> Result<T, GramBytesError>,
-) -> (Option<T>, Option<String>) {
-    let set_aside = |why: String| {
-        (
-            None,
-            Some(format!("{}: {why}; {consequence}", file.display())),
-        )
-    };
-    match std::fs::read(file) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => (None, None),
-        Err(e) => set_aside(format!("cannot be read ({e})")),
-        Ok(bytes) => match parse(&bytes) {
-            Ok(value) => (Some(value), None),
-            Err(e) => set_aside(e.to_string()),
-        },
-    }
-}
-
-/// Writes `bytes` to `file` (through a temporary file), or removes a stale file when there
-/// are none. A cache: when it cannot be written, the file is removed and the next call
-/// starts afresh.
-pub(super) fn write_carried(file: &std::path::Path, bytes: Option<Vec<u8>>) {
-    let written = bytes.is_some_and(|b| crate::io::output::write_new(file, &b, true).is_ok());
-    if !written {
-        let _ = std::fs::remove_file(file);
-    }
-}
-
 impl TreeGram {
     /// The matrix as bytes ([`seal`]: [`GRAM_MAGIC`], the caller's `tag` naming the plan it
     /// belongs to, then the sizes, the functions, the samples' positions, the upper
@@ -282,26 +249,6 @@ pub struct CarriedGram {
 impl PartialEq for CarriedGram {
     fn eq(&self, _: &Self) -> bool {
         true
-    }
-}
-
-impl CarriedGram {
-    /// The matrix in `file` for the plan tagged `tag`; none, silently, when there is no file;
-    /// none, with a note naming the file and the fault, when it cannot be read or is not a
-    /// whole matrix of this plan ([`TreeGram::from_bytes`]).
-    pub fn read(file: &std::path::Path, tag: u64) -> Self {
-        let (gram, note) = read_carried(
-            file,
-            "the normal matrix is assembled afresh (the same result, more time)",
-            |bytes| TreeGram::from_bytes(bytes, tag),
-        );
-        Self { gram, note }
-    }
-
-    /// Writes the matrix to `file` (through a temporary file), or removes a stale file when
-    /// there is no matrix ([`write_carried`]).
-    pub fn write(&self, file: &std::path::Path, tag: u64) {
-        write_carried(file, self.gram.as_ref().map(|g| g.to_bytes(tag)));
     }
 }
 

@@ -50,7 +50,7 @@ pub(crate) use super::single_scale::multilevel_values;
 pub use super::single_scale::{SingleScaleColumns, SingleScaleRows};
 pub use super::solver::{TreeSolver, DIRECT_FALLBACK_MAX};
 
-use super::gram::{read_carried, seal, unseal, write_carried, GramBytesError};
+use super::gram::{seal, unseal, GramBytesError};
 use crate::solve::cg::{self, CgParams, CgReport, ConditionEstimate, Jacobi, ResidualReport};
 use crate::solve::vectors::interleave;
 
@@ -212,22 +212,6 @@ impl CarriedPcg {
         })
     }
 
-    /// The state in `file` for the plan tagged `tag` on a basis of `n` functions; none,
-    /// silently, when there is no file; none, with a note naming the file and the fault,
-    /// when it cannot be read or is not whole ([`CarriedPcg::from_bytes`]).
-    pub fn read(file: &std::path::Path, tag: u64, n: usize) -> Self {
-        let (state, note) = read_carried(
-            file,
-            "PCG starts from zero with the diagonal summed afresh (the same tolerance, more \
-             iterations)",
-            |bytes| Self::from_bytes(bytes, tag, n),
-        );
-        Self {
-            note,
-            ..state.unwrap_or_default()
-        }
-    }
-
     /// The start and the diagonal for a fit of the samples `(xs, ys)` (the diagonal only when
     /// its samples are their first, in order, [`DiagonalSums::continues`]), and the note of
     /// what was set aside.
@@ -250,11 +234,5 @@ impl CarriedPcg {
             continues
         });
         (self.start.clone(), diagonal, note)
-    }
-
-    /// Writes the state to `file` (through a temporary file), or removes a stale file when
-    /// there is none.
-    pub fn write(&self, file: &std::path::Path, tag: u64) {
-        write_carried(file, self.to_bytes(tag));
     }
 }
