@@ -268,11 +268,19 @@ proptest! {
 
     /// The property of issue 38 over random synthetic textures plus noise (proptest: texture,
     /// strata 2 x 2 or 4 x 4, noise level in [0, 0.3]): `auto`'s squared error against the
-    /// pixel integrals never exceeds the per-pixel mean's estimated risk (the report's
-    /// `box_risk`, `sum_P sum_c v_{P,c}`) nor the mean's actual error, with the 10 % tolerance
+    /// pixel integrals never exceeds the per-pixel mean's actual error, with the 10 % tolerance
     /// justified at `auto_never_exceeds_the_box_risk_on_random_textures`.
+    ///
+    /// Not asserted: "never exceeds the mean's *estimated* risk" (the report's `box_risk`,
+    /// `sum_P sum_c v_{P,c}`), the issue's wording. It is false with this noise estimate: `v_P`
+    /// (the least of three difference estimates, `image/estimate/noise.rs`) is biased low where
+    /// the texture varies inside a stratum, so at 4 x 4 strata and almost no noise the mean's
+    /// estimated risk is below its actual error and `auto` (below the mean's actual error) can
+    /// be above it: seed 16834185788934746027, fine, sigma 5.7e-4 gives auto 3.68e-2, the mean
+    /// 3.76e-2, the mean's estimated risk 1.52e-2 (kept in the regression file, so that case
+    /// runs first on every run).
     #[test]
-    fn auto_never_exceeds_the_means_estimated_risk(
+    fn auto_never_exceeds_the_means_error(
         seed in any::<u64>(),
         fine in any::<bool>(),
         sigma in 0.0f64..0.3,
@@ -286,7 +294,7 @@ proptest! {
         let err_box = sse(&stats.mean, &truth);
         let box_risk = report.box_risk.unwrap() * (w * h) as f64;
         prop_assert!(
-            err_auto <= 1.1 * box_risk && err_auto <= 1.1 * err_box,
+            err_auto <= 1.1 * err_box,
             "g {g}, sigma {sigma}: auto {err_auto:.4e}, box {err_box:.4e}, box's estimated risk \
              {box_risk:.4e}"
         );
