@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 use std::time::Duration;
 
-use common::image_cli::{arg, plan_round, plan_start, render};
+use common::image_cli::{arg, plan_start, plan_to_stop};
 use common::{rkwave_bounded, scratch, succeeds, user_error};
 
 /// A new plan's arguments on 16x16 at 4 spp, writing into `dir`, with `extra` flags.
@@ -88,32 +88,13 @@ fn a_plan_too_large_is_refused_before_it_allocates() {
     assert!(!dir.join("state").join("state.json").exists());
 }
 
-/// Runs a 24x20 plan at 4 spp to its stop with `--final-image`, the first call with `flags`;
-/// returns the state folder, the last samples and the final image's path, and the text of
-/// the stopping call.
+/// Runs a 24x20 plan at 4 spp to its stop with `--final-image` (`plan_to_stop`), the first
+/// call with `flags`; returns the state folder, the last samples and the text of the stopping
+/// call.
 fn stopped_plan(name: &str, flags: &[&str]) -> (common::Scratch, std::path::PathBuf, String) {
     let d = scratch("front-door-plan", name);
-    let n0 = d.join("n0.npy");
-    let mut start = plan_start("24x20", "4", &d, &n0);
-    start.extend(flags.iter().map(|f| f.to_string()));
-    succeeds(&start);
-    let fin = d.join("final.npy");
-    let (mut samples, mut next) = (None, n0);
-    for k in 0.. {
-        assert!(k < 64, "the plan stops");
-        let s = d.join(format!("s{k}.npy"));
-        render(samples.as_deref(), &next, &s);
-        let n = d.join(format!("n{}.npy", k + 1));
-        let mut args = plan_round(&d, &s, &n);
-        args.extend(["--final-image".to_string(), arg(&fin).to_string()]);
-        let text = succeeds(&args);
-        samples = Some(s);
-        next = n;
-        if fin.exists() {
-            return (d, samples.unwrap(), text);
-        }
-    }
-    unreachable!()
+    let (samples, text) = plan_to_stop(&d, flags);
+    (d, samples, text)
 }
 
 /// `plan --final-image` and `reconstruct --dim 2 --state` are the same library call: the

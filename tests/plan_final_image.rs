@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::image_cli::{arg, plan_round, plan_start, render};
+use common::image_cli::{arg, plan_round, plan_start, plan_to_stop, render};
 use common::{succeeds, user_error, Scratch};
 
 fn scratch(name: &str) -> Scratch {
@@ -17,29 +17,8 @@ fn scratch(name: &str) -> Scratch {
 #[test]
 fn final_image_is_the_reconstruction_bit_for_bit() {
     let d = scratch("loop");
-    let n0 = d.join("n0.npy");
-    let mut start = plan_start("24x20", "4", &d, &n0);
-    start.extend(["--solver".to_string(), "direct".to_string()]);
-    succeeds(&start);
+    let (samples, _) = plan_to_stop(&d, &["--solver", "direct"]);
     let fin = d.join("final.npy");
-    let (mut samples, mut next) = (None, n0);
-    for k in 0.. {
-        assert!(k < 64, "the plan stops");
-        let s = d.join(format!("s{k}.npy"));
-        render(samples.as_deref(), &next, &s);
-        let n = d.join(format!("n{}.npy", k + 1));
-        let mut args = plan_round(&d, &s, &n);
-        args.extend(["--final-image".to_string(), arg(&fin).to_string()]);
-        let text = succeeds(&args);
-        samples = Some(s);
-        next = n;
-        if rkwave::io::read_npy(&next).is_err() || text.contains("stopped") {
-            assert!(text.contains("wrote the final image"), "{text}");
-            break;
-        }
-        assert!(!fin.exists(), "no image while the plan continues");
-    }
-    let samples = samples.unwrap();
     let out = d.join("reconstructed.npy");
     succeeds(&[
         "reconstruct",

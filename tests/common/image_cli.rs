@@ -124,6 +124,37 @@ pub fn started_plan(dir: &Path, resolution: &str, spp: &str) -> PathBuf {
     s0
 }
 
+/// Runs a 24x20 plan at 4 spp in `dir` to its stop, the first call with `flags`, every round
+/// asked to write `dir/final.npy` (`--final-image`); asserts that no image is written while the
+/// plan continues and that the stopping call says it wrote it. Returns the last samples given
+/// and the text of the stopping call.
+pub fn plan_to_stop(dir: &Path, flags: &[&str]) -> (PathBuf, String) {
+    let n0 = dir.join("n0.npy");
+    let mut start = plan_start("24x20", "4", dir, &n0);
+    start.extend(flags.iter().map(|f| f.to_string()));
+    succeeds(&start);
+    let fin = dir.join("final.npy");
+    let (mut samples, mut next) = (None, n0);
+    for k in 0.. {
+        assert!(k < 64, "the plan stops");
+        let s = dir.join(format!("s{k}.npy"));
+        render(samples.as_deref(), &next, &s);
+        let n = dir.join(format!("n{}.npy", k + 1));
+        let mut args = plan_round(dir, &s, &n);
+        args.extend(["--final-image".to_string(), arg(&fin).to_string()]);
+        let text = succeeds(&args);
+        samples = Some(s);
+        next = n;
+        if rkwave::io::read_npy(&next).is_err() || text.contains("stopped") {
+            assert!(text.contains("wrote the final image"), "{text}");
+            assert!(fin.exists(), "the stopping call writes the image");
+            return (samples.unwrap(), text);
+        }
+        assert!(!fin.exists(), "no image while the plan continues");
+    }
+    unreachable!()
+}
+
 /// `.npy` bytes of `set` written by hand (the crate's writer refuses non-finite values).
 pub fn write_npy_unchecked(path: &Path, set: &SampleSet) {
     let (m, k) = (set.len(), 1 + set.channels());
