@@ -154,18 +154,18 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         .reduce(rkwave::resources::ImageRequest::larger)
         .ok_or_else(|| CliError::Invalid("--methods: give at least one method".into()))?;
     if args.adaptive {
-        let defaults = AdaptiveParams::default();
+        let defaults = AdaptiveParams {
+            tree: rkwave::adaptive::TreeParams {
+                p,
+                ..AdaptiveParams::default().tree
+            },
+            ..AdaptiveParams::default()
+        };
         let tree = memory::tree_request(
             plane,
             3,
             args.spp as f64 * plane.pixels() as f64,
-            p,
-            defaults.quad.below_pixel,
-            defaults.tree.rho,
-            !matches!(
-                defaults.fit.solver,
-                rkwave::image::adaptive::TreeSolver::Pcg { .. }
-            ),
+            &defaults,
             8,
         );
         request = request.larger(tree);

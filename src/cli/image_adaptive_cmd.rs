@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_figure};
-use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate, TreeSolver};
+use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate};
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
 use rkwave::io::image_file::write_image;
@@ -143,16 +143,7 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
     };
     // Before sampling: the budget's samples (and as many stratified ones for the film
     // filters), the tree fit at the depth limit, the truth and the images.
-    let mut request = rkwave::image::job::memory::tree_request(
-        plane,
-        3,
-        budget as f64,
-        params.tree.p,
-        params.quad.below_pixel,
-        params.tree.rho,
-        !matches!(params.fit.solver, TreeSolver::Pcg { .. }),
-        8,
-    );
+    let mut request = rkwave::image::job::memory::tree_request(plane, 3, budget as f64, &params, 8);
     request.positions = budget as f64;
     rkwave::image::job::memory::check(
         &request,

@@ -3,6 +3,7 @@
 //! ([`crate::resources`] builds it), whose [`crate::resources::ImageEstimate`] the job
 //! refuses above the memory limit ([`super::JobError::TooLarge`]) before it allocates.
 
+use crate::image::adaptive::{AdaptiveParams, TreeSolver};
 use crate::image::film_weights::film_cache_bytes;
 use crate::image::{ImageMethod, ImagePlane, UniformEstimate};
 use crate::resources::{ImageRequest, ImageSolve};
@@ -94,27 +95,24 @@ pub fn method_request(
     }
 }
 
-/// The adaptive tree fit of `samples` samples on `plane` at its depth limit (`direct`: the
-/// assembled normal matrix and its factor; otherwise matrix-free; [`ImageRequest::tree`]).
-#[allow(clippy::too_many_arguments)]
+/// The adaptive tree fit of `samples` samples on `plane` at the depth limit of `params`
+/// ([`ImageRequest::tree`]): the assembled normal matrix and its factor unless the solver is
+/// matrix-free PCG.
 pub fn tree_request(
     plane: ImagePlane,
     channels: usize,
     samples: f64,
-    p: usize,
-    below_pixel: u32,
-    rho: f64,
-    direct: bool,
+    params: &AdaptiveParams,
     images: usize,
 ) -> ImageRequest {
     ImageRequest::tree(
         (plane.width(), plane.height()),
         channels,
         samples,
-        p,
-        below_pixel,
-        rho,
-        direct,
+        params.tree.p,
+        params.quad.below_pixel,
+        params.tree.rho,
+        !matches!(params.fit.solver, TreeSolver::Pcg { .. }),
         images,
     )
 }
