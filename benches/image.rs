@@ -82,6 +82,7 @@ fn cg(preconditioner: StencilPreconditioner) -> NormalSolver {
     NormalSolver::Cg {
         preconditioner,
         tolerance: 1e-10,
+        forward_error: None,
         max_iterations: 10_000,
     }
 }

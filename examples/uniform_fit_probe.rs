@@ -33,10 +33,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let cg = NormalSolver::Cg {
             preconditioner: StencilPreconditioner::Jacobi,
             tolerance,
+            forward_error: None,
             max_iterations: 1000,
         };
         solvers.push((format!("jacobi {tolerance:e}"), cg));
     }
+    // the residual tolerance 1e-6 with the forward-error stop at several tolerances
+    for forward_error in [1e-3, 1e-4, 1e-5, 1e-6] {
+        let cg = NormalSolver::Cg {
+            preconditioner: StencilPreconditioner::Jacobi,
+            tolerance: 1e-6,
+            forward_error: Some(forward_error),
+            max_iterations: 1000,
+        };
+        solvers.push((format!("jacobi 1e-6 forward {forward_error:e}"), cg));
+    }
+    solvers.push(("default".to_string(), NormalSolver::default_cg()));
     let only = std::env::var("ONLY").ok();
     let mut reference: Option<Vec<Vec<f64>>> = None;
     for (name, solver) in solvers {
@@ -53,7 +65,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let wall = t0.elapsed().as_secs_f64();
         let t = fit.report.timings;
         let cg = fit.report.cg.as_ref().map_or(String::new(), |r| {
-            format!("iterations {:?} residuals {:?}", r.iterations, r.residual)
+            let list = |v: &[f64]| v.iter().map(|x| format!("{x:.1e}")).collect::<Vec<_>>();
+            format!(
+                "iterations {:?} residuals {:?} forward-error bounds {:?}{}",
+                r.iterations,
+                list(&r.residual),
+                r.forward_error.as_deref().map(list),
+                r.fallback.as_ref().map_or("", |_| " (fell back to the Cholesky)")
+            )
         });
         let gap = reference.as_ref().map_or("-".to_string(), |r| {
             let g = r

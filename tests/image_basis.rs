@@ -282,6 +282,7 @@ fn cg_and_cholesky_agree() {
         let solver = NormalSolver::Cg {
             preconditioner: pre,
             tolerance: 1e-12,
+            forward_error: None,
             max_iterations: 10_000,
         };
         let cg = fit_image(w, h, &xs, &ys, &[&f, &g], &params(2, (5, 4), solver)).unwrap();

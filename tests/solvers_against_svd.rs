@@ -429,6 +429,7 @@ fn uniform_image_solvers_match_the_dense_svd() {
     let cg = |preconditioner| NormalSolver::Cg {
         preconditioner,
         tolerance: ITERATIVE_TOLERANCE,
+        forward_error: None,
         max_iterations: 10_000,
     };
     let solvers = [

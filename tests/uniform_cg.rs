@@ -172,6 +172,7 @@ fn a_capped_cg_falls_back_to_the_cholesky_and_says_so() {
     let capped = NormalSolver::Cg {
         preconditioner: StencilPreconditioner::Jacobi,
         tolerance: 1e-14,
+        forward_error: None,
         max_iterations: 2,
     };
     let fell = fit(w, h, &xs, &ys, &v, capped);

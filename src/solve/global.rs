@@ -313,6 +313,7 @@ fn cgls(
         max_iterations: params.max_iter,
         residual: ResidualReport::Recurred,
         condition: ConditionEstimate::Skip,
+        forward_error: None,
     };
     let (y, report) = cg::cgls(&prep.k, &prep.kt, &d, &f, ch, &cg);
     // The one CG reports the iteration limit; the global solve's contract is the tolerance.

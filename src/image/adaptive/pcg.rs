@@ -98,6 +98,7 @@ pub fn pcg_many(
         max_iterations,
         residual: ResidualReport::Recomputed,
         condition: ConditionEstimate::Lanczos,
+        forward_error: None,
     };
     let b: Vec<&[f64]> = b.iter().map(|b| b.as_slice()).collect();
     cg::pcg(

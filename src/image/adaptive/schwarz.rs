@@ -126,6 +126,7 @@ pub fn schwarz_pcg(
         max_iterations,
         residual: ResidualReport::Recomputed,
         condition: ConditionEstimate::Skip,
+        forward_error: None,
     };
     let b: Vec<&[f64]> = bs.iter().map(|b| b.as_slice()).collect();
     cg::pcg(&SparseOperator::new(g), pre, &b, None, &params)

@@ -409,6 +409,7 @@ pub fn fit_image(
         NormalSolver::Cg {
             preconditioner,
             tolerance,
+            forward_error,
             max_iterations,
         } => {
             let t = Instant::now();
@@ -425,21 +426,29 @@ pub fn fit_image(
                 preconditioner,
                 iterations: Vec::new(),
                 residual: Vec::new(),
+                forward_error: forward_error.map(|_| Vec::new()),
                 converged: true,
                 setup_s,
                 fallback: None,
             };
             let mut z = Vec::with_capacity(rhs.len());
-            for (zc, it, res) in system.solve_cg(
+            for (zc, it, res, bound) in system.solve_cg(
                 &rhs,
                 preconditioner,
                 local.as_ref(),
                 tolerance,
+                forward_error,
                 max_iterations,
             ) {
                 report.iterations.push(it);
                 report.residual.push(res);
                 report.converged &= res <= tolerance;
+                if let (Some(eps), Some(bound)) = (forward_error, bound) {
+                    report.converged &= bound <= eps;
+                    if let Some(bounds) = report.forward_error.as_mut() {
+                        bounds.push(bound);
+                    }
+                }
                 z.push(zc);
             }
             timings.solve_s = t.elapsed().as_secs_f64();
@@ -449,16 +458,24 @@ pub fn fit_image(
                 (z, None, Some(report))
             } else {
                 // short of the tolerance (the cap, or a breakdown): the direct solve instead
-                report.fallback = Some(format!(
-                    "CG stopped at relative residuals {} after {:?} iterations (tolerance \
-                     {tolerance:e}, at most {max_iterations}): solved by the sparse Cholesky \
-                     instead",
-                    report
-                        .residual
-                        .iter()
+                let list = |v: &[f64]| {
+                    v.iter()
                         .map(|r| format!("{r:.1e}"))
                         .collect::<Vec<_>>()
-                        .join(", "),
+                        .join(", ")
+                };
+                let error = match (&report.forward_error, forward_error) {
+                    (Some(bounds), Some(eps)) => format!(
+                        " and estimated coefficient errors {} (forward-error tolerance {eps:e})",
+                        list(bounds)
+                    ),
+                    _ => String::new(),
+                };
+                report.fallback = Some(format!(
+                    "CG stopped at relative residuals {}{error} after {:?} iterations \
+                     (tolerance {tolerance:e}, at most {max_iterations}): solved by the sparse \
+                     Cholesky instead",
+                    list(&report.residual),
                     report.iterations,
                 ));
                 let t = Instant::now();
@@ -657,6 +674,7 @@ impl ImageFit {
                     StencilPreconditioner::Jacobi,
                     None,
                     1e-12,
+                    None,
                     100 * n.max(10),
                 )
                 .remove(0)

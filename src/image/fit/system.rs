@@ -77,6 +77,11 @@ pub enum NormalSolver {
         preconditioner: StencilPreconditioner,
         /// Stop at `||b - A x|| <= tolerance ||b||`.
         tolerance: f64,
+        /// With `Some(eps)`, go on past `tolerance` until the estimated relative error of the
+        /// coefficients `cond(M^{-1} A) ||r||_{M^{-1}} / ||b||_{M^{-1}}` is at most `eps`
+        /// ([`crate::solve::cg`]'s forward-error stop): the residual alone leaves errors up
+        /// to `cond(A) tolerance`, `1e-2` of the value range on detail at Nyquist.
+        forward_error: Option<f64>,
         /// Stop after this many iterations: a channel short of the tolerance then makes the
         /// fit solve the system by the sparse Cholesky instead (reported,
         /// [`StencilCgReport::fallback`]).
@@ -94,9 +99,14 @@ pub enum NormalSolver {
 /// (docs/measurements/plan-speed.md, "The uniform fit by conjugate gradients").
 pub const CG_TOLERANCE: f64 = 1e-6;
 
+/// Estimated relative error of the coefficients at which the default CG stops
+/// ([`NormalSolver::default_cg`]; `cond(M^{-1} A) ||r||_{M^{-1}} / ||b||_{M^{-1}}`,
+/// [`crate::solve::cg`]).
+pub const CG_FORWARD_ERROR: f64 = 1e-6;
+
 /// Iterations after which the default CG gives way to the Cholesky: a few times what dense
 /// samples need, and well below the cost of the factorization in passes over `G`.
-pub const CG_MAX_ITERATIONS: usize = 60;
+pub const CG_MAX_ITERATIONS: usize = 150;
 
 /// Unknowns up to which [`NormalSolver::Auto`] takes the sparse Cholesky: at 4 samples per
 /// function its factorization costs about what the CG iterations do at `64²` and grows as
@@ -115,11 +125,13 @@ impl NormalSolver {
         }
     }
 
-    /// Jacobi PCG to [`CG_TOLERANCE`], at most [`CG_MAX_ITERATIONS`] (then the Cholesky).
+    /// Jacobi PCG to [`CG_TOLERANCE`] and the forward error [`CG_FORWARD_ERROR`], at most
+    /// [`CG_MAX_ITERATIONS`] (then the Cholesky).
     pub const fn default_cg() -> Self {
         NormalSolver::Cg {
             preconditioner: StencilPreconditioner::Jacobi,
             tolerance: CG_TOLERANCE,
+            forward_error: Some(CG_FORWARD_ERROR),
             max_iterations: CG_MAX_ITERATIONS,
         }
     }
@@ -136,7 +148,10 @@ pub struct StencilCgReport {
     pub iterations: Vec<usize>,
     /// Final relative residual per channel.
     pub residual: Vec<f64>,
-    /// Whether every channel reached the tolerance.
+    /// With the forward-error stop: per channel the final estimated bound on the
+    /// coefficients' relative error.
+    pub forward_error: Option<Vec<f64>>,
+    /// Whether every channel reached the tolerance (and the forward-error tolerance).
     pub converged: bool,
     /// Seconds to build the preconditioner.
     pub setup_s: f64,
@@ -370,7 +385,8 @@ impl NormalSystem {
     /// `G` per iteration serves every channel still iterating: [`crate::solve::cg::pcg`]);
     /// `local` is `K~` (CSC, `P x m`) and its CSR form for [`StencilPreconditioner::Local`].
     /// Returns per channel the solution, the iterations and the final recurred relative
-    /// residual `||b - A z|| / ||b||`. Components of `b` where a function is unsampled are
+    /// residual `||b - A z|| / ||b||`, and the estimated forward-error bound when
+    /// `forward_error` is given. Components of `b` where a function is unsampled are
     /// outside the range of `G` and dropped.
     pub fn solve_cg(
         &self,
@@ -378,8 +394,9 @@ impl NormalSystem {
         preconditioner: StencilPreconditioner,
         local: Option<&(CsMat<f64>, CsMat<f64>)>,
         tolerance: f64,
+        forward_error: Option<f64>,
         max_iterations: usize,
-    ) -> Vec<(Vec<f64>, usize, f64)> {
+    ) -> Vec<(Vec<f64>, usize, f64, Option<f64>)> {
         let b: Vec<Vec<f64>> = rhs
             .iter()
             .map(|b| {
@@ -395,6 +412,7 @@ impl NormalSystem {
             max_iterations,
             residual: ResidualReport::Recurred,
             condition: ConditionEstimate::Skip,
+            forward_error,
         };
         let jacobi = EquilibratedJacobi {
             d: &self.d,
@@ -407,10 +425,12 @@ impl NormalSystem {
             _ => &Identity,
         };
         let (x, report) = cg::pcg(self, pre, &b, None, &params);
+        let bounds = report.forward_error.unwrap_or_default();
         x.into_iter()
             .zip(report.iterations)
             .zip(report.relative_residual)
-            .map(|((x, it), r)| (x, it, r))
+            .enumerate()
+            .map(|(c, ((x, it), r))| (x, it, r, bounds.get(c).copied()))
             .collect()
     }
 }

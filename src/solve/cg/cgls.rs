@@ -128,6 +128,7 @@ pub fn cgls(
         relative_residual: residual,
         converged: active.iter().map(|&a| !a).collect(),
         condition: None,
+        forward_error: None,
     };
     (y, report)
 }

@@ -18,6 +18,24 @@
 //! breakdown `p_j . A p_j` not positive and finite (the iterate is kept). The others go on.
 //! A channel with `b = 0` has the solution 0 and no iteration.
 //!
+//! **Forward-error stop** ([`CgParams::forward_error`]): a small residual is not a small
+//! error. With `M = L L^T`, CG on `A x = b` is CG on `A' x' = b'`, `A' = L^{-1} A L^{-T}`,
+//! `x' = L^T x`, `b' = L^{-1} b`, whose residual norm is `||r'|| = sqrt(r . M^{-1} r) =
+//! sqrt(r_j . z_j)` (free) and `||b'|| = sqrt(b . M^{-1} b)`. Since `||e'|| <= ||r'|| /
+//! lambda_min(A')` and `||x'*|| >= ||b'|| / lambda_max(A')`, the error in the norm of `M`
+//! obeys
+//!
+//! ```text
+//! ||x_j - x*||_M / ||x*||_M  <=  cond(M^{-1} A) sqrt(r_j . z_j) / sqrt(b . M^{-1} b)
+//! ```
+//!
+//! With a forward-error tolerance `eps`, a channel whose residual passed `tol` goes on
+//! until the right-hand side, with `cond` the Lanczos estimate of the run so far
+//! ([`lanczos_extremes`], from inside: a lower estimate that grows towards the truth as the
+//! extreme Ritz values converge), is at most `eps`. Near-singular systems (detail at Nyquist
+//! in an image fit: `cond` of `1e4` and more) thus iterate until their coefficients, not
+//! only their residual, are accurate.
+//!
 //! **Iteration limit**: [`pcg`] never fails. Past [`CgParams::max_iterations`] it returns
 //! its iterate with [`CgReport::converged`] false for that channel; each caller names what
 //! it then does, one [`IterationLimit`] (fail, fall back to a direct solve, or accept),
@@ -46,7 +64,7 @@ mod precondition;
 mod schwarz;
 
 pub use cgls::cgls;
-pub use lanczos::lanczos_condition;
+pub use lanczos::{lanczos_condition, lanczos_extremes};
 pub use limit::IterationLimit;
 pub use operator::SparseOperator;
 pub use pcg::pcg;
@@ -102,6 +120,10 @@ pub struct CgParams {
     /// The condition estimate (costs keeping two numbers an iteration and one small
     /// eigenvalue problem).
     pub condition: ConditionEstimate,
+    /// The forward-error stop (module docs): `Some(eps)` also asks `cond(M^{-1} A)
+    /// ||r||_{M^{-1}} / ||b||_{M^{-1}} <= eps` of a channel before it stops (keeps the
+    /// Lanczos coefficients, `O(j)` a check); `None` stops on the residual alone.
+    pub forward_error: Option<f64>,
 }
 
 /// What one conjugate-gradient solve did, per channel.
@@ -112,11 +134,15 @@ pub struct CgReport {
     /// Final relative residual per channel (see [`CgParams::residual`]; for [`cgls`] the
     /// recurred normal residual `||A^T r|| / ||A^T f||`).
     pub relative_residual: Vec<f64>,
-    /// Per channel, whether the tolerance was reached.
+    /// Per channel, whether the tolerance (and the forward-error tolerance, when asked) was
+    /// reached.
     pub converged: Vec<bool>,
     /// Lanczos estimate of `cond(M^{-1} A)` per channel (1 with fewer than two iterations),
     /// when asked.
     pub condition: Option<Vec<f64>>,
+    /// With [`CgParams::forward_error`]: per channel the final estimated bound on the
+    /// relative error `||x - x*||_M / ||x*||_M` (module docs).
+    pub forward_error: Option<Vec<f64>>,
 }
 
 impl CgReport {

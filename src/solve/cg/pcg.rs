@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 
 use super::{
-    lanczos_condition, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
+    lanczos_condition, lanczos_extremes, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
     SymmetricOperator,
 };
 use crate::solve::vectors::dot;
@@ -22,6 +22,10 @@ struct Channel {
     rz: f64,
     /// `||b||`.
     bnorm: f64,
+    /// `b . M^{-1} b` (`||b'||^2` of the forward-error stop; 0 when not asked).
+    bmb: f64,
+    /// The forward-error bound at the last check (infinite before any).
+    error_bound: f64,
     /// The recurred `||r|| / ||b||`.
     residual: f64,
     /// The step length of the current iteration.
@@ -59,8 +63,8 @@ impl Channel {
     }
 
     /// The second half, given `z = M^{-1} r`: `beta = r.z / (r.z)_old`, `p = z + beta p`,
-    /// and the stopping rule.
-    fn conjugate(&mut self, tolerance: f64, keep: bool) {
+    /// and the stopping rule (with the forward-error stop when `forward_error` is given).
+    fn conjugate(&mut self, tolerance: f64, keep: bool, forward_error: Option<f64>) {
         let rz_new = dot(&self.r, &self.z);
         let beta = rz_new / self.rz;
         for (p, z) in self.p.iter_mut().zip(&self.z) {
@@ -74,7 +78,22 @@ impl Channel {
         self.iterations += 1;
         let rnorm = dot(&self.r, &self.r).sqrt();
         self.residual = rnorm / self.bnorm;
-        self.active = rz_new > 0.0 && rnorm > tolerance * self.bnorm;
+        let mut done = rnorm <= tolerance * self.bnorm;
+        if let (true, Some(eps)) = (done, forward_error) {
+            self.error_bound = self.forward_bound();
+            done = self.error_bound <= eps;
+        }
+        self.active = rz_new > 0.0 && !done;
+    }
+
+    /// `cond(T_j) sqrt(r.z / b.M^{-1}b)`: the bound on `||x - x*||_M / ||x*||_M` with the
+    /// Lanczos estimate of `cond(M^{-1} A)` from the iterations so far ([`super`]).
+    fn forward_bound(&self) -> f64 {
+        let ratio = (self.rz.max(0.0) / self.bmb).sqrt();
+        match lanczos_extremes(&self.alphas, &self.betas) {
+            Some((lo, hi)) if lo > 0.0 => hi / lo * ratio,
+            _ => f64::INFINITY,
+        }
     }
 }
 
@@ -111,7 +130,8 @@ pub fn pcg(
     let k = b.len();
     let n = op.dim();
     let tolerance = params.tolerance;
-    let keep = params.condition == ConditionEstimate::Lanczos;
+    let forward_error = params.forward_error;
+    let keep = params.condition == ConditionEstimate::Lanczos || forward_error.is_some();
     let xs = start.unwrap_or_else(|| vec![vec![0.0; n]; k]);
     debug_assert_eq!(xs.len(), k);
     // r_0 = b - A x_0 (A x_0 only computed when some start is not 0)
@@ -132,24 +152,42 @@ pub fn pcg(
         let refs: Vec<&[f64]> = rs.iter().map(|r| r.as_slice()).collect();
         pre.apply(&refs, &mut zs);
     }
+    // b . M^{-1} b for the forward-error stop (r_0 . z_0 from a zero start)
+    let bmbs: Vec<f64> = match (forward_error, warm) {
+        (None, _) => vec![0.0; k],
+        (Some(_), false) => rs.iter().zip(&zs).map(|(r, z)| dot(r, z)).collect(),
+        (Some(_), true) => {
+            let mut mb = vec![vec![0.0; n]; k];
+            pre.apply(b, &mut mb);
+            b.iter().zip(&mb).map(|(b, mb)| dot(b, mb)).collect()
+        }
+    };
     let mut ch: Vec<Channel> = xs
         .into_iter()
         .zip(rs.into_iter().zip(zs))
-        .zip(b)
-        .map(|((x, (r, z)), b)| {
+        .zip(b.iter().zip(bmbs))
+        .map(|((x, (r, z)), (b, bmb))| {
             let rz = dot(&r, &z);
             let bnorm = dot(b, b).sqrt();
             let rnorm = dot(&r, &r).sqrt();
+            // before any iteration the forward bound is taken with cond 1 (its least value)
+            let error_far = forward_error.is_some_and(|eps| rz.max(0.0) > eps * eps * bmb);
             Channel {
                 p: z.clone(),
                 q: vec![0.0; n],
-                active: bnorm > 0.0 && rz > 0.0 && rnorm > tolerance * bnorm,
+                active: bnorm > 0.0 && rz > 0.0 && (rnorm > tolerance * bnorm || error_far),
                 residual: if bnorm > 0.0 { rnorm / bnorm } else { 0.0 },
                 x,
                 r,
                 z,
                 rz,
                 bnorm,
+                bmb,
+                error_bound: if forward_error.is_some() && rz > 0.0 {
+                    (rz / bmb).sqrt()
+                } else {
+                    0.0
+                },
                 alpha: 0.0,
                 stepped: false,
                 iterations: 0,
@@ -170,7 +208,7 @@ pub fn pcg(
         let stepped: Vec<usize> = live.into_iter().filter(|&c| ch[c].stepped).collect();
         apply_preconditioner(pre, &mut ch, &stepped);
         ch.par_iter_mut().filter(|s| s.stepped).for_each(|s| {
-            s.conjugate(tolerance, keep);
+            s.conjugate(tolerance, keep, forward_error);
             s.stepped = false;
         });
     }
@@ -195,7 +233,8 @@ pub fn pcg(
         }
     };
     let mut report = CgReport {
-        condition: keep.then(Vec::new),
+        condition: (params.condition == ConditionEstimate::Lanczos).then(Vec::new),
+        forward_error: forward_error.map(|_| Vec::new()),
         ..CgReport::default()
     };
     let mut solutions = Vec::with_capacity(k);
@@ -208,14 +247,21 @@ pub fn pcg(
             if let Some(cond) = report.condition.as_mut() {
                 cond.push(1.0);
             }
+            if let Some(bound) = report.forward_error.as_mut() {
+                bound.push(0.0);
+            }
             solutions.push(vec![0.0; n]);
             continue;
         }
         report.iterations.push(s.iterations);
         report.relative_residual.push(residual);
-        report.converged.push(residual <= tolerance);
+        let bound_ok = forward_error.is_none_or(|eps| s.error_bound <= eps);
+        report.converged.push(residual <= tolerance && bound_ok);
         if let Some(cond) = report.condition.as_mut() {
             cond.push(lanczos_condition(&s.alphas, &s.betas));
+        }
+        if let Some(bound) = report.forward_error.as_mut() {
+            bound.push(s.error_bound);
         }
         solutions.push(s.x);
     }
