@@ -71,7 +71,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 r.iterations,
                 list(&r.residual),
                 r.forward_error.as_deref().map(list),
-                r.fallback.as_ref().map_or("", |_| " (fell back to the Cholesky)")
+                r.fallback
+                    .as_ref()
+                    .map_or("", |_| " (fell back to the Cholesky)")
             )
         });
         let gap = reference.as_ref().map_or("-".to_string(), |r| {

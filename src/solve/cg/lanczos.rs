@@ -89,7 +89,9 @@ pub fn lanczos_extremes(alphas: &[f64], betas: &[f64]) -> Option<(f64, f64)> {
     let radius = |i: usize| {
         (if i > 0 { e[i - 1].abs() } else { 0.0 }) + (if i + 1 < k { e[i].abs() } else { 0.0 })
     };
-    let lo = (0..k).map(|i| d[i] - radius(i)).fold(f64::INFINITY, f64::min);
+    let lo = (0..k)
+        .map(|i| d[i] - radius(i))
+        .fold(f64::INFINITY, f64::min);
     let hi = (0..k)
         .map(|i| d[i] + radius(i))
         .fold(f64::NEG_INFINITY, f64::max);

@@ -5,8 +5,8 @@
 use rayon::prelude::*;
 
 use super::{
-    lanczos_condition, lanczos_extremes, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
-    SymmetricOperator,
+    lanczos_condition, lanczos_extremes, CgParams, CgReport, ConditionEstimate, Preconditioner,
+    ResidualReport, SymmetricOperator,
 };
 use crate::solve::vectors::dot;
 
