@@ -92,6 +92,8 @@ PHASES = {}
 def phases(step, wall):
     """Adds one call's seconds by phase (its `--json`: the round's own timers) to PHASES."""
     log = step.get("log") or {}
+    if "times" not in log:
+        return  # a binary without the round's timers
     fit, times = log.get("fit") or {}, log.get("times") or {}
     round_s = step.get("round_s", 0.0)
     parts = {
@@ -114,6 +116,25 @@ def phases(step, wall):
     }
     for k, v in parts.items():
         PHASES[k] = PHASES.get(k, 0.0) + v
+
+
+def mitsuba_time(size, spp, repeat):
+    """Mitsuba 3 `scalar_rgb` rendering its Cornell box (`mi.cornell_box()`, the film resized to
+    `size x size`) at `spp`: one warm-up render at 1 spp, then `repeat` timed ones; prints each
+    render's wall and CPU seconds (this process's)."""
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    scene = mi.cornell_box()
+    scene["sensor"]["film"]["width"] = size
+    scene["sensor"]["film"]["height"] = size
+    scene = mi.load_dict(scene)
+    mi.render(scene, spp=1)
+    for rep in range(repeat):
+        c0, t0 = time.process_time(), time.perf_counter()
+        mi.render(scene, spp=spp, seed=rep)
+        print(f"mitsuba scalar_rgb cornell box {size}x{size} {spp} spp: wall "
+              f"{time.perf_counter() - t0:.3f} s, CPU {time.process_time() - c0:.3f} s, load "
+              f"{os.getloadavg()[0]:.2f}")
 
 
 def truth(size, supersample=8):
@@ -194,6 +215,9 @@ def main():
     ap.add_argument("--keep", help="run in this folder and keep its files (one binary, one repeat)")
     ap.add_argument("--quiet", action="store_true", help="totals only")
     ap.add_argument("--solver", help="pass `--solver NAME` to the plan's first call")
+    ap.add_argument("--mitsuba", action="store_true",
+                    help="first time Mitsuba 3 (scalar_rgb) rendering its Cornell box at the "
+                         "same size and spp, --repeat times (needs the mitsuba module)")
     ap.add_argument("--phases", action="store_true",
                     help="per loop, the seconds by phase from each call's --json (the round's "
                          "own timers; needs a binary that reports them)")
@@ -206,6 +230,8 @@ def main():
         reference = np.load(args.reference)
         args.size = reference.shape[1]
     print(f"# {args.size}x{args.size}, {args.spp} spp, load {os.getloadavg()[0]:.2f}")
+    if args.mitsuba:
+        mitsuba_time(args.size, args.spp, args.repeat)
     totals = {b: [] for b in args.bin}
     cpus = {b: [] for b in args.bin}
     peaks = {b: [] for b in args.bin}

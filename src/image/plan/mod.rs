@@ -49,8 +49,12 @@
 //! round's start and its exact diagonal `G_aa` with a hash of the samples summed, continued
 //! when they are the first of the call's in order: the calls are then the in-process loop's
 //! rounds bit for bit; without it (missing, damaged: a note, [`PlanStep::pcg_note`]) a round
-//! starts from zero and reaches the same tolerance. A process that keeps the state in memory
-//! (Python's `Plan`) carries both without the files.
+//! starts from zero and reaches the same tolerance. The round that stops the plan leaves its
+//! fit in `final.bin` ([`FinalFit`]: coefficients continued to the solver's tolerance, the
+//! noise estimate, a fingerprint of the samples), from which every final image of those
+//! samples is made without a second solve ([`PlanState::reconstruct`]; missing, damaged or
+//! other samples: fitted again, [`PlanReconstruction::fit_note`]). A process that keeps the
+//! state in memory (Python's `Plan`) carries all of them without the files.
 //!
 //! *Memory.* A fit whose assembled solve (the direct one) would exceed the memory limit is
 //! fitted by matrix-free PCG instead, with a note ([`PlanStep::solver_note`]); only a fit that
@@ -60,8 +64,8 @@
 //! *Files.* This module knows no paths: the state is JSON text ([`PlanState::to_json`],
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
 //! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
-//! folder (`state.json`, `gram.bin`, `pcg.bin`) and commits a round (the state and the
-//! positions, both or neither).
+//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`) and commits a round (the state
+//! and the positions, both or neither).
 //!
 //! *Why `image::plan`.* The state machine drives the refiner's rounds
 //! ([`crate::image::adaptive`]: the tree, its fits, the output pixels) from outside, so it
