@@ -86,6 +86,57 @@ def run(cmd):
         return out.read(), dt
 
 
+PHASES = {}
+
+
+def phases(step, wall):
+    """Adds one call's seconds by phase (its `--json`: the round's own timers) to PHASES."""
+    log = step.get("log") or {}
+    if "times" not in log:
+        return  # a binary without the round's timers
+    fit, times = log.get("fit") or {}, log.get("times") or {}
+    round_s = step.get("round_s", 0.0)
+    parts = {
+        "fit: single-scale rows and exact diagonal (kernel_s)": fit.get("kernel_s", 0.0),
+        "fit: PCG iterations, image and probe channels (solve_s)": fit.get("solve_s", 0.0),
+        "fit: probe values, noise test residuals (fit_s - kernel_s - solve_s)":
+            times.get("fit_s", 0.0) - fit.get("kernel_s", 0.0) - fit.get("solve_s", 0.0),
+        "indicator": times.get("indicator_s", 0.0),
+        "stop test, tally, marking": times.get("refine_s", 0.0) - times.get("indicator_s", 0.0),
+        "deepening and next positions": times.get("position_s", 0.0),
+        "stopping round: fit continued to the solver's tolerance":
+            times.get("final_fit_s", 0.0),
+        "stopping round: final image's output pixels": step.get("image_s", 0.0),
+        "matching the samples to the rounds, the rest of the state machine":
+            round_s - times.get("fit_s", 0.0) - times.get("refine_s", 0.0)
+            - times.get("position_s", 0.0) - times.get("final_fit_s", 0.0)
+            - step.get("image_s", 0.0),
+        "outside the state machine: process, loading the state, reading the samples, "
+        "committing, JSON (wall - round_s)": wall - round_s,
+    }
+    for k, v in parts.items():
+        PHASES[k] = PHASES.get(k, 0.0) + v
+
+
+def mitsuba_time(size, spp, repeat):
+    """Mitsuba 3 `scalar_rgb` rendering its Cornell box (`mi.cornell_box()`, the film resized to
+    `size x size`) at `spp`: one warm-up render at 1 spp, then `repeat` timed ones; prints each
+    render's wall and CPU seconds (this process's)."""
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    scene = mi.cornell_box()
+    scene["sensor"]["film"]["width"] = size
+    scene["sensor"]["film"]["height"] = size
+    scene = mi.load_dict(scene)
+    mi.render(scene, spp=1)
+    for rep in range(repeat):
+        c0, t0 = time.process_time(), time.perf_counter()
+        mi.render(scene, spp=spp, seed=rep)
+        print(f"mitsuba scalar_rgb cornell box {size}x{size} {spp} spp: wall "
+              f"{time.perf_counter() - t0:.3f} s, CPU {time.process_time() - c0:.3f} s, load "
+              f"{os.getloadavg()[0]:.2f}")
+
+
 def truth(size, supersample=8):
     """The analytic scene's box pixels (`size x size x 3`), by `supersample^2` midpoints a
     pixel (exact on the smooth part to O(1/supersample^2); an edge pixel's coverage to
@@ -110,6 +161,7 @@ def psnr(image, reference):
 def loop(binary, args, reference, work):
     """One whole loop; returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
     cpu0, sys0 = CPU[0], SYS[0]
+    PHASES.clear()
     state = os.path.join(work, "state")
     pos = os.path.join(work, "next.npy")
     allp = os.path.join(work, "all.npy")
@@ -138,6 +190,7 @@ def loop(binary, args, reference, work):
                 f.write(out)
         step = json.loads(out).get("step") or {}
         fit = (step.get("log") or {}).get("fit") or {}
+        phases(step, dt)
         rows.append((f"round {round_}", len(samples), fit.get("functions", 0), dt, fit))
         last = json.loads(out)
         hashes.append(sha(pos))
@@ -162,6 +215,12 @@ def main():
     ap.add_argument("--keep", help="run in this folder and keep its files (one binary, one repeat)")
     ap.add_argument("--quiet", action="store_true", help="totals only")
     ap.add_argument("--solver", help="pass `--solver NAME` to the plan's first call")
+    ap.add_argument("--mitsuba", action="store_true",
+                    help="first time Mitsuba 3 (scalar_rgb) rendering its Cornell box at the "
+                         "same size and spp, --repeat times (needs the mitsuba module)")
+    ap.add_argument("--phases", action="store_true",
+                    help="per loop, the seconds by phase from each call's --json (the round's "
+                         "own timers; needs a binary that reports them)")
     ap.add_argument("--psnr", action="store_true",
                     help="the final image's PSNR against the scene's box pixels (the analytic "
                          "scene supersampled 8 x 8 a pixel, or the --reference image)")
@@ -171,6 +230,8 @@ def main():
         reference = np.load(args.reference)
         args.size = reference.shape[1]
     print(f"# {args.size}x{args.size}, {args.spp} spp, load {os.getloadavg()[0]:.2f}")
+    if args.mitsuba:
+        mitsuba_time(args.size, args.spp, args.repeat)
     totals = {b: [] for b in args.bin}
     cpus = {b: [] for b in args.bin}
     peaks = {b: [] for b in args.bin}
@@ -211,6 +272,12 @@ def main():
                     print(f"| {name} | | | {dt:.2f} | | | | |")
             print(f"| **total** | | | **{total:.2f}** | | | | |")
             print(f"CPU seconds (user + system, all threads): {cpu[0]:.2f} (system {cpu[1]:.2f})")
+            if args.phases and PHASES:
+                print("| phase (wall s, summed over the calls) | s | share |")
+                print("|---|---:|---:|")
+                whole = sum(PHASES.values())
+                for k, v in PHASES.items():
+                    print(f"| {k} | {v:.3f} | {100 * v / whole:.0f} % |")
     print(f"# load {os.getloadavg()[0]:.2f}")
     for b in args.bin:
         ts = totals[b]
@@ -225,6 +292,10 @@ def main():
             same = hashes[b] == first
             print(f"outputs of {b} {'identical to' if same else 'DIFFER from'} {args.bin[0]} "
                   f"({len(first)} files: positions per call and the final image)")
+            if not same:
+                positions = hashes[b][:-1] == first[:-1]
+                print(f"  positions of every call {'identical' if positions else 'DIFFER'}; "
+                      f"final image {'identical' if hashes[b][-1] == first[-1] else 'differs'}")
 
 
 if __name__ == "__main__":

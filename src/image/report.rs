@@ -267,6 +267,7 @@ pub fn plan_fit_notes(done: &PlanReconstruction) -> Vec<String> {
             done.round
         ));
     }
+    notes.extend(done.fit_note.clone());
     let fit = &done.fit.report;
     if fit.ridge > 0.0 {
         notes.push(format!(

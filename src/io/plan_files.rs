@@ -1,6 +1,7 @@
 //! The plan's files in its folder: the state as JSON (`state.json`, replaced atomically), the
-//! carried solver state beside it (`gram.bin`, `pcg.bin`: caches, tagged with the plan and
-//! checksummed), and the commit of a round (the state and the positions, both or neither).
+//! carried solver state beside it (`gram.bin`, `pcg.bin`, and once the plan stopped the
+//! stopping round's fit `final.bin`: caches, tagged with the plan and checksummed), and the
+//! commit of a round (the state and the positions, both or neither).
 //!
 //! The plan's state machine ([`crate::image::plan`]) knows no paths: it gives and takes the
 //! state as JSON text and the carried solver state as bytes; this module puts them in files
@@ -18,7 +19,9 @@ use thiserror::Error;
 use super::output::{persist, temporary, write_new, OutputError};
 use crate::image::adaptive::gram::GramBytesError;
 use crate::image::adaptive::TreeSolver;
-use crate::image::plan::{CarriedGram, CarriedPcg, PlanState, ProtocolError, TreeGram};
+use crate::image::plan::{
+    CarriedFinal, CarriedGram, CarriedPcg, FinalFit, PlanState, ProtocolError, TreeGram,
+};
 
 /// The state's file name inside the plan's folder.
 pub const STATE_FILE: &str = "state.json";
@@ -26,6 +29,8 @@ pub const STATE_FILE: &str = "state.json";
 pub const GRAM_FILE: &str = "gram.bin";
 /// The carried PCG start's file name inside the plan's folder.
 pub const PCG_FILE: &str = "pcg.bin";
+/// The stopping round's carried fit's file name inside the plan's folder.
+pub const FINAL_FILE: &str = "final.bin";
 
 /// Why a plan's files could not be read or written.
 #[derive(Debug, Error)]
@@ -79,10 +84,11 @@ impl PlanState {
         dir.join(STATE_FILE)
     }
 
-    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`] and the PCG
-    /// start and diagonal in [`PCG_FILE`] when they are there and whole (module docs;
-    /// otherwise a note says why they are not used: a damaged file, or a missing
-    /// [`PCG_FILE`] of a plan that has fitted rounds by PCG).
+    /// Reads the state in `dir`, with the normal matrix carried in [`GRAM_FILE`], the PCG
+    /// start and diagonal in [`PCG_FILE`] and the stopping round's fit in [`FINAL_FILE`] when
+    /// they are there and whole (module docs; otherwise a note says why they are not used: a
+    /// damaged file, a missing [`PCG_FILE`] of a plan that has fitted rounds by PCG, a missing
+    /// [`FINAL_FILE`] of a plan that has stopped).
     pub fn load(dir: &Path) -> Result<Self, PlanFileError> {
         let file = Self::path(dir);
         let text = std::fs::read_to_string(&file).map_err(|source| {
@@ -118,6 +124,20 @@ impl PlanState {
             note,
             ..pcg.unwrap_or_default()
         };
+        let final_file = dir.join(FINAL_FILE);
+        let again = "the final image is fitted again (the same tolerance, other bits than the \
+                     plan's own final image)";
+        let (fit, mut note) = read_carried(&final_file, again, |bytes| {
+            FinalFit::from_bytes(bytes, tag, n)
+        });
+        if state.stop.is_some() && fit.is_none() && note.is_none() {
+            note = Some(format!(
+                "{}: not found, although the plan has stopped (removed, or the stopping call \
+                 could not write it); {again}",
+                final_file.display()
+            ));
+        }
+        state.final_fit = CarriedFinal { fit, note };
         let fitted = state.progress.marked.len();
         if fitted > 0
             && matches!(state.params.fit.solver, TreeSolver::Pcg { .. })
@@ -195,6 +215,10 @@ impl PlanState {
             self.carried.gram.as_ref().map(|g| g.to_bytes(tag)),
         );
         write_cache(&dir.join(PCG_FILE), self.pcg.to_bytes(tag));
+        write_cache(
+            &dir.join(FINAL_FILE),
+            self.final_fit.fit.as_ref().map(|f| f.to_bytes(tag)),
+        );
     }
 }
 

@@ -96,7 +96,7 @@ fn checksum(words: &[u8]) -> u64 {
 
 /// The layout of a carried file: `magic`, then little-endian 64-bit words (the plan's `tag`
 /// first, then the words `fill` writes, `words` of them), then a checksum of the words.
-pub(super) fn seal(
+pub(crate) fn seal(
     magic: &[u8; 8],
     tag: u64,
     words: usize,
@@ -112,32 +112,32 @@ pub(super) fn seal(
 }
 
 /// The words of a [`seal`]ed file after its tag, read in order.
-pub(super) struct Words<'a>(std::slice::ChunksExact<'a, u8>);
+pub(crate) struct Words<'a>(std::slice::ChunksExact<'a, u8>);
 
 impl Words<'_> {
     /// The next word.
-    pub(super) fn next(&mut self) -> Result<u64, GramBytesError> {
+    pub(crate) fn next(&mut self) -> Result<u64, GramBytesError> {
         self.0
             .next()
             .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")))
             .ok_or(GramBytesError::Damaged("cut short"))
     }
     /// The next `n` words.
-    pub(super) fn take(&mut self, n: usize) -> Result<Vec<u64>, GramBytesError> {
+    pub(crate) fn take(&mut self, n: usize) -> Result<Vec<u64>, GramBytesError> {
         if self.0.len() < n {
             return Err(GramBytesError::Damaged("cut short"));
         }
         (0..n).map(|_| self.next()).collect()
     }
     /// Words left.
-    pub(super) fn left(&self) -> usize {
+    pub(crate) fn left(&self) -> usize {
         self.0.len()
     }
 }
 
 /// The words of `bytes` sealed by [`seal`] with `magic` (a file holding a `what`), if they
 /// are whole (checksum) and carry `tag`.
-pub(super) fn unseal<'a>(
+pub(crate) fn unseal<'a>(
     bytes: &'a [u8],
     magic: &'static [u8; 8],
     what: &'static str,

@@ -51,7 +51,7 @@ pub use refiner::{
     empty_pixels, pixel_shortfall, refine_image, slot_sobol, AdaptiveImage, AdaptiveParams,
     AdaptiveReport, AdaptiveTimes, Decision, FitParams, GrowthParams, ImagePlan, ImageRound,
     ImageSampling, IndicatorParams, NoiseParams, OutputParams, ParsePatternError, PlanProgress,
-    PositionPattern, QuadTreeParams, RebuildCost, Round, SamplePositions,
+    PositionPattern, QuadTreeParams, RebuildCost, Round, RoundTimes, SamplePositions,
 };
 pub use significance::{NoiseLevel, Significance};
 

@@ -319,17 +319,16 @@ impl<'a> PlanRound<'a> {
 /// The final image of a plan (module docs): validated against what the caller asked for,
 /// then [`PlanFinal::run`].
 ///
-/// Every front end's final image is [`PlanFinal::run`]: the fit of the samples on the tree
-/// they were planned for, starting from the solver state the plan carries (under PCG the
-/// last round's coefficients and diagonal, under the direct solve its normal matrix), and the
-/// output pixels with that fit's own noise estimate. The one shortcut: under the direct solve
-/// the round that stopped the plan has computed exactly this image already (the carried
-/// matrix continued is the rebuilt one bit for bit, and the factor and the noise estimate
-/// are then the same), so when the caller hands that round over ([`PlanFinal::run`]'s
-/// `stopping`), its image is used. Under an iterative solver the stopping round's image is
-/// another solve of the same equations (its noise estimate that of the rounds'), so it is not
-/// used: the final image is solved again from the carried coefficients, which makes
-/// `plan --final-image`, `reconstruct --dim 2 --state` and `Plan.image()` the same pixels.
+/// Every front end's final image is [`PlanFinal::run`]. For the samples of the round that
+/// stopped the plan it is the output pixels of that round's fit (under an iterative solver
+/// continued to the solver's tolerance) with that round's noise estimate, carried in the
+/// state ([`crate::image::plan::FinalFit`]): no second solve, and the in-process loop's
+/// image. When the caller hands the stopping round over ([`PlanFinal::run`]'s `stopping`),
+/// the image that round made from the same fit is used as it is. So `plan --final-image`,
+/// `reconstruct --dim 2 --state` and `Plan.image()` are the same pixels. For the samples of
+/// an earlier round, or when the carried fit is missing or is not of these samples (a note
+/// says so, [`PlanReconstruction::fit_note`]), the samples are fitted on their tree from the
+/// solver state the plan carries.
 #[derive(Debug)]
 pub struct PlanFinal<'a> {
     state: &'a PlanState,
@@ -440,8 +439,8 @@ impl<'a> PlanFinal<'a> {
 
     /// The final image of the finite `samples` of the plan's rounds `0..=k` (for some `k`)
     /// whose non-finite samples were `dropped`, and `stopping`: the step of the round that
-    /// stopped the plan, when the caller has it (used only under the direct solve, where it
-    /// is this image bit for bit: type docs).
+    /// stopped the plan on these samples, when the caller has it (its image is this image bit
+    /// for bit: type docs).
     pub fn run(
         &self,
         samples: &ImageSamples,
@@ -452,9 +451,6 @@ impl<'a> PlanFinal<'a> {
             .and_then(|s| s.reconstruction.as_deref())
             .filter(|done| {
                 self.estimate == self.state.params.output.pixels
-                    && self.state.params.fit.solver == TreeSolver::Direct
-                    && done.solver_note.is_none()
-                    && done.fit.report.solver == "direct"
                     && samples.len() == done.fit.report.samples
             });
         if let Some(done) = reusable {
@@ -477,7 +473,8 @@ pub(super) fn too_large(
 ) -> String {
     format!(
         "a plan of {budget} samples on {plane} pixels (a basis of {functions:.0} functions at \
-         its depth limit) would need about {} of memory ({parts}), above the limit of {}: a \
+         its depth limit) would need about {} of memory ({parts}; counted for one channel of \
+         samples, a lower bound: each further channel needs more), above the limit of {}: a \
          smaller {}, a lower {} or a smaller {} (or raise the memory limit)",
         format_bytes(needed),
         format_bytes(limit as f64),

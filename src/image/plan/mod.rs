@@ -49,8 +49,12 @@
 //! round's start and its exact diagonal `G_aa` with a hash of the samples summed, continued
 //! when they are the first of the call's in order: the calls are then the in-process loop's
 //! rounds bit for bit; without it (missing, damaged: a note, [`PlanStep::pcg_note`]) a round
-//! starts from zero and reaches the same tolerance. A process that keeps the state in memory
-//! (Python's `Plan`) carries both without the files.
+//! starts from zero and reaches the same tolerance. The round that stops the plan leaves its
+//! fit in `final.bin` ([`FinalFit`]: coefficients continued to the solver's tolerance, the
+//! noise estimate, a fingerprint of the samples), from which every final image of those
+//! samples is made without a second solve ([`PlanState::reconstruct`]; missing, damaged or
+//! other samples: fitted again, [`PlanReconstruction::fit_note`]). A process that keeps the
+//! state in memory (Python's `Plan`) carries all of them without the files.
 //!
 //! *Memory.* A fit whose assembled solve (the direct one) would exceed the memory limit is
 //! fitted by matrix-free PCG instead, with a note ([`PlanStep::solver_note`]); only a fit that
@@ -60,14 +64,15 @@
 //! *Files.* This module knows no paths: the state is JSON text ([`PlanState::to_json`],
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
 //! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
-//! folder (`state.json`, `gram.bin`, `pcg.bin`) and commits a round (the state and the
-//! positions, both or neither).
+//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`) and commits a round (the state
+//! and the positions, both or neither).
 //!
 //! *Why `image::plan`.* The state machine drives the refiner's rounds
 //! ([`crate::image::adaptive`]: the tree, its fits, the output pixels) from outside, so it
 //! sits beside it, not inside it; the plan's jobs (`image::job`) and the files
 //! (`io::plan_files`) sit on top of it, and nothing below calls back into it.
 
+mod final_fit;
 mod state;
 
 use std::path::PathBuf;
@@ -90,6 +95,7 @@ pub const STATE_VERSION: u32 = 1;
 
 pub use crate::image::adaptive::gram::{CarriedGram, TreeGram};
 pub use crate::image::adaptive::pcg::CarriedPcg;
+pub use final_fit::{samples_fingerprint, CarriedFinal, FinalFit};
 
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
@@ -214,6 +220,10 @@ pub struct PlanState {
     /// The last round's PCG start and diagonal (module docs; kept in `pcg.bin`).
     #[serde(skip)]
     pub pcg: CarriedPcg,
+    /// The stopping round's fit, the final image's without a second solve ([`FinalFit`];
+    /// kept in `final.bin`).
+    #[serde(skip)]
+    pub final_fit: CarriedFinal,
 }
 
 /// What one call of [`PlanState::advance`] did.
@@ -245,6 +255,12 @@ pub struct PlanStep {
     /// Why this round was fitted by another solver than the plan's (the direct solve would
     /// not fit in memory; `None`: the plan's solver).
     pub solver_note: Option<String>,
+    /// Seconds (wall clock) of the whole call on the state: matching the samples to the
+    /// rounds, the round ([`ImageRound::times`]) and, at the stop, the final image.
+    pub round_s: f64,
+    /// Seconds of the final image's output pixels from the stopping round's fit (0 when the
+    /// plan goes on, or when the caller did not ask for them).
+    pub image_s: f64,
     /// When this round stopped the plan: the final reconstruction from its fit, with the
     /// plan's output pixels, without fitting the samples again (under the direct solve, the
     /// default, bit for bit [`PlanState::reconstruct`] of the same samples; under an
@@ -278,6 +294,9 @@ pub struct PlanReconstruction {
     /// Why the fit used another solver than the plan's (the direct solve would not fit in
     /// memory; `None`: the plan's solver).
     pub solver_note: Option<String>,
+    /// Why the stopping round's carried fit ([`FinalFit`]) was not used and the samples were
+    /// fitted again (`None`: it was used, or these are not the stopping round's samples).
+    pub fit_note: Option<String>,
 }
 
 /// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`.

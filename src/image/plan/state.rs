@@ -14,7 +14,7 @@ use crate::image::adaptive::{
 };
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
 
-use super::{CarriedGram, CarriedPcg};
+use super::{samples_fingerprint, CarriedFinal, CarriedGram, CarriedPcg, FinalFit};
 
 /// The state file's name, as the state's own faults name it.
 const STATE_FILE: &str = "state.json";
@@ -87,6 +87,7 @@ impl PlanState {
             stop: None,
             carried: CarriedGram::default(),
             pcg: CarriedPcg::default(),
+            final_fit: CarriedFinal::default(),
         };
         Ok((state, base))
     }
@@ -299,6 +300,7 @@ impl PlanState {
         dropped: DroppedSamples,
         image_at_stop: bool,
     ) -> Result<PlanStep, ProtocolError> {
+        let started = std::time::Instant::now();
         let k = self.matching_round(samples, &dropped)?;
         let last = self.issued.len() - 1;
         if k < last {
@@ -344,32 +346,34 @@ impl PlanState {
         }
         // A stopping round's fit is the final fit (the tree is unchanged by the stop): its
         // output pixels are those `reconstruct` would compute again from the same samples.
-        let reconstruction = match round.decision {
-            Decision::Stop(_) if image_at_stop => {
-                let sigma = round.log.noise.as_ref().map_or(0.0, |n| n.sigma);
-                let (fit_image, image, correction) = output_pixels(
-                    plan.tree(),
-                    &round.fit,
-                    samples.xs(),
-                    samples.ys(),
-                    samples.values(),
-                    self.params.output.pixels,
-                    sigma,
-                    self.params.output.residual_z,
-                )?;
-                Some(Box::new(PlanReconstruction {
-                    tree: plan.tree().clone(),
-                    fit: round.fit,
-                    fit_image,
-                    image,
-                    correction,
-                    round: k,
-                    complete: true,
-                    dropped: dropped.clone(),
-                    solver_note: solver_note.clone(),
-                }))
-            }
-            Decision::Stop(_) | Decision::Sample(_) => None,
+        // It is carried ([`FinalFit`]): every final image of these samples is made from it,
+        // without a second solve.
+        let final_fit = match round.decision {
+            Decision::Stop(_) => Some(FinalFit {
+                samples: samples.len(),
+                channels: samples.channels(),
+                fingerprint: samples_fingerprint(samples),
+                sigma: round.log.noise.as_ref().map_or(0.0, |n| n.sigma),
+                fit: round.fit,
+                solver_note: solver_note.clone(),
+            }),
+            Decision::Sample(_) => None,
+        };
+        let imaging = std::time::Instant::now();
+        let reconstruction = match &final_fit {
+            Some(done) if image_at_stop => Some(Box::new(self.final_image(
+                &plan,
+                done,
+                samples,
+                (k, dropped.clone()),
+                self.params.output.pixels,
+            )?)),
+            Some(_) | None => None,
+        };
+        let image_s = imaging.elapsed().as_secs_f64();
+        self.final_fit = CarriedFinal {
+            fit: final_fit,
+            note: None,
         };
         self.channels = Some(samples.channels());
         let (next, next_round, stop) = match round.decision {
@@ -402,6 +406,8 @@ impl PlanState {
             gram_note,
             pcg_note,
             solver_note,
+            round_s: started.elapsed().as_secs_f64(),
+            image_s,
             reconstruction,
         })
     }
@@ -433,6 +439,24 @@ impl PlanState {
         estimate: PixelEstimate,
     ) -> Result<PlanReconstruction, ProtocolError> {
         let k = self.matching_round(samples, &dropped)?;
+        let stopped_at = self.stop.is_some() && k + 1 == self.issued.len();
+        let fit_note = match &self.final_fit.fit {
+            Some(done) if stopped_at && done.fits(samples) => {
+                let plan = self.plan_at(k, self.params.fit.solver)?;
+                return self.final_image(&plan, done, samples, (k, dropped), estimate);
+            }
+            Some(done) if stopped_at => Some(format!(
+                "the stopping round's fit ({} samples) is not used: these samples are not the \
+                 ones it fitted (other values or another count); fitted again",
+                done.samples
+            )),
+            None if stopped_at => Some(self.final_fit.note.clone().unwrap_or_else(|| {
+                "the stopping round's fit is not carried with this state; fitted again (the \
+                 same tolerance, other bits than the plan's own final image)"
+                    .into()
+            })),
+            Some(_) | None => None,
+        };
         let (mut plan, solver_note) = self.fitting_plan(k, samples, 0)?;
         let values: Vec<&[f64]> = samples.values().iter().map(|v| v.as_slice()).collect();
         // the carried normal matrix, continued (the same bits as assembled afresh), and
@@ -471,9 +495,45 @@ impl PlanState {
             image,
             correction,
             round: k,
-            complete: self.stop.is_some() && k + 1 == self.issued.len(),
+            complete: stopped_at,
             dropped,
             solver_note,
+            fit_note,
+        })
+    }
+
+    /// The final image of the carried stopping round's fit `done` on `plan`'s tree (the
+    /// samples of round `k`, with `dropped`): the output pixels `estimate` from its
+    /// coefficients and its noise estimate, no solve.
+    fn final_image(
+        &self,
+        plan: &ImagePlan,
+        done: &FinalFit,
+        samples: &ImageSamples,
+        (k, dropped): (usize, DroppedSamples),
+        estimate: PixelEstimate,
+    ) -> Result<PlanReconstruction, ProtocolError> {
+        let (fit_image, image, correction) = output_pixels(
+            plan.tree(),
+            &done.fit,
+            samples.xs(),
+            samples.ys(),
+            samples.values(),
+            estimate,
+            done.sigma,
+            self.params.output.residual_z,
+        )?;
+        Ok(PlanReconstruction {
+            tree: plan.tree().clone(),
+            fit: done.fit.clone(),
+            fit_image,
+            image,
+            correction,
+            round: k,
+            complete: true,
+            dropped,
+            solver_note: done.solver_note.clone(),
+            fit_note: None,
         })
     }
 }

@@ -74,5 +74,7 @@ pub use params::{
 };
 pub use plan::{Decision, ImagePlan, PlanProgress, Round};
 pub use positions::{slot_sobol, ParsePatternError, PositionPattern, SamplePositions};
-pub use report::{AdaptiveImage, AdaptiveReport, AdaptiveTimes, ImageRound, RebuildCost};
+pub use report::{
+    AdaptiveImage, AdaptiveReport, AdaptiveTimes, ImageRound, RebuildCost, RoundTimes,
+};
 pub use run::refine_image;

@@ -54,6 +54,28 @@ pub struct ImageRound {
     /// The round's fit against a rebuild from scratch ([`super::AdaptiveParams::measure_rebuild`]
     /// only; `None` otherwise).
     pub rebuild: Option<RebuildCost>,
+    /// Seconds by phase (wall clock of this process).
+    pub times: RoundTimes,
+}
+
+/// Seconds of one round by phase (wall clock). The fit's own parts are in its report:
+/// [`TreeFitReport::kernel_s`] (under PCG the single-scale rows and the exact diagonal; under
+/// the direct solve the kernel rows), [`TreeFitReport::normal_s`] and
+/// [`TreeFitReport::solve_s`] (the iterations or the factor); `fit_s` less those is the noise
+/// test's probe values and its residuals.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct RoundTimes {
+    /// The round's fit, the noise test's probe channels and residuals included.
+    pub fit_s: f64,
+    /// The indicator (the predicted detail of every slot).
+    pub indicator_s: f64,
+    /// The indicator, the stop test, the tally of the slots and the marking (`indicator_s`
+    /// included).
+    pub refine_s: f64,
+    /// Deepening the tree and drawing the next positions.
+    pub position_s: f64,
+    /// A stopping round's fit continued to the solver's tolerance (0 otherwise).
+    pub final_fit_s: f64,
 }
 
 /// One round's fit, continued from the last round's solver state, against the same fit

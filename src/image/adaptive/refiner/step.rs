@@ -37,6 +37,9 @@ impl ImagePlan {
             .and_then(|t| solver.with_tolerance(t))
             .filter(|&s| s != solver);
         let mut round = self.step_with(xs, ys, values, loose.unwrap_or(solver))?;
+        round.log.times.fit_s = round.fit_s;
+        round.log.times.refine_s = round.refine_s;
+        round.log.times.position_s = round.position_s;
         if loose.is_some() && matches!(round.decision, Decision::Stop(_)) {
             // The tree is unchanged by a stopping round: continue the same system.
             let t = Instant::now();
@@ -49,7 +52,8 @@ impl ImagePlan {
                 Some(&round.fit.coefficients),
                 &mut self.state,
             )?;
-            round.fit_s += t.elapsed().as_secs_f64();
+            round.log.times.final_fit_s = t.elapsed().as_secs_f64();
+            round.fit_s += round.log.times.final_fit_s;
             round.log.final_fit = Some(last.report.clone());
             round.fit = last;
         }
@@ -73,7 +77,9 @@ impl ImagePlan {
         } = self.fit_round(xs, ys, values, solver)?;
         let t = Instant::now();
         let ind = self.indicate(&fit, significance.as_ref());
+        let indicator_s = t.elapsed().as_secs_f64();
         let mut log = self.round_log(round, xs.len(), &fit, &ind, significance, rebuild);
+        log.times.indicator_s = indicator_s;
         let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
         // the coverage rule (module `coverage`): the samples every pixel lacks are held back
         let empty = self.shortfall(xs, ys);
@@ -234,6 +240,7 @@ impl ImagePlan {
             fit: fit.report.clone(),
             final_fit: None,
             rebuild,
+            times: Default::default(),
         }
     }
 
