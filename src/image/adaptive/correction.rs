@@ -58,16 +58,27 @@
 //! and 16 spp, and its final image by SURE".
 //!
 //! *Blend* ([`PixelEstimate::Blend`]). `shrunk` and `auto` err differently: SURE does not see
-//! the fit's gain as a control variate (texture past Nyquist, where `shrunk` is ahead), and
-//! the corrected pixels keep the fit's ringing and the samples' noise where the films average
-//! it (Monte Carlo noise, where `auto` is ahead). Each pixel is their combination
-//! `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight `w_P = R^A_P / (R^S_P + R^A_P)`
-//! ([`crate::image::estimate::blend`], the least variance for uncorrelated errors), `R^A_P`
-//! the chosen film's SURE and `R^S_P` the variance of the corrected pixel's residual mean
-//! (the spread of its residuals over `n_P`), both averaged over the SURE window. The weights
-//! lie in `[0, 1]`, so each pixel lies between its two inputs. Where `auto` is not permitted
-//! the output is `shrunk`'s, said as for `auto`. Its figures: docs/measurements/real-renders.md,
-//! "The plan's final image as the inverse-risk blend of shrunk and auto".
+//! the fit's gain as a control variate (texture past Nyquist at low spp, where `shrunk` can
+//! be ahead), and the corrected pixels keep the fit's ringing and the samples' noise where the
+//! films average it (Monte Carlo noise, where `auto` is ahead). Each pixel is their
+//! combination `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight
+//! `w_P = R^A_P / (R^S_P + R^A_P)` ([`crate::image::estimate::blend`], the least variance for
+//! uncorrelated errors). Both risks are SURE against the box pixels `m_P` (the mean of the
+//! pixel's own samples, unbiased with variance `v_P`, [`crate::image::estimate::noise`]),
+//! relative (each channel weighted by `omega = 1 / (A² + eps)`, auto's scale) and averaged
+//! over the gate's window: `R^A_P` is `auto`'s own gate risk; for `shrunk`,
+//!
+//! `R^S_P = sum_c omega ((S_P - m_P)² - v_P + 2 v_P d_S)`, `d_S = 1`,
+//!
+//! Stein's estimate with the divergence `d_S = dS_P / dm_P` at its bound: the corrected pixel
+//! moves one for one with its mean, the fit's box pixel by its leverage (at most 1), and soft
+//! shrinkage in an orthonormal basis is a contraction, so `d_S <= 1` and the risk is not
+//! understated by the divergence. Unlike the residuals' spread (the risk used before), it
+//! sees the bias of the fit and of the shrinkage: where the samples resolve texture the fit
+//! smooths and the shrinkage removes, `(S - m)²` is large and `auto` (which keeps the box
+//! where SURE says so) takes the weight. The weights lie in `[0, 1]`, so each pixel lies
+//! between its two inputs. Where `auto` is not permitted the output is `shrunk`'s, said as for
+//! `auto`. Its figures: docs/measurements/plan-quality.md.
 //!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
@@ -507,24 +518,26 @@ pub fn output_pixels(
     Ok((fit_image, image, report))
 }
 
-/// The divergence bound `d_S` of the `shrunk` pixel in its own pixel's mean in the blend's
-/// risk of `shrunk` ([`PixelEstimate::Blend`]; module docs, *Blend*).
+/// The bound `d_S` on the divergence of the `shrunk` pixel in its own pixel's mean, taken for
+/// the divergence in the blend's risk of `shrunk` ([`PixelEstimate::Blend`]; module docs,
+/// *Blend*: the risk is then not understated by it). The box pixels as a third candidate of
+/// the blend (risk `v_P`) and `d_S = 0` were measured and not kept: docs/measurements/plan-quality.md.
 pub const SHRUNK_DIVERGENCE_BOUND: f64 = 1.0;
 
-/// [`PixelEstimate::Blend`]: the `shrunk` pixels `S_P`, the `auto` pixels `A_P` and the box
-/// pixels `m_P` (the mean of the pixel's own samples) of the same samples combined per pixel
-/// with the inverse-risk weights of three estimates ([`blend_by_risks`]), each risk the
-/// window-averaged SURE against the box, relative (per channel weighted by
-/// `omega_{P,c} = 1 / (A_{P,c}² + eps)`, `eps` = [`auto::RELATIVE_EPS`], the scale of
-/// `auto`'s own risk):
+/// [`PixelEstimate::Blend`]: the `shrunk` pixels `S_P` and the `auto` pixels `A_P` of the
+/// same samples combined per pixel with inverse-risk weights ([`blend_by_risks`]), each risk
+/// the SURE against the box pixels `m_P` (the mean of the pixel's own samples), relative (per
+/// channel weighted by `omega_{P,c} = 1 / (A_{P,c}² + eps)`, `eps` = [`auto::RELATIVE_EPS`],
+/// the scale of `auto`'s own risk) and averaged over the `(2 h + 1)²` window of the gate
+/// ([`GATE_HALF`]):
 ///
-/// - box: `sum_c omega v_{P,c}` (`v_P` the noise of the pixel's mean, [`PixelNoise`]; exact);
 /// - `auto`: its gate's window risk ([`auto::AutoReport::window_risk`]);
-/// - `shrunk`: `sum_c omega ((S - m)² - v + 2 v d_S)` with `d_S` = [`SHRUNK_DIVERGENCE_BOUND`];
+/// - `shrunk`: `sum_c omega ((S - m)² - v + 2 v d_S)`, `v_P` the noise of the pixel's mean
+///   ([`PixelNoise`]), `d_S` = [`SHRUNK_DIVERGENCE_BOUND`] (module docs, *Blend*).
 ///
-/// each averaged over the `(2 h + 1)²` window of the gate ([`GATE_HALF`]). Then the range
-/// projection onto the samples of the 3x3 neighbourhood. Where `auto` is not permitted the
-/// output is `shrunk`'s, with the reason in [`ResidualCorrection::auto_fallback`].
+/// Then the range projection onto the samples of the 3x3 neighbourhood. Where `auto` is not
+/// permitted the output is `shrunk`'s, with the reason in
+/// [`ResidualCorrection::auto_fallback`].
 #[allow(clippy::too_many_arguments)]
 fn blend_shrunk_and_auto(
     tree: &QuadTree,

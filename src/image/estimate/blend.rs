@@ -242,7 +242,8 @@ mod tests {
         let rc: Vec<f64> = (0..n).map(|p| if p % 3 == 0 { 0.0 } else { 1.5 }).collect();
         let (out, w) = blend_by_risks(&[&a, &b, &c], &[&ra, &rb, &rc]);
         for p in 0..n {
-            assert!((w[0][p] + w[1][p] + w[2][p] - 1.0).abs() <= 1e-12);
+            let total: f64 = w.iter().map(|wk| wk[p]).sum();
+            assert!((total - 1.0).abs() <= 1e-12);
             for ch in 0..3 {
                 let xs = [a.channels[ch][p], b.channels[ch][p], c.channels[ch][p]];
                 let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
