@@ -58,16 +58,27 @@
 //! and 16 spp, and its final image by SURE".
 //!
 //! *Blend* ([`PixelEstimate::Blend`]). `shrunk` and `auto` err differently: SURE does not see
-//! the fit's gain as a control variate (texture past Nyquist, where `shrunk` is ahead), and
-//! the corrected pixels keep the fit's ringing and the samples' noise where the films average
-//! it (Monte Carlo noise, where `auto` is ahead). Each pixel is their combination
-//! `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight `w_P = R^A_P / (R^S_P + R^A_P)`
-//! ([`crate::image::estimate::blend`], the least variance for uncorrelated errors), `R^A_P`
-//! the chosen film's SURE and `R^S_P` the variance of the corrected pixel's residual mean
-//! (the spread of its residuals over `n_P`), both averaged over the SURE window. The weights
-//! lie in `[0, 1]`, so each pixel lies between its two inputs. Where `auto` is not permitted
-//! the output is `shrunk`'s, said as for `auto`. Its figures: docs/measurements/real-renders.md,
-//! "The plan's final image as the inverse-risk blend of shrunk and auto".
+//! the fit's gain as a control variate (texture past Nyquist at low spp, where `shrunk` can
+//! be ahead), and the corrected pixels keep the fit's ringing and the samples' noise where the
+//! films average it (Monte Carlo noise, where `auto` is ahead). Each pixel is their
+//! combination `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight
+//! `w_P = R^A_P / (R^S_P + R^A_P)` ([`crate::image::estimate::blend`], the least variance for
+//! uncorrelated errors). Both risks are SURE against the box pixels `m_P` (the mean of the
+//! pixel's own samples, unbiased with variance `v_P`, [`crate::image::estimate::noise`]),
+//! relative (each channel weighted by `omega = 1 / (A² + eps)`, auto's scale) and averaged
+//! over the gate's window: `R^A_P` is `auto`'s own gate risk; for `shrunk`,
+//!
+//! `R^S_P = sum_c omega ((S_P - m_P)² - v_P + 2 v_P d_S)`, `d_S = 1`,
+//!
+//! Stein's estimate with the divergence `d_S = dS_P / dm_P` at its bound: the corrected pixel
+//! moves one for one with its mean, the fit's box pixel by its leverage (at most 1), and soft
+//! shrinkage in an orthonormal basis is a contraction, so `d_S <= 1` and the risk is not
+//! understated by the divergence. Unlike the residuals' spread (the risk used before), it
+//! sees the bias of the fit and of the shrinkage: where the samples resolve texture the fit
+//! smooths and the shrinkage removes, `(S - m)²` is large and `auto` (which keeps the box
+//! where SURE says so) takes the weight. The weights lie in `[0, 1]`, so each pixel lies
+//! between its two inputs. Where `auto` is not permitted the output is `shrunk`'s, said as for
+//! `auto`. Its figures: docs/measurements/plan-quality.md.
 //!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
@@ -83,11 +94,14 @@ use super::fit::TreeFit;
 use super::significance::residuals;
 use super::AdaptiveError;
 use crate::adaptive::QuadTree;
-use crate::image::estimate::auto::{self, WINDOW_HALF};
+use crate::image::estimate::auto;
+use crate::image::estimate::blend::blend_by_risks;
+use crate::image::estimate::gate::GATE_HALF;
 use crate::image::estimate::sure::window_sum;
 use crate::image::estimate::{
-    blend_by_risk, shrink_channel, universal_threshold, FilmCount, PixelStatistics, ShrinkParams,
+    shrink_channel, universal_threshold, FilmCount, PixelNoise, PixelStatistics, ShrinkParams,
 };
+use crate::image::splat::PixelBins;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
 pub use crate::image::estimate::clamp::{clamp_to_local_range, CLAMP_COUNT_TOLERANCE};
@@ -231,9 +245,17 @@ pub struct ResidualCorrection {
     /// (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub blend_weight: Option<f64>,
-    /// [`PixelEstimate::Blend`]: the pixels whose window holds no pixel with two samples or
-    /// more, so that `shrunk`'s risk is unknown there and both pixels weigh 1/2 (`None` when
+    /// [`PixelEstimate::Blend`]: the mean over pixels of the weight of the `auto` pixel
+    /// (`None` when it fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend_weight_auto: Option<f64>,
+    /// [`PixelEstimate::Blend`]: the bound `d_S` on the divergence of the `shrunk` pixel in
+    /// its own pixel's mean used in `shrunk`'s risk ([`SHRUNK_DIVERGENCE_BOUND`]; `None` when
     /// it fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend_shrunk_divergence: Option<f64>,
+    /// [`PixelEstimate::Blend`]: the pixels where a risk is not a number, so that both pixels
+    /// weigh 1/2 (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub blend_unknown_risk: Option<usize>,
 }
@@ -249,16 +271,17 @@ impl ResidualCorrection {
             .note();
             let shrunk = shrunk.trim_start_matches("output pixels: ");
             return match (self.blend_weight, &self.auto_fallback) {
-                (Some(w), _) => format!(
+                (Some(w), _) => {
+                    format!(
                     "output pixels: blend, per pixel the inverse-risk combination of shrunk and \
-                     auto (risks: the residuals' spread of a pixel's mean and auto's SURE, each \
-                     averaged over the {side} x {side} window; mean weight of shrunk {w:.3}{}); \
-                     {} blended pixels projected onto the range of the samples in their 3x3 \
+                     auto (risks: SURE against the box pixels relative to 1 / (auto² + {eps}), \
+                     each averaged over the {side} x {side} window; shrunk's divergence taken \
+                     at its bound {d}; mean weights: shrunk {w:.3}, auto {wa:.3}{}); {} blended \
+                     pixels projected onto the range of the samples in their 3x3 \
                      neighbourhood; auto: {}; shrunk: {shrunk}",
                     match self.blend_unknown_risk {
                         Some(n) if n > 0 => format!(
-                            "; {n} pixels without a pixel of two samples in their window: \
-                             shrunk's risk unknown, both weighted 1/2"
+                            "; {n} pixels with a risk that is not a number: both weighted 1/2"
                         ),
                         _ => String::new(),
                     },
@@ -267,8 +290,12 @@ impl ResidualCorrection {
                         .as_deref()
                         .unwrap_or("")
                         .trim_start_matches("pixels: auto, "),
-                    side = 2 * WINDOW_HALF + 1,
-                ),
+                    eps = auto::RELATIVE_EPS,
+                    d = self.blend_shrunk_divergence.unwrap_or(SHRUNK_DIVERGENCE_BOUND),
+                    wa = self.blend_weight_auto.unwrap_or(0.0),
+                    side = 2 * GATE_HALF + 1,
+                )
+                }
                 (None, reason) => format!(
                     "output pixels: blend fell back to shrunk (auto: {}); {shrunk}",
                     reason.as_deref().unwrap_or("no reason given"),
@@ -491,15 +518,26 @@ pub fn output_pixels(
     Ok((fit_image, image, report))
 }
 
+/// The bound `d_S` on the divergence of the `shrunk` pixel in its own pixel's mean, taken for
+/// the divergence in the blend's risk of `shrunk` ([`PixelEstimate::Blend`]; module docs,
+/// *Blend*: the risk is then not understated by it). The box pixels as a third candidate of
+/// the blend (risk `v_P`) and `d_S = 0` were measured and not kept: docs/measurements/plan-quality.md.
+pub const SHRUNK_DIVERGENCE_BOUND: f64 = 1.0;
+
 /// [`PixelEstimate::Blend`]: the `shrunk` pixels `S_P` and the `auto` pixels `A_P` of the
-/// same samples combined per pixel, `w_P S_P + (1 - w_P) A_P` with the inverse-risk weight
-/// `w_P = R^A_P / (R^S_P + R^A_P)` ([`crate::image::estimate::blend`]). `R^A_P`: the chosen
-/// film's SURE averaged over the window around `P` ([`auto::AutoReport::window_risk`]).
-/// `R^S_P`: the variance of the corrected pixel's residual mean, `sum_c s²_{r,P,c} / n_P`
-/// (the spread of the residuals `r_i = v_i - g(x_i)` of the pixel's samples), averaged over
-/// the pixels of the same window that hold two samples or more (NaN where none does: weight
-/// 1/2). Both risks are of the pixels before the shrinkage. Where `auto` is not permitted the
-/// output is `shrunk`'s, with the reason in [`ResidualCorrection::auto_fallback`].
+/// same samples combined per pixel with inverse-risk weights ([`blend_by_risks`]), each risk
+/// the SURE against the box pixels `m_P` (the mean of the pixel's own samples), relative (per
+/// channel weighted by `omega_{P,c} = 1 / (A_{P,c}² + eps)`, `eps` = [`auto::RELATIVE_EPS`],
+/// the scale of `auto`'s own risk) and averaged over the `(2 h + 1)²` window of the gate
+/// ([`GATE_HALF`]):
+///
+/// - `auto`: its gate's window risk ([`auto::AutoReport::window_risk`]);
+/// - `shrunk`: `sum_c omega ((S - m)² - v + 2 v d_S)`, `v_P` the noise of the pixel's mean
+///   ([`PixelNoise`]), `d_S` = [`SHRUNK_DIVERGENCE_BOUND`] (module docs, *Blend*).
+///
+/// Then the range projection onto the samples of the 3x3 neighbourhood. Where `auto` is not
+/// permitted the output is `shrunk`'s, with the reason in
+/// [`ResidualCorrection::auto_fallback`].
 #[allow(clippy::too_many_arguments)]
 fn blend_shrunk_and_auto(
     tree: &QuadTree,
@@ -514,43 +552,65 @@ fn blend_shrunk_and_auto(
         output_pixels(tree, fit, xs, ys, values, PixelEstimate::Shrunk, sigma, z)?;
     report.estimate = PixelEstimate::Blend;
     let plane = shrunk.plane;
-    let chosen = ImageSamples::new(plane, xs.to_vec(), ys.to_vec(), values.to_vec())
-        .map_err(|e| e.to_string())
-        .and_then(|samples| auto::estimate(&samples, &ShrinkParams::default()));
-    let (auto_image, auto_report) = match chosen {
+    let samples = match ImageSamples::new(plane, xs.to_vec(), ys.to_vec(), values.to_vec()) {
+        Ok(s) => s,
+        Err(e) => {
+            report.auto_fallback = Some(e.to_string());
+            return Ok((fit_image, shrunk, report));
+        }
+    };
+    let (auto_image, auto_report) = match auto::estimate(&samples, &ShrinkParams::default()) {
         Ok(chosen) => chosen,
         Err(reason) => {
             report.auto_fallback = Some(reason);
             return Ok((fit_image, shrunk, report));
         }
     };
-    let coef: Vec<&[f64]> = fit.coefficients.iter().map(|c| c.as_slice()).collect();
-    let vals: Vec<&[f64]> = values.iter().map(|v| v.as_slice()).collect();
-    let r = residuals(tree, &coef, xs, ys, &vals);
-    let spread = PixelStatistics::of(plane, xs, ys, &r);
-    let variance: Vec<f64> = (0..plane.pixels())
-        .map(|p| spread.mean_variance.iter().map(|v| v[p]).sum::<f64>())
-        .collect();
-    let known: Vec<f64> = variance
-        .iter()
-        .map(|v| f64::from(u8::from(!v.is_nan())))
-        .collect();
-    let zeroed: Vec<f64> = variance
-        .iter()
-        .map(|&v| if v.is_nan() { 0.0 } else { v })
-        .collect();
+    // `auto` succeeded, so every pixel holds a sample and the noise of the means is known
+    let bins = PixelBins::new(&samples);
+    let Some(noise) = PixelNoise::new(&samples, &bins) else {
+        report.auto_fallback = Some("the noise of a pixel's mean is unknown".into());
+        return Ok((fit_image, shrunk, report));
+    };
+    let stats = PixelStatistics::new(&samples);
     let (w, h) = (plane.width(), plane.height());
-    let sum = window_sum(&zeroed, w, h, WINDOW_HALF);
-    let count = window_sum(&known, w, h, WINDOW_HALF);
-    let risk_shrunk: Vec<f64> = sum.iter().zip(&count).map(|(s, n)| s / n).collect();
-    let (mut image, weight) =
-        blend_by_risk(&shrunk, &risk_shrunk, &auto_image, &auto_report.window_risk);
+    let pixels = plane.pixels();
+    let mut shrunk_sure = vec![0.0; pixels];
+    for (c, (s_c, a_c)) in shrunk.channels.iter().zip(&auto_image.channels).enumerate() {
+        for p in 0..pixels {
+            let omega = 1.0 / (a_c[p] * a_c[p] + auto::RELATIVE_EPS);
+            let v = noise.pixel_variance(c, p);
+            let d = s_c[p] - stats.mean[c][p];
+            shrunk_sure[p] += omega * (d * d - v + 2.0 * v * SHRUNK_DIVERGENCE_BOUND);
+        }
+    }
+    let area = window_sum(&vec![1.0; pixels], w, h, GATE_HALF);
+    let risk_shrunk: Vec<f64> = window_sum(&shrunk_sure, w, h, GATE_HALF)
+        .iter()
+        .zip(&area)
+        .map(|(s, a)| s / a)
+        .collect();
+    let (mut image, weights) = blend_by_risks(
+        &[&shrunk, &auto_image],
+        &[&risk_shrunk, &auto_report.window_risk],
+    );
     let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
+    let mean_weight = |k: usize| {
+        weights
+            .get(k)
+            .map_or(0.0, |x| x.iter().sum::<f64>() / pixels as f64)
+    };
     report.blend_clamped = Some(moved);
     report.auto_description = Some(auto_report.describe());
     report.films = Some(auto_report.films);
-    report.blend_weight = Some(weight.iter().sum::<f64>() / weight.len() as f64);
-    report.blend_unknown_risk = Some(risk_shrunk.iter().filter(|r| r.is_nan()).count());
+    report.blend_weight = Some(mean_weight(0));
+    report.blend_weight_auto = Some(mean_weight(1));
+    report.blend_shrunk_divergence = Some(SHRUNK_DIVERGENCE_BOUND);
+    report.blend_unknown_risk = Some(
+        (0..pixels)
+            .filter(|&p| risk_shrunk[p].is_nan() || auto_report.window_risk[p].is_nan())
+            .count(),
+    );
     Ok((fit_image, image, report))
 }
 

@@ -16,6 +16,14 @@
 //! `max(R, 0)`. A zero risk takes all the weight (`w = 1` where `R^a = 0 < R^b`); where both are
 //! zero, or either is not finite-or-infinite (NaN), the weight is `1/2`. An infinite risk takes
 //! none.
+//!
+//! **More than two estimates** ([`inverse_risk_weights`], [`blend_by_risks`]): for `K`
+//! estimates with uncorrelated errors of variances `R^k`, the weights summing to 1 that
+//! minimise `sum_k w_k² R^k` are `w_k = (1 / R^k) / sum_j (1 / R^j)` (Lagrange: `w_k R^k` is
+//! the same for every `k`), with the least variance `1 / sum_j (1 / R^j) <= min_k R^k`; for
+//! `K = 2` this is the weight above. Zero risks share all the weight equally; infinite ones
+//! take none; where every risk is infinite, or any is NaN, the weights are equal. Again each
+//! combined pixel lies in the convex hull of its inputs.
 
 use crate::image::PixelImage;
 
@@ -33,6 +41,65 @@ pub fn inverse_risk_weight(risk_a: f64, risk_b: f64) -> f64 {
         _ if ra + rb == 0.0 => 0.5,
         _ => rb / (ra + rb),
     }
+}
+
+/// The weights `w_k = (1 / R^k) / sum_j (1 / R^j)` of `K` estimates of risks `risks` (module
+/// docs; negative risks count as 0).
+pub fn inverse_risk_weights(risks: &[f64]) -> Vec<f64> {
+    let k = risks.len();
+    let equal = vec![1.0 / k as f64; k];
+    if risks.iter().any(|r| r.is_nan()) {
+        return equal;
+    }
+    let r: Vec<f64> = risks.iter().map(|x| x.max(0.0)).collect();
+    let zeros = r.iter().filter(|&&x| x == 0.0).count();
+    if zeros > 0 {
+        return r
+            .iter()
+            .map(|&x| if x == 0.0 { 1.0 / zeros as f64 } else { 0.0 })
+            .collect();
+    }
+    if r.iter().all(|x| x.is_infinite()) {
+        return equal;
+    }
+    // scaled by the least risk so that tiny and huge risks neither overflow nor underflow
+    let least = r.iter().copied().fold(f64::INFINITY, f64::min);
+    let inv: Vec<f64> = r.iter().map(|&x| least / x).collect();
+    let total: f64 = inv.iter().sum();
+    inv.iter().map(|x| x / total).collect()
+}
+
+/// `sum_k w_{k,P} x^k_P` in every channel, `w_{k,P}` the [`inverse_risk_weights`] of the
+/// risks `risks[k][P]`. Returns the image and the weights per estimate and pixel.
+///
+/// Panics if the images differ in plane or channels, or a risk list is not one per pixel.
+pub fn blend_by_risks(images: &[&PixelImage], risks: &[&[f64]]) -> (PixelImage, Vec<Vec<f64>>) {
+    assert!(
+        !images.is_empty() && images.len() == risks.len(),
+        "one risk list per estimate"
+    );
+    let plane = images[0].plane;
+    let channels = images[0].channels.len();
+    assert!(
+        images
+            .iter()
+            .all(|x| x.plane == plane && x.channels.len() == channels),
+        "the estimates are of one plane and channel count"
+    );
+    let pixels = plane.pixels();
+    assert!(risks.iter().all(|r| r.len() == pixels), "one risk a pixel");
+    let mut weights = vec![vec![0.0; pixels]; images.len()];
+    let mut out = PixelImage::zeros(plane, channels);
+    for p in 0..pixels {
+        let w = inverse_risk_weights(&risks.iter().map(|r| r[p]).collect::<Vec<_>>());
+        for (k, (&wk, image)) in w.iter().zip(images).enumerate() {
+            weights[k][p] = wk;
+            for (o, x) in out.channels.iter_mut().zip(&image.channels) {
+                o[p] += wk * x[p];
+            }
+        }
+    }
+    (out, weights)
 }
 
 /// `w_P a_P + (1 - w_P) b_P` in every channel, `w_P` the [`inverse_risk_weight`] of the risks
@@ -131,6 +198,63 @@ mod tests {
         assert_eq!(inverse_risk_weight(0.0, 0.0), 0.5);
         assert_eq!(inverse_risk_weight(f64::NAN, 1.0), 0.5);
         assert_eq!(inverse_risk_weight(f64::INFINITY, f64::INFINITY), 0.5);
+    }
+
+    /// The `K`-estimate weights minimise `sum_k w_k² R^k` under `sum_k w_k = 1`: every
+    /// `w_k R^k` is the same (the Lagrange condition), the weights sum to 1, the variance is
+    /// `1 / sum_k (1 / R^k)`, below every `R^k`; for two estimates they are the pair's weight.
+    #[test]
+    fn the_weights_of_k_estimates_minimise_the_variance_of_uncorrelated_errors() {
+        for risks in [
+            vec![1.0, 3.0, 0.5],
+            vec![2.5e-4, 1e-4, 7e-2, 3e-9],
+            vec![7.0, 7.0, 7.0],
+        ] {
+            let w = inverse_risk_weights(&risks);
+            let sum: f64 = w.iter().sum();
+            assert!((sum - 1.0).abs() <= 1e-12);
+            let var: f64 = w.iter().zip(&risks).map(|(w, r)| w * w * r).sum();
+            let least = 1.0 / risks.iter().map(|r| 1.0 / r).sum::<f64>();
+            assert!((var - least).abs() <= 1e-12 * least, "{risks:?}");
+            for (wk, rk) in w.iter().zip(&risks) {
+                assert!((wk * rk - least).abs() <= 1e-12 * least);
+                assert!(var <= rk * (1.0 + 1e-12));
+            }
+        }
+        for (ra, rb) in [(1.0, 3.0), (2.5e-4, 1e-4)] {
+            let w = inverse_risk_weights(&[ra, rb]);
+            assert!((w[0] - inverse_risk_weight(ra, rb)).abs() <= 1e-15);
+        }
+        assert_eq!(inverse_risk_weights(&[0.0, 1.0, 0.0]), vec![0.5, 0.0, 0.5]);
+        assert_eq!(inverse_risk_weights(&[f64::INFINITY, 1.0, 3.0])[0], 0.0);
+        assert_eq!(inverse_risk_weights(&[f64::NAN, 1.0]), vec![0.5, 0.5]);
+        assert_eq!(inverse_risk_weights(&[-1.0, 1.0]), vec![1.0, 0.0]);
+    }
+
+    /// Each pixel of the `K`-estimate blend lies between the least and largest of its inputs.
+    #[test]
+    fn the_blend_of_k_estimates_lies_in_their_range() {
+        let plane = ImagePlane::new(9, 7).unwrap();
+        let (a, b, c) = (image(plane, 1), image(plane, 2), image(plane, 3));
+        let n = plane.pixels();
+        let ra: Vec<f64> = (0..n).map(|p| 0.1 + p as f64).collect();
+        let rb: Vec<f64> = (0..n).map(|p| 2.0 + (p % 5) as f64).collect();
+        let rc: Vec<f64> = (0..n).map(|p| if p % 3 == 0 { 0.0 } else { 1.5 }).collect();
+        let (out, w) = blend_by_risks(&[&a, &b, &c], &[&ra, &rb, &rc]);
+        for p in 0..n {
+            let total: f64 = w.iter().map(|wk| wk[p]).sum();
+            assert!((total - 1.0).abs() <= 1e-12);
+            for ch in 0..3 {
+                let xs = [a.channels[ch][p], b.channels[ch][p], c.channels[ch][p]];
+                let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                let z = out.channels[ch][p];
+                assert!(lo - 1e-12 <= z && z <= hi + 1e-12);
+                if p % 3 == 0 {
+                    assert_eq!(z.to_bits(), xs[2].to_bits());
+                }
+            }
+        }
     }
 
     /// Where `b`'s risk is infinite the blend is `a` bit for bit, and vice versa; elsewhere
