@@ -83,6 +83,9 @@ pub struct AutoReport {
     pub pixels_with_blocks: usize,
     /// Pixels per difference estimate of the noise.
     pub noise_estimators: Vec<DifferenceCount>,
+    /// `c`, the least of three's expectation on pure noise relative to the noise at these
+    /// positions ([`PixelNoise::pure_noise_ratio`]).
+    pub pure_noise_ratio: Option<f64>,
     /// Pixels per gate candidate.
     pub gate: Vec<GateCount>,
     /// Mean estimated risk per pixel of the output (summed over channels).
@@ -136,13 +139,21 @@ impl AutoReport {
                 10.0 * (self.box_risk / self.estimated_risk).log10()
             )
         };
+        let calibration = match self.pure_noise_ratio {
+            Some(c) => format!(
+                "; on pure noise at these positions that estimate is {c:.2} of the noise \
+                 (simulated), so the estimated risks are low by about that factor where pixels \
+                 hold noise only"
+            ),
+            None => String::new(),
+        };
         format!(
             "pixels: auto, per pixel the candidate of least SURE against the box over the \
              {gside} x {gside} window, each pixel weighted by 1 / (x² + {RELATIVE_EPS}) (pixels \
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
              coefficients killed); noise of each pixel's mean from the least of three difference \
-             estimates of its strata ({} pixels: {noise}; median sigma {}); estimated risk per pixel {:.3e} \
+             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
              samples in their 3x3 neighbourhood (largest move {:.3e}); {}",
             self.shrink.shifts * self.shrink.shifts,
@@ -172,6 +183,7 @@ impl AutoReport {
         report.noise_level = Some(self.sigma);
         report.pixels_with_spread = Some(self.pixels_with_blocks);
         report.noise_estimators = Some(self.noise_estimators);
+        report.pure_noise_ratio = self.pure_noise_ratio;
         report.gate = Some(self.gate);
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
@@ -346,6 +358,7 @@ pub fn estimate(
             sigma: noise.sigma.clone(),
             pixels_with_blocks: noise.pixels_with_blocks(),
             noise_estimators: noise.estimator_counts(),
+            pure_noise_ratio: noise.pure_noise_ratio,
             gate: gated.counts,
             estimated_risk: gated.risk,
             box_risk: gated.box_risk,

@@ -229,6 +229,11 @@ pub struct EstimateReport {
     /// strata's second differences, the successive differences along `x` or along `y`,
     /// [`noise`]).
     pub noise_estimators: Option<Vec<DifferenceCount>>,
+    /// The least of the three difference estimates' expectation on pure noise relative to the
+    /// noise, at these sample positions (`auto` only; `c` of [`noise::pure_noise_ratio`]): the
+    /// estimated risks fall short of the actual ones by about this factor where the pixels
+    /// hold Monte Carlo noise only.
+    pub pure_noise_ratio: Option<f64>,
     /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
@@ -271,6 +276,7 @@ pub fn reconstruct_estimated(
         noise_level: None,
         pixels_with_spread: None,
         noise_estimators: None,
+        pure_noise_ratio: None,
         threshold: None,
         shrink: None,
         clamped_values: None,
