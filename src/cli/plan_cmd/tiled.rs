@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use rkwave::image::job::tiled_plan::{TiledPlanOptions, TiledPlanStart, TiledPlanState, TiledStep};
 use rkwave::image::job::PlanOptions;
 use rkwave::image::NonFinitePolicy;
-use rkwave::io::output::{persist, OutputError};
+use rkwave::io::output::persist;
 use rkwave::io::read_image_samples_with;
 
 use super::super::image_args::parse_resolution;
@@ -25,7 +25,10 @@ pub fn path(dir: &Path) -> PathBuf {
 fn load(dir: &Path) -> Result<TiledPlanState, CliError> {
     let file = path(dir);
     let text = std::fs::read_to_string(&file).map_err(|e| {
-        CliError::Invalid(format!("cannot read the tiled plan state {}: {e}", file.display()))
+        CliError::Invalid(format!(
+            "cannot read the tiled plan state {}: {e}",
+            file.display()
+        ))
     })?;
     Ok(TiledPlanState::from_json(&text, &file)?)
 }
@@ -81,7 +84,7 @@ fn commit(
     }
     if let Err(e) = persist(&state_tmp, &file, true) {
         let _ = std::fs::remove_file(positions);
-        return Err(OutputError::from(e).into());
+        return Err(e.into());
     }
     Ok(())
 }
@@ -144,7 +147,11 @@ pub fn run(args: &PlanArgs, options: &PlanOptions) -> Result<(), CliError> {
                     state.halo
                 )));
             }
-            let plane = args.resolution.as_deref().map(parse_resolution).transpose()?;
+            let plane = args
+                .resolution
+                .as_deref()
+                .map(parse_resolution)
+                .transpose()?;
             state.check_options(plane, options)?;
             super::super::check_reading(samples_path)?;
             let (samples, _) =
@@ -160,7 +167,13 @@ pub fn run(args: &PlanArgs, options: &PlanOptions) -> Result<(), CliError> {
             (state, next, Some(step), notes)
         }
     };
-    commit(&state, &args.state, &args.out, &positions_npy(&next), args.force)?;
+    commit(
+        &state,
+        &args.state,
+        &args.out,
+        &positions_npy(&next),
+        args.force,
+    )?;
     if args.json {
         #[derive(serde::Serialize)]
         struct Report<'a> {

@@ -107,7 +107,7 @@ pub enum TiledPlanError {
     #[error(transparent)]
     Protocol(#[from] ProtocolError),
     /// The tile grid (`param` at fault).
-    #[error("{source}")]
+    #[error("{}: {source}", Fix::Set(*param))]
     Grid {
         /// The parameter at fault.
         param: Param,
@@ -115,7 +115,10 @@ pub enum TiledPlanError {
         source: TileGeometryError,
     },
     /// Workers 0.
-    #[error("workers 0: give at least 1 ({} 1 or more: tiles stepped at once)", Fix::Set(Param::Workers))]
+    #[error(
+        "workers 0: give at least 1 ({} 1 or more: tiles stepped at once)",
+        Fix::Set(Param::Workers)
+    )]
     Workers,
     /// A tile's fit beside the samples and the image exceeds the memory limit.
     #[error(
@@ -143,7 +146,10 @@ pub enum TiledPlanError {
         fix: String,
     },
     /// The thread pool could not be built.
-    #[error("the pool of {workers} workers could not start ({reason}): give fewer {}", Fix::Set(Param::Workers))]
+    #[error(
+        "the pool of {workers} workers could not start ({reason}): give fewer {}",
+        Fix::Set(Param::Workers)
+    )]
     Pool {
         /// Workers asked for.
         workers: usize,
@@ -189,9 +195,10 @@ pub struct TilePlanState {
     pub params: AdaptiveParams,
     /// The tile's refinement history.
     pub progress: PlanProgress,
-    /// PCG's start for the tile's next fit, as the bits of the `f64`s (per image channel,
-    /// then per probe channel).
-    pub start: Option<Vec<Vec<u64>>>,
+    /// PCG's start for the tile's next fit (per image channel, then per probe channel),
+    /// sparse: the start is laid out over every function at the depth limit (`2^(Jx + Jy)`,
+    /// 15 MB a tile of 152² with seven channels) but only the tree's are nonzero.
+    pub start: Option<SparseStart>,
     /// The bits of the tile's last total predicted detail `eta_t^2` (`None` before its
     /// first step; bits, so a state read back is the same number).
     pub indicator_sq: Option<u64>,
@@ -202,18 +209,46 @@ pub struct TilePlanState {
     pub steps: usize,
 }
 
+/// Vectors kept as their lengths and nonzero entries: `(index, bits of the f64)` (bits, so
+/// a state read back is the same numbers).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SparseStart {
+    /// Length of each vector.
+    pub lens: Vec<usize>,
+    /// Per vector, its entries whose bits are not those of `+0.0`.
+    pub entries: Vec<Vec<(usize, u64)>>,
+}
+
 impl TilePlanState {
     fn start_f64(&self) -> Option<Vec<Vec<f64>>> {
-        self.start
-            .as_ref()
-            .map(|s| s.iter().map(|c| c.iter().map(|b| f64::from_bits(*b)).collect()).collect())
+        self.start.as_ref().map(|s| {
+            s.entries
+                .iter()
+                .zip(&s.lens)
+                .map(|(c, &len)| {
+                    let mut v = vec![0.0; len];
+                    for &(i, b) in c {
+                        v[i] = f64::from_bits(b);
+                    }
+                    v
+                })
+                .collect()
+        })
     }
 
     fn set_start(&mut self, start: Option<Vec<Vec<f64>>>) {
-        self.start = start.map(|s| {
-            s.into_iter()
-                .map(|c| c.into_iter().map(f64::to_bits).collect())
-                .collect()
+        self.start = start.map(|s| SparseStart {
+            lens: s.iter().map(Vec::len).collect(),
+            entries: s
+                .iter()
+                .map(|c| {
+                    c.iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.to_bits() != 0)
+                        .map(|(i, v)| (i, v.to_bits()))
+                        .collect()
+                })
+                .collect(),
         });
     }
 }
@@ -357,7 +392,10 @@ impl TiledPlanStart {
     /// Starts the plan (memory checked first for `channels`, three for a renderer's RGB when
     /// not known): every tile's refiner built on its window with its share of the budget,
     /// the base positions each draws in its interior.
-    pub fn run(&self, channels: usize) -> Result<(TiledPlanState, SamplePositions), TiledPlanError> {
+    pub fn run(
+        &self,
+        channels: usize,
+    ) -> Result<(TiledPlanState, SamplePositions), TiledPlanError> {
         self.check_memory(channels)?;
         let g = &self.geometry;
         let params = *self.params();
@@ -365,9 +403,11 @@ impl TiledPlanStart {
         let mut base = SamplePositions::default();
         for index in 0..g.count() {
             let window = g.window(index);
-            let share = params.stop.budget as f64 * window.pixels() as f64 / g.plane.pixels() as f64;
+            let share =
+                params.stop.budget as f64 * window.pixels() as f64 / g.plane.pixels() as f64;
             let mut tp = params;
-            tp.sampling.seed = crate::image::adaptive::mix64(params.sampling.seed ^ mix_index(index));
+            tp.sampling.seed =
+                crate::image::adaptive::mix64(params.sampling.seed ^ mix_index(index));
             tp.stop.budget = (share.ceil() as usize).max(1);
             // a share below the tile's base: the base's size (the first round's shares are
             // the budget's, so the plan's budget holds)
@@ -416,7 +456,9 @@ impl TiledPlanStart {
 
 /// A distinct 64-bit word per tile index, mixed into the tile's seed.
 fn mix_index(index: usize) -> u64 {
-    crate::image::adaptive::mix64(0x7469_6c65_u64 ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+    crate::image::adaptive::mix64(
+        0x7469_6c65_u64 ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+    )
 }
 
 /// The window as an image plane of its own (window-local coordinates).
@@ -466,17 +508,24 @@ fn keep_owned(
 fn sizes(g: &TileGeometry, params: &AdaptiveParams, channels: usize, budget: f64) -> (f64, f64) {
     let held = budget * (16.0 + 8.0 * channels as f64)
         + 2.0 * 8.0 * g.plane.pixels() as f64 * channels as f64;
-    let window = (0..g.count().min(4)).map(|t| g.window(t)).max_by_key(|w| w.pixels());
+    let window = (0..g.count().min(4))
+        .map(|t| g.window(t))
+        .max_by_key(|w| w.pixels());
     let window = window.expect("a grid has tiles");
-    let share = (budget * CONCENTRATION * window.pixels() as f64 / g.plane.pixels() as f64)
-        .min(budget);
+    let share =
+        (budget * CONCENTRATION * window.pixels() as f64 / g.plane.pixels() as f64).min(budget);
     (held, tile_bytes(&window, params, channels, share))
 }
 
 /// Bytes of one tile's fit on `window` with `samples` samples: the untiled plan's estimate of
 /// a plan on that plane ([`ImageRequest::tree`] by PCG at the depth limit, with the noise
 /// test's probe channels), plus the window's copy of its samples.
-pub fn tile_bytes(window: &PixelRect, params: &AdaptiveParams, channels: usize, samples: f64) -> f64 {
+pub fn tile_bytes(
+    window: &PixelRect,
+    params: &AdaptiveParams,
+    channels: usize,
+    samples: f64,
+) -> f64 {
     let probes = if params.noise.false_alarm > 0.0 {
         params.noise.probes
     } else {

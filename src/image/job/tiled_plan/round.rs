@@ -7,8 +7,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{
-    keep_owned, stitch, tile_bytes, window_plane, TilePlanState, TiledPlanError,
-    TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
+    keep_owned, stitch, tile_bytes, window_plane, TilePlanState, TiledPlanError, TiledPlanState,
+    TILED_STATE_FORMAT, TILED_STATE_VERSION,
 };
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{
@@ -107,7 +107,10 @@ impl TiledPlanState {
             || state.tiles.iter().enumerate().any(|(i, t)| t.index != i)
             || state.issued.is_empty()
             || state.issued.iter().enumerate().any(|(i, r)| r.round != i)
-            || state.issued.iter().any(|r| u64::from_str_radix(&r.fingerprint, 16).is_err())
+            || state
+                .issued
+                .iter()
+                .any(|r| u64::from_str_radix(&r.fingerprint, 16).is_err())
             || state.workers == 0
         {
             return Err(bad(format!(
@@ -214,7 +217,13 @@ impl TiledPlanState {
 
     /// Refuses tile `index`'s fit of `n` samples when `workers` of its size beside the held
     /// samples exceed the memory limit (before its window is copied).
-    fn check_tile(&self, index: usize, n: usize, held: f64, channels: usize) -> Result<(), TiledPlanError> {
+    fn check_tile(
+        &self,
+        index: usize,
+        n: usize,
+        held: f64,
+        channels: usize,
+    ) -> Result<(), TiledPlanError> {
         let window = self.geometry().window(index);
         let per_tile = tile_bytes(&window, &self.params, channels, n as f64);
         let needed = held + self.workers as f64 * per_tile;
@@ -288,7 +297,11 @@ impl TiledPlanState {
         match ImagePlan::resume(window_plane(&window), &params, tile.progress.clone()) {
             Err(AdaptiveError::BudgetTooSmall { base, .. }) => {
                 params.stop.budget = base;
-                Ok(ImagePlan::resume(window_plane(&window), &params, tile.progress.clone())?)
+                Ok(ImagePlan::resume(
+                    window_plane(&window),
+                    &params,
+                    tile.progress.clone(),
+                )?)
             }
             other => Ok(other?),
         }
@@ -309,14 +322,21 @@ impl TiledPlanState {
         let window = self.geometry().window(tile.index);
         let mut state = tile.clone();
         state.steps += 1;
-        state.indicator_sq = Some((round.log.estimate_rms.powi(2) * window.pixels() as f64).to_bits());
+        state.indicator_sq =
+            Some((round.log.estimate_rms.powi(2) * window.pixels() as f64).to_bits());
         state.set_start(plan.start_mut().take());
         let mut next = SamplePositions::default();
         let (mut halo_drawn, mut cut) = (0, 0);
         match round.decision {
             Decision::Sample(local_next) => {
-                halo_drawn =
-                    keep_owned(&self.geometry(), tile.index, &window, &local_next, &mut next, false);
+                halo_drawn = keep_owned(
+                    &self.geometry(),
+                    tile.index,
+                    &window,
+                    &local_next,
+                    &mut next,
+                    false,
+                );
                 if next.len() > share {
                     cut = next.len() - share;
                     next.xs.truncate(share);
@@ -351,7 +371,13 @@ impl TiledPlanState {
             weights = self
                 .tiles
                 .iter()
-                .map(|t| if t.stop.is_some() { 0.0 } else { g.interior(t.index).pixels() as f64 })
+                .map(|t| {
+                    if t.stop.is_some() {
+                        0.0
+                    } else {
+                        g.interior(t.index).pixels() as f64
+                    }
+                })
                 .collect();
             total = weights.iter().sum();
         }
@@ -454,7 +480,11 @@ impl TiledPlanState {
             self.stop = Some(stop);
             return Ok(self.stopped(stop, growth, stepped, halo, cut, largest_window));
         }
-        let prev = self.issued.last().expect("a plan has its base round").clone();
+        let prev = self
+            .issued
+            .last()
+            .expect("a plan has its base round")
+            .clone();
         let start = u64::from_str_radix(&prev.fingerprint, 16).expect("checked when read");
         self.issued.push(IssuedRound {
             round: prev.round + 1,
@@ -540,8 +570,7 @@ impl TiledPlanState {
                 .map(|(tile, picks)| {
                     let local = self.local(samples, tile.index, picks);
                     let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
-                    let values: Vec<&[f64]> =
-                        local.values().iter().map(|v| v.as_slice()).collect();
+                    let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
                     let start = tile.start_f64();
                     let (fit, significance) = plan.fit_updating(
                         local.xs(),
