@@ -64,7 +64,7 @@ fn tiled_plan_through_files_to_its_stop() {
             set.values[1].push(straight_edge(x, y));
         }
         set.names = vec!["y".into(), "value".into()];
-        write_npy(&dir.join(format!("samples{call}.npy")), &set).unwrap();
+        write_npy(dir.join(format!("samples{call}.npy")), &set).unwrap();
         call += 1;
         assert!(call < 60, "the plan did not stop");
     }
