@@ -5,6 +5,8 @@
 //! [`rkwave::image::job::PlanFinal`]); the plan's files are [`rkwave::io::plan_files`]'s.
 //! This file parses the flags and prints: the decisions are the library's.
 
+mod tiled;
+
 use std::path::PathBuf;
 
 use clap::Args;
@@ -106,6 +108,15 @@ pub struct PlanArgs {
     /// refusing the round; the round is recognised by all its positions either way.
     #[arg(long)]
     pub drop_nonfinite: bool,
+    /// Tile side in pixels: the plan on tiles (a quadtree and its fits per tile over the
+    /// tile plus its halo, one global budget shared by the tiles' indicators, memory bounded
+    /// by the tile; the final image stitched as `reconstruct --dim 2 --tile` does). Recorded
+    /// in the state (`tiled-state.json`); later calls continue it without the flag.
+    #[arg(long)]
+    pub tile: Option<usize>,
+    /// Halo of each tile in pixels (default 12, clipped to the tile); with --tile.
+    #[arg(long, requires = "tile")]
+    pub halo: Option<usize>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -113,7 +124,7 @@ pub struct PlanArgs {
 
 /// The plan's options from the flags (each flag not given stays `None`: the plan's value, or
 /// for a new plan the library's default).
-fn options(args: &PlanArgs) -> PlanOptions {
+pub(super) fn options(args: &PlanArgs) -> PlanOptions {
     PlanOptions {
         budget: args
             .budget
@@ -136,7 +147,7 @@ fn options(args: &PlanArgs) -> PlanOptions {
     }
 }
 
-fn positions_npy(next: &SamplePositions) -> Vec<u8> {
+pub(super) fn positions_npy(next: &SamplePositions) -> Vec<u8> {
     let set = SampleSet::new(next.xs.clone(), vec![next.ys.clone()])
         .and_then(|s| s.with_names(vec!["y".into()]))
         .expect("positions and ys have equal lengths");
@@ -168,6 +179,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     }
     let state_file = PlanState::path(&args.state);
     let options = options(args);
+    if args.tile.is_some() || tiled::path(&args.state).exists() {
+        return tiled::run(args, &options);
+    }
     let (state, next, step, final_image) = match &args.samples {
         None => {
             if state_file.exists() && !args.force {

@@ -29,6 +29,7 @@ pub mod memory;
 mod plan;
 pub mod text;
 mod tiled;
+pub mod tiled_plan;
 mod uniform;
 
 pub use plan::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};

@@ -1,0 +1,642 @@
+//! A tiled plan's round and its final image (module docs of [`super`]), and the state as
+//! JSON.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::{
+    keep_owned, stitch, tile_bytes, window_plane, TilePlanState, TiledPlanError, TiledPlanState,
+    TILED_STATE_FORMAT, TILED_STATE_VERSION,
+};
+use crate::adaptive::StopReason;
+use crate::image::adaptive::{
+    mix64, AdaptiveError, AdaptiveParams, Decision, FitState, ImagePlan, PixelEstimate,
+    SamplePositions,
+};
+use crate::image::plan::{IssuedRound, ProtocolError};
+use crate::image::tiles::{PixelRect, TileGeometry};
+use crate::image::{ImageSamples, PixelImage};
+use crate::resources::memory_limit;
+
+/// The order-free fingerprint `sum_i h(x_i, y_i) mod 2^64` of positions, added to `start`:
+/// the untiled plan's rule (`image::plan`), so a renderer's round is recognised the same way.
+pub(super) fn fingerprint(start: u64, xs: &[f64], ys: &[f64]) -> u64 {
+    xs.iter().zip(ys).fold(start, |acc, (x, y)| {
+        acc.wrapping_add(mix64(x.to_bits() ^ mix64(y.to_bits()).rotate_left(17)))
+    })
+}
+
+/// What one round of a tiled plan did.
+#[derive(Clone, Debug, Serialize)]
+pub struct TiledStep {
+    /// Positions to render next (empty when the plan stopped).
+    #[serde(skip)]
+    pub next: SamplePositions,
+    /// Number of positions to render next.
+    pub next_positions: usize,
+    /// The round those positions belong to (`None` when the plan stopped).
+    pub next_round: Option<usize>,
+    /// Why the plan stopped (`None`: render the next positions and call again).
+    pub stop: Option<StopReason>,
+    /// Positions handed out in all, including the next ones.
+    pub total_positions: usize,
+    /// The budget.
+    pub budget: usize,
+    /// The round's growth `G` split over the tiles.
+    pub growth: usize,
+    /// Tiles stepped this round.
+    pub tiles_stepped: usize,
+    /// Tiles stopped (the tolerance or the depth limit) after this round.
+    pub tiles_stopped: usize,
+    /// Positions the tiles drew in their halos (kept: the neighbour that owns the pixels
+    /// sees them in its window and tops its slots up only where they lack samples).
+    pub halo_drawn: usize,
+    /// Positions a tile drew beyond its share, cut (its refiner tops up the children of
+    /// marked slots whole; the share is the budget's).
+    pub cut: usize,
+    /// The largest samples in one tile's window this round.
+    pub largest_window: usize,
+}
+
+/// The final image of a tiled plan.
+#[derive(Clone, Debug)]
+pub struct TiledFinal {
+    /// The output pixels (the plan's estimate), every tile's interior.
+    pub image: PixelImage,
+    /// The last round of the samples.
+    pub round: usize,
+    /// Whether the plan has stopped at that round.
+    pub complete: bool,
+}
+
+/// A tile's step: what the round keeps of it.
+struct TileOutcome {
+    state: TilePlanState,
+    next: SamplePositions,
+    halo_drawn: usize,
+    cut: usize,
+}
+
+impl TiledPlanState {
+    /// The state as JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a tiled plan state serialises")
+    }
+
+    /// Parses a state written by [`TiledPlanState::to_json`] (`file` names it in errors),
+    /// checking its format, version, grid and records.
+    pub fn from_json(text: &str, file: &Path) -> Result<Self, TiledPlanError> {
+        let bad = |problem: String| ProtocolError::State {
+            file: file.to_path_buf(),
+            problem,
+        };
+        let state: Self = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        if state.format != TILED_STATE_FORMAT || state.version != TILED_STATE_VERSION {
+            return Err(bad(format!(
+                "format `{}` version {}, this build reads `{TILED_STATE_FORMAT}` version \
+                 {TILED_STATE_VERSION}",
+                state.format, state.version
+            ))
+            .into());
+        }
+        let g = TileGeometry::new(state.plane, state.tile, state.halo)
+            .map_err(|e| bad(format!("its tile grid: {e}")))?;
+        if state.tiles.len() != g.count()
+            || state.tiles.iter().enumerate().any(|(i, t)| t.index != i)
+            || state.issued.is_empty()
+            || state.issued.iter().enumerate().any(|(i, r)| r.round != i)
+            || state
+                .issued
+                .iter()
+                .any(|r| u64::from_str_radix(&r.fingerprint, 16).is_err())
+            || state.workers == 0
+        {
+            return Err(bad(format!(
+                "{} tile records for a grid of {} tiles, {} rounds recorded",
+                state.tiles.len(),
+                g.count(),
+                state.issued.len()
+            ))
+            .into());
+        }
+        Ok(state)
+    }
+
+    /// The tile grid.
+    pub fn geometry(&self) -> TileGeometry {
+        TileGeometry {
+            plane: self.plane,
+            tile: self.tile,
+            halo: self.halo,
+        }
+    }
+
+    /// The last round handed out.
+    pub fn round(&self) -> usize {
+        self.issued.len() - 1
+    }
+
+    /// Positions handed out so far.
+    pub fn positions(&self) -> usize {
+        self.issued.last().map_or(0, |r| r.total)
+    }
+
+    /// The round whose positions are exactly `samples` (the untiled plan's refusals).
+    fn matching_round(&self, samples: &ImageSamples) -> Result<usize, ProtocolError> {
+        if samples.plane() != self.plane {
+            return Err(ProtocolError::Plane {
+                state: self.plane,
+                given: samples.plane(),
+            });
+        }
+        if let Some(c) = self.channels.filter(|&c| c != samples.channels()) {
+            return Err(ProtocolError::Channels {
+                state: c,
+                given: samples.channels(),
+            });
+        }
+        let f = fingerprint(0, samples.xs(), samples.ys());
+        let last = self.round();
+        match self.issued.iter().position(|r| {
+            r.total == samples.len() && u64::from_str_radix(&r.fingerprint, 16) == Ok(f)
+        }) {
+            Some(k) if k < last => Err(ProtocolError::AlreadyPlanned {
+                given: samples.len(),
+                matched: k,
+                round: last,
+                expected: self.positions(),
+            }),
+            Some(k) => Ok(k),
+            None => Err(ProtocolError::Mismatch {
+                given: samples.len(),
+                expected: self.positions(),
+                round: last,
+            }),
+        }
+    }
+
+    /// The pool of the plan's workers.
+    fn pool(&self) -> Result<rayon::ThreadPool, TiledPlanError> {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(self.workers)
+            .build()
+            .map_err(|e| TiledPlanError::Pool {
+                workers: self.workers,
+                reason: e.to_string(),
+            })
+    }
+
+    /// The indices of the samples in each tile's window (one pass; a sample in a halo is in
+    /// up to four windows).
+    fn buckets(&self, samples: &ImageSamples) -> Vec<Vec<usize>> {
+        let g = self.geometry();
+        let nx = g.grid().0;
+        let mut buckets = vec![Vec::new(); g.count()];
+        for (i, (&x, &y)) in samples.xs().iter().zip(samples.ys()).enumerate() {
+            let (r0, r1) = g.rows_of(y);
+            let (c0, c1) = g.columns_of(x);
+            for ty in r0..=r1 {
+                for tx in c0..=c1 {
+                    let t = ty * nx + tx;
+                    if g.window(t).contains(x, y) {
+                        buckets[t].push(i);
+                    }
+                }
+            }
+        }
+        buckets
+    }
+
+    /// Memory held beside the tile fits: the samples and two images.
+    fn held_bytes(&self, samples: &ImageSamples) -> f64 {
+        let c = samples.channels() as f64;
+        samples.len() as f64 * (16.0 + 8.0 * c) + 2.0 * 8.0 * self.plane.pixels() as f64 * c
+    }
+
+    /// Refuses tile `index`'s fit of `n` samples when `workers` of its size beside the held
+    /// samples exceed the memory limit (before its window is copied).
+    fn check_tile(
+        &self,
+        index: usize,
+        n: usize,
+        held: f64,
+        channels: usize,
+    ) -> Result<(), TiledPlanError> {
+        let window = self.geometry().window(index);
+        let per_tile = tile_bytes(&window, &self.params, channels, n as f64);
+        let needed = held + self.workers as f64 * per_tile;
+        let limit = memory_limit();
+        if needed <= limit as f64 {
+            return Ok(());
+        }
+        let g = self.geometry();
+        let fits = (1..g.tile).rev().find(|&t| {
+            let side = (t + 2 * g.halo.min(t)) as f64;
+            let scale = (side * side / window.pixels() as f64).min(1.0);
+            let w = PixelRect {
+                x0: 0,
+                x1: (t + 2 * g.halo.min(t)).min(window.width()),
+                y0: 0,
+                y1: (t + 2 * g.halo.min(t)).min(window.height()),
+            };
+            held + self.workers as f64 * tile_bytes(&w, &self.params, channels, n as f64 * scale)
+                <= limit as f64
+        });
+        Err(TiledPlanError::TooLarge {
+            what: format!("tile {index}'s fit of {n} samples (window {window})"),
+            per_tile,
+            workers: self.workers,
+            held,
+            needed,
+            limit,
+            fix: match fits {
+                Some(t) => format!(
+                    "a new plan with a {} of at most {t} (or fewer {})",
+                    crate::error::Fix::Set(crate::error::Param::Tile),
+                    crate::error::Fix::Set(crate::error::Param::Workers)
+                ),
+                None => format!(
+                    "a smaller {} or fewer {}",
+                    crate::error::Fix::Set(crate::error::Param::Budget),
+                    crate::error::Fix::Set(crate::error::Param::Workers)
+                ),
+            },
+        })
+    }
+
+    /// The window-local samples of tile `index` (the indices of [`Self::buckets`]).
+    fn local(&self, samples: &ImageSamples, index: usize, picks: &[usize]) -> ImageSamples {
+        let w = self.geometry().window(index);
+        let (x0, y0) = (w.x0 as f64, w.y0 as f64);
+        let xs = picks.iter().map(|&i| samples.xs()[i] - x0).collect();
+        let ys = picks.iter().map(|&i| samples.ys()[i] - y0).collect();
+        let values = samples
+            .values()
+            .iter()
+            .map(|v| picks.iter().map(|&i| v[i]).collect())
+            .collect();
+        ImageSamples::new(window_plane(&w), xs, ys, values)
+            .expect("a window's samples, moved by an integer, lie in the window")
+    }
+
+    /// The tile's refiner as of its history with `budget` and least growth `growth`; a
+    /// budget below the tile's base raised to it (the tile then draws at most its share:
+    /// the round cuts the rest).
+    fn tile_plan(
+        &self,
+        tile: &TilePlanState,
+        budget: usize,
+        growth: f64,
+    ) -> Result<ImagePlan, ProtocolError> {
+        let window = self.geometry().window(tile.index);
+        let mut params: AdaptiveParams = tile.params;
+        params.stop.budget = budget.max(1);
+        params.growth.min_growth = growth.clamp(0.0, 10.0);
+        match ImagePlan::resume(window_plane(&window), &params, tile.progress.clone()) {
+            Err(AdaptiveError::BudgetTooSmall { base, .. }) => {
+                params.stop.budget = base;
+                Ok(ImagePlan::resume(
+                    window_plane(&window),
+                    &params,
+                    tile.progress.clone(),
+                )?)
+            }
+            other => Ok(other?),
+        }
+    }
+
+    /// One tile's step on its window's samples with `share` new samples (module docs).
+    fn step_tile(
+        &self,
+        tile: &TilePlanState,
+        local: &ImageSamples,
+        share: usize,
+    ) -> Result<TileOutcome, ProtocolError> {
+        let n = local.len();
+        let mut plan = self.tile_plan(tile, n + share, share as f64 / n.max(1) as f64)?;
+        *plan.start_mut() = tile.start_f64();
+        let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
+        let round = plan.step(local.xs(), local.ys(), &values)?;
+        let window = self.geometry().window(tile.index);
+        let mut state = tile.clone();
+        state.steps += 1;
+        state.indicator_sq =
+            Some((round.log.estimate_rms.powi(2) * window.pixels() as f64).to_bits());
+        state.set_start(plan.start_mut().take());
+        let mut next = SamplePositions::default();
+        let (mut halo_drawn, mut cut) = (0, 0);
+        match round.decision {
+            Decision::Sample(local_next) => {
+                halo_drawn = keep_owned(
+                    &self.geometry(),
+                    tile.index,
+                    &window,
+                    &local_next,
+                    &mut next,
+                    false,
+                );
+                if next.len() > share {
+                    cut = next.len() - share;
+                    next.xs.truncate(share);
+                    next.ys.truncate(share);
+                }
+                state.progress = plan.progress().clone();
+            }
+            Decision::Stop(StopReason::Budget) => {}
+            Decision::Stop(stop) => state.stop = Some(stop),
+        }
+        Ok(TileOutcome {
+            state,
+            next,
+            halo_drawn,
+            cut,
+        })
+    }
+
+    /// Every active tile's share of the round's growth `growth` (module docs): by the last
+    /// `eta_t^2`, by interior pixels before any indicator, largest remainders.
+    fn shares(&self, growth: usize) -> Vec<usize> {
+        let g = self.geometry();
+        let weight = |t: &TilePlanState| match (t.stop, t.indicator_sq) {
+            (Some(_), _) => 0.0,
+            (None, Some(eta)) => f64::from_bits(eta),
+            (None, None) => g.interior(t.index).pixels() as f64,
+        };
+        let mut weights: Vec<f64> = self.tiles.iter().map(weight).collect();
+        let mut total: f64 = weights.iter().sum();
+        if total <= 0.0 || !total.is_finite() {
+            // no detail left anywhere the indicator sees: by interior pixels
+            weights = self
+                .tiles
+                .iter()
+                .map(|t| {
+                    if t.stop.is_some() {
+                        0.0
+                    } else {
+                        g.interior(t.index).pixels() as f64
+                    }
+                })
+                .collect();
+            total = weights.iter().sum();
+        }
+        if total <= 0.0 {
+            return vec![0; self.tiles.len()];
+        }
+        let exact: Vec<f64> = weights.iter().map(|w| growth as f64 * w / total).collect();
+        let mut shares: Vec<usize> = exact.iter().map(|e| e.floor() as usize).collect();
+        let mut order: Vec<usize> = (0..shares.len()).collect();
+        order.sort_by(|&a, &b| {
+            (exact[b] - exact[b].floor())
+                .total_cmp(&(exact[a] - exact[a].floor()))
+                .then(a.cmp(&b))
+        });
+        let mut rest = growth.saturating_sub(shares.iter().sum());
+        for &t in order.iter().filter(|&&t| weights[t] > 0.0) {
+            if rest == 0 {
+                break;
+            }
+            shares[t] += 1;
+            rest -= 1;
+        }
+        shares
+    }
+
+    /// One round on every sample so far (the positions handed out, in any order): every
+    /// tile with a share steps, in parallel; then the next positions or the stop. The state
+    /// changes only when the whole round succeeded.
+    pub fn advance(&mut self, samples: &ImageSamples) -> Result<TiledStep, TiledPlanError> {
+        let k = self.matching_round(samples)?;
+        if k < self.round() {
+            unreachable!("matching_round refuses earlier rounds");
+        }
+        if let Some(stop) = self.stop {
+            return Ok(self.stopped(stop, 0, 0, 0, 0, 0));
+        }
+        let n = self.positions();
+        let budget = self.params.stop.budget;
+        let stop_now = if n >= budget {
+            Some(StopReason::Budget)
+        } else if self.round() >= self.params.stop.max_rounds {
+            Some(StopReason::MaxRounds)
+        } else if self.tiles.iter().all(|t| t.stop.is_some()) {
+            Some(all_stopped(&self.tiles))
+        } else {
+            None
+        };
+        if let Some(stop) = stop_now {
+            self.channels = Some(samples.channels());
+            self.stop = Some(stop);
+            return Ok(self.stopped(stop, 0, 0, 0, 0, 0));
+        }
+        let growth = (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize);
+        let shares = self.shares(growth);
+        let buckets = self.buckets(samples);
+        let held = self.held_bytes(samples) + 8.0 * samples.len() as f64;
+        for (t, picks) in buckets.iter().enumerate() {
+            if shares[t] > 0 {
+                self.check_tile(t, picks.len(), held, samples.channels())?;
+            }
+        }
+        let largest_window = buckets.iter().map(Vec::len).max().unwrap_or(0);
+        let pool = self.pool()?;
+        let outcomes: Vec<Result<Option<TileOutcome>, ProtocolError>> = pool.install(|| {
+            self.tiles
+                .par_iter()
+                .zip(&buckets)
+                .zip(&shares)
+                .map(|((tile, picks), &share)| {
+                    if share == 0 {
+                        return Ok(None);
+                    }
+                    let local = self.local(samples, tile.index, picks);
+                    self.step_tile(tile, &local, share).map(Some)
+                })
+                .collect()
+        });
+        // commit: everything computed, nothing changed yet
+        let mut tiles = self.tiles.clone();
+        let mut next = SamplePositions::default();
+        let (mut stepped, mut halo, mut cut) = (0, 0, 0);
+        for (t, outcome) in outcomes.into_iter().enumerate() {
+            if let Some(o) = outcome? {
+                stepped += 1;
+                halo += o.halo_drawn;
+                cut += o.cut;
+                next.xs.extend(o.next.xs);
+                next.ys.extend(o.next.ys);
+                tiles[t] = o.state;
+            }
+        }
+        self.tiles = tiles;
+        self.channels = Some(samples.channels());
+        if next.is_empty() {
+            let stop = if self.tiles.iter().all(|t| t.stop.is_some()) {
+                all_stopped(&self.tiles)
+            } else {
+                StopReason::Budget
+            };
+            self.stop = Some(stop);
+            return Ok(self.stopped(stop, growth, stepped, halo, cut, largest_window));
+        }
+        let prev = self
+            .issued
+            .last()
+            .expect("a plan has its base round")
+            .clone();
+        let start = u64::from_str_radix(&prev.fingerprint, 16).expect("checked when read");
+        self.issued.push(IssuedRound {
+            round: prev.round + 1,
+            positions: next.len(),
+            total: prev.total + next.len(),
+            fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
+        });
+        Ok(TiledStep {
+            next_positions: next.len(),
+            next,
+            next_round: Some(prev.round + 1),
+            stop: None,
+            total_positions: self.positions(),
+            budget,
+            growth,
+            tiles_stepped: stepped,
+            tiles_stopped: self.tiles.iter().filter(|t| t.stop.is_some()).count(),
+            halo_drawn: halo,
+            cut,
+            largest_window,
+        })
+    }
+
+    fn stopped(
+        &self,
+        stop: StopReason,
+        growth: usize,
+        stepped: usize,
+        halo: usize,
+        cut: usize,
+        largest_window: usize,
+    ) -> TiledStep {
+        TiledStep {
+            next: SamplePositions::default(),
+            next_positions: 0,
+            next_round: None,
+            stop: Some(stop),
+            total_positions: self.positions(),
+            budget: self.params.stop.budget,
+            growth,
+            tiles_stepped: stepped,
+            tiles_stopped: self.tiles.iter().filter(|t| t.stop.is_some()).count(),
+            halo_drawn: halo,
+            cut,
+            largest_window,
+        }
+    }
+
+    /// The final image of `samples` (the positions of rounds `0..=k` for some `k`): every
+    /// tile's fit of its window's samples on its tree, warm-started from its carried start,
+    /// its output pixels by `estimate` (`None`: the plan's), the interiors stitched.
+    pub fn final_image(
+        &self,
+        samples: &ImageSamples,
+        estimate: Option<PixelEstimate>,
+    ) -> Result<TiledFinal, TiledPlanError> {
+        let k = match self.matching_round(samples) {
+            Ok(k) => k,
+            Err(ProtocolError::AlreadyPlanned { matched, .. }) => matched,
+            Err(e) => return Err(e.into()),
+        };
+        if k != self.round() {
+            // only the last round's tiles' trees are kept: earlier rounds are refused
+            return Err(ProtocolError::AlreadyPlanned {
+                given: samples.len(),
+                matched: k,
+                round: self.round(),
+                expected: self.positions(),
+            }
+            .into());
+        }
+        let estimate = estimate.unwrap_or(self.params.output.pixels);
+        let buckets = self.buckets(samples);
+        let held = self.held_bytes(samples) + 8.0 * samples.len() as f64;
+        for (t, picks) in buckets.iter().enumerate() {
+            self.check_tile(t, picks.len(), held, samples.channels())?;
+        }
+        let pool = self.pool()?;
+        let images: Vec<Result<PixelImage, ProtocolError>> = pool.install(|| {
+            self.tiles
+                .par_iter()
+                .zip(&buckets)
+                .map(|(tile, picks)| {
+                    let local = self.local(samples, tile.index, picks);
+                    let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
+                    let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
+                    let start = tile.start_f64();
+                    let (fit, significance) = plan.fit_updating(
+                        local.xs(),
+                        local.ys(),
+                        &values,
+                        plan.params().fit.solver,
+                        start.as_deref(),
+                        &mut FitState::default(),
+                    )?;
+                    let sigma = significance.map_or(0.0, |s| s.level.sigma);
+                    super::tile_output(&plan, &fit, &local, sigma, estimate)
+                })
+                .collect()
+        });
+        let g = self.geometry();
+        let mut image = PixelImage::zeros(self.plane, samples.channels());
+        for (t, tile) in images.into_iter().enumerate() {
+            stitch(&mut image, &g, t, &tile?);
+        }
+        Ok(TiledFinal {
+            image,
+            round: k,
+            complete: self.stop.is_some(),
+        })
+    }
+}
+
+/// The stop of a plan whose tiles all stopped: the tolerance when every tile reached it,
+/// else the depth limit.
+fn all_stopped(tiles: &[TilePlanState]) -> StopReason {
+    if tiles.iter().all(|t| t.stop == Some(StopReason::Tolerance)) {
+        StopReason::Tolerance
+    } else {
+        StopReason::DepthLimit
+    }
+}
+
+impl TiledPlanState {
+    /// Checks a later call's `options` (and the image `plane`, if given) against the plan:
+    /// each option given must be the plan's own (the untiled plan's rule), naming the first
+    /// that differs.
+    pub fn check_options(
+        &self,
+        plane: Option<crate::image::ImagePlane>,
+        options: &super::super::PlanOptions,
+    ) -> Result<(), TiledPlanError> {
+        if let Some(given) = plane.filter(|&p| p != self.plane) {
+            return Err(ProtocolError::Plane {
+                state: self.plane,
+                given,
+            }
+            .into());
+        }
+        let params = options.params(self.plane, &self.params)?;
+        let ours = serde_json::to_value(self.params).expect("parameters serialise");
+        let theirs = serde_json::to_value(params).expect("parameters serialise");
+        if let (Some(a), Some(b)) = (ours.as_object(), theirs.as_object()) {
+            if let Some((key, value)) = a.iter().find(|(k, v)| b.get(*k) != Some(*v)) {
+                return Err(ProtocolError::OtherParameters {
+                    parameter: key.clone(),
+                    state: value.to_string(),
+                    given: b.get(key).cloned().unwrap_or_default().to_string(),
+                }
+                .into());
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,101 @@
+//! `rkwave plan --tile`: the tiled plan through the round files (positions out, every sample
+//! so far in) to its stop and its final image; the command line's refusals name the flags.
+
+mod common;
+
+use rkwave::io::{read_npy, write_npy, SampleSet};
+
+use common::scenes::straight_edge;
+
+/// The tiled plan driven through files to its stop writes its positions and, on the stopping
+/// call, the final image; the positions are those the library hands out (each call's count
+/// is the state's record).
+#[test]
+fn tiled_plan_through_files_to_its_stop() {
+    let dir = common::scratch("tiledplan", "loop");
+    let state = dir.join("state");
+    let (w, h) = (48usize, 40usize);
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let mut set = SampleSet::default();
+    let image = dir.join("image.npy");
+    let mut call = 0;
+    loop {
+        let next = dir.join(format!("next{call}.npy"));
+        let mut args = vec![
+            "plan".to_string(),
+            "--state".into(),
+            s(&state),
+            "--spp".into(),
+            "3".into(),
+            "--out".into(),
+            s(&next),
+            "--final-image".into(),
+            s(&image),
+        ];
+        if call == 0 {
+            args.extend([
+                "--resolution".into(),
+                format!("{w}x{h}"),
+                "--tile".into(),
+                "16".into(),
+                "--halo".into(),
+                "4".into(),
+            ]);
+        } else {
+            args.extend([
+                "--samples".into(),
+                s(&dir.join(format!("samples{}.npy", call - 1))),
+            ]);
+        }
+        let out = common::rkwave(&args);
+        assert!(out.status.success(), "{}", common::text(&out));
+        if common::text(&out).contains("the tiled plan stopped") {
+            assert!(image.exists(), "{}", common::text(&out));
+            break;
+        }
+        assert!(!image.exists());
+        let positions = read_npy(&next).unwrap();
+        set.positions.extend(&positions.positions);
+        if set.values.is_empty() {
+            set.values = vec![vec![], vec![]];
+        }
+        set.values[0].extend(&positions.values[0]);
+        for (&x, &y) in positions.positions.iter().zip(&positions.values[0]) {
+            set.values[1].push(straight_edge(x, y));
+        }
+        set.names = vec!["y".into(), "value".into()];
+        write_npy(dir.join(format!("samples{call}.npy")), &set).unwrap();
+        call += 1;
+        assert!(call < 60, "the plan did not stop");
+    }
+    assert!(set.positions.len() <= 3 * w * h);
+}
+
+/// The command line's refusals of the tile grid name the flag at fault (the library's
+/// parameter spelled as the flag), before anything is written.
+#[test]
+fn bad_tiles_are_refused_naming_the_flag() {
+    let dir = common::scratch("tiledplan", "refusals");
+    let out_file = dir.join("next.npy");
+    let run = |extra: &[&str]| {
+        let mut args: Vec<String> = ["plan", "--resolution", "64x48", "--spp", "4", "--state"]
+            .map(String::from)
+            .to_vec();
+        args.push(dir.join("state").to_str().unwrap().into());
+        args.push("--out".into());
+        args.push(out_file.to_str().unwrap().into());
+        args.extend(extra.iter().map(|e| e.to_string()));
+        common::rkwave(&args)
+    };
+    for (extra, flag) in [
+        (&["--tile", "0"][..], "--tile"),
+        (&["--tile", "49"][..], "--tile"),
+        (&["--tile", "16", "--halo", "17"][..], "--halo"),
+    ] {
+        let out = run(extra);
+        assert!(!out.status.success(), "{extra:?}");
+        let text = common::text(&out);
+        assert!(text.contains(flag), "{extra:?}: {text}");
+        assert!(!out_file.exists(), "{extra:?}: positions written");
+    }
+}
