@@ -621,3 +621,38 @@ fn no_source_file_over_800_lines() {
         .collect();
     assert!(long.is_empty(), "files over {MAX_LINES} lines: {long:?}");
 }
+
+/// The command files of the command line: `src/cli/*_cmd.rs` and `src/cli/demo.rs`, each the
+/// `run` of one command (`cli::run` dispatches to them).
+fn is_command_file(module: &str) -> bool {
+    module
+        .strip_prefix("cli::")
+        .is_some_and(|name| !name.contains("::") && (name.ends_with("_cmd") || name == "demo"))
+}
+
+/// A command file parses, calls the library and prints; it never calls or imports another
+/// command file (shared arguments live in `cli/*_args.rs`, shared printing in the library or
+/// a `cli` helper): every path of its text, `use` declarations included, is counted.
+#[test]
+fn no_command_file_imports_another() {
+    let graph = dependency_graph(true);
+    let commands: Vec<&String> = graph.keys().filter(|m| is_command_file(m)).collect();
+    assert!(
+        commands.len() >= 10,
+        "found only {} command files: {commands:?}",
+        commands.len()
+    );
+    let calls: Vec<String> = commands
+        .iter()
+        .flat_map(|m| {
+            graph[*m]
+                .iter()
+                .filter(|d| is_command_file(d))
+                .map(move |d| format!("{m} -> {d}"))
+        })
+        .collect();
+    assert!(
+        calls.is_empty(),
+        "command files using command files: {calls:?}"
+    );
+}
