@@ -53,7 +53,7 @@ impl Fit {
     /// Every fallback and warning of the fit, one sentence each, for text and JSON output:
     /// the replaced method or lowered level ([`Fit::fallbacks`]) and the local inversion's
     /// cut directions, solver fallbacks and weakly supported blocks
-    /// ([`LocalStats::warnings`]).
+    /// ([`LocalStats::warnings`](crate::solve::LocalStats::warnings)).
     pub fn warnings(&self) -> Vec<String> {
         let mut w: Vec<String> = self.fallbacks.iter().map(|f| f.to_string()).collect();
         if let SolveReport::Local(local) = &self.solve {

@@ -11,7 +11,7 @@ use crate::solve::{GlobalLsParams, LocalInversionParams};
 /// How the levels are chosen.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub enum Levels {
-    /// From the number of samples ([`LevelChoice::auto`]).
+    /// From the number of samples ([`LevelChoice::auto`](crate::kernel::LevelChoice::auto)).
     Auto(LevelParams),
     /// Given explicitly.
     Fixed {

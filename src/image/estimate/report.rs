@@ -35,7 +35,7 @@ pub struct EstimateReport {
     /// only).
     pub box_risk: Option<f64>,
     /// The robust candidate for heavy tails: what it cut, its estimated bias and the pixels the
-    /// gate gave it (`auto` only; [`robust`]).
+    /// gate gave it (`auto` only; [`robust`](super::robust)).
     pub robust: Option<RobustReport>,
     /// The median SureShrink `lambda` per channel (`auto` only).
     pub lambda: Option<Vec<f64>>,
@@ -46,7 +46,7 @@ pub struct EstimateReport {
     pub pixels_with_spread: Option<usize>,
     /// Pixels per difference estimate of the noise of a pixel's mean (`auto` only: the 2D
     /// strata's second differences, the successive differences along `x` or along `y`,
-    /// [`noise`]).
+    /// [`noise`](super::noise)).
     pub noise_estimators: Option<Vec<DifferenceCount>>,
     /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,

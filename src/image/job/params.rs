@@ -6,7 +6,7 @@ use crate::image::{ImageMethod, UniformEstimate};
 
 /// The parameters of an image-plane job, in the few groups a user meets. Every `Option` left
 /// `None` takes the library's default, and counts as not asked for (the default pixel
-/// estimate depends on which fit parameters were asked for: [`PixelChoice`]).
+/// estimate depends on which fit parameters were asked for: `PixelChoice`).
 #[derive(Debug, Clone)]
 pub struct ImageParams {
     /// How samples become pixels: the least-squares fit ([`ImageMethod::Wavelet`], the default),
@@ -18,7 +18,7 @@ pub struct ImageParams {
     pub fit: FitOptions,
     /// The pixel estimate of the fit's path; `None`: [`UniformEstimate::Auto`] (a film per
     /// pixel chosen by SURE, then Haar shrinkage; no fit unless a pixel lacks samples), or
-    /// the fit when a fit parameter was asked for ([`PixelChoice`]).
+    /// the fit when a fit parameter was asked for (`PixelChoice`).
     pub pixels: Option<UniformEstimate>,
     /// The shrinkage of the noise-aware estimates (threshold scale, levels).
     pub shrink: ShrinkParams,
