@@ -282,6 +282,13 @@ pub struct Evaluator<'a> {
     scale: Vec<f64>,
 }
 
+impl CdvBasis {
+    /// An evaluator with its own scratch space (one per thread).
+    pub fn evaluator(&self) -> Evaluator<'_> {
+        Evaluator::new(self)
+    }
+}
+
 impl<'a> Evaluator<'a> {
     /// A new evaluator for `basis`.
     pub fn new(basis: &'a CdvBasis) -> Self {

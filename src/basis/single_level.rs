@@ -37,6 +37,14 @@ pub struct SingleLevelEvaluator<'a> {
     scale: f64,
 }
 
+impl CdvBasis {
+    /// An evaluator of the scaling functions of `V_n` alone (`n` = the coarse level), one per
+    /// thread: the single-scale rows of least squares and of evaluation after FWT synthesis.
+    pub fn single_level_evaluator(&self) -> SingleLevelEvaluator<'_> {
+        SingleLevelEvaluator::new(self)
+    }
+}
+
 impl<'a> SingleLevelEvaluator<'a> {
     /// A new evaluator of the scaling functions of `V_n`, `n = basis.coarse()`.
     pub fn new(basis: &'a CdvBasis) -> Self {

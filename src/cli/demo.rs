@@ -96,7 +96,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             grid: 8192,
         };
         let r = rkwave::report::local_vs_global(&setting)?;
-        let _ = writeln!(summary, "```\n{}```", super::report_cmd::table(&r));
+        let _ = writeln!(summary, "```\n{}```", r.table());
         reports_lg.push(r);
     }
     let small = CdvBasis::new(3, FilterFamily::Extremal, 4, 5, Domain::UNIT)?;

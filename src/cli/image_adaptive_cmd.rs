@@ -9,7 +9,7 @@ use rkwave::image::adaptive::figure::{depth_image, samples_image, save_adaptive_
 use rkwave::image::adaptive::{AdaptiveParams, PixelEstimate};
 use rkwave::image::scene::Scene;
 use rkwave::image::PixelImage;
-use rkwave::io::image_file::write_image;
+use rkwave::io::image_file::{write_image, ImageFormat};
 use rkwave::lab::adaptive::compare_adaptive;
 use rkwave::lab::experiment::TruthParams;
 
@@ -57,6 +57,8 @@ fn write(path: &Path, image: &PixelImage, force: bool) -> Result<(), CliError> {
 
 /// Runs `rkwave image --adaptive`.
 pub fn run(args: &ImageArgs) -> Result<(), CliError> {
+    // Before any work: a format we cannot write is refused up front.
+    ImageFormat::from_path(&args.out).map_err(|e| CliError::flag("--out", e))?;
     let a = &args.adaptive;
     let depth_path = figure_path(&args.out, "depth");
     let samples_path = figure_path(&args.out, "samples");

@@ -37,13 +37,10 @@ fn filter_csv_path(out: &Path, x: usize, y: usize) -> PathBuf {
     out.with_file_name(format!("{stem}_filter_{x}_{y}.csv"))
 }
 
-/// Runs `rkwave image`.
+/// Runs `rkwave image` without `--adaptive` (`image_adaptive_cmd` runs it with).
 pub fn run(args: &ImageArgs) -> Result<(), CliError> {
-    // Before any work, in both modes: a format we cannot write is refused up front.
+    // Before any work: a format we cannot write is refused up front.
     ImageFormat::from_path(&args.out).map_err(|e| CliError::flag("--out", e))?;
-    if args.adaptive.adaptive {
-        return super::image_adaptive_cmd::run(args);
-    }
     let scene_file = scene_path(&args.scene)?;
     check_outputs(&[&args.out], args.force, &[&scene_file])?;
     let plane = parse_resolution(&args.resolution)?;

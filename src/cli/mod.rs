@@ -18,6 +18,7 @@ pub mod reconstruct2d_cmd;
 pub mod reconstruct_args;
 pub mod reconstruct_cmd;
 pub mod reconstruct_stream;
+pub mod report_args;
 pub mod report_cmd;
 pub mod scaling_cmd;
 pub mod solve_args;
@@ -57,7 +58,7 @@ pub enum Command {
     /// Reconstruct a user's samples (CSV or .npy) onto a grid.
     Reconstruct(reconstruct_args::ReconstructArgs),
     /// Local inversion against the global pseudo-inverse (docs/design.md §5).
-    Report(report_cmd::ReportArgs),
+    Report(report_args::ReportArgs),
     /// The report over a grid of knobs: CSV and a figure of error against time.
     Sweep(sweep_cmd::SweepArgs),
     /// End-to-end time and memory against the number of samples.
@@ -413,11 +414,15 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Demo(args)) => demo::run(&args),
         Some(Command::Basis(args)) => basis_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
-        Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
+        Some(Command::Reconstruct(args)) => match args.checked_dim()? {
+            2 => reconstruct2d_cmd::run(&args),
+            _ => reconstruct_cmd::run(&args),
+        },
         Some(Command::Report(args)) => report_cmd::run(&args),
         Some(Command::Sweep(args)) => sweep_cmd::run(&args),
         Some(Command::Adapt(args)) => adapt_cmd::run(&args),
         Some(Command::Scaling(args)) => scaling_cmd::run(&args),
+        Some(Command::Image(args)) if args.adaptive.adaptive => image_adaptive_cmd::run(&args),
         Some(Command::Image(args)) => image_cmd::run(&args),
         Some(Command::Compare(args)) => compare_cmd::run(&args),
         Some(Command::Plan(args)) => plan_cmd::run(&args),

@@ -139,6 +139,34 @@ impl ReconstructArgs {
             _ => Ok(()),
         }
     }
+
+    /// The dimension of the samples (1 or 2), once the flags are checked against it: the
+    /// image plane's flags, `--no-residual` and `--state` only with `--dim 2`, `--stream`
+    /// only with `--dim 1`. The command line dispatches on it (`--dim 1`: `reconstruct_cmd`,
+    /// `--dim 2`: `reconstruct2d_cmd`).
+    pub fn checked_dim(&self) -> Result<usize, super::CliError> {
+        use super::CliError;
+        self.check_image_flags()?;
+        if self.no_residual && (self.dim != 2 || self.state.is_none()) {
+            return Err(CliError::Invalid(
+                "--no-residual turns off the residual correction of an adaptive plan's image: use \
+                 it with --dim 2 --state DIR"
+                    .into(),
+            ));
+        }
+        if self.dim != 1 && self.stream != StreamArg::Auto {
+            return Err(CliError::Invalid(
+                "--stream reads 1D samples in chunks: use it with --dim 1".into(),
+            ));
+        }
+        match self.dim {
+            1 if self.state.is_some() => Err(CliError::Invalid(
+                "--state is the plan of an image (`rkwave plan`): use it with --dim 2".into(),
+            )),
+            d @ (1 | 2) => Ok(d),
+            d => Err(CliError::Invalid(format!("--dim {d}: expected 1 or 2"))),
+        }
+    }
 }
 
 /// `--stream`: whether `rkwave reconstruct --dim 1` reads its samples in chunks.

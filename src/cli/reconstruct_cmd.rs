@@ -11,31 +11,9 @@ use rkwave::report::reconstruction::{onto_grid, ReconstructReport, ReconstructTi
 use super::reconstruct_args::ReconstructArgs;
 use super::CliError;
 
-/// Runs `rkwave reconstruct`.
+/// Runs `rkwave reconstruct --dim 1` (the flags checked and the dimension dispatched by
+/// [`ReconstructArgs::checked_dim`]).
 pub fn run(args: &ReconstructArgs) -> Result<(), CliError> {
-    args.check_image_flags()?;
-    if args.no_residual && (args.dim != 2 || args.state.is_none()) {
-        return Err(CliError::Invalid(
-            "--no-residual turns off the residual correction of an adaptive plan's image: use \
-             it with --dim 2 --state DIR"
-                .into(),
-        ));
-    }
-    if args.dim != 1 && args.stream != super::reconstruct_args::StreamArg::Auto {
-        return Err(CliError::Invalid(
-            "--stream reads 1D samples in chunks: use it with --dim 1".into(),
-        ));
-    }
-    match args.dim {
-        1 if args.state.is_some() => {
-            return Err(CliError::Invalid(
-                "--state is the plan of an image (`rkwave plan`): use it with --dim 2".into(),
-            ))
-        }
-        1 => {}
-        2 => return super::reconstruct2d_cmd::run(args),
-        d => return Err(CliError::Invalid(format!("--dim {d}: expected 1 or 2"))),
-    }
     let started = Instant::now();
     check_output(&args.output, args.force, &[&args.input])?;
     if args.grid < 2 {

@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rkwave::plot::figures::sweep_figure;
 use rkwave::report::sweep::{sweep, SweepKnobs};
 
-use super::report_cmd::ReportArgs;
+use super::report_args::ReportArgs;
 use super::{check_writable, figures, CliError};
 
 /// `rkwave sweep`.

@@ -13,10 +13,6 @@
 //! plus the sum over the dropped ones is the sum over all, so a round with dropped samples is
 //! still recognised as the round the plan handed out.
 
-/// The fix a refusal of non-finite samples names: drop and count them
-/// ([`NonFinitePolicy::Drop`]), spelled as each front end spells it.
-pub(crate) const DROP_FIX: crate::error::fix::Fix = crate::error::fix::Fix::DropNonfinite;
-
 use serde::Serialize;
 
 use super::{ImageError, ImagePlane, ImageSamples};

@@ -1,7 +1,7 @@
 //! The one kernel builder: the pointwise evaluation of a basis at sample positions, row by
 //! row, and the CSR assembly of `K[i, c] = Psi_{active(c)}(x_i)` from it.
 //!
-//! [`kernel_matrix`](super::kernel_matrix) evaluates and filters in one pass;
+//! `kernel::kernel_matrix` (its caller) evaluates and filters in one pass;
 //! [`EvaluationRows`] keeps the evaluation of every function of a full `Psi(n, D)` at each
 //! position (made once per position) so that `K` of any active set inside `Psi(n, D)` is a
 //! filter of the cached rows, never a second evaluation (the adaptive refiner's rows).

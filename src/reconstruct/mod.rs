@@ -8,230 +8,35 @@
 
 mod banded_qr;
 pub(crate) mod density;
+mod error;
 mod evaluate;
+mod fit_result;
 mod kernel_functions;
 mod outcome;
+mod params;
 mod single_scale;
 pub mod stream;
 mod undersampled;
 
+use error::undersampled;
+pub use error::ReconstructError;
 pub use evaluate::FitEvaluator;
+pub use fit_result::{Fit, Timings};
 pub use kernel_functions::{dual_kernel, reproducing_kernel};
 pub use outcome::{Fallback, SolveReport};
+pub use params::{FitParams, Levels, Method};
 pub use single_scale::{
     single_scale_ls, single_scale_qr, NormalEquations, SingleScaleProblem, SingleScaleReport,
     SingleScaleSolver, PIVOT_TOLERANCE,
 };
-use undersampled::undersampled;
 pub use undersampled::UndersampledFix;
 
 use std::time::Instant;
 
-use serde::Serialize;
-use thiserror::Error;
-
-use crate::basis::{BasisError, CdvBasis, FilterFamily};
-use crate::kernel::{
-    check_positions, kernel_matrix, ActiveSet, KernelError, LevelChoice, LevelParams,
-};
+use crate::basis::CdvBasis;
+use crate::kernel::{check_positions, kernel_matrix, ActiveSet, LevelChoice};
 use crate::sampling::Domain;
-use crate::solve::{
-    apply_local, dense_pinv, global_ls, GlobalLsParams, LocalInversionParams, SolveError,
-};
-
-/// How the levels are chosen.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub enum Levels {
-    /// From the number of samples ([`LevelChoice::auto`]).
-    Auto(LevelParams),
-    /// Given explicitly.
-    Fixed {
-        /// Coarse scaling level `n`.
-        coarse: u32,
-        /// Finest wavelet level `N`.
-        fine: u32,
-    },
-}
-
-/// How `c = K^+ f` is computed.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub enum Method {
-    /// Global least squares through the single-scale basis `V_{N+1}` (banded QR or banded
-    /// normal equations, then the FWT): exact, `O(m p^2 + P p^2)`, the fastest path for
-    /// uniform levels; `ridge` is the relative diagonal shift of the equilibrated normal matrix.
-    SingleScale {
-        /// Relative ridge (e.g. 1e-13).
-        ridge: f64,
-        /// Factorization: QR (accuracy of `cond(K)`, default) or normal equations
-        /// (`cond(K)^2`, cheaper per sample).
-        solver: SingleScaleSolver,
-    },
-    /// Local inversion (docs/design.md §4): fast, local, approximate.
-    Local(LocalInversionParams),
-    /// Global sparse least squares: exact up to the solver tolerance, one large factorization.
-    Global(GlobalLsParams),
-    /// Dense SVD pseudo-inverse with a relative cut-off: the truth, small problems only.
-    Dense {
-        /// Relative singular value cut-off.
-        cutoff: f64,
-    },
-}
-
-/// Parameters of a fit.
-///
-/// The default is `p = 3`, CDV's filter family, automatic levels and the single-scale
-/// solve. Change one field and keep the rest:
-///
-/// ```
-/// use rkwave::basis::FilterFamily;
-/// use rkwave::reconstruct::{FitParams, Levels, Method};
-/// use rkwave::solve::LocalInversionParams;
-///
-/// let params = FitParams { p: 6, ..FitParams::default() };
-/// assert_eq!(params.family(), FilterFamily::LeastAsymmetric); // sym6, CDV's choice
-///
-/// let fixed = FitParams {
-///     levels: Levels::Fixed { coarse: 4, fine: 7 },
-///     method: Method::Local(LocalInversionParams::default()),
-///     ..FitParams::default()
-/// };
-/// assert_eq!(fixed.family(), FilterFamily::Extremal); // db3
-/// ```
-#[derive(Clone, Copy, Debug)]
-pub struct FitParams {
-    /// Vanishing moments `p`: higher reproduces smoother signals with fewer samples, costs
-    /// `O(p^2)` per sample.
-    pub p: usize,
-    /// Interior filter family; `None` is CDV's choice for `p`
-    /// ([`FilterFamily::cdv_default`]: extremal phase for `p <= 3`, least asymmetric above).
-    pub family: Option<FilterFamily>,
-    /// Levels.
-    pub levels: Levels,
-    /// Solver.
-    pub method: Method,
-}
-
-impl FitParams {
-    /// The interior filter family: the given one, or CDV's choice for `p`.
-    pub fn family(&self) -> FilterFamily {
-        self.family
-            .unwrap_or_else(|| FilterFamily::cdv_default(self.p))
-    }
-
-    /// The CDV basis of these parameters with scaling level `coarse` and wavelets on
-    /// `coarse..=fine` on `domain` ([`CdvBasis::new`], with [`FitParams::family`]).
-    pub fn basis(&self, coarse: u32, fine: u32, domain: Domain) -> Result<CdvBasis, BasisError> {
-        CdvBasis::new(self.p, self.family(), coarse, fine, domain)
-    }
-}
-
-impl Default for FitParams {
-    fn default() -> Self {
-        Self {
-            p: 3,
-            family: None,
-            levels: Levels::Auto(LevelParams::default()),
-            method: Method::SingleScale {
-                ridge: 0.0,
-                solver: SingleScaleSolver::default(),
-            },
-        }
-    }
-}
-
-/// Errors of reconstruction.
-#[derive(Debug, Clone, PartialEq, Error)]
-#[non_exhaustive]
-pub enum ReconstructError {
-    /// Basis parameters.
-    #[error(transparent)]
-    Basis(#[from] BasisError),
-    /// Sample positions.
-    #[error(transparent)]
-    Kernel(#[from] KernelError),
-    /// The solve.
-    #[error(transparent)]
-    Solve(#[from] SolveError),
-    /// Fewer samples than basis functions.
-    #[error("{samples} samples cannot determine {functions} basis functions: {fix}")]
-    Undersampled {
-        /// Samples `m` (rows of `K`).
-        samples: usize,
-        /// Basis functions `P` (columns of `K`).
-        functions: usize,
-        /// What to change: only changes that can work here (more samples; a smaller fine
-        /// level or a larger `rho` only where the basis is not already the smallest for `p`).
-        fix: UndersampledFix,
-    },
-    /// The request would need more memory than the limit.
-    #[error(transparent)]
-    Resources(#[from] crate::resources::ResourceError),
-    /// A sample value is NaN or infinite.
-    #[error(
-        "sample {row} (1-based), channel {channel}: value {value} is not finite: fix or remove it"
-    )]
-    NonFiniteValue {
-        /// 1-based sample.
-        row: usize,
-        /// 0-based channel.
-        channel: usize,
-        /// The value.
-        value: f64,
-    },
-    /// Values and positions disagree in length.
-    #[error("channel {channel} has {found} values for {expected} positions")]
-    LengthMismatch {
-        /// Channel.
-        channel: usize,
-        /// Positions.
-        expected: usize,
-        /// Values.
-        found: usize,
-    },
-}
-
-/// Seconds spent in each stage.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct Timings {
-    /// Building `K`.
-    pub kernel_s: f64,
-    /// Solving for the coefficients.
-    pub solve_s: f64,
-}
-
-/// A fitted reconstruction: `f~(x) = sum_a c_a Psi_a(x)` over the active set, per channel.
-///
-/// ```
-/// use rkwave::reconstruct::{fit, FitParams};
-/// use rkwave::sampling::{Domain, Layout};
-///
-/// let xs = Layout::Random.generate(1000, Domain::UNIT, 3);
-/// let line: Vec<f64> = xs.iter().map(|x| 2.0 * x - 1.0).collect();
-/// let square: Vec<f64> = xs.iter().map(|x| x * x).collect();
-/// let f = fit(&xs, &[&line, &square], Domain::UNIT, &FitParams::default())?;
-/// assert_eq!(f.coefficients.len(), 2); // two channels
-/// assert_eq!(f.coefficients[0].len(), f.active.len());
-/// // p = 3 reproduces polynomials of degree < 3 exactly (up to rounding).
-/// let v = f.evaluate(&[0.25])?;
-/// assert!((v[0][0] + 0.5).abs() < 1e-9 && (v[1][0] - 0.0625).abs() < 1e-9);
-/// # Ok::<(), rkwave::reconstruct::ReconstructError>(())
-/// ```
-#[derive(Clone, Debug)]
-pub struct Fit {
-    /// The active basis.
-    pub active: ActiveSet,
-    /// Coefficients per channel, one per active function.
-    pub coefficients: Vec<Vec<f64>>,
-    /// The levels used.
-    pub levels: LevelChoice,
-    /// Stage times.
-    pub timings: Timings,
-    /// The report of the solve that produced the coefficients.
-    pub solve: SolveReport,
-    /// Every departure from the requested levels or method, in the order taken (empty when
-    /// the fit is exactly what was asked for).
-    pub fallbacks: Vec<Fallback>,
-}
+use crate::solve::{apply_local, dense_pinv, global_ls, GlobalLsParams, LocalInversionParams};
 
 fn check_values(m: usize, values: &[&[f64]]) -> Result<(), ReconstructError> {
     for (c, ch) in values.iter().enumerate() {
@@ -563,41 +368,3 @@ pub fn fit_active(
         fallbacks,
     })
 }
-
-impl Fit {
-    /// Every fallback and warning of the fit, one sentence each, for text and JSON output:
-    /// the replaced method or lowered level ([`Fit::fallbacks`]) and the local inversion's
-    /// cut directions, solver fallbacks and weakly supported blocks
-    /// ([`LocalStats::warnings`]).
-    pub fn warnings(&self) -> Vec<String> {
-        let mut w: Vec<String> = self.fallbacks.iter().map(|f| f.to_string()).collect();
-        if let SolveReport::Local(local) = &self.solve {
-            w.extend(local.warnings());
-        }
-        w
-    }
-
-    /// The reconstruction at `xs`, one vector per channel (see [`Fit::evaluator`] to evaluate
-    /// many batches).
-    pub fn evaluate(&self, xs: &[f64]) -> Result<Vec<Vec<f64>>, ReconstructError> {
-        self.evaluator()?.evaluate(xs)
-    }
-}
-
-impl ReconstructError {
-    /// The kind of this error ([`crate::error`]).
-    pub fn kind(&self) -> crate::error::ErrorKind {
-        match self {
-            ReconstructError::Basis(e) => e.kind(),
-            ReconstructError::Kernel(e) => e.kind(),
-            ReconstructError::Solve(e) => e.kind(),
-            ReconstructError::Undersampled { .. } => crate::error::ErrorKind::Undetermined,
-            ReconstructError::Resources(e) => e.kind(),
-            ReconstructError::NonFiniteValue { .. } | ReconstructError::LengthMismatch { .. } => {
-                crate::error::ErrorKind::InvalidInput
-            }
-        }
-    }
-}
-
-crate::error::classified!(ReconstructError);

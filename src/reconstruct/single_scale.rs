@@ -40,7 +40,7 @@ pub struct SingleScaleReport {
     pub unsampled: usize,
     /// Pivots below the tolerance: directions the samples do not determine, unsampled
     /// functions included. When nonzero the solution is not trustworthy (near-deficient
-    /// directions amplify rounding): callers fall back (see [`crate::reconstruct::fit`]).
+    /// directions amplify rounding): callers fall back (see `reconstruct::fit`).
     pub deficient: usize,
     /// Smallest pivot `L_jj^2` of the equilibrated factor: near `1 / cond(K)^2`, small values
     /// flag locally undersampled regions.
@@ -498,7 +498,7 @@ pub(crate) fn solve_triangle(
 }
 
 /// The single-scale problem at one level, ready to solve and to lower by one level: the
-/// automatic-level search of [`crate::reconstruct::fit`] solves, and while directions stay
+/// automatic-level search of `reconstruct::fit` solves, and while directions stay
 /// undetermined, coarsens. The normal equations coarsen in `O(P b p)` (`A' = H A H^T`); the
 /// QR path solves afresh at the coarser level (one more pass over the samples).
 pub enum SingleScaleProblem<'a> {

@@ -5,13 +5,9 @@
 
 use std::fmt;
 
-use super::Levels;
-use crate::basis::minimum_level;
 use crate::error::Fix;
 
-use super::ReconstructError;
-
-/// The fix of [`ReconstructError::Undersampled`], as data (its `Display` is the advice).
+/// The fix of `ReconstructError::Undersampled`, as data (its `Display` is the advice).
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum UndersampledFix {
@@ -92,43 +88,5 @@ impl fmt::Display for UndersampledFix {
                 "give at least {functions} samples, or an active set with fewer functions"
             ),
         }
-    }
-}
-
-/// [`ReconstructError::Undersampled`] with a fix that can work (module docs); `levels` is
-/// `None` for an active set given by the caller.
-pub(super) fn undersampled(
-    samples: usize,
-    functions: usize,
-    p: usize,
-    fine: u32,
-    levels: Option<&Levels>,
-) -> ReconstructError {
-    let level = minimum_level(p);
-    let fix = if fine <= level {
-        UndersampledFix::SmallestBasis {
-            functions,
-            p,
-            level,
-            haar_functions: (p > 1).then(|| crate::resources::dimension(minimum_level(1)) as usize),
-        }
-    } else {
-        match levels {
-            Some(Levels::Auto(lp)) => UndersampledFix::AutoLevels {
-                functions,
-                rho: lp.rho,
-            },
-            Some(Levels::Fixed { .. }) => UndersampledFix::FixedLevels {
-                functions,
-                p,
-                level,
-            },
-            None => UndersampledFix::ActiveSet { functions },
-        }
-    };
-    ReconstructError::Undersampled {
-        samples,
-        functions,
-        fix,
     }
 }

@@ -9,7 +9,7 @@ use crate::reconstruct::Fit;
 use crate::sampling::Domain;
 
 /// A reconstruction that can be evaluated at domain positions: a [`Fit`] (its first channel)
-/// or an adaptive [`crate::refine::Refinement`]. Measurement knows nothing else of them.
+/// or an adaptive `refine::Refinement`. Measurement knows nothing else of them.
 pub trait Reconstruction {
     /// `f~(x)` at every `x` of `xs`.
     fn values_at(&self, xs: &[f64]) -> Result<Vec<f64>, RefineError>;

@@ -32,7 +32,7 @@ pub enum Indicator {
     },
 }
 
-/// Parameters of [`crate::refine::refine`], in groups: the local space ([`TreeParams`],
+/// Parameters of `refine::refine`, in groups: the local space ([`TreeParams`],
 /// shared with the image refiner), the interval tree's levels ([`IntervalTreeParams`]), the
 /// base sampling ([`BaseSampling`]), the indicator, the marking ([`MarkingParams`]) and the
 /// stop ([`StopParams`]), both shared, and the solve of each round.

@@ -268,5 +268,65 @@ pub fn local_vs_global(setting: &ReportSetting) -> Result<LocalGlobalReport, Rec
     })
 }
 
+impl LocalGlobalReport {
+    /// The report for people, one group of figures a line.
+    pub fn table(&self) -> String {
+        let r = self;
+        let s = &r.setting;
+        let err = r.error.as_ref().map_or_else(
+            || "n/a (too large for the dense reference)".to_string(),
+            |e| {
+                format!(
+                    "max |K~ - K+| {:.2e}, RMS {:.2e}, relative Frobenius {:.2e}",
+                    e.max_abs, e.rms, e.rel_frobenius
+                )
+            },
+        );
+        format!(
+            "local vs global: p = {} ({}), levels {}..{}, {} {} samples, P = {} (oversampling {:.2})\n\
+             \x20 solver {:?}, rings {}, cut-off {:e}: {} groups, {} cut ({} directions)\n\
+             \x20 submatrix rows   min {:.0} median {:.0} max {:.0}\n\
+             \x20 submatrix cols   min {:.0} median {:.0} max {:.0}\n\
+             \x20 element-wise     {}\n\
+             \x20 reconstruction   local vs global {:.2e}, local vs truth {:.2e}, global vs truth {:.2e} (RMS, signal {})\n\
+             \x20 local condition  median {:.3e}, max {:.3e}; global {}\n\
+             \x20 time             kernel {:.4} s, local {:.4} s, global ({}) {:.4} s\n",
+            s.p,
+            s.family.short_name(),
+            s.coarse,
+            s.fine,
+            s.samples,
+            s.layout,
+            r.functions,
+            r.oversampling,
+            s.local.solver,
+            s.local.rings,
+            s.local.cutoff,
+            r.groups,
+            r.cut.0,
+            r.cut.1,
+            r.submatrix.rows.min,
+            r.submatrix.rows.median,
+            r.submatrix.rows.max,
+            r.submatrix.cols.min,
+            r.submatrix.cols.median,
+            r.submatrix.cols.max,
+            err,
+            r.reconstruction.local_vs_global,
+            r.reconstruction.local_vs_truth,
+            r.reconstruction.global_vs_truth,
+            s.signal,
+            r.condition.median,
+            r.condition.max,
+            r.global_condition
+                .map_or("n/a".to_string(), |c| format!("{c:.3e}")),
+            r.time_s.kernel,
+            r.time_s.local,
+            r.reference,
+            r.time_s.global
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests;

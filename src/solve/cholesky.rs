@@ -11,7 +11,7 @@
 //! step ([`SparseCholesky::factor`]) on the values, as often as they change; every
 //! right-hand side is solved from the one factor ([`SparseCholesky::solve_in_place`]).
 //! The one wrapper of faer's sparse Cholesky for every caller: the 1D and tree normal
-//! equations ([`crate::solve::normal_ls`]) and the 2D stencil normal equations
+//! equations (`solve::normal_ls`) and the 2D stencil normal equations
 //! (the image fit's `NormalSystem`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};

@@ -14,7 +14,7 @@ use crate::error::Fix;
 #[non_exhaustive]
 pub enum SolveError {
     /// Fewer samples than basis functions where the method needs full column rank
-    /// (a sparse Cholesky of `K^T K` with [`crate::solve::RankPolicy::Error`]).
+    /// (a sparse Cholesky of `K^T K` with `RankPolicy::Error`).
     #[error(
         "{samples} samples cannot determine {functions} basis functions (K^T K is \
          singular): give at least {functions} samples (twice as many is better) or fewer \

@@ -3,7 +3,7 @@
 //! `D G D y = D K^T f`, `c = D y`, `D = diag(G)^{-1/2}`, by a sparse Cholesky
 //! `P (D G D) P^T = L L^T` (faer: symbolic step with AMD or a given ordering `P`, numeric
 //! step, triangular solves: [`crate::solve::cholesky`]). The same factorization serves
-//! [`crate::solve::global_ls`].
+//! `solve::global_ls`.
 
 use faer::{Mat, Par};
 use rayon::prelude::*;

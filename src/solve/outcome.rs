@@ -1,6 +1,6 @@
 //! What a global least-squares solve returns: the coefficients `c[ch] = argmin ||K c -
 //! f[ch]||` per channel and the report of the method that found them (the Cholesky of
-//! [`crate::solve::global_ls`] and [`crate::solve::normal_ls`], or CGLS).
+//! `solve::global_ls` and `solve::normal_ls`, or CGLS).
 
 use serde::Serialize;
 

@@ -32,7 +32,7 @@ pub enum Solver {
 /// takes any number and stops growing a neighbourhood once it no longer changes.
 pub const MAX_RINGS: usize = 10;
 
-/// Parameters of the local inversion (`crate::solve::local_inversion`, `apply_local`).
+/// Parameters of the local inversion (`solve::local_inversion`, `apply_local`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LocalInversionParams {
     /// Neighbourhood growth steps (`idx <- columns touching jdx`, `jdx <- rows touching
@@ -116,7 +116,7 @@ pub enum RankPolicy {
     Regularize,
 }
 
-/// Parameters of the global sparse least-squares solve (`crate::solve::global_ls`).
+/// Parameters of the global sparse least-squares solve (`solve::global_ls`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct GlobalLsParams {
     /// Cholesky (direct) or CGLS (iterative).

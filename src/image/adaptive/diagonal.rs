@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::tree::QuadTree;
+use crate::adaptive::tree::quad::QuadTree;
 use crate::basis::tensor::TensorBasis;
 
 /// The exact diagonal `G_aa = sum_i Psi_a(x_i, y_i)^2` of a tree's normal matrix over the

@@ -35,8 +35,8 @@ use super::pcg::{
     pcg_many, DiagonalSums, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX,
 };
 use super::schwarz::{schwarz_pcg, Schwarz, SchwarzReport};
-use super::tree::QuadTree;
 use super::AdaptiveError;
+use crate::adaptive::tree::quad::QuadTree;
 use crate::basis::tensor::TensorValue;
 use crate::image::fit::ImageFitError;
 use crate::image::pixels::{filter_image, PixelIntegrals};

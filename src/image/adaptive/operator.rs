@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::diagonal::DiagonalSums;
 use super::single_scale::{multilevel_values, SingleScaleColumns, SingleScaleRows};
-use super::tree::QuadTree;
+use crate::adaptive::tree::quad::QuadTree;
 use crate::basis::tensor::TensorBasis;
 use crate::solve::cg::SymmetricOperator;
 use crate::solve::vectors::deinterleave;

@@ -27,7 +27,7 @@
 use serde::Serialize;
 use sprs::CsMat;
 
-use super::tree::{Cell, QuadTree};
+use crate::adaptive::tree::quad::{Cell, QuadTree};
 use crate::solve::cg::{
     self, AdditiveSchwarz, CgParams, CgReport, ConditionEstimate, Preconditioner, ResidualReport,
     SparseOperator,

@@ -41,7 +41,6 @@ use super::shrink::ShrinkParams;
 use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
 use super::sureshrink::sure_shrink_channel;
-use super::EstimateReport;
 use crate::image::filters::FilmFilterKind;
 use crate::image::splat::PixelBins;
 use crate::image::{ImageSamples, PixelImage};
@@ -172,25 +171,6 @@ impl AutoReport {
             self.robust.describe(),
             gside = 2 * GATE_HALF + 1,
         )
-    }
-
-    /// Writes the fields and the description into `report`.
-    pub fn fill(self, report: &mut EstimateReport) {
-        report.description = self.describe();
-        report.films = Some(self.films);
-        report.window = Some(2 * WINDOW_HALF + 1);
-        report.risk = Some(self.risk);
-        report.noise_level = Some(self.sigma);
-        report.pixels_with_spread = Some(self.pixels_with_blocks);
-        report.noise_estimators = Some(self.noise_estimators);
-        report.pure_noise_ratio = self.pure_noise_ratio;
-        report.gate = Some(self.gate);
-        report.estimated_risk = Some(self.estimated_risk);
-        report.box_risk = Some(self.box_risk);
-        report.lambda = Some(self.lambda);
-        report.robust = Some(self.robust);
-        report.clamped_values = Some(self.range_clamped);
-        report.shrink = Some(self.shrink);
     }
 }
 

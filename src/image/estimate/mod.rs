@@ -31,119 +31,42 @@
 
 pub mod auto;
 pub mod blend;
+mod choice;
 pub mod clamp;
 pub mod gate;
 pub mod haar;
 pub mod noise;
+mod report;
 pub mod robust;
 pub mod shrink;
 pub mod statistics;
 pub mod sure;
 pub mod sureshrink;
+mod text;
 
-use std::fmt;
-use std::str::FromStr;
 use std::time::Instant;
 
-use serde::Serialize;
 use thiserror::Error;
 
 pub use auto::{AutoReport, FilmCount};
 pub use blend::{blend_by_risk, inverse_risk_weight};
+pub use choice::{ParseUniformEstimateError, UniformEstimate};
 pub use clamp::clamp_to_sample_range;
 pub use gate::GateCount;
 pub use haar::{Haar2d, HaarCoefficients};
 pub use noise::{DifferenceCount, PixelNoise, StrataDifference};
+pub use report::EstimateReport;
 pub use robust::RobustReport;
 pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
 pub use statistics::PixelStatistics;
 pub use sure::{choose_films, FilmChoice, FilmRisks};
+use text::list;
 
 use crate::error::{ErrorKind, Fix, Param};
 
 use super::method::{reconstruct, ImageMethod, ImageReconstruction, StageTimes};
 use super::wavelet::{WaveletError, WaveletParams};
 use super::{ImageSamples, PixelImage};
-
-/// How a pixel's value is estimated from the samples on the uniform path (the adaptive
-/// engine's output has its own choice, [`crate::image::adaptive::PixelEstimate`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
-#[serde(into = "String")]
-pub enum UniformEstimate {
-    /// Per pixel the candidate of least SURE against the box (films, SureShrink, mixtures,
-    /// their own-range projections, the box), projected onto the local sample range.
-    #[default]
-    Auto,
-    /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).
-    Fit,
-    /// The fit clamped per pixel to the range of the pixel's samples.
-    FitClamped,
-    /// The mean of the pixel's samples (the box film).
-    Box,
-    /// The box pixels, shrunk in cycle-spun Haar at the universal threshold of the samples'
-    /// own noise level.
-    Shrunk,
-}
-
-impl UniformEstimate {
-    /// Every estimate, the default first.
-    pub const ALL: [UniformEstimate; 5] = [
-        UniformEstimate::Auto,
-        UniformEstimate::Fit,
-        UniformEstimate::FitClamped,
-        UniformEstimate::Box,
-        UniformEstimate::Shrunk,
-    ];
-
-    /// The name on the command line (`auto`, `fit`, `fit-clamped`, `box`, `shrunk`).
-    pub fn name(self) -> &'static str {
-        match self {
-            UniformEstimate::Auto => "auto",
-            UniformEstimate::Fit => "fit",
-            UniformEstimate::FitClamped => "fit-clamped",
-            UniformEstimate::Box => "box",
-            UniformEstimate::Shrunk => "shrunk",
-        }
-    }
-
-    /// Whether the estimate uses the least-squares fit (otherwise only the pixels' samples).
-    pub fn uses_fit(self) -> bool {
-        matches!(self, UniformEstimate::Fit | UniformEstimate::FitClamped)
-    }
-}
-
-impl From<UniformEstimate> for String {
-    fn from(e: UniformEstimate) -> String {
-        e.name().to_string()
-    }
-}
-
-impl fmt::Display for UniformEstimate {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// A pixel-estimate name that is not one of [`UniformEstimate::ALL`].
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("unknown pixel estimate `{name}`: expected auto, fit, fit-clamped, box or shrunk")]
-pub struct ParseUniformEstimateError {
-    /// The name as given.
-    pub name: String,
-}
-
-impl FromStr for UniformEstimate {
-    type Err = ParseUniformEstimateError;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let t = s.trim().to_ascii_lowercase();
-        UniformEstimate::ALL
-            .into_iter()
-            .find(|e| e.name() == t)
-            .ok_or_else(|| ParseUniformEstimateError {
-                name: s.to_string(),
-            })
-    }
-}
 
 /// Why a pixel estimate could not be made.
 #[derive(Debug, Error)]
@@ -190,64 +113,6 @@ impl EstimateError {
 }
 
 crate::error::classified!(EstimateError);
-
-/// What a pixel estimate did: the noise level and the thresholds used, the clamped values.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct EstimateReport {
-    /// The estimate asked for.
-    pub requested: UniformEstimate,
-    /// The estimate made (`fit` where `auto` fell back).
-    pub estimate: UniformEstimate,
-    /// Why `auto` fell back to `fit` (`None` when it did not).
-    pub fallback: Option<String>,
-    /// Pixels per film chosen by SURE (`auto` only).
-    pub films: Option<Vec<FilmCount>>,
-    /// The SURE window's side in pixels (`auto` only).
-    pub window: Option<usize>,
-    /// Estimated risk per pixel of the choice and of each film alone (`auto` only).
-    pub risk: Option<FilmRisks>,
-    /// Pixels per candidate of the risk gate (`auto` only: box, films, SureShrink, their
-    /// mixtures).
-    pub gate: Option<Vec<GateCount>>,
-    /// The output's estimated risk per pixel (SURE against the box, summed over channels,
-    /// averaged over pixels; `auto` only).
-    pub estimated_risk: Option<f64>,
-    /// The box pixels' estimated risk per pixel, `sum_c v_{P,c}` averaged over pixels (`auto`
-    /// only).
-    pub box_risk: Option<f64>,
-    /// The robust candidate for heavy tails: what it cut, its estimated bias and the pixels the
-    /// gate gave it (`auto` only; [`robust`]).
-    pub robust: Option<RobustReport>,
-    /// The median SureShrink `lambda` per channel (`auto` only).
-    pub lambda: Option<Vec<f64>>,
-    /// Pooled noise level `sigma_c` per channel (`None` for `fit`, which does not need it).
-    pub noise_level: Option<Vec<f64>>,
-    /// Pixels whose noise is estimated (two samples or more; for `auto`, a block of strata),
-    /// over which the noise level's median is taken.
-    pub pixels_with_spread: Option<usize>,
-    /// Pixels per difference estimate of the noise of a pixel's mean (`auto` only: the 2D
-    /// strata's second differences, the successive differences along `x` or along `y`,
-    /// [`noise`]).
-    pub noise_estimators: Option<Vec<DifferenceCount>>,
-    /// The least of the three difference estimates' expectation on pure noise relative to the
-    /// noise, at these sample positions (`auto` only; `c` of [`noise::pure_noise_ratio`]): the
-    /// estimated risks fall short of the actual ones by about this factor where the pixels
-    /// hold Monte Carlo noise only.
-    pub pure_noise_ratio: Option<f64>,
-    /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
-    pub threshold: Option<Vec<f64>>,
-    /// The shrinkage's parameters (`shrunk` and `auto`).
-    pub shrink: Option<ShrinkParams>,
-    /// Values (pixels x channels) the clamp moved (`fit-clamped`); for `auto`, the pixels the
-    /// projection onto the range of their 3x3 neighbourhood's samples moved.
-    pub clamped_values: Option<usize>,
-    /// Pixels without samples, left unclamped (`fit-clamped` only).
-    pub unclamped_empty_pixels: Option<usize>,
-    /// Seconds for the statistics and the estimate (the fit excluded).
-    pub seconds: f64,
-    /// In words, with the figures.
-    pub description: String,
-}
 
 /// The pixels of `samples` by `estimate`: the fit by `method` (with `wavelet`) for `fit` and
 /// `fit-clamped`; for `box` and `shrunk`, the pixel statistics alone (`method` not used). The
@@ -416,15 +281,6 @@ fn box_image(
         plane: stats.plane,
         channels: stats.mean.clone(),
     })
-}
-
-/// `a, b, c` with three significant digits.
-fn list(values: &[f64]) -> String {
-    values
-        .iter()
-        .map(|v| format!("{v:.3e}"))
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 #[cfg(test)]

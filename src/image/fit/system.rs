@@ -90,7 +90,7 @@ pub enum NormalSolver {
     /// Local inversion instead of a global solve (docs/design.md §4): `z_c = K~ f_c` with `K~ ≈ K^+`
     /// from [`crate::solve::apply_local`] on the 2D kernel matrix: local, approximate (its
     /// error against the global solve shrinks with `rings`), and `G` is still accumulated for
-    /// [`super::ImageFit::solve_normal`].
+    /// `ImageFit::solve_normal`.
     Local(crate::solve::LocalInversionParams),
 }
 

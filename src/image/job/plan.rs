@@ -27,7 +27,7 @@ use crate::image::adaptive::{
 };
 use crate::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
-use crate::resources::{format_bytes, memory_limit, ImageRequest, ImageSolve};
+use crate::resources::{memory_limit, ImageRequest, ImageSolve};
 
 use super::{check_p, ImageParams, JobError};
 
@@ -460,26 +460,4 @@ impl<'a> PlanFinal<'a> {
             .state
             .reconstruct_dropped(samples, dropped, self.estimate)?)
     }
-}
-
-/// The message of [`JobError::PlanTooLarge`].
-pub(super) fn too_large(
-    plane: ImagePlane,
-    budget: usize,
-    functions: f64,
-    parts: &str,
-    needed: f64,
-    limit: u64,
-) -> String {
-    format!(
-        "a plan of {budget} samples on {plane} pixels (a basis of {functions:.0} functions at \
-         its depth limit) would need about {} of memory ({parts}; counted for one channel of \
-         samples, a lower bound: each further channel needs more), above the limit of {}: a \
-         smaller {}, a lower {} or a smaller {} (or raise the memory limit)",
-        format_bytes(needed),
-        format_bytes(limit as f64),
-        Fix::Set(Param::Budget),
-        Fix::Set(Param::BelowPixel),
-        Fix::Set(Param::Resolution)
-    )
 }

@@ -1,7 +1,9 @@
 //! The front door's decisions, checked against the stages it calls.
 
 use super::*;
-use crate::image::{reconstruct_estimated, ImageSamples};
+use crate::error::{ErrorKind, Param};
+use crate::image::estimate::ShrinkParams;
+use crate::image::{reconstruct_estimated, ImageMethod, ImagePlane, ImageSamples, UniformEstimate};
 
 fn plane() -> ImagePlane {
     ImagePlane::new(16, 12).expect("a valid plane")

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use crate::error::{Fix, Param};
+use crate::error::Param;
 use crate::image::tiles::{
     reconstruct_tiled, TileGeometry, TileGeometryError, TileReport, TiledError, TiledInput,
     TiledOutput, TiledParams, DEFAULT_HALO,
@@ -173,16 +173,6 @@ impl TiledJob {
         }
         Ok(TiledRun { output, notes })
     }
-}
-
-/// The message of [`JobError::TilesKeepNonFinite`].
-pub(super) fn keeps_nonfinite() -> String {
-    format!(
-        "the tiled fit reads the samples in chunks and refuses non-finite values: do not ask \
-         for {} with {} (remove them from the file instead)",
-        Fix::DropNonfinite,
-        Fix::Set(Param::Tile)
-    )
 }
 
 /// One line for the tiles with functions pinned to 0 or pivots replaced: how many, the totals

@@ -59,99 +59,18 @@ mod cgls;
 mod lanczos;
 mod limit;
 mod operator;
+mod params;
 mod pcg;
 mod precondition;
 mod schwarz;
+mod traits;
 
 pub use cgls::cgls;
 pub use lanczos::{lanczos_condition, lanczos_extremes};
 pub use limit::IterationLimit;
 pub use operator::SparseOperator;
+pub use params::{CgParams, CgReport, ConditionEstimate, ResidualReport};
 pub use pcg::pcg;
 pub use precondition::{Identity, Jacobi, LocalInverse};
 pub use schwarz::{AdditiveSchwarz, SchwarzStats};
-
-use serde::Serialize;
-
-/// A symmetric positive (semi)definite operator `A`, applied to several vectors at once.
-pub trait SymmetricOperator: Sync {
-    /// Unknowns `n` (the length of every vector).
-    fn dim(&self) -> usize;
-    /// `q_c = A p_c` for every `c` (`q[c]` is overwritten or replaced by a vector of length
-    /// [`Self::dim`]).
-    fn apply(&self, p: &[&[f64]], q: &mut [Vec<f64>]);
-}
-
-/// A preconditioner `M^{-1} ≈ A^{-1}` (symmetric positive definite on the range of `A`),
-/// applied to several vectors at once.
-pub trait Preconditioner: Sync {
-    /// `z_c = M^{-1} r_c` for every `c` (`z[c]`, of the length of `r[c]`, overwritten).
-    fn apply(&self, r: &[&[f64]], z: &mut [Vec<f64>]);
-}
-
-/// Which relative residual the report gives.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum ResidualReport {
-    /// The recurred `||r_j|| / ||b||` (free; drifts from the true one by rounding).
-    Recurred,
-    /// `||b - A x|| / ||b||` from one more product with `A` (the true residual).
-    Recomputed,
-}
-
-/// Whether the Lanczos condition estimate is computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum ConditionEstimate {
-    /// Not estimated (the `alpha_j, beta_j` are not kept).
-    Skip,
-    /// `cond(M^{-1} A)` from the Lanczos tridiagonal of the run (a dense eigenvalue
-    /// problem of the iterations' size, at most 300).
-    Lanczos,
-}
-
-/// What a conjugate-gradient solve is asked for.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct CgParams {
-    /// Stop a channel at `||r|| <= tolerance ||b||`.
-    pub tolerance: f64,
-    /// Most iterations; past them the iterate is returned, `converged` false.
-    pub max_iterations: usize,
-    /// The residual reported (recurred: free; recomputed: one more product, exact).
-    pub residual: ResidualReport,
-    /// The condition estimate (costs keeping two numbers an iteration and one small
-    /// eigenvalue problem).
-    pub condition: ConditionEstimate,
-    /// The forward-error stop (module docs): `Some(eps)` also asks `cond(M^{-1} A)
-    /// ||r||_{M^{-1}} / ||b||_{M^{-1}} <= eps` of a channel before it stops (keeps the
-    /// Lanczos coefficients, `O(j)` a check); `None` stops on the residual alone.
-    pub forward_error: Option<f64>,
-}
-
-/// What one conjugate-gradient solve did, per channel.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct CgReport {
-    /// Iterations taken per channel.
-    pub iterations: Vec<usize>,
-    /// Final relative residual per channel (see [`CgParams::residual`]; for [`cgls`] the
-    /// recurred normal residual `||A^T r|| / ||A^T f||`).
-    pub relative_residual: Vec<f64>,
-    /// Per channel, whether the tolerance (and the forward-error tolerance, when asked) was
-    /// reached.
-    pub converged: Vec<bool>,
-    /// Lanczos estimate of `cond(M^{-1} A)` per channel (1 with fewer than two iterations),
-    /// when asked.
-    pub condition: Option<Vec<f64>>,
-    /// With [`CgParams::forward_error`]: per channel the final estimated bound on the
-    /// relative error `||x - x*||_M / ||x*||_M` (module docs).
-    pub forward_error: Option<Vec<f64>>,
-}
-
-impl CgReport {
-    /// Whether every channel reached the tolerance.
-    pub fn all_converged(&self) -> bool {
-        self.converged.iter().all(|&c| c)
-    }
-    /// The first channel that did not reach the tolerance.
-    pub fn first_unconverged(&self) -> Option<usize> {
-        self.converged.iter().position(|&c| !c)
-    }
-}
+pub use traits::{Preconditioner, SymmetricOperator};

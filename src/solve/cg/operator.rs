@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use sprs::CsMat;
 
 use super::SymmetricOperator;
-use crate::solve::csr_raw as raw;
+use crate::solve::sparse::raw;
 use crate::solve::vectors::deinterleave;
 
 /// `A` held as CSR (both triangles stored).

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use sprs::CsMat;
 
 use super::Preconditioner;
-use crate::solve::csr_raw as raw;
+use crate::solve::sparse::raw;
 
 /// One block: its unknowns (ascending) and the Cholesky factor of `A_tt`.
 struct Block {
