@@ -19,8 +19,8 @@
 //!
 //! `|m_P|_2 > z sigma sqrt(ch / n_P)`
 //!
-//! (`z` standard errors of the residual mean, [`AdaptiveParams::residual_z`], 3 by default;
-//! `sigma` the noise test's estimate from the same fit, [`super::significance`]; `sigma = 0`,
+//! (`z` standard errors of the residual mean, `AdaptiveParams::residual_z`, 3 by default;
+//! `sigma` the noise test's estimate from the same fit, `significance`; `sigma = 0`,
 //! no noise test, or `z = 0`: every pixel whose mean residual is not exactly zero is corrected).
 //! Pixels without a sample keep the fit's value.
 //!
@@ -82,11 +82,9 @@
 //!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
-//! the in-process loop ([`super::refine_image`]) and the file protocol
+//! the in-process loop (`refine_image`) and the file protocol
 //! (`protocol::PlanState::reconstruct`) compute it here from the final fit and its
 //! noise estimate, so the two give the same pixels bit for bit.
-//!
-//! [`AdaptiveParams::residual_z`]: super::AdaptiveParams::residual_z
 
 use serde::{Deserialize, Serialize};
 
@@ -107,7 +105,7 @@ use crate::image::{ImagePlane, ImageSamples, PixelImage};
 pub use crate::image::estimate::clamp::{clamp_to_local_range, CLAMP_COUNT_TOLERANCE};
 
 /// Standard errors of the residual mean beyond which a pixel is corrected (the default of
-/// [`super::AdaptiveParams::residual_z`]): a pixel of pure noise is corrected with probability
+/// `AdaptiveParams::residual_z`): a pixel of pure noise is corrected with probability
 /// about `0.27%` (one channel, known `sigma`).
 pub const RESIDUAL_Z: f64 = 3.0;
 

@@ -4,11 +4,11 @@
 //! the estimators that compare each pixel with the mean of its own samples (`auto` inside
 //! `blend`) need two samples in a pixel to see its noise, and fall back to `shrunk` (whose
 //! Haar shrinkage is not range-bound) when fewer than half the pixels have two. At a budget
-//! `N >= W H` and [`super::ImageSampling::cover_pixels`], the plan gives every pixel at least
+//! `N >= W H` and `ImageSampling::cover_pixels`, the plan gives every pixel at least
 //! `m = min(ceil(rho), floor(N / (W H)))` samples (one between 1 and 2 samples a pixel, two
 //! from 2 on with the default `rho = 2`):
 //!
-//! * *Up front* ([`super::ImagePlan::new`]): from `ceil(rho)` samples a pixel on, where the
+//! * *Up front* (`ImagePlan::new`): from `ceil(rho)` samples a pixel on, where the
 //!   budget pays for base slots no larger than a pixel (sides that are powers of two, or
 //!   large enough), the base tree is raised to them, so every pixel holds `ceil(rho)` base
 //!   samples before the tree adapts. Elsewhere:
@@ -31,35 +31,10 @@
 
 use rand_pcg::Pcg64;
 
+use super::pixel_counts::pixel_shortfall;
 use super::positions::round_rng;
 use super::{ImagePlan, SamplePositions};
 use crate::image::ImagePlane;
-
-/// The pixels (row-major indices `py W + px`) that hold none of the samples `(xs, ys)`.
-pub fn empty_pixels(plane: ImagePlane, xs: &[f64], ys: &[f64]) -> Vec<usize> {
-    let w = plane.width();
-    let mut hit = vec![false; plane.pixels()];
-    for (&x, &y) in xs.iter().zip(ys) {
-        let (px, py) = plane.pixel_of(x, y);
-        hit[py * w + px] = true;
-    }
-    (0..hit.len()).filter(|&p| !hit[p]).collect()
-}
-
-/// The samples each pixel lacks to hold `m`: `(pixel, m - n_P)` for the pixels (row-major
-/// indices `py W + px`) with `n_P < m` samples among `(xs, ys)`, in pixel order.
-pub fn pixel_shortfall(plane: ImagePlane, xs: &[f64], ys: &[f64], m: usize) -> Vec<(usize, usize)> {
-    let w = plane.width();
-    let mut count = vec![0usize; plane.pixels()];
-    for (&x, &y) in xs.iter().zip(ys) {
-        let (px, py) = plane.pixel_of(x, y);
-        count[py * w + px] += 1;
-    }
-    (0..count.len())
-        .filter(|&p| count[p] < m)
-        .map(|p| (p, m - count[p]))
-        .collect()
-}
 
 /// `need` positions in each pixel of `short` (`(pixel, need)`): jittered strata of the pixel
 /// from `rng`'s stream, each moved to the pixel's centre if rounding carries it over the
@@ -83,7 +58,7 @@ fn top_up(plane: ImagePlane, short: &[(usize, usize)], rng: &mut Pcg64) -> Sampl
 
 impl ImagePlan {
     /// The samples every pixel holds under the coverage rule, `m = min(ceil(rho), floor(N / (W
-    /// H)))` (0: the rule is off, by [`super::ImageSampling::cover_pixels`] or a budget below
+    /// H)))` (0: the rule is off, by `ImageSampling::cover_pixels` or a budget below
     /// one sample a pixel).
     pub fn per_pixel(&self) -> usize {
         if self.params.sampling.cover_pixels {

@@ -61,17 +61,18 @@
 mod coverage;
 mod deepen;
 mod params;
+mod pixel_counts;
 mod plan;
 mod positions;
 mod report;
 mod run;
 mod step;
 
-pub use coverage::{empty_pixels, pixel_shortfall};
 pub use params::{
     AdaptiveParams, FitParams, GrowthParams, ImageSampling, IndicatorParams, NoiseParams,
     OutputParams, QuadTreeParams,
 };
+pub use pixel_counts::{empty_pixels, pixel_shortfall};
 pub use plan::{Decision, ImagePlan, PlanProgress, Round};
 pub use positions::{slot_sobol, ParsePatternError, PositionPattern, SamplePositions};
 pub use report::{

@@ -59,7 +59,7 @@ pub struct PlanProgress {
 /// One round ([`ImagePlan::step`]) takes every sample so far (which must include the base
 /// positions of [`ImagePlan::base_positions`] and the positions of every earlier decision),
 /// fits on the tree, and either stops or deepens the tree and returns the positions to sample
-/// next. [`super::refine_image`] is a loop over it with a scene as the oracle; a renderer outside the
+/// next. `refine_image` is a loop over it with a scene as the oracle; a renderer outside the
 /// process drives the same rounds through files (module `protocol`).
 #[derive(Clone, Debug)]
 pub struct ImagePlan {
@@ -70,7 +70,7 @@ pub struct ImagePlan {
     pub(super) per_slot: usize,
     pub(super) progress: PlanProgress,
     /// The last fit's solver state, continued by the next round's fit ([`FitState`]: the
-    /// direct solve's normal matrix, the same bits without it, see [`super::super::gram`]; PCG's
+    /// direct solve's normal matrix, the same bits without it, see `super::super::gram`; PCG's
     /// diagonal; a resumed plan starts without).
     pub(super) state: FitState,
     /// The last fit's coefficients per image channel, then per probe channel of the noise
@@ -177,7 +177,7 @@ impl ImagePlan {
             let chosen = s0;
             let need = |s: u32| {
                 let base = base_positions_of(&basis, s, per_slot, params);
-                let short = super::coverage::pixel_shortfall(plane, &base.xs, &base.ys, m);
+                let short = super::pixel_counts::pixel_shortfall(plane, &base.xs, &base.ys, m);
                 base.len() + short.iter().map(|s| s.1).sum::<usize>()
             };
             while s0 > 1 && need(s0) > params.stop.budget {
@@ -379,7 +379,7 @@ impl ImagePlan {
 
     /// The report of a finished run: `base_samples` of `samples` in total, the final `fit`,
     /// the reason to stop and the log of every round ([`AdaptiveReport::pixels`] empty: the
-    /// caller that computes the output pixels fills it in, as [`super::refine_image`] does).
+    /// caller that computes the output pixels fills it in, as `refine_image` does).
     pub fn report(
         &self,
         base_samples: usize,

@@ -32,7 +32,7 @@ use crate::adaptive::marking::spread;
 use crate::adaptive::{Cell, QuadTree};
 use crate::image::sampler::owen_sobol_02;
 
-/// Where a slot's positions go ([`super::ImageSampling::pattern`]).
+/// Where a slot's positions go (`ImageSampling::pattern`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PositionPattern {
@@ -211,7 +211,7 @@ pub(super) fn round_rng(seed: u64, round: usize) -> Pcg64 {
 }
 
 /// Spreads `extra` samples over `slots` (holding `counts`) with weights `weights`
-/// ([`super::super::marking::spread`]), placed by `placer` in each slot's rectangle of `tree`,
+/// (`super::super::marking::spread`), placed by `placer` in each slot's rectangle of `tree`,
 /// in slot order. Returns the samples added and the least count after.
 pub(super) fn spread_samples(
     tree: &QuadTree,

@@ -49,9 +49,9 @@ pub struct ImageRound {
     /// The solve.
     pub fit: TreeFitReport,
     /// The last round's fit continued to the solver's tolerance from the round's
-    /// coefficients ([`super::AdaptiveParams::round_tolerance`] only; `None` otherwise).
+    /// coefficients (`AdaptiveParams::round_tolerance` only; `None` otherwise).
     pub final_fit: Option<TreeFitReport>,
-    /// The round's fit against a rebuild from scratch ([`super::AdaptiveParams::measure_rebuild`]
+    /// The round's fit against a rebuild from scratch (`AdaptiveParams::measure_rebuild`
     /// only; `None` otherwise).
     pub rebuild: Option<RebuildCost>,
     /// Seconds by phase (wall clock of this process).
@@ -103,7 +103,7 @@ pub struct AdaptiveTimes {
     /// Indicators, marking, deepening.
     pub refine_s: f64,
     /// Fits rebuilt from scratch to measure the rounds against
-    /// ([`super::AdaptiveParams::measure_rebuild`]; 0 otherwise), in none of the stages above.
+    /// (`AdaptiveParams::measure_rebuild`; 0 otherwise), in none of the stages above.
     pub rebuild_s: f64,
 }
 
@@ -132,7 +132,7 @@ pub struct AdaptiveReport {
     pub rounds: Vec<ImageRound>,
     /// Seconds by stage.
     pub times: AdaptiveTimes,
-    /// The output pixels: the residual correction's counts ([`super::super::correction`]).
+    /// The output pixels: the residual correction's counts (`super::super::correction`).
     pub pixels: ResidualCorrection,
     /// Fallbacks and the output's correction, in words.
     pub notes: Vec<String>,
@@ -153,8 +153,8 @@ pub struct AdaptiveImage {
     pub round_of: Vec<u32>,
     /// The fit on the final tree.
     pub fit: TreeFit,
-    /// The output pixels ([`super::AdaptiveParams::pixels`]; by default the fit's box pixels plus
-    /// the significant mean residual, [`super::super::correction`]).
+    /// The output pixels (`AdaptiveParams::pixels`; by default the fit's box pixels plus
+    /// the significant mean residual, `super::super::correction`).
     pub image: PixelImage,
     /// What happened.
     pub report: AdaptiveReport,

@@ -19,7 +19,7 @@ impl ImagePlan {
     /// fit on the tree, indicate, then stop or mark, deepen and return the positions that
     /// top the marked slots' children up to `ceil(rho)` samples.
     ///
-    /// With [`super::AdaptiveParams::round_tolerance`] and an iterative solver the round's fit stops
+    /// With `AdaptiveParams::round_tolerance` and an iterative solver the round's fit stops
     /// at the round tolerance; when the round stops the refinement, its fit is continued from
     /// those coefficients to the solver's own tolerance (reported in
     /// [`ImageRound::final_fit`]), so the output is the accurate fit.
@@ -199,7 +199,7 @@ impl ImagePlan {
         })
     }
 
-    /// Indicate: the predicted detail of every slot ([`super::super::indicator`]), with the
+    /// Indicate: the predicted detail of every slot (`super::super::indicator`), with the
     /// noise test's thresholds when it is on.
     fn indicate(&self, fit: &TreeFit, significance: Option<&Significance>) -> Indication {
         let tree = &self.tree;

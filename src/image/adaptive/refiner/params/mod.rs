@@ -99,7 +99,7 @@ pub struct GrowthParams {
     /// concentrated indicator; 0: pure Dörfler).
     pub min_growth: f64,
     /// Where the spare samples of a round go when the marked leaves cost less than the least
-    /// growth ([`super::super::marking::spread`]).
+    /// growth (`super::super::marking::spread`).
     pub spread: SpreadRule,
     /// Share of each round's least growth kept for spreading ([`GrowthParams::spread`])
     /// whatever the marked leaves cost (0: only what they leave).
@@ -110,7 +110,7 @@ pub struct GrowthParams {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitParams {
     /// Solver of every round's fit ([`TreeSolver::Direct`]: the reference; PCG: see
-    /// [`super::super::pcg`]).
+    /// `super::super::pcg`).
     pub solver: TreeSolver,
     /// Relative residual of the iterative solvers ([`TreeSolver::Pcg`],
     /// [`TreeSolver::Schwarz`]) in the rounds' fits, which only feed the indicator (`None`:
@@ -124,12 +124,12 @@ pub struct FitParams {
     pub round_tolerance: Option<f64>,
     /// Measure each round's fit against the same fit rebuilt from scratch (fresh solver
     /// state, zero start: no continued normal matrix or diagonal, no warm start), reported
-    /// in [`super::ImageRound::rebuild`]. Doubles the fits' cost; the rebuilds' seconds are
-    /// kept apart ([`super::AdaptiveTimes::rebuild_s`]) and change nothing else.
+    /// in `ImageRound::rebuild`. Doubles the fits' cost; the rebuilds' seconds are
+    /// kept apart (`AdaptiveTimes::rebuild_s`) and change nothing else.
     pub measure_rebuild: bool,
 }
 
-/// The noise test ([`super::super::significance`]).
+/// The noise test (`super::super::significance`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NoiseParams {
     /// False-alarm rate `alpha`: a leaf is deepened only where its parent's detail is
@@ -141,7 +141,7 @@ pub struct NoiseParams {
     pub probes: usize,
 }
 
-/// The output pixels ([`super::super::correction`]).
+/// The output pixels (`super::super::correction`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OutputParams {
     /// The fit's box pixels plus the significant mean residual of each pixel's samples,
