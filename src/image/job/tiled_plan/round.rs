@@ -6,10 +6,9 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::{
-    keep_owned, stitch, tile_bytes, window_plane, TilePlanState, TiledPlanError, TiledPlanState,
-    TILED_STATE_FORMAT, TILED_STATE_VERSION,
-};
+use super::error::TiledPlanError;
+use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
+use super::window::{keep_owned, stitch, tile_bytes, tile_output, window_plane};
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{
     mix64, AdaptiveError, AdaptiveParams, Decision, FitState, ImagePlan, PixelEstimate,
@@ -581,7 +580,7 @@ impl TiledPlanState {
                         &mut FitState::default(),
                     )?;
                     let sigma = significance.map_or(0.0, |s| s.level.sigma);
-                    super::tile_output(&plan, &fit, &local, sigma, estimate)
+                    tile_output(&plan, &fit, &local, sigma, estimate)
                 })
                 .collect()
         });
