@@ -8,13 +8,14 @@ use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use rkwave::image::adaptive::{
     refine_image, AdaptiveImage, AdaptiveParams, ImageOracle, NoisyOracle, PixelEstimate,
-    SamplePositions, SceneOracle,
+    SceneOracle,
 };
 use rkwave::image::plan::{PlanReconstruction, PlanState, ProtocolError, STATE_VERSION};
 use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples};
 use rkwave::io::{read_npy, write_npy, SampleSet};
 
+use common::rendered::RenderedChannels;
 use common::scenes::{straight_edge, DiscsAndLine};
 use rkwave::image::adaptive::{ImageSampling, StopParams, TreeSolver};
 
@@ -24,37 +25,6 @@ fn budget_and_seed(budget: usize, seed: u64) -> AdaptiveParams {
     params.stop.budget = budget;
     params.sampling.seed = seed;
     params
-}
-
-/// The samples so far, grown round by round as a renderer would.
-struct Rendered {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    values: Vec<Vec<f64>>,
-}
-
-impl Rendered {
-    fn new(channels: usize) -> Self {
-        Self {
-            xs: vec![],
-            ys: vec![],
-            values: vec![vec![]; channels],
-        }
-    }
-    fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
-        let mut buf = vec![0.0; oracle.channels()];
-        for (&x, &y) in next.xs.iter().zip(&next.ys) {
-            oracle.sample(x, y, &mut buf);
-            self.xs.push(x);
-            self.ys.push(y);
-            for (c, v) in self.values.iter_mut().zip(&buf) {
-                c.push(*v);
-            }
-        }
-    }
-    fn samples(&self, plane: ImagePlane) -> ImageSamples {
-        ImageSamples::new(plane, self.xs.clone(), self.ys.clone(), self.values.clone()).unwrap()
-    }
 }
 
 /// The protocol's reconstruction and the in-process run agree bit for bit: the fit's box
@@ -77,10 +47,10 @@ fn drive(
     oracle: &dyn ImageOracle,
     plane: ImagePlane,
     params: &AdaptiveParams,
-) -> (PlanState, Rendered) {
+) -> (PlanState, RenderedChannels) {
     let (state, base) = PlanState::start(plane, params).unwrap();
     let mut json = state.to_json();
-    let mut rendered = Rendered::new(oracle.channels());
+    let mut rendered = RenderedChannels::new(oracle.channels());
     rendered.render(oracle, &base);
     loop {
         let mut state = PlanState::from_json(&json, "state.json".as_ref()).unwrap();
@@ -196,7 +166,7 @@ fn earlier_rounds_are_recognised() {
     let plane = ImagePlane::new(32, 32).unwrap();
     let params = budget_and_seed(4 * plane.pixels(), AdaptiveParams::default().sampling.seed);
     let (state, base) = PlanState::start(plane, &params).unwrap();
-    let mut rendered = Rendered::new(1);
+    let mut rendered = RenderedChannels::new(1);
     rendered.render(&straight_edge, &base);
     let base_samples = rendered.samples(plane);
     let mut advanced = state.clone();
@@ -260,7 +230,7 @@ fn bad_input_is_refused() {
         },
     )
     .unwrap();
-    let mut foreign = Rendered::new(1);
+    let mut foreign = RenderedChannels::new(1);
     foreign.render(&straight_edge, &other);
     let err = state.clone().advance(&foreign.samples(plane)).unwrap_err();
     assert!(
@@ -268,7 +238,7 @@ fn bad_input_is_refused() {
         "{err}"
     );
     // positions rounded to float32 on the way
-    let mut rounded = Rendered::new(1);
+    let mut rounded = RenderedChannels::new(1);
     rounded.render(&straight_edge, &base);
     for x in &mut rounded.xs {
         *x = *x as f32 as f64;
@@ -276,7 +246,7 @@ fn bad_input_is_refused() {
     let err = state.clone().advance(&rounded.samples(plane)).unwrap_err();
     assert!(matches!(err, ProtocolError::Mismatch { .. }), "{err}");
     // a subset (a lost sample)
-    let mut rendered = Rendered::new(1);
+    let mut rendered = RenderedChannels::new(1);
     rendered.render(&straight_edge, &base);
     let mut lost = rendered.samples(plane);
     lost = ImageSamples::new(
@@ -305,7 +275,7 @@ fn bad_input_is_refused() {
     // channels change between rounds
     let mut s = state.clone();
     let step = s.advance(&rendered.samples(plane)).unwrap();
-    let mut two = Rendered::new(2);
+    let mut two = RenderedChannels::new(2);
     let both = |x: f64, y: f64| straight_edge(x, y);
     two.xs = rendered.xs.clone();
     two.ys = rendered.ys.clone();

@@ -2,9 +2,11 @@
 //! state written and read back, refusals; and (ignored, run by hand) the figures of
 //! docs/measurements/scale-out.md.
 
+mod common;
+
 use std::time::Instant;
 
-use rkwave::image::adaptive::{ImageOracle, NoisyOracle, SamplePositions, SceneOracle};
+use rkwave::image::adaptive::{ImageOracle, NoisyOracle, SceneOracle};
 use rkwave::image::job::tiled_plan::{
     TiledPlanError, TiledPlanOptions, TiledPlanStart, TiledPlanState,
 };
@@ -15,36 +17,7 @@ use rkwave::image::scene::Scene;
 use rkwave::image::truth::box_truth;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, PixelImage};
 
-/// The samples so far, grown round by round as a renderer would.
-struct Rendered {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    values: Vec<Vec<f64>>,
-}
-
-impl Rendered {
-    fn new(channels: usize) -> Self {
-        Self {
-            xs: vec![],
-            ys: vec![],
-            values: vec![vec![]; channels],
-        }
-    }
-    fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
-        let mut buf = vec![0.0; oracle.channels()];
-        for (&x, &y) in next.xs.iter().zip(&next.ys) {
-            oracle.sample(x, y, &mut buf);
-            self.xs.push(x);
-            self.ys.push(y);
-            for (c, v) in self.values.iter_mut().zip(&buf) {
-                c.push(*v);
-            }
-        }
-    }
-    fn samples(&self, plane: ImagePlane) -> ImageSamples {
-        ImageSamples::new(plane, self.xs.clone(), self.ys.clone(), self.values.clone()).unwrap()
-    }
-}
+use common::rendered::RenderedChannels;
 
 fn options(spp: usize) -> PlanOptions {
     PlanOptions {
@@ -56,7 +29,7 @@ fn options(spp: usize) -> PlanOptions {
 /// The untiled plan to its stop through its jobs; its final image.
 fn untiled(oracle: &dyn ImageOracle, plane: ImagePlane, spp: usize) -> PixelImage {
     let (mut state, base) = PlanStart::new(plane, &options(spp)).unwrap().run().unwrap();
-    let mut r = Rendered::new(oracle.channels());
+    let mut r = RenderedChannels::new(oracle.channels());
     r.render(oracle, &base);
     loop {
         let step = state
@@ -88,7 +61,7 @@ fn tiled(
     };
     let start = TiledPlanStart::new(plane, &options(spp), &tiles).unwrap();
     let (mut state, base) = start.run(oracle.channels()).unwrap();
-    let mut r = Rendered::new(oracle.channels());
+    let mut r = RenderedChannels::new(oracle.channels());
     r.render(oracle, &base);
     let mut rounds = 0;
     loop {
@@ -175,7 +148,7 @@ fn a_state_read_back_gives_the_identical_round() {
     };
     let start = TiledPlanStart::new(plane, &options(6), &tiles).unwrap();
     let (mut state, base) = start.run(3).unwrap();
-    let mut r = Rendered::new(3);
+    let mut r = RenderedChannels::new(3);
     r.render(&oracle, &base);
     for _ in 0..3 {
         let step = state.advance(&r.samples(plane)).unwrap();
@@ -286,7 +259,7 @@ fn figure_tiled_plan() {
         sigma: 0.05,
         seed: 7,
     };
-    let mut r = Rendered::new(3);
+    let mut r = RenderedChannels::new(3);
     let mut spent = 0.0;
     let image = if env("RKWAVE_TP_UNTILED", "0") == "1" {
         let t = Instant::now();

@@ -1,5 +1,6 @@
-//! One-channel samples grown round by round as a renderer answering a plan would: the
-//! positions handed out, in order, and an oracle's values at them.
+//! Samples grown round by round as a renderer answering a plan would: the positions handed
+//! out, in order, and an oracle's values at them (one channel: [`Rendered`]; every channel of
+//! the oracle: [`RenderedChannels`]).
 
 use rkwave::image::adaptive::{AdaptiveParams, ImageOracle, NoisyOracle, SamplePositions};
 use rkwave::image::{ImagePlane, ImageSamples};
@@ -54,5 +55,44 @@ impl Rendered {
             vec![self.values.clone()],
         )
         .unwrap()
+    }
+}
+
+/// The samples so far in every channel of the oracle, grown round by round.
+pub struct RenderedChannels {
+    /// Positions, in the order handed out.
+    pub xs: Vec<f64>,
+    /// Positions, in the order handed out.
+    pub ys: Vec<f64>,
+    /// Per channel, the oracle's value at each position.
+    pub values: Vec<Vec<f64>>,
+}
+
+impl RenderedChannels {
+    /// No samples yet, in `channels` channels.
+    pub fn new(channels: usize) -> Self {
+        Self {
+            xs: vec![],
+            ys: vec![],
+            values: vec![vec![]; channels],
+        }
+    }
+
+    /// Appends `oracle`'s values at the positions `next`.
+    pub fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
+        let mut buf = vec![0.0; oracle.channels()];
+        for (&x, &y) in next.xs.iter().zip(&next.ys) {
+            oracle.sample(x, y, &mut buf);
+            self.xs.push(x);
+            self.ys.push(y);
+            for (c, v) in self.values.iter_mut().zip(&buf) {
+                c.push(*v);
+            }
+        }
+    }
+
+    /// The samples so far on `plane`.
+    pub fn samples(&self, plane: ImagePlane) -> ImageSamples {
+        ImageSamples::new(plane, self.xs.clone(), self.ys.clone(), self.values.clone()).unwrap()
     }
 }
