@@ -256,7 +256,7 @@ impl FromStr for Domain {
 }
 
 impl DomainError {
-    /// The kind of this error ([`crate::error`]): always [`ErrorKind::InvalidInput`].
+    /// The kind of this error ([`crate::error`]): always `ErrorKind::InvalidInput`.
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
             DomainError::NotFinite { .. }

@@ -21,7 +21,7 @@
 //! A wrapping variant (`#[error(transparent)]`) has the kind of the error it wraps. Each
 //! enum's `kind()` is written beside its definition, variant by variant, so a new variant
 //! does not compile until it is classified; this module holds only the kinds and the typed
-//! fixes ([`fix`]), and depends on no other module of the crate (a leaf).
+//! fixes (`fix`), and depends on no other module of the crate (a leaf).
 
 use serde::Serialize;
 

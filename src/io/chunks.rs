@@ -1,5 +1,5 @@
 //! Sample files read in chunks of rows, never whole: a `.npy` file's header is parsed and
-//! checked once ([`super::npy`]), then its rows are decoded a chunk at a time (C order: one
+//! checked once (`super::npy`), then its rows are decoded a chunk at a time (C order: one
 //! sequential read per chunk; Fortran order: one read per column per chunk); a CSV file is
 //! cut at line ends into blocks parsed by the whole-file parser ([`super::csv::parse_csv`])
 //! with the header line in front, its errors' line and row numbers moved to the file's.

@@ -186,7 +186,7 @@ pub fn persist(tmp: &Path, path: &Path, overwrite: bool) -> Result<(), OutputErr
 }
 
 impl OutputError {
-    /// The kind of this error ([`crate::error`]): always [`ErrorKind::OutputRefused`].
+    /// The kind of this error ([`crate::error`]): always `ErrorKind::OutputRefused`.
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
             OutputError::Exists { .. }

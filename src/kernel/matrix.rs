@@ -73,7 +73,7 @@ pub fn kernel_matrix(active: &ActiveSet, positions: &[f64]) -> Result<CsMat<f64>
 }
 
 impl KernelError {
-    /// The kind of this error ([`crate::error`]): always [`ErrorKind::InvalidInput`].
+    /// The kind of this error ([`crate::error`]): always `ErrorKind::InvalidInput`.
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
             KernelError::PositionOutside { .. } | KernelError::Empty => {

@@ -11,7 +11,7 @@
 //! before it end or later, `O(w^2)` per row): samples sorted by position.
 //!
 //! Bit for bit: [`fit_streamed`] splits the samples into the consecutive ranges the in-memory
-//! QR splits them into ([`super::single_scale::qr_parts`], one per thread), rotates each range
+//! QR splits them into (`super::single_scale::qr_parts`, one per thread), rotates each range
 //! into its own accumulator in file order and merges them left to right, the rotations of
 //! [`super::fit`] on samples already in cell order, in the same order: the coefficients are
 //! identical. Merging in another tree (a Dask reduction) gives another rounding of the same

@@ -23,7 +23,7 @@
 //!   level).
 //!
 //! Pixels are exact: the tree's coefficients, zero off the tree, are one 2D synthesis away from
-//! the single-scale coefficients of `V_Jx (x) V_Jy` ([`TensorBasis::synthesis`]), whose box
+//! the single-scale coefficients of `V_Jx (x) V_Jy` (`TensorBasis::synthesis`), whose box
 //! pixel integrals are exact ([`crate::image::pixels`]).
 
 use rayon::prelude::*;

@@ -166,7 +166,7 @@ pub(crate) fn unseal<'a>(
 }
 
 impl TreeGram {
-    /// The matrix as bytes ([`seal`]: [`GRAM_MAGIC`], the caller's `tag` naming the plan it
+    /// The matrix as bytes (`seal`: `GRAM_MAGIC`, the caller's `tag` naming the plan it
     /// belongs to, then the sizes, the functions, the samples' positions, the upper
     /// triangle's CSR arrays, and a checksum of all that).
     pub fn to_bytes(&self, tag: u64) -> Vec<u8> {
@@ -188,7 +188,7 @@ impl TreeGram {
 
     /// The matrix of [`TreeGram::to_bytes`], if the bytes are whole and carry `tag`. The
     /// structure is checked as well (ascending functions, a CSR of the upper triangle), so
-    /// that what is read is a valid start for [`assemble`], which then checks that its
+    /// that what is read is a valid start for `assemble`, which then checks that its
     /// samples and functions fit the fit's.
     pub fn from_bytes(bytes: &[u8], tag: u64) -> Result<Self, GramBytesError> {
         let mut words = unseal(bytes, GRAM_MAGIC, "normal matrix", tag)?;

@@ -2,7 +2,7 @@
 //!
 //! The tree's functions are a subset `T` of the orthonormal non-standard basis, and every one
 //! of them is a combination of the single-scale functions of `V_Jx (x) V_Jy` through the 2D
-//! synthesis `S` ([`TensorBasis::synthesis`], orthogonal: `S^T` is the analysis). So the tree
+//! synthesis `S` (`TensorBasis::synthesis`, orthogonal: `S^T` is the analysis). So the tree
 //! kernel factors as
 //!
 //! ```text
@@ -136,7 +136,7 @@ impl PartialEq for CarriedPcg {
 }
 
 impl CarriedPcg {
-    /// The state as bytes ([`super::gram`]'s sealed layout: [`PCG_MAGIC`], the plan's `tag`,
+    /// The state as bytes ([`super::gram`]'s sealed layout: `PCG_MAGIC`, the plan's `tag`,
     /// the basis size `n`, the vectors `k`, the samples and their positions' hash, the last
     /// tree as a bit mask, then on the tree's functions the diagonal and each start vector;
     /// a checksum); `None` unless both the start and the diagonal are there.

@@ -33,7 +33,7 @@ pub fn clamp_to_sample_range(image: &mut PixelImage, stats: &PixelStatistics) ->
 }
 
 /// Moves of the range clamp at most this large are applied but not counted in
-/// [`ResidualCorrection::clamped`] (the fit's rounding in regions of constant value, where
+/// `ResidualCorrection::clamped` (the fit's rounding in regions of constant value, where
 /// every sample has the same value and the fit is within ulps of it).
 pub const CLAMP_COUNT_TOLERANCE: f64 = 1e-9;
 

@@ -220,7 +220,7 @@ fn dissect(
 const LEAF: usize = 64;
 
 impl StencilPattern {
-    /// Nested-dissection order of the unknowns ([`nested_dissection`] with separators one
+    /// Nested-dissection order of the unknowns (`nested_dissection` with separators one
     /// 1D half-bandwidth wide, the same on both axes: it depends on `p` only).
     pub fn nested_dissection(&self) -> Vec<usize> {
         let b = (0..self.nx).map(|k| self.rx.hi[k] - k).max().unwrap_or(1);

@@ -221,7 +221,7 @@ impl PlanStart {
 
     /// The plan's memory from its sizes alone: the larger of its structures at the depth
     /// limit (the basis's `2^(Jx + Jy)` functions, `J = ceil(log2 size) + below_pixel`
-    /// per axis, times [`PLAN_BYTES_PER_FUNCTION`]) beside the base positions, and the last
+    /// per axis, times `PLAN_BYTES_PER_FUNCTION`) beside the base positions, and the last
     /// round's fit of the whole budget by PCG (one channel: a lower bound), as
     /// [`ImageRequest::tree`] estimates it. Refused above the memory limit naming the
     /// budget and the depth limit, before anything is allocated.

@@ -84,7 +84,7 @@ impl FinalFit {
             && self.fingerprint == samples_fingerprint(samples)
     }
 
-    /// The fit as bytes ([`seal`]: [`FINAL_MAGIC`], the plan's `tag`, the basis size `n`, the
+    /// The fit as bytes (`seal`: `FINAL_MAGIC`, the plan's `tag`, the basis size `n`, the
     /// channels, the samples, their fingerprint, `sigma`, the report's fields, the solver
     /// note, a bit mask of the entries whose bits are not all zero (`-0.0` kept), then each
     /// channel's coefficients there; a checksum).

@@ -1,7 +1,7 @@
 //! The plan's state machine: the adaptive refiner's rounds with the renderer outside the
 //! process, between calls.
 //!
-//! A renderer is not in the process, so the rounds of [`ImagePlan`] are split at the oracle
+//! A renderer is not in the process, so the rounds of `ImagePlan` are split at the oracle
 //! calls. The plan's state between calls is a [`PlanState`]: the plane, the parameters, the
 //! refinement history ([`PlanProgress`]: the cells marked per round) and a record of every
 //! position it handed out. A call
@@ -193,7 +193,7 @@ pub struct IssuedRound {
     pub fingerprint: String,
 }
 
-/// A plan between calls: everything [`ImagePlan::resume`] needs and the record of the
+/// A plan between calls: everything `ImagePlan::resume` needs and the record of the
 /// positions handed out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlanState {

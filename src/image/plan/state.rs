@@ -414,7 +414,7 @@ impl PlanState {
 
     /// The fit of `samples` (the positions of rounds `0..=k` handed out by this plan, for some
     /// `k`) on the tree they were planned for: after the markings of rounds `1..=k`, and the
-    /// output pixels the plan's parameters ask for ([`AdaptiveParams::pixels`]). With the
+    /// output pixels the plan's parameters ask for (`AdaptiveParams::pixels`). With the
     /// samples of the round at which the plan stopped, this is the in-process loop's result.
     pub fn reconstruct(&self, samples: &ImageSamples) -> Result<PlanReconstruction, ProtocolError> {
         self.reconstruct_as(samples, self.params.output.pixels)

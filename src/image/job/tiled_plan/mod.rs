@@ -50,7 +50,7 @@
 //!
 //! **Final image.** Every tile fits all samples in its window on its tree
 //! ([`ImagePlan::fit_updating`], warm-started) and makes the plan's output pixels
-//! ([`output_pixels`]); the image keeps each tile's interior, as the uniform tiles stitch.
+//! (`output_pixels`); the image keeps each tile's interior, as the uniform tiles stitch.
 //!
 //! Why `image::job::tiled_plan`: it is a job built on the plan's refiner and the tile grid,
 //! beside [`super::PlanStart`] and [`super::TiledJob`]; neither the state machine
