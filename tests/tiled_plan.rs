@@ -1,10 +1,8 @@
 //! The plan on tiles (issue 40, item 2): against the untiled plan on analytic scenes, a
-//! state written and read back, refusals; and (ignored, run by hand) the figures of
-//! docs/measurements/scale-out.md.
+//! state written and read back, refusals. The figures of docs/measurements/scale-out.md come
+//! from `examples/tiled_plan_figure.rs`.
 
 mod common;
-
-use std::time::Instant;
 
 use rkwave::image::adaptive::{ImageOracle, NoisyOracle, SceneOracle};
 use rkwave::image::job::tiled_plan::{
@@ -82,17 +80,17 @@ fn scene(name: &str) -> Scene {
     Scene::from_file(Scene::builtin_dir().join(format!("{name}.json"))).unwrap()
 }
 
-/// The tiled plan is within the tile-vs-global tolerance of the untiled plan (issue 40):
-/// PSNR within 0.2 dB and relMSE within 5 % (relative), on three analytic scenes at 128²,
-/// 8 spp, noise sigma 0.05 (a renderer's Monte Carlo noise in miniature), tiles of 64 with
-/// the uniform tiles' default halo (12). Both are measured against the scene's box truth
-/// (16² strata a pixel). The tolerance is the issue's target, not fitted to these runs; the
-/// check is one-sided (the tiled plan may be better). Measured (2026-12-07): shapes -0.587 dB,
-/// relMSE +10.0 % (missed); slanted_edge +0.187 dB, -3.8 %; zone_plate +0.585 dB, -14.2 %.
-/// Ignored while the target is missed on shapes (docs/measurements/scale-out.md); run it with
-/// `cargo test --release --test tiled_plan -- --ignored --nocapture tiled_plan_is_within`.
+/// The tiled plan against the untiled plan (issue 40's target: PSNR within 0.2 dB and relMSE
+/// within 5 %, relative), on three analytic scenes at 128², 8 spp, noise sigma 0.05 (a
+/// renderer's Monte Carlo noise in miniature), tiles of 64 with the uniform tiles' default halo
+/// (12), both against the scene's box truth (16² strata a pixel); one-sided (the tiled plan may
+/// be better). The target holds on `slanted_edge` and is asserted there. It is **missed** on
+/// `shapes` and `zone_plate` (main after the twelfth session: shapes -2.93 dB, relMSE +39.4 %;
+/// zone_plate -0.82 dB, +21.6 %; slanted_edge -0.08 dB, -0.9 %; the tiledplan branch before the
+/// merge measured shapes -0.59 dB, zone_plate +0.59 dB): those two are held to their recorded
+/// miss plus a margin of 0.5 dB and 15 points of relMSE, a regression guard that is not the
+/// target (docs/measurements/scale-out.md).
 #[test]
-#[ignore = "issue 40's target missed on shapes (-0.59 dB, relMSE +10 %): see scale-out.md"]
 fn tiled_plan_is_within_tolerance_of_the_untiled_plan() {
     let plane = ImagePlane::new(128, 128).unwrap();
     let mut failures = Vec::new();
@@ -119,14 +117,21 @@ fn tiled_plan_is_within_tolerance_of_the_untiled_plan() {
             b.rel_mse,
             100.0 * drel
         );
-        if dpsnr < -0.2 || drel > 0.05 {
+        // (least dPSNR, largest relMSE change): the target, or the recorded miss plus margin
+        let (floor, ceiling) = match name {
+            "shapes" => (-2.93 - 0.5, 0.394 + 0.15),
+            "zone_plate" => (-0.82 - 0.5, 0.216 + 0.15),
+            _ => (-0.2, 0.05),
+        };
+        if dpsnr < floor || drel > ceiling {
             failures.push(format!(
-                "{name}: {dpsnr:+.3} dB, relMSE {:+.2} %",
-                100.0 * drel
+                "{name}: {dpsnr:+.3} dB, relMSE {:+.2} % (allowed {floor:+.2} dB, {:+.1} %)",
+                100.0 * drel,
+                100.0 * ceiling
             ));
         }
     }
-    assert!(failures.is_empty(), "beyond 0.2 dB / 5 %: {failures:?}");
+    assert!(failures.is_empty(), "{failures:?}");
 }
 
 /// A tiled plan's state written to JSON and read back gives the identical round: the same
@@ -238,91 +243,4 @@ fn bad_tiles_are_refused() {
         ),
         Err(TiledPlanError::Job(_))
     ));
-}
-
-/// The figures (docs/measurements/scale-out.md): a tiled plan at `RKWAVE_TP_SIZE` (WxH,
-/// default 512x512), 8 spp, noise 0.05, on `shapes`, tiles `RKWAVE_TP_TILE` (default 128);
-/// `RKWAVE_TP_UNTILED=1` runs the untiled plan instead. Prints seconds in rkwave (rendering
-/// excluded) and PSNR against the box truth. Run under `/usr/bin/time -v` for the peak.
-#[test]
-#[ignore]
-fn figure_tiled_plan() {
-    let env = |k: &str, d: &str| std::env::var(k).unwrap_or_else(|_| d.to_string());
-    let size = env("RKWAVE_TP_SIZE", "512x512");
-    let (w, h) = size.split_once('x').unwrap();
-    let plane = ImagePlane::new(w.parse().unwrap(), h.parse().unwrap()).unwrap();
-    let tile: usize = env("RKWAVE_TP_TILE", "128").parse().unwrap();
-    let s = scene(&env("RKWAVE_TP_SCENE", "shapes"));
-    let clean = SceneOracle { scene: &s, plane };
-    let oracle = NoisyOracle {
-        inner: &clean,
-        sigma: 0.05,
-        seed: 7,
-    };
-    let mut r = RenderedChannels::new(3);
-    let mut spent = 0.0;
-    let image = if env("RKWAVE_TP_UNTILED", "0") == "1" {
-        let t = Instant::now();
-        let (mut state, base) = PlanStart::new(plane, &options(8)).unwrap().run().unwrap();
-        spent += t.elapsed().as_secs_f64();
-        r.render(&oracle, &base);
-        loop {
-            let samples = r.samples(plane);
-            let t = Instant::now();
-            let step = state
-                .advance_imaging(&samples, DroppedSamples::default(), false)
-                .unwrap();
-            spent += t.elapsed().as_secs_f64();
-            if step.stop.is_some() {
-                break;
-            }
-            r.render(&oracle, &step.next);
-        }
-        let samples = r.samples(plane);
-        let t = Instant::now();
-        let image = PlanFinal::of(&state, false)
-            .run(&samples, DroppedSamples::default(), None)
-            .unwrap()
-            .image;
-        spent += t.elapsed().as_secs_f64();
-        image
-    } else {
-        let tiles = TiledPlanOptions {
-            tile,
-            halo: None,
-            workers: Some(2),
-        };
-        let t = Instant::now();
-        let (mut state, base) = TiledPlanStart::new(plane, &options(8), &tiles)
-            .unwrap()
-            .run(3)
-            .unwrap();
-        spent += t.elapsed().as_secs_f64();
-        r.render(&oracle, &base);
-        loop {
-            let samples = r.samples(plane);
-            let t = Instant::now();
-            let step = state.advance(&samples).unwrap();
-            spent += t.elapsed().as_secs_f64();
-            eprintln!("{}", serde_json::to_string(&step).unwrap());
-            if step.stop.is_some() {
-                break;
-            }
-            r.render(&oracle, &step.next);
-        }
-        let samples = r.samples(plane);
-        let t = Instant::now();
-        let image = state.final_image(&samples, None).unwrap().image;
-        spent += t.elapsed().as_secs_f64();
-        image
-    };
-    let truth = box_truth(&s, plane, 4);
-    let m = compare(&image, &truth);
-    println!(
-        "FIGURE {size} tile {tile} untiled {}: rkwave {spent:.2} s, {} samples, PSNR {:.3} dB, relMSE {:.4e}",
-        env("RKWAVE_TP_UNTILED", "0"),
-        r.xs.len(),
-        m.psnr,
-        m.rel_mse
-    );
 }

@@ -1,0 +1,140 @@
+//! The tiled plan's figures (docs/measurements/scale-out.md): the plan on tiles, or the
+//! untiled plan, at `SIZE` (WxH), 8 spp, on a built-in scene with Gaussian noise 0.05 (a
+//! renderer's Monte Carlo noise in miniature), to its stop. Prints the seconds spent in
+//! rkwave (rendering the scene excluded), the samples taken and PSNR / relMSE against the
+//! scene's box truth (4² strata a pixel). Run under `/usr/bin/time -v` for the peak memory.
+//!
+//! `cargo run --release --example tiled_plan_figure -- [SIZE] [TILE] [SCENE] [untiled]`
+//! (defaults `512x512`, 128, `shapes`; `untiled` runs the untiled plan instead).
+
+use std::time::Instant;
+
+use rkwave::image::adaptive::{ImageOracle, NoisyOracle, SamplePositions, SceneOracle};
+use rkwave::image::job::tiled_plan::{TiledPlanOptions, TiledPlanStart};
+use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanStart};
+use rkwave::image::metrics::compare;
+use rkwave::image::scene::Scene;
+use rkwave::image::truth::box_truth;
+use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
+
+/// The samples so far: positions in the order handed out and every channel's values.
+struct Rendered {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    values: Vec<Vec<f64>>,
+}
+
+impl Rendered {
+    fn render(&mut self, oracle: &dyn ImageOracle, next: &SamplePositions) {
+        let mut buf = vec![0.0; oracle.channels()];
+        for (&x, &y) in next.xs.iter().zip(&next.ys) {
+            oracle.sample(x, y, &mut buf);
+            self.xs.push(x);
+            self.ys.push(y);
+            for (c, v) in self.values.iter_mut().zip(&buf) {
+                c.push(*v);
+            }
+        }
+    }
+    fn samples(&self, plane: ImagePlane) -> Result<ImageSamples, Box<dyn std::error::Error>> {
+        Ok(ImageSamples::new(
+            plane,
+            self.xs.clone(),
+            self.ys.clone(),
+            self.values.clone(),
+        )?)
+    }
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let size = args.first().map_or("512x512", String::as_str);
+    let tile: usize = args.get(1).map_or(Ok(128), |s| s.parse())?;
+    let scene_name = args.get(2).map_or("shapes", String::as_str);
+    let untiled = args.get(3).is_some_and(|a| a == "untiled");
+    let (w, h) = size.split_once('x').ok_or("SIZE is WxH, e.g. 512x512")?;
+    let plane = ImagePlane::new(w.parse()?, h.parse()?)?;
+    let scene = Scene::from_file(Scene::builtin_dir().join(format!("{scene_name}.json")))?;
+    let clean = SceneOracle {
+        scene: &scene,
+        plane,
+    };
+    let oracle = NoisyOracle {
+        inner: &clean,
+        sigma: 0.05,
+        seed: 7,
+    };
+    let options = PlanOptions {
+        budget: Some(PlanBudget::PerPixel(8)),
+        ..PlanOptions::default()
+    };
+    let mut r = Rendered {
+        xs: vec![],
+        ys: vec![],
+        values: vec![vec![]; oracle.channels()],
+    };
+    let mut spent = 0.0;
+    let image = if untiled {
+        let t = Instant::now();
+        let (mut state, base) = PlanStart::new(plane, &options)?.run()?;
+        spent += t.elapsed().as_secs_f64();
+        r.render(&oracle, &base);
+        loop {
+            let samples = r.samples(plane)?;
+            let t = Instant::now();
+            let step = state.advance_imaging(&samples, DroppedSamples::default(), false)?;
+            spent += t.elapsed().as_secs_f64();
+            if step.stop.is_some() {
+                break;
+            }
+            r.render(&oracle, &step.next);
+        }
+        let samples = r.samples(plane)?;
+        let t = Instant::now();
+        let image = PlanFinal::of(&state, false)
+            .run(&samples, DroppedSamples::default(), None)?
+            .image;
+        spent += t.elapsed().as_secs_f64();
+        image
+    } else {
+        let tiles = TiledPlanOptions {
+            tile,
+            halo: None,
+            workers: None,
+        };
+        let t = Instant::now();
+        let (mut state, base) =
+            TiledPlanStart::new(plane, &options, &tiles)?.run(oracle.channels())?;
+        spent += t.elapsed().as_secs_f64();
+        r.render(&oracle, &base);
+        loop {
+            let samples = r.samples(plane)?;
+            let t = Instant::now();
+            let step = state.advance(&samples)?;
+            spent += t.elapsed().as_secs_f64();
+            eprintln!("{}", serde_json::to_string(&step)?);
+            if step.stop.is_some() {
+                break;
+            }
+            r.render(&oracle, &step.next);
+        }
+        let samples = r.samples(plane)?;
+        let t = Instant::now();
+        let image = state.final_image(&samples, None)?.image;
+        spent += t.elapsed().as_secs_f64();
+        image
+    };
+    let m = compare(&image, &box_truth(&scene, plane, 4));
+    println!(
+        "{size} {} {scene_name}: rkwave {spent:.2} s, {} samples, PSNR {:.3} dB, relMSE {:.4e}",
+        if untiled {
+            "untiled".to_string()
+        } else {
+            format!("tile {tile}")
+        },
+        r.xs.len(),
+        m.psnr,
+        m.rel_mse
+    );
+    Ok(())
+}
