@@ -314,7 +314,12 @@ fn resolve_through(
     let found = resolve(current, segs, modules)?;
     let consumed = found.split("::").filter(|s| !s.is_empty()).count();
     let absolute: Vec<String> = absolute_path(current, segs)?;
-    let next = absolute.get(consumed)?;
+    // A path that ends at a module: not counted when written so (as before), but one
+    // reached through a re-export of a module (`pub use crate::a::b;` in `c`, then
+    // `c::b::Item` or `c::b`) names the module re-exported, not the one re-exporting it.
+    let Some(next) = absolute.get(consumed) else {
+        return (depth > 0).then_some(found);
+    };
     match aliases.get(&found).and_then(|a| a.get(next)) {
         Some(target) if depth < 8 => {
             let mut path = target.clone();

@@ -31,6 +31,7 @@ mod normal;
 mod outcome;
 mod params;
 mod sparse;
+pub mod tree;
 pub mod vectors;
 pub(crate) use sparse::{csr_by_rows, raw as csr_raw, transpose_with_positions};
 #[cfg(test)]

@@ -21,24 +21,20 @@
 //! * `figure`: the image, the local depth and the samples side by side.
 
 pub mod correction;
-mod diagonal;
 mod error;
 #[cfg(feature = "plot")]
 pub mod figure;
 pub mod fit;
-pub mod gram;
 mod indicator;
-mod operator;
-mod oracle;
-pub mod pcg;
+pub(crate) mod oracle;
 mod refiner;
-pub mod schwarz;
 pub mod significance;
-mod single_scale;
-mod solver;
 
 /// The plan's solver choice under the memory limit, for the plan's state machine.
-pub(crate) use solver::{fallback_note, fitting_solver};
+pub(crate) use crate::solve::tree::solver::{fallback_note, fitting_solver};
+/// The tree system (`K_T^T K_T`, its PCG and Schwarz solves) lives in the solver layer,
+/// [`crate::solve::tree`]; its modules keep their paths here.
+pub use crate::solve::tree::{gram, pcg, schwarz};
 
 pub use crate::adaptive::marking;
 pub use crate::adaptive::{Cell, QuadTree};

@@ -32,7 +32,7 @@
 
 use sprs::CsMat;
 
-use super::mix64;
+use crate::image::adaptive::oracle::mix64;
 use crate::solve::{csr_by_rows, csr_raw as raw};
 
 /// The upper triangle of `G = K_T^T K_T` of the last fit, kept for the next round's update.
