@@ -6,7 +6,6 @@
 //! single-scale `V_{N+1}` coefficients and then evaluates only `2p - 1` (plus edge) scaling
 //! functions per position.
 
-mod banded_qr;
 pub(crate) mod density;
 mod error;
 mod evaluate;

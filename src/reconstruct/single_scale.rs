@@ -18,7 +18,7 @@ use serde::Serialize;
 
 use crate::basis::{fwt, CdvBasis};
 
-use super::banded_qr::{cell_order, GivensTriangle};
+use crate::solve::band::{cell_order, GivensTriangle};
 
 /// Samples per parallel work item.
 const CHUNK: usize = 16_384;

@@ -24,7 +24,6 @@ use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use super::banded_qr::GivensTriangle;
 use super::single_scale::{qr_parts, solve_triangle};
 use super::{
     cell_of, check_values, choose_levels, density, guard_uniform, min_support_of_counts,
@@ -34,6 +33,7 @@ use super::{
 use crate::basis::CdvBasis;
 use crate::kernel::{check_positions, KernelError, LevelChoice};
 use crate::sampling::Domain;
+use crate::solve::band::GivensTriangle;
 
 /// Errors of the streamed single-scale fit.
 #[derive(Debug, Error)]

@@ -20,6 +20,7 @@
 //! magnitudes `1e±300` are safe), reports cut-offs, shifts and condition numbers, and
 //! returns [`SolveError`] instead of panicking or returning NaN.
 
+pub(crate) mod band;
 mod block;
 pub mod cg;
 pub mod cholesky;
@@ -31,6 +32,7 @@ mod normal;
 mod outcome;
 mod params;
 mod sparse;
+pub mod stencil;
 pub mod tree;
 pub mod vectors;
 pub(crate) use sparse::{csr_by_rows, raw as csr_raw, transpose_with_positions};

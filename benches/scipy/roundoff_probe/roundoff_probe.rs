@@ -4,7 +4,7 @@
 
 use super::eval::Position;
 use super::{CdvBasis, Domain, FilterFamily};
-use crate::reconstruct::banded_qr::GivensTriangle;
+use crate::solve::band::GivensTriangle;
 
 #[derive(Clone, Copy, Default, Debug)]
 pub(crate) struct Dd(pub f64, pub f64);

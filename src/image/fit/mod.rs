@@ -9,10 +9,7 @@
 //! ([`ImageFit::evaluate`]); the multilevel coefficients are one 2D FWT away
 //! ([`TensorBasis::analysis`]).
 
-mod error;
-pub mod normal;
-mod precondition;
-pub mod system;
+pub(crate) mod error;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -22,10 +19,14 @@ use serde::Serialize;
 use crate::basis::tensor::{TensorBasis, TensorError, TensorLevelParams, TensorValue};
 use crate::basis::{CdvBasis, FilterFamily};
 use crate::solve::cg::IterationLimit;
+use crate::solve::stencil::precondition;
 
+pub use crate::solve::stencil::precondition::kernel_matrix_2d;
+/// The stencil system (the normal equations' assembly and their solves) lives in the solver
+/// layer, [`crate::solve::stencil`]; its modules keep their paths here.
+pub use crate::solve::stencil::{normal, system};
 pub use error::ImageFitError;
 pub use normal::{NormalEquations2d, StencilPattern};
-pub use precondition::kernel_matrix_2d;
 pub use system::{
     FactorReport, FillOrdering, NormalSolver, NormalSystem, StencilCgReport, StencilPreconditioner,
     CG_MAX_ITERATIONS, CG_TOLERANCE, CHOLESKY_MAX_FUNCTIONS,

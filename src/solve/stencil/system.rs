@@ -242,7 +242,7 @@ impl NormalSystem {
     }
 
     /// The same system worked on the calling thread alone: for callers that already run one
-    /// system per worker (the tiles of [`crate::image::tiles`]). The arithmetic is that of a
+    /// system per worker (the tiles of `image::tiles`). The arithmetic is that of a
     /// one-thread pool, so the bits do not depend on the pool the caller runs in.
     pub fn sequential(mut self) -> Self {
         self.par = Par::Seq;

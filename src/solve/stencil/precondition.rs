@@ -8,8 +8,8 @@
 use rayon::prelude::*;
 use sprs::CsMat;
 
-use super::ImageFitError;
 use crate::basis::tensor::TensorBasis;
+use crate::image::fit::error::ImageFitError;
 use crate::solve::{local_inversion, LocalInversionParams, Solver};
 
 /// The 2D single-scale kernel matrix `K` (`m x nx ny`, CSR); positions must lie in the image.
