@@ -343,6 +343,8 @@ pub fn fit_image(
             };
             let setup_s = t.elapsed().as_secs_f64();
             timings.factor_s = setup_s;
+            // The stencil system's policy at CG's iteration limit: the sparse Cholesky.
+            const ON_LIMIT: IterationLimit = IterationLimit::FallBack;
             let t = Instant::now();
             let mut report = StencilCgReport {
                 preconditioner,
@@ -352,6 +354,7 @@ pub fn fit_image(
                 converged: true,
                 setup_s,
                 fallback: None,
+                on_limit: ON_LIMIT,
             };
             let mut z = Vec::with_capacity(rhs.len());
             for (zc, it, res, bound) in system.solve_cg(
@@ -374,8 +377,6 @@ pub fn fit_image(
                 z.push(zc);
             }
             timings.solve_s = t.elapsed().as_secs_f64();
-            // The stencil system's policy at CG's iteration limit: the sparse Cholesky.
-            const ON_LIMIT: IterationLimit = IterationLimit::FallBack;
             if report.converged || ON_LIMIT != IterationLimit::FallBack {
                 (z, None, Some(report))
             } else {

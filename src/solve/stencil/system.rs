@@ -31,7 +31,8 @@ use sprs::CsMat;
 
 use super::normal::{symmetric_matvec, StencilPattern};
 use crate::solve::cg::{
-    self, CgParams, ConditionEstimate, Identity, LocalInverse, ResidualReport, SymmetricOperator,
+    self, CgParams, ConditionEstimate, Identity, IterationLimit, LocalInverse, ResidualReport,
+    SymmetricOperator,
 };
 use crate::solve::cholesky::{CholeskyError, Pivots, SparseCholesky};
 
@@ -158,6 +159,9 @@ pub struct StencilCgReport {
     /// Why the system was solved by the sparse Cholesky after all (a channel short of the
     /// tolerance at the iteration cap, or a breakdown); `None` when CG's iterate is the result.
     pub fallback: Option<String>,
+    /// What the caller does at the iteration limit, named at the call (the stencil system's
+    /// is [`IterationLimit::FallBack`]); taken when `converged` is false.
+    pub on_limit: IterationLimit,
 }
 
 /// The assembled system and (for Cholesky) its factor.
