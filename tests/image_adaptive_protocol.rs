@@ -500,6 +500,14 @@ fn command_line_protocol_gives_the_in_process_image() {
         &s(&dir.join("fresh.npy")),
     ]);
     assert!(restart.contains("holds a plan"), "{restart}");
+    // The library's one check (`PlanState::check_new`), its fixes spelled as flags.
+    assert!(
+        restart.contains(
+            "holds a plan already: pass --samples to continue it, --force to start a new one, \
+             or another --state"
+        ),
+        "{restart}"
+    );
     // samples of another run, another budget, no state
     let other = common::user_error(&[
         "plan",

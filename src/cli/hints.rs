@@ -46,6 +46,7 @@ pub fn flag(fix: Fix) -> &'static str {
             Param::BelowPixel => "--below-pixel",
             Param::MemoryLimit => "--memory-limit",
             Param::Scratch => "--scratch",
+            Param::Samples => "--samples",
             _ => param.in_library(),
         },
         _ => fix.in_library(),

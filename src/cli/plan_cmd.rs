@@ -177,20 +177,13 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         inputs.extend(args.samples.as_deref());
         rkwave::io::output::check_output(image, args.force, &inputs)?;
     }
-    let state_file = PlanState::path(&args.state);
     let options = options(args);
     if args.tile.is_some() || tiled::path(&args.state).exists() {
         return tiled::run(args, &options);
     }
     let (state, next, step, final_image) = match &args.samples {
         None => {
-            if state_file.exists() && !args.force {
-                return Err(CliError::Invalid(format!(
-                    "{} holds a plan already: pass --samples to continue it, --force to start \
-                     a new one, or another --state",
-                    args.state.display()
-                )));
-            }
+            PlanState::check_new(&args.state, &[], args.force)?;
             let resolution = args
                 .resolution
                 .as_deref()

@@ -90,11 +90,13 @@ pub enum Param {
     MemoryLimit,
     /// The folder the tiled fit spills its band files into.
     Scratch,
+    /// A plan's samples of its last round (to continue the plan).
+    Samples,
 }
 
 impl Param {
     /// Every parameter, so a front end can check that it spells each one.
-    pub const ALL: [Param; 19] = [
+    pub const ALL: [Param; 20] = [
         Param::P,
         Param::Rho,
         Param::Ridge,
@@ -114,6 +116,7 @@ impl Param {
         Param::BelowPixel,
         Param::MemoryLimit,
         Param::Scratch,
+        Param::Samples,
     ];
 
     /// The parameter in the library's terms (the field of `image::job::ImageParams`
@@ -139,13 +142,14 @@ impl Param {
             Param::BelowPixel => "QuadTreeParams::below_pixel",
             Param::MemoryLimit => "resources::set_memory_limit",
             Param::Scratch => "TiledParams::scratch",
+            Param::Samples => "the rendered samples of the plan's positions",
         }
     }
 }
 
 impl Fix {
     /// Every fix, so a front end can check that it spells each one.
-    pub const ALL: [Fix; 34] = [
+    pub const ALL: [Fix; 35] = [
         Fix::RegularizedAnswer,
         Fix::RegularizeOrLocal,
         Fix::Cutoff,
@@ -179,6 +183,7 @@ impl Fix {
         Fix::Set(Param::ALL[16]),
         Fix::Set(Param::ALL[17]),
         Fix::Set(Param::ALL[18]),
+        Fix::Set(Param::ALL[19]),
         Fix::SolverPcg,
     ];
 

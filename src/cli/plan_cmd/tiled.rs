@@ -101,13 +101,11 @@ pub fn run(args: &PlanArgs, options: &PlanOptions) -> Result<(), CliError> {
     let untiled = rkwave::image::plan::PlanState::path(&args.state);
     let (state, next, step, notes) = match &args.samples {
         None => {
-            if (path(&args.state).exists() || untiled.exists()) && !args.force {
-                return Err(CliError::Invalid(format!(
-                    "{} holds a plan already: pass --samples to continue it, --force to start \
-                     a new one, or another --state",
-                    args.state.display()
-                )));
-            }
+            rkwave::image::plan::PlanState::check_new(
+                &args.state,
+                &[path(&args.state)],
+                args.force,
+            )?;
             let resolution = args
                 .resolution
                 .as_deref()

@@ -170,6 +170,19 @@ pub enum ProtocolError {
         /// The value given.
         given: String,
     },
+    /// A new plan asked for in a folder that holds a plan (its state file, untiled or tiled)
+    /// already ([`PlanState::check_new`]).
+    #[error(
+        "{} holds a plan already: pass {} to continue it, {} to start a new one, or another {}",
+        .dir.display(),
+        crate::error::Fix::Set(crate::error::Param::Samples),
+        crate::error::Fix::Set(crate::error::Param::Overwrite),
+        crate::error::Fix::Set(crate::error::Param::State)
+    )]
+    HoldsPlan {
+        /// The folder.
+        dir: PathBuf,
+    },
     /// The state file is not a plan state this build reads.
     #[error("{}: not a plan state ({problem}): start a new state", .file.display())]
     State {
@@ -319,6 +332,7 @@ impl ProtocolError {
             | ProtocolError::Mismatch { .. }
             | ProtocolError::Channels { .. }
             | ProtocolError::OtherParameters { .. }
+            | ProtocolError::HoldsPlan { .. }
             | ProtocolError::State { .. } => crate::error::ErrorKind::InvalidInput,
             ProtocolError::AlreadyPlanned { .. } => crate::error::ErrorKind::OutputRefused,
         }

@@ -20,6 +20,24 @@ use super::{samples_fingerprint, CarriedFinal, CarriedGram, CarriedPcg, FinalFit
 const STATE_FILE: &str = "state.json";
 
 impl PlanState {
+    /// Refuses to start a new plan in the folder `dir` when it holds one already: its state
+    /// file ([`PlanState::path`]) or any of `other_states` (the state files of other kinds of
+    /// plan, e.g. a tiled one) exists, unless `overwrite`. The one check of every front end
+    /// that starts a plan in a folder.
+    pub fn check_new(
+        dir: &Path,
+        other_states: &[PathBuf],
+        overwrite: bool,
+    ) -> Result<(), ProtocolError> {
+        let held = Self::path(dir).exists() || other_states.iter().any(|f| f.exists());
+        if held && !overwrite {
+            return Err(ProtocolError::HoldsPlan {
+                dir: dir.to_path_buf(),
+            });
+        }
+        Ok(())
+    }
+
     /// The state as JSON.
     pub fn to_json(&self) -> String {
         serde_json::to_string(self).expect("a plan state serialises")
