@@ -10,10 +10,19 @@ use rkwave::sampling::Domain;
 use rkwave::report::basis::basis_report;
 use rkwave::report::DemoSummary;
 
-use super::{figures, CliError, DemoArgs};
+use rkwave::lab::refine::{adaptive_vs_uniform, compare_uniform, comparison_budgets, Truth};
+use rkwave::lab::refine_figures::{error_against_samples, figure4_layout};
+use rkwave::refine::{RefineParams, SignalOracle, StopParams};
+use rkwave::sampling::Signal;
+
+use super::adapt_text::{adapt_table, comparison_table, refine_error};
+use super::{check_writable, figures, CliError, DemoArgs};
 
 /// Finest level of the demo's basis table.
 const DEMO_FINE: u32 = 12;
+
+/// The grid of the adaptive demo's errors (`rkwave adapt`'s default `--grid`).
+const ADAPT_GRID: usize = 65_536;
 
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
@@ -114,38 +123,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
          Printed by `rkwave adapt --signal jumps --max-depth 8 --tolerance 1e-3` and \
          `rkwave adapt --signal jumps --compare-uniform --counts 512,1024,2048,4096`."
     );
-    for extra in [
-        vec![
-            "--max-depth",
-            "8",
-            "--tolerance",
-            "1e-3",
-            "--plot",
-            "adapt_jumps.png",
-        ],
-        vec![
-            "--compare-uniform",
-            "--counts",
-            "512,1024,2048,4096",
-            "--plot",
-            "adapt_compare.png",
-        ],
-    ] {
-        let mut argv: Vec<String> = ["rkwave", "adapt", "--signal", "jumps", "--force"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        for a in extra {
-            argv.push(if a.ends_with(".png") {
-                out.join(a).display().to_string()
-            } else {
-                a.to_string()
-            });
-        }
-        let cli = <super::Cli as clap::Parser>::try_parse_from(&argv)
-            .map_err(|e| CliError::Internal(format!("the demo's own arguments: {e}")))?;
-        super::run(cli)?;
-    }
+    adaptive_jumps(out)?;
     super::demo_image::run(out, &mut summary)?;
     let md = out.join("summary.md");
     std::fs::write(&md, &summary).map_err(|source| CliError::Write {
@@ -172,5 +150,59 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         md.display(),
         json.display()
     );
+    Ok(())
+}
+
+/// The adaptive example of the supplement's figure 4 and adaptive against uniform sampling on
+/// the three-jump signal: what `rkwave adapt --signal jumps --max-depth 8 --tolerance 1e-3
+/// --plot adapt_jumps.png` and `rkwave adapt --signal jumps --compare-uniform --counts
+/// 512,1024,2048,4096 --plot adapt_compare.png` print and draw, by the same library calls
+/// with the command's defaults written out.
+fn adaptive_jumps(out: &std::path::Path) -> Result<(), CliError> {
+    let domain = Domain::UNIT;
+    let signal = Signal::Jumps;
+    let oracle = SignalOracle::new(signal, domain);
+    let name = signal.to_string();
+    let truth = Truth {
+        oracle: &oracle,
+        name: &name,
+        singular_points: signal.singular_points(),
+    };
+    // `rkwave adapt`'s defaults: p 3 with CDV's family, base 256 jittered samples (seed 1),
+    // rho 2, theta 0.5, the coefficient indicator, depth limit 32, tolerance 1e-6, budget
+    // 100 000, every round's error on a grid of 4096.
+    let defaults = RefineParams::default();
+    let params = |max_depth: u32, tolerance: f64| {
+        let mut p = RefineParams {
+            domain,
+            reference_grid: 4096,
+            stop: StopParams {
+                tolerance,
+                ..defaults.stop
+            },
+            ..defaults
+        };
+        p.interval.family = Some(FilterFamily::cdv_default(p.tree.p));
+        p.interval.max_depth = max_depth;
+        p.validate().map_err(refine_error).map(|()| p)
+    };
+    let figure = out.join("adapt_jumps.png");
+    check_writable(&figure, true)?;
+    let (report, r) =
+        adaptive_vs_uniform(truth, &params(8, 1e-3)?, ADAPT_GRID).map_err(refine_error)?;
+    figures::save(&figure4_layout(&r, truth).map_err(refine_error)?, &figure)?;
+    print!("{}", adapt_table(&report));
+    println!("wrote {}", figure.display());
+    let params = params(32, 1e-6)?;
+    let figure = out.join("adapt_compare.png");
+    check_writable(&figure, true)?;
+    let budgets = comparison_budgets(&[512, 1024, 2048, 4096], &params);
+    let compared = compare_uniform(truth, &params, &budgets, ADAPT_GRID).map_err(refine_error)?;
+    figures::save(
+        &error_against_samples(&compared.comparison, &compared.signal),
+        &figure,
+    )?;
+    print!("{}", comparison_table(&compared, ADAPT_GRID));
+    println!("wrote {}", figure.display());
     Ok(())
 }

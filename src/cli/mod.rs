@@ -2,6 +2,7 @@
 //! values build the library objects. No algorithm lives in the binary.
 
 pub mod adapt_cmd;
+pub mod adapt_text;
 pub mod basis_cmd;
 pub mod compare_cmd;
 pub mod demo;
