@@ -162,3 +162,36 @@ fn the_final_image_refuses_the_uniform_parameters() {
     assert!(e.contains("the plan is for 24x20"), "{e}");
     assert!(!d.join("o.npy").exists());
 }
+
+/// A folder that holds a plan (its state file, or another kind's, e.g. the tiled plan's)
+/// refuses a new one through the one library check, `PlanState::check_new`, whose fixes are
+/// parameters in the library's words (the command line spells them as flags:
+/// `image_adaptive_protocol`); `overwrite` lets the new plan in.
+#[test]
+fn a_folder_holding_a_plan_refuses_a_new_one() {
+    use rkwave::error::ErrorKind;
+    use rkwave::image::plan::{PlanState, ProtocolError};
+    let dir = scratch("front-door-plan", "holds");
+    let state = dir.join("state");
+    std::fs::create_dir_all(&state).expect("scratch folder");
+    let tiled = state.join("tiled-state.json");
+    assert!(PlanState::check_new(&state, std::slice::from_ref(&tiled), false).is_ok());
+    for file in [PlanState::path(&state), tiled.clone()] {
+        std::fs::write(&file, "{}").expect("scratch file");
+        let e = PlanState::check_new(&state, std::slice::from_ref(&tiled), false)
+            .expect_err("a folder with a plan refuses a new one");
+        assert!(matches!(e, ProtocolError::HoldsPlan { .. }), "{e}");
+        assert_eq!(e.kind(), ErrorKind::InvalidInput);
+        let text = e.to_string();
+        assert!(
+            text.contains("holds a plan already") && text.contains("(overwrite)"),
+            "{text}"
+        );
+        assert!(
+            !text.contains("--"),
+            "a library message names no flag: {text}"
+        );
+        assert!(PlanState::check_new(&state, std::slice::from_ref(&tiled), true).is_ok());
+        std::fs::remove_file(&file).expect("scratch file");
+    }
+}

@@ -503,8 +503,8 @@ fn command_line_protocol_gives_the_in_process_image() {
     // The library's one check (`PlanState::check_new`), its fixes spelled as flags.
     assert!(
         restart.contains(
-            "holds a plan already: pass --samples to continue it, --force to start a new one, \
-             or another --state"
+            "holds a plan already: continue it (--samples), start a new one (--force) or plan \
+             in another folder (--state)"
         ),
         "{restart}"
     );

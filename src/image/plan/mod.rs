@@ -173,7 +173,8 @@ pub enum ProtocolError {
     /// A new plan asked for in a folder that holds a plan (its state file, untiled or tiled)
     /// already ([`PlanState::check_new`]).
     #[error(
-        "{} holds a plan already: pass {} to continue it, {} to start a new one, or another {}",
+        "{} holds a plan already: continue it ({}), start a new one ({}) or plan in another \
+         folder ({})",
         .dir.display(),
         crate::error::Fix::Set(crate::error::Param::Samples),
         crate::error::Fix::Set(crate::error::Param::Overwrite),
