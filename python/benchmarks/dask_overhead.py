@@ -2,7 +2,7 @@
 """The Dask paths (rkwave.dask) against the one-process paths on the same samples, as ratios
 in one run.
 
-    python python/benchmarks/dask_overhead.py [--rkwave target/release/rkwave] [--size 2048]
+    python python/benchmarks/dask_overhead.py [--rkwave target/release/rkwave] [--size 2048 ...]
         [--spp 1] [--tile 256] [--halo 12] [--m1 10000000] [--chunks 8] [--rounds 3]
 
 Image: a ``size x size`` image from ``spp`` samples per pixel (uniform positions, seed 7, one
@@ -14,7 +14,10 @@ bit, checked). Per round, alternating: ``rkwave reconstruct --dim 2 --tile T --h
 included) and ``rkwave.dask.reconstruct_image_tiles`` on a ``LocalCluster(n_workers=2,
 processes=True, threads_per_worker=1)`` started before the rounds (wall clock of the call:
 client-side checks, graph, tasks, assembly, the atomic write). The overhead is the median of
-the per-round ratios dask / CLI minus one; the spread is their min and max.
+the per-round ratios dask / CLI minus one; the spread is their min and max. Several sizes
+(``--size 512 4096``) run one after the other on the same cluster, each with its Dask seconds
+per megapixel; after each size, every worker's peak resident memory so far (``ru_maxrss``:
+a worker's peak over the sizes run until then, so give the sizes in increasing order).
 
 1D: ``m1`` sorted samples of ``sin 6x + 0.3 |x - 0.4|`` with noise, ``rkwave.fit`` in this
 process against ``rkwave.dask.fit_chunks`` on ``chunks`` files on the same cluster, at the
@@ -60,7 +63,8 @@ def spread(values):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rkwave", default=os.path.join(ROOT, "target", "release", "rkwave"))
-    ap.add_argument("--size", type=int, default=2048)
+    ap.add_argument("--size", type=int, nargs="+", default=[2048],
+                    help="image sizes, each its own case in this run (time per pixel compared)")
     ap.add_argument("--spp", type=int, default=1)
     ap.add_argument("--tile", type=int, default=256)
     ap.add_argument("--halo", type=int, default=12)
@@ -80,8 +84,8 @@ def main():
     client = Client(cluster)
     out = {"load_before": os.getloadavg()}
 
-    if not args.skip_image:
-        size, tile = args.size, args.tile
+    for size in [] if args.skip_image else args.size:
+        tile = args.tile
         a = image_samples(size, args.spp)
         band = np.minimum((a[:, 1] // tile).astype(int), size // tile - 1)
         order = np.argsort(band, kind="stable")
@@ -116,12 +120,18 @@ def main():
             same &= bool(np.array_equal(np.load(cli_out), np.load(dask_out)))
             os.unlink(cli_out)
             os.unlink(dask_out)
-        out["image"] = {
+        # each worker process's peak resident memory so far (Linux: ru_maxrss in KiB)
+        peaks = client.run(
+            lambda: __import__("resource").getrusage(
+                __import__("resource").RUSAGE_SELF).ru_maxrss * 1024)
+        out.setdefault("image", []).append({
             "size": size, "spp": args.spp, "tile": tile, "halo": args.halo,
             "files": len(paths), "tiles": (size // tile) ** 2,
             "cli_s": spread(cli_s), "dask_s": spread(dask_s),
             "overhead": spread([q - 1 for q in ratio]), "identical": same,
-        }
+            "dask_s_per_megapixel": spread([d / (size * size / 1e6) for d in dask_s]),
+            "worker_peak_bytes": sorted(peaks.values()),
+        })
 
     if not args.skip_1d:
         m = args.m1
