@@ -6,7 +6,10 @@
 //!    three difference estimates of the strata (2D second differences, successive differences
 //!    along `x` and along `y`, [`super::noise`]), each cancelling a class of the signal's
 //!    variation between strata (an edge or gradient across the pixel, texture coarser than a
-//!    stratum) and keeping what the stratified mean really varies by.
+//!    stratum) and keeping what the stratified mean really varies by; then checked against
+//!    the box pixels' own differences across pixels and lowered wherever it says more than
+//!    twice the noise they show (texture inside the strata, a sampler that stratifies more
+//!    than the model knows; never raised, [`super::spatial`]).
 //! 2. **Films**: the film filter of least SURE over the window around each pixel
 //!    ([`super::sure`]; the box film `F = m`, `A = 1`, is one of the five).
 //! 3. **SureShrink of the box pixels**: cycle-spun Haar, heteroscedastic coefficient variances
@@ -38,6 +41,7 @@ use super::gate::{gate, GateCandidate, GateCount, GATE_HALF};
 use super::noise::{DifferenceCount, PixelNoise};
 use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
+use super::spatial::{apply_factors, spatial_factors, SpatialCheck};
 use super::statistics::median;
 use super::sure::{choose_films, FilmRisks};
 use super::sureshrink::sure_shrink_channel;
@@ -85,6 +89,9 @@ pub struct AutoReport {
     /// `c`, the least of three's expectation on pure noise relative to the noise at these
     /// positions ([`PixelNoise::pure_noise_ratio`]).
     pub pure_noise_ratio: Option<f64>,
+    /// The check of `v_P` against the box pixels' differences across pixels
+    /// ([`super::spatial`]).
+    pub spatial: SpatialCheck,
     /// Pixels per gate candidate.
     pub gate: Vec<GateCount>,
     /// Mean estimated risk per pixel of the output (summed over channels).
@@ -152,7 +159,7 @@ impl AutoReport {
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
              coefficients killed); noise of each pixel's mean from the least of three difference \
-             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}); estimated risk per pixel {:.3e} \
+             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}; {}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
              samples in their 3x3 neighbourhood (largest move {:.3e}); {}",
             self.shrink.shifts * self.shrink.shifts,
@@ -164,6 +171,7 @@ impl AutoReport {
                 .join(", "),
             self.pixels_with_blocks,
             super::list(&self.sigma),
+            self.spatial.describe(),
             self.estimated_risk,
             self.box_risk,
             self.range_clamped,
@@ -196,7 +204,7 @@ pub fn estimate(
             first / w
         ));
     }
-    let noise = PixelNoise::new(samples, &bins)
+    let mut noise = PixelNoise::new(samples, &bins)
         .filter(|n| 2 * n.pixels_with_blocks() >= pixels)
         .ok_or_else(|| {
             let two = (0..pixels).filter(|&p| bins.in_pixel(p).len() >= 2).count();
@@ -217,9 +225,14 @@ pub fn estimate(
                 .collect()
         })
         .collect();
-    let variance: Vec<Vec<f64>> = (0..channels)
+    let mut variance: Vec<Vec<f64>> = (0..channels)
         .map(|c| (0..pixels).map(|p| noise.pixel_variance(c, p)).collect())
         .collect();
+    // 1b. the strata's noise checked against the box pixels' own differences across pixels,
+    // lowered where it says more than twice the noise they show (`super::spatial`)
+    let factors = spatial_factors(&mean, &variance, w, h, GATE_HALF);
+    apply_factors(&mut noise.mean_variance, &factors, GATE_HALF);
+    let spatial = apply_factors(&mut variance, &factors, GATE_HALF);
     let choice = choose_films(
         samples,
         &bins,
@@ -339,6 +352,7 @@ pub fn estimate(
             pixels_with_blocks: noise.pixels_with_blocks(),
             noise_estimators: noise.estimator_counts(),
             pure_noise_ratio: noise.pure_noise_ratio,
+            spatial,
             gate: gated.counts,
             estimated_risk: gated.risk,
             box_risk: gated.box_risk,

@@ -39,6 +39,7 @@ pub mod noise;
 mod report;
 pub mod robust;
 pub mod shrink;
+pub mod spatial;
 pub mod statistics;
 pub mod sure;
 pub mod sureshrink;
@@ -142,6 +143,7 @@ pub fn reconstruct_estimated(
         pixels_with_spread: None,
         noise_estimators: None,
         pure_noise_ratio: None,
+        spatial_check: None,
         threshold: None,
         shrink: None,
         clamped_values: None,

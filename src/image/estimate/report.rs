@@ -8,6 +8,7 @@ use super::gate::GateCount;
 use super::noise::DifferenceCount;
 use super::robust::RobustReport;
 use super::shrink::ShrinkParams;
+use super::spatial::SpatialCheck;
 use super::sure::FilmRisks;
 
 /// What a pixel estimate did: the noise level and the thresholds used, the clamped values.
@@ -53,6 +54,10 @@ pub struct EstimateReport {
     /// the estimated risks fall short of the actual ones by about this factor where the pixels
     /// hold Monte Carlo noise only.
     pub pure_noise_ratio: Option<f64>,
+    /// The check of the strata's noise against the box pixels' differences across pixels:
+    /// the pixels whose noise it lowered, the median and total factor (`auto` only;
+    /// [`spatial`](super::spatial)).
+    pub spatial_check: Option<SpatialCheck>,
     /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
@@ -79,6 +84,7 @@ impl AutoReport {
         report.pixels_with_spread = Some(self.pixels_with_blocks);
         report.noise_estimators = Some(self.noise_estimators);
         report.pure_noise_ratio = self.pure_noise_ratio;
+        report.spatial_check = Some(self.spatial);
         report.gate = Some(self.gate);
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
