@@ -80,6 +80,14 @@ pub struct ImageSampling {
     /// the round that would stop first gives each such pixel one sample (false: pixels the
     /// tree leaves empty keep the fit's value).
     pub cover_pixels: bool,
+    /// The uniform floor (module `coverage`): a share `f` in `[0, 1]` of the budget's
+    /// samples a pixel, `N / (W H)`, that every pixel holds at the end, `floor(f N / (W H))`
+    /// (0: none beyond the coverage rule). Where the tree cannot follow the signal (texture
+    /// past the depth limit, thin geometry) the final image is close to the box mean of each
+    /// pixel's samples, of error `sigma_P^2 / n_P`: pixels the tree leaves at its base
+    /// oversampling hold too few; the floor gives them their share, well stratified (the
+    /// pixel's own (0, 2)-sequence).
+    pub pixel_floor: f64,
 }
 
 /// The indicator of the image refiner.
@@ -169,6 +177,7 @@ impl Default for AdaptiveParams {
                 seed: 1,
                 pattern: PositionPattern::Sobol,
                 cover_pixels: true,
+                pixel_floor: 0.0,
             },
             marking: MarkingParams { theta: 0.5 },
             indicator: IndicatorParams { max_ratio: 0.5 },
@@ -316,13 +325,19 @@ impl QuadTreeParams {
 }
 
 impl ImageSampling {
-    /// Checks the samples per leaf at the depth limit.
+    /// Checks the samples per leaf at the depth limit and the uniform floor.
     pub fn validate(&self) -> Result<(), AdaptiveError> {
         check(
             self.rho_limit.is_finite() && (1.0..=256.0).contains(&self.rho_limit),
             "rho_limit",
             self.rho_limit,
             "samples per slot at the depth limit in [1, 256]",
+        )?;
+        check(
+            self.pixel_floor.is_finite() && (0.0..=1.0).contains(&self.pixel_floor),
+            "pixel_floor",
+            self.pixel_floor,
+            "a share of the samples a pixel in [0, 1] (0: no floor)",
         )
     }
 }
