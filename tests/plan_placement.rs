@@ -45,7 +45,8 @@ fn params(budget: usize, floor: f64) -> AdaptiveParams {
 
 /// At 16 samples a pixel with the floor at half of them, every pixel ends with at least 8
 /// samples (exact counts, no tolerance), the plan spends at most its budget, and a round that
-/// filled says so in its log and the run's notes; the same plan without a floor leaves
+/// filled (if any: the rounds may reach the floor themselves) says so in its log and the
+/// run's notes; the same plan without a floor leaves
 /// pixels below 8 (the texture's, which the tree does not deepen), so the check can fail.
 #[test]
 fn the_floor_holds_in_every_pixel() {
@@ -64,9 +65,9 @@ fn the_floor_holds_in_every_pixel() {
             "{w}x{h}: {} pixels below the floor of 8",
             short.len()
         );
-        let filled: Vec<_> = run.report.rounds.iter().filter(|r| r.filled > 0).collect();
-        assert!(!filled.is_empty(), "{w}x{h}: no round filled");
-        for r in filled {
+        // the rounds may reach the floor themselves (their samples in a pixel below it are
+        // paid from the reserve); a round that filled says so
+        for r in run.report.rounds.iter().filter(|r| r.filled > 0) {
             let said = r.coverage.as_deref().unwrap_or("");
             assert!(said.contains("up to 8 samples"), "{said}");
             assert!(run.report.notes.iter().any(|n| n == said));
