@@ -254,7 +254,7 @@ pub(super) fn slot_points(
             let (u, v) = owen_sobol_02(i as u32, seeds);
             let (a, b) = (u * side as f64, v * side as f64);
             (a.floor() as usize == qx && b.floor() as usize == qy)
-                .then(|| (a - qx as f64, b - qy as f64))
+                .then_some((a - qx as f64, b - qy as f64))
         });
         // never taken (a block of a (0, 2)-sequence is a net); the slot's own point if it were
         let (u, v) = found.unwrap_or_else(|| owen_sobol_02(k as u32, slot_seeds(seed, cell)));
