@@ -24,6 +24,15 @@
 //!   least one base step; a base level the user gives is kept, and if it leaves no room the
 //!   plan says how many samples are missing).
 //!
+//! * *Floor.* With `ImageSampling::pixel_floor = f > 0`, `m` is raised to `floor(f N / (W
+//!   H))` (at most `floor(N / (W H))`), held back and filled in the same way: the rounds
+//!   adapt with the rest, and the pixels their samples did not reach get the floor at the
+//!   end, drawn from the pixel's own (0, 2)-sequence (`top_up`). Where the tree cannot follow
+//!   the signal (texture past the depth limit, thin geometry) the final image is close to the
+//!   box mean of each pixel's samples, of error `sigma_P^2 / n_P`; the tree's marking follows
+//!   the wavelet detail and left such pixels at their two base samples while it spent up to
+//!   70 on others (docs/measurements/plan-quality.md, "Placement").
+//!
 //! Topping up after the rounds is cheaper than the base up front, but on the suite's 4 spp it
 //! is behind it (adapting on a sparse base, the rounds decide on noisier fits and leave an
 //! uneven density): docs/measurements/plan-quality.md. So the base goes up front wherever the
@@ -32,21 +41,73 @@
 use rand_pcg::Pcg64;
 
 use super::pixel_counts::pixel_shortfall;
-use super::positions::round_rng;
+use super::positions::{round_rng, slot_sobol, PositionPattern};
 use super::{ImagePlan, SamplePositions};
-use crate::image::ImagePlane;
+use crate::adaptive::Cell;
 
-/// `need` positions in each pixel of `short` (`(pixel, need)`): jittered strata of the pixel
-/// from `rng`'s stream, each moved to the pixel's centre if rounding carries it over the
-/// pixel's edge (so that [`ImagePlane::pixel_of`] puts it in the pixel).
-fn top_up(plane: ImagePlane, short: &[(usize, usize)], rng: &mut Pcg64) -> SamplePositions {
+/// `need` positions in each pixel of `short` (`(pixel, need)`, the pixel holding `have`
+/// samples of the `m` it should), each moved to the pixel's centre if rounding carries it
+/// over the pixel's edge (so that [`crate::image::ImagePlane::pixel_of`] puts it in the pixel).
+///
+/// Under [`PositionPattern::Sobol`] they are the points `have .. have + need` of the pixel's
+/// own Owen-scrambled Sobol (0, 2)-sequence (module `positions`): where the pixel is a cell of
+/// the tree (sides that are powers of two) that cell's sequence, so a pixel whose samples are
+/// its slot's first `have` points (a slot the tree never deepened) ends with the first `m`
+/// points of one (0, 2)-sequence: a `(0, k, 2)`-net of the pixel when `m = 2^k`, one point in
+/// every elementary interval of area `2^-k` (the per-pixel stratification of a film's
+/// multi-jittered samples). Under [`PositionPattern::Stratified`], and in a pixel the tree
+/// deepened (its children's points are not a prefix of the pixel's sequence): jittered
+/// strata of the pixel from `rng`'s stream.
+fn top_up(
+    plan: &ImagePlan,
+    short: &[(usize, usize)],
+    m: usize,
+    rng: &mut Pcg64,
+) -> SamplePositions {
+    let plane = plan.plane;
     let w = plane.width();
+    let tree = &plan.tree;
+    // the step whose cells are the pixels, if any
+    let pixel_step =
+        (0..=tree.steps()).find(|&s| tree.cell_dims(s) == (plane.width(), plane.height()));
     let mut out = SamplePositions::default();
     for &(p, need) in short {
         let (px, py) = (p % w, p / w);
         let (x0, y0) = (px as f64, py as f64);
+        let rect = [x0, x0 + 1.0, y0, y0 + 1.0];
         let from = out.len();
-        out.stratified([x0, x0 + 1.0, y0, y0 + 1.0], need, rng);
+        // a pixel the tree deepened holds its children's points, not a prefix of its own
+        // sequence: jittered strata there (continuing the sequence could repeat a point)
+        let deepened = pixel_step.is_some_and(|step| {
+            tree.is_active(Cell {
+                step,
+                kx: px,
+                ky: py,
+            })
+        });
+        match plan.params.sampling.pattern {
+            PositionPattern::Stratified => out.stratified(rect, need, rng),
+            PositionPattern::Sobol if deepened => out.stratified(rect, need, rng),
+            PositionPattern::Sobol => {
+                // the pixel's cell, or (pixels that are no cell) a key of the pixel's own
+                let cell = match pixel_step {
+                    Some(step) => Cell {
+                        step,
+                        kx: px,
+                        ky: py,
+                    },
+                    None => Cell {
+                        step: u32::MAX,
+                        kx: px,
+                        ky: py,
+                    },
+                };
+                let have = m.saturating_sub(need);
+                let pts = slot_sobol(plan.params.sampling.seed, cell, rect, have, need);
+                out.xs.extend(pts.xs);
+                out.ys.extend(pts.ys);
+            }
+        }
         for i in from..out.len() {
             if plane.pixel_of(out.xs[i], out.ys[i]) != (px, py) {
                 (out.xs[i], out.ys[i]) = (x0 + 0.5, y0 + 0.5);
@@ -57,16 +118,19 @@ fn top_up(plane: ImagePlane, short: &[(usize, usize)], rng: &mut Pcg64) -> Sampl
 }
 
 impl ImagePlan {
-    /// The samples every pixel holds under the coverage rule, `m = min(ceil(rho), floor(N / (W
-    /// H)))` (0: the rule is off, by `ImageSampling::cover_pixels` or a budget below
-    /// one sample a pixel).
+    /// The samples every pixel holds at the end: the coverage rule's `min(ceil(rho), floor(N
+    /// / (W H)))` (0: the rule is off, by `ImageSampling::cover_pixels` or a budget below one
+    /// sample a pixel), raised to the uniform floor `floor(f N / (W H))`,
+    /// `f = ImageSampling::pixel_floor` (module docs).
     pub fn per_pixel(&self) -> usize {
-        if self.params.sampling.cover_pixels {
-            self.per_slot
-                .min(self.params.stop.budget / self.plane.pixels())
+        let (budget, pixels) = (self.params.stop.budget, self.plane.pixels());
+        let cover = if self.params.sampling.cover_pixels {
+            self.per_slot.min(budget / pixels)
         } else {
             0
-        }
+        };
+        let floor = (self.params.sampling.pixel_floor * budget as f64 / pixels as f64).floor();
+        cover.max((floor as usize).min(budget / pixels))
     }
 
     /// The pixels short of [`ImagePlan::per_pixel`] samples so far and what each lacks.
@@ -116,7 +180,7 @@ impl ImagePlan {
         }
         // a partial fill: the next round, with nothing left, says what is missing
         let mut rng = round_rng(self.params.sampling.seed, round + 1);
-        let next = top_up(self.plane, &paid, &mut rng);
+        let next = top_up(self, &paid, m, &mut rng);
         self.progress.marked.push(Vec::new());
         self.progress.samples_fitted = samples;
         let note = format!(
@@ -125,5 +189,107 @@ impl ImagePlan {
             paid.len()
         );
         (Some(next), Some(note))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::adaptive::AdaptiveParams;
+    use crate::image::ImagePlane;
+
+    /// Whether `pts` (in the unit square, `2^k` of them) are a `(0, k, 2)`-net: for every
+    /// split `2^a x 2^(k - a)` of the square into elementary intervals of area `2^-k`, one
+    /// point in each. Exact counts.
+    fn is_net(pts: &[(f64, f64)], k: u32) -> bool {
+        (0..=k).all(|a| {
+            let (nx, ny) = (1usize << a, 1usize << (k - a));
+            let mut hit = vec![0usize; nx * ny];
+            for &(u, v) in pts {
+                let i = ((u * nx as f64) as usize).min(nx - 1);
+                let j = ((v * ny as f64) as usize).min(ny - 1);
+                hit[j * nx + i] += 1;
+            }
+            hit.iter().all(|&h| h == 1)
+        })
+    }
+
+    /// The fill of the uniform floor continues each pixel's own (0, 2)-sequence: on a
+    /// 32 x 32 plane at 16 samples a pixel with the floor at half of them (`m = 8`), the base
+    /// (two samples in every pixel, slots the size of a pixel) topped up by `top_up` gives
+    /// every pixel a `(0, 3, 2)`-net (one point in each of the 8 elementary intervals of all
+    /// four shapes), and so does every power-of-two count from 2 to 32. Jittered strata
+    /// chosen at random (the stratified pattern) or a wrong start index in the sequence fail
+    /// this in most pixels.
+    #[test]
+    fn the_floor_fill_makes_every_untouched_pixel_a_net() {
+        let plane = ImagePlane::new(32, 32).unwrap();
+        let mut params = AdaptiveParams::default();
+        params.stop.budget = 16 * plane.pixels();
+        for m in [2usize, 4, 8, 16, 32] {
+            params.sampling.pixel_floor = (m as f64 / 16.0).min(1.0);
+            params.stop.budget = (16 * plane.pixels()).max(m * plane.pixels());
+            let plan = ImagePlan::new(plane, &params).unwrap();
+            assert_eq!(plan.per_pixel(), m.max(2));
+            let base = plan.base_positions();
+            assert_eq!(
+                base.len(),
+                2 * plane.pixels(),
+                "the base is two samples a pixel"
+            );
+            let short = pixel_shortfall(plane, &base.xs, &base.ys, m);
+            let mut rng = round_rng(1, 1);
+            let fill = top_up(&plan, &short, m, &mut rng);
+            let mut per_pixel = vec![Vec::new(); plane.pixels()];
+            for (&x, &y) in base
+                .xs
+                .iter()
+                .chain(&fill.xs)
+                .zip(base.ys.iter().chain(&fill.ys))
+            {
+                let (px, py) = plane.pixel_of(x, y);
+                per_pixel[py * 32 + px].push((x - px as f64, y - py as f64));
+            }
+            let k = m.trailing_zeros();
+            for (p, pts) in per_pixel.iter().enumerate() {
+                assert_eq!(pts.len(), m, "pixel {p} at m = {m}");
+                assert!(
+                    is_net(pts, k),
+                    "pixel {p} at m = {m}: not a (0, {k}, 2)-net"
+                );
+            }
+        }
+    }
+
+    /// The floor's count: `max(min(ceil(rho), N / (W H)), floor(f N / (W H)))`, never above
+    /// the budget's samples a pixel, 0 beside the coverage rule when both are off.
+    #[test]
+    fn the_floor_count_follows_the_share() {
+        let plane = ImagePlane::new(16, 16).unwrap();
+        let mut params = AdaptiveParams::default();
+        params.stop.budget = 16 * plane.pixels();
+        for (f, m) in [
+            (0.0, 2),
+            (0.1, 2),
+            (0.25, 4),
+            (0.5, 8),
+            (0.74, 11),
+            (1.0, 16),
+        ] {
+            params.sampling.pixel_floor = f;
+            assert_eq!(
+                ImagePlan::new(plane, &params).unwrap().per_pixel(),
+                m,
+                "f = {f}"
+            );
+        }
+        params.sampling.cover_pixels = false;
+        params.sampling.pixel_floor = 0.0;
+        assert_eq!(ImagePlan::new(plane, &params).unwrap().per_pixel(), 0);
+        params.sampling.pixel_floor = 2.0;
+        assert!(
+            ImagePlan::new(plane, &params).is_err(),
+            "a share above 1 is refused"
+        );
     }
 }

@@ -112,7 +112,7 @@ impl Placer {
     ) {
         match self.pattern {
             PositionPattern::Stratified => out.stratified(rect, need, &mut self.rng),
-            PositionPattern::Sobol => out.append(slot_sobol(self.seed, cell, rect, have, need)),
+            PositionPattern::Sobol => out.append(slot_points(self.seed, cell, rect, have, need)),
         }
     }
 }
@@ -205,6 +205,65 @@ pub fn slot_sobol(
     out
 }
 
+/// Points `start .. start + need` of slot `cell` (rectangle `rect`) under
+/// [`PositionPattern::Sobol`]. A slot no smaller than a pixel takes its own sequence
+/// ([`slot_sobol`]). A slot smaller than a pixel (the depth limit's) takes the points of its
+/// *anchor*'s sequence that fall in it, the anchor being its ancestor `d` steps up, the
+/// smallest no smaller than a pixel: every aligned block `[k 4^d, (k + 1) 4^d)` of the
+/// anchor's (0, 2)-sequence is a `(0, 2d, 2)`-net, so it holds exactly one point in each of
+/// the `2^d x 2^d` sub-cells, and point `k` of the slot is the block `k`'s point in it. So
+/// the children of a deepened pixel, whatever their counts `n_q`, hold together the first
+/// `4 min_q n_q` points of the pixel's own sequence and one point of each later block they
+/// reached: the pixel's samples keep the stratification of one (0, 2)-sequence (its 1D
+/// projections too), where four independent sequences of the children would be stratified
+/// only within each child. Where the parent's points already lie in a child, they are the
+/// child's first points (a slot that held `n = 4 j` points of its sequence, once deepened,
+/// continues that sequence exactly). The points depend only on the seed, the cells and the
+/// count, as the slots' own sequences do.
+pub(super) fn slot_points(
+    seed: u64,
+    cell: Cell,
+    rect: [f64; 4],
+    start: usize,
+    need: usize,
+) -> SamplePositions {
+    let (w, h) = (rect[1] - rect[0], rect[3] - rect[2]);
+    let mut d = 0u32;
+    while d < cell.step
+        && d < 15
+        && (w * f64::from(1u32 << d) < 1.0 || h * f64::from(1u32 << d) < 1.0)
+    {
+        d += 1;
+    }
+    if d == 0 {
+        return slot_sobol(seed, cell, rect, start, need);
+    }
+    let side = 1usize << d;
+    let anchor = Cell {
+        step: cell.step - d,
+        kx: cell.kx >> d,
+        ky: cell.ky >> d,
+    };
+    let (qx, qy) = (cell.kx & (side - 1), cell.ky & (side - 1));
+    let seeds = slot_seeds(seed, anchor);
+    let block = side * side;
+    let mut out = SamplePositions::default();
+    for k in start..start + need {
+        // the point of block k in sub-cell (qx, qy); the net property guarantees one
+        let found = (k * block..(k + 1) * block).find_map(|i| {
+            let (u, v) = owen_sobol_02(i as u32, seeds);
+            let (a, b) = (u * side as f64, v * side as f64);
+            (a.floor() as usize == qx && b.floor() as usize == qy)
+                .then_some((a - qx as f64, b - qy as f64))
+        });
+        // never taken (a block of a (0, 2)-sequence is a net); the slot's own point if it were
+        let (u, v) = found.unwrap_or_else(|| owen_sobol_02(k as u32, slot_seeds(seed, cell)));
+        out.xs.push((rect[0] + u * w).min(rect[1]));
+        out.ys.push((rect[2] + v * h).min(rect[3]));
+    }
+    out
+}
+
 /// The PCG-64 stream of round `round` (0: the base positions) of a run seeded by `seed`.
 pub(super) fn round_rng(seed: u64, round: usize) -> Pcg64 {
     Pcg64::seed_from_u64(seed ^ (round as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15))
@@ -232,4 +291,77 @@ pub(super) fn spread_samples(
     }
     let least = have.iter().zip(&add).map(|(h, a)| h + a).min().unwrap_or(0);
     (add.iter().sum(), least)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sorted(p: &SamplePositions) -> Vec<(f64, f64)> {
+        let mut v: Vec<(f64, f64)> = p.xs.iter().copied().zip(p.ys.iter().copied()).collect();
+        v.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        v
+    }
+
+    /// The four half-pixel children of pixel `(5, 9)` (a cell of step 3 whose rectangle is
+    /// the pixel), each drawing `n` points from 0 by [`slot_points`], hold together exactly
+    /// the pixel's own first `4 n` points ([`slot_sobol`]): bit for bit, as sets (the
+    /// coordinates are sums of dyadic fractions, exact in `f64`). A child drawing on from the
+    /// points of the pixel's sequence already in it continues the same sequence; the points
+    /// lie in the child's rectangle. Independent sequences per child (the rule before) fail
+    /// the first check.
+    #[test]
+    fn children_of_a_pixel_share_the_pixels_sequence() {
+        let pixel = Cell {
+            step: 3,
+            kx: 5,
+            ky: 9,
+        };
+        let prect = [5.0, 6.0, 9.0, 10.0];
+        for seed in [1u64, 7, 12345] {
+            for n in [1usize, 2, 3, 5, 8] {
+                let mut union = SamplePositions::default();
+                for q in 0..4 {
+                    let child = Cell {
+                        step: 4,
+                        kx: 2 * pixel.kx + (q & 1),
+                        ky: 2 * pixel.ky + (q >> 1),
+                    };
+                    let r = [
+                        5.0 + 0.5 * (q & 1) as f64,
+                        5.5 + 0.5 * (q & 1) as f64,
+                        9.0 + 0.5 * (q >> 1) as f64,
+                        9.5 + 0.5 * (q >> 1) as f64,
+                    ];
+                    let pts = slot_points(seed, child, r, 0, n);
+                    for (&x, &y) in pts.xs.iter().zip(&pts.ys) {
+                        assert!(x >= r[0] && x < r[1] && y >= r[2] && y < r[3]);
+                    }
+                    // drawing a points, then the rest, gives the same points
+                    let mut split = slot_points(seed, child, r, 0, n / 2);
+                    split.append(slot_points(seed, child, r, n / 2, n - n / 2));
+                    assert_eq!(split, pts);
+                    union.append(pts);
+                }
+                let own = slot_sobol(seed, pixel, prect, 0, 4 * n);
+                assert_eq!(sorted(&union), sorted(&own), "seed {seed}, n = {n}");
+            }
+        }
+    }
+
+    /// A slot no smaller than a pixel keeps its own sequence.
+    #[test]
+    fn slots_of_a_pixel_or_more_keep_their_own_sequence() {
+        let cell = Cell {
+            step: 2,
+            kx: 1,
+            ky: 3,
+        };
+        for rect in [[2.0, 4.0, 6.0, 8.0], [1.0, 2.0, 3.0, 4.0]] {
+            assert_eq!(
+                slot_points(3, cell, rect, 2, 6),
+                slot_sobol(3, cell, rect, 2, 6)
+            );
+        }
+    }
 }

@@ -57,6 +57,14 @@ pub(super) struct FlatParams {
     /// Older files lack it: the plan covers every pixel at one sample a pixel or more.
     #[serde(default = "cover_pixels_default")]
     cover_pixels: bool,
+    /// Older files lack it: no floor, as they were written (and a plan without one writes
+    /// no key, so its file is as before).
+    #[serde(default, skip_serializing_if = "no_floor")]
+    pixel_floor: f64,
+}
+
+fn no_floor(f: &f64) -> bool {
+    *f == 0.0
 }
 
 fn cover_pixels_default() -> bool {
@@ -122,6 +130,7 @@ impl From<AdaptiveParams> for FlatParams {
             measure_rebuild: a.fit.measure_rebuild,
             pattern: a.sampling.pattern,
             cover_pixels: a.sampling.cover_pixels,
+            pixel_floor: a.sampling.pixel_floor,
         }
     }
 }
@@ -140,6 +149,7 @@ impl From<FlatParams> for AdaptiveParams {
                 seed: f.seed,
                 pattern: f.pattern,
                 cover_pixels: f.cover_pixels,
+                pixel_floor: f.pixel_floor,
             },
             marking: MarkingParams { theta: f.theta },
             indicator: IndicatorParams {

@@ -80,6 +80,14 @@ pub struct ImageSampling {
     /// the round that would stop first gives each such pixel one sample (false: pixels the
     /// tree leaves empty keep the fit's value).
     pub cover_pixels: bool,
+    /// The uniform floor (module `coverage`): a share `f` in `[0, 1]` of the budget's
+    /// samples a pixel, `N / (W H)`, that every pixel holds at the end, `floor(f N / (W H))`
+    /// (0: none beyond the coverage rule). Where the tree cannot follow the signal (texture
+    /// past the depth limit, thin geometry) the final image is close to the box mean of each
+    /// pixel's samples, of error `sigma_P^2 / n_P`: pixels the tree leaves at its base
+    /// oversampling hold too few; the floor gives them their share, well stratified (the
+    /// pixel's own (0, 2)-sequence).
+    pub pixel_floor: f64,
 }
 
 /// The indicator of the image refiner.
@@ -169,6 +177,7 @@ impl Default for AdaptiveParams {
                 seed: 1,
                 pattern: PositionPattern::Sobol,
                 cover_pixels: true,
+                pixel_floor: 0.0,
             },
             marking: MarkingParams { theta: 0.5 },
             indicator: IndicatorParams { max_ratio: 0.5 },
@@ -198,6 +207,12 @@ impl Default for AdaptiveParams {
         }
     }
 }
+
+/// The uniform floor of a plan a renderer drives ([`AdaptiveParams::renderer_plan`]): every
+/// pixel ends with at least half the budget's samples a pixel (a renderer's samples carry
+/// Monte Carlo noise and sub-pixel texture the tree cannot follow; the in-process engine,
+/// on noise-free functions, keeps no floor).
+pub const RENDERER_PIXEL_FLOOR: f64 = 0.5;
 
 /// A parameter out of its range.
 fn bad(parameter: &'static str, value: String, expected: &'static str) -> AdaptiveError {
@@ -231,7 +246,10 @@ impl AdaptiveParams {
     /// follows the pixel integral" and "The plan's final image as the inverse-risk blend of shrunk
     /// and auto"); and fitted by matrix-free PCG ([`TreeSolver::plan_pcg`]:
     /// the loop's calls several times faster, a tenth of the memory, the same final image to
-    /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG").
+    /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG"); and
+    /// every pixel holding at least half the budget's samples a pixel at the end
+    /// ([`ImageSampling::pixel_floor`] = `RENDERER_PIXEL_FLOOR`: chosen on the issue-38
+    /// suite's tuning half, docs/measurements/plan-quality.md, "Placement").
     pub fn renderer_plan() -> Self {
         let d = Self::default();
         Self {
@@ -242,6 +260,10 @@ impl AdaptiveParams {
             fit: FitParams {
                 solver: TreeSolver::plan_pcg(),
                 ..d.fit
+            },
+            sampling: ImageSampling {
+                pixel_floor: RENDERER_PIXEL_FLOOR,
+                ..d.sampling
             },
             ..d
         }
@@ -316,13 +338,19 @@ impl QuadTreeParams {
 }
 
 impl ImageSampling {
-    /// Checks the samples per leaf at the depth limit.
+    /// Checks the samples per leaf at the depth limit and the uniform floor.
     pub fn validate(&self) -> Result<(), AdaptiveError> {
         check(
             self.rho_limit.is_finite() && (1.0..=256.0).contains(&self.rho_limit),
             "rho_limit",
             self.rho_limit,
             "samples per slot at the depth limit in [1, 256]",
+        )?;
+        check(
+            self.pixel_floor.is_finite() && (0.0..=1.0).contains(&self.pixel_floor),
+            "pixel_floor",
+            self.pixel_floor,
+            "a share of the samples a pixel in [0, 1] (0: no floor)",
         )
     }
 }
