@@ -4,7 +4,7 @@
 //! or Python user would read with a flag they cannot type. The library names the parameter as
 //! a typed fix (`rkwave::error::Fix`), which each front end spells (`--rho`, `rho=`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Literals that may name a flag, each with why: `(file below src/, flag)`.
 const ALLOWED: [(&str, &str, &str); 1] = [(
@@ -13,16 +13,9 @@ const ALLOWED: [(&str, &str, &str); 1] = [(
     "a cargo flag: how to rebuild the crate, not a parameter of a call",
 )];
 
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    for entry in std::fs::read_dir(dir).expect("src/ is readable") {
-        let path = entry.expect("directory entry").path();
-        if path.is_dir() {
-            rust_files(&path, out);
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
-}
+#[path = "common/source_tree.rs"]
+mod source_tree;
+use source_tree::rust_files;
 
 /// `text` without its comments (`//` to the end of the line, outside string literals) and its
 /// inline unit tests (from `#[cfg(test)] mod tests {`).
