@@ -398,17 +398,7 @@ fn command_line_protocol_gives_the_in_process_image() {
             assert_eq!(e.kind(), rkwave::error::ErrorKind::InvalidInput, "{e}");
             break dir.join(format!("samples{}.npy", call - 1));
         }
-        let positions = read_npy(&next).unwrap();
-        assert_eq!(positions.channels(), 1);
-        set.positions.extend(&positions.positions);
-        if set.values.is_empty() {
-            set.values = vec![vec![], vec![]];
-        }
-        set.values[0].extend(&positions.values[0]);
-        for (&x, &y) in positions.positions.iter().zip(&positions.values[0]) {
-            set.values[1].push(straight_edge(x, y));
-        }
-        set.names = vec!["y".into(), "value".into()];
+        common::image_cli::append_rendered(&mut set, &next, straight_edge);
         write_npy(&samples, &set).unwrap();
         call += 1;
         assert!(call < 60, "the plan did not stop");

@@ -3,7 +3,7 @@
 
 mod common;
 
-use rkwave::io::{read_npy, write_npy, SampleSet};
+use rkwave::io::{write_npy, SampleSet};
 
 use common::scenes::straight_edge;
 
@@ -54,16 +54,7 @@ fn tiled_plan_through_files_to_its_stop() {
             break;
         }
         assert!(!image.exists());
-        let positions = read_npy(&next).unwrap();
-        set.positions.extend(&positions.positions);
-        if set.values.is_empty() {
-            set.values = vec![vec![], vec![]];
-        }
-        set.values[0].extend(&positions.values[0]);
-        for (&x, &y) in positions.positions.iter().zip(&positions.values[0]) {
-            set.values[1].push(straight_edge(x, y));
-        }
-        set.names = vec!["y".into(), "value".into()];
+        common::image_cli::append_rendered(&mut set, &next, straight_edge);
         write_npy(dir.join(format!("samples{call}.npy")), &set).unwrap();
         call += 1;
         assert!(call < 60, "the plan did not stop");

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use rkwave::io::{write_npy, SampleSet};
+use rkwave::io::{read_npy, write_npy, SampleSet};
 
 use super::succeeds;
 
@@ -172,4 +172,21 @@ pub fn write_npy_unchecked(path: &Path, set: &SampleSet) {
         }
     }
     std::fs::write(path, bytes).unwrap();
+}
+
+/// A renderer of the plan loop in a two-channel sample set: the positions of `next` (a plan's
+/// positions file, `x, y`) appended to `set` with the values `y` and `scene(x, y)` (channels
+/// `y`, `value`).
+pub fn append_rendered(set: &mut SampleSet, next: &Path, scene: impl Fn(f64, f64) -> f64) {
+    let positions = read_npy(next).unwrap();
+    assert_eq!(positions.channels(), 1, "a positions file holds x and y");
+    set.positions.extend(&positions.positions);
+    if set.values.is_empty() {
+        set.values = vec![vec![], vec![]];
+    }
+    set.values[0].extend(&positions.values[0]);
+    for (&x, &y) in positions.positions.iter().zip(&positions.values[0]) {
+        set.values[1].push(scene(x, y));
+    }
+    set.names = vec!["y".into(), "value".into()];
 }

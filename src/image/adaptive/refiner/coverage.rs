@@ -103,9 +103,13 @@ fn top_up(
                     },
                 };
                 let have = m.saturating_sub(need);
-                let pts = slot_sobol(plan.params.sampling.seed, cell, rect, have, need);
-                out.xs.extend(pts.xs);
-                out.ys.extend(pts.ys);
+                out.append(slot_sobol(
+                    plan.params.sampling.seed,
+                    cell,
+                    rect,
+                    have,
+                    need,
+                ));
             }
         }
         for i in from..out.len() {

@@ -176,9 +176,18 @@ impl SamplePositions {
 
 impl SamplePositions {
     /// Appends `other`'s positions.
-    fn append(&mut self, other: SamplePositions) {
+    pub(super) fn append(&mut self, other: SamplePositions) {
         self.xs.extend(other.xs);
         self.ys.extend(other.ys);
+    }
+
+    /// Appends the point `(u, v)` of the unit square stretched to `rect` (`[x0, x1, y0, y1]`),
+    /// kept inside it where rounding would carry it over the far edge.
+    fn push_in(&mut self, rect: [f64; 4], u: f64, v: f64) {
+        self.xs
+            .push((rect[0] + u * (rect[1] - rect[0])).min(rect[1]));
+        self.ys
+            .push((rect[2] + v * (rect[3] - rect[2])).min(rect[3]));
     }
 }
 
@@ -197,10 +206,7 @@ pub fn slot_sobol(
     let mut out = SamplePositions::default();
     for i in start..start + need {
         let (u, v) = owen_sobol_02(i as u32, seeds);
-        out.xs
-            .push((rect[0] + u * (rect[1] - rect[0])).min(rect[1]));
-        out.ys
-            .push((rect[2] + v * (rect[3] - rect[2])).min(rect[3]));
+        out.push_in(rect, u, v);
     }
     out
 }
@@ -258,8 +264,7 @@ pub(super) fn slot_points(
         });
         // never taken (a block of a (0, 2)-sequence is a net); the slot's own point if it were
         let (u, v) = found.unwrap_or_else(|| owen_sobol_02(k as u32, slot_seeds(seed, cell)));
-        out.xs.push((rect[0] + u * w).min(rect[1]));
-        out.ys.push((rect[2] + v * h).min(rect[3]));
+        out.push_in(rect, u, v);
     }
     out
 }
