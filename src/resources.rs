@@ -50,6 +50,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use thiserror::Error;
 
+use crate::error::Fix;
+
 /// The largest uniform image fit (functions) that the image fit's `NormalSolver::Auto` solves by
 /// the sparse Cholesky; above it, Jacobi PCG (no factor). Defined here, where the memory
 /// estimate needs it, and used by the image fit (`image::fit::CHOLESKY_MAX_FUNCTIONS`).
@@ -80,7 +82,7 @@ pub enum ResourceError {
         /// The limit in bytes.
         limit: u64,
         /// Which parameter to change, and how.
-        fix: String,
+        fix: Advice,
     },
     /// A memory limit that cannot be read.
     #[error(
@@ -90,6 +92,38 @@ pub enum ResourceError {
         /// The text given.
         value: String,
     },
+}
+
+/// Which parameters to change to fit a request in memory: words made where the error was
+/// made, or words with typed fixes ([`Fix`]) spelled where the error is printed (each front
+/// end's flags or keywords, [`crate::error::spelled`]), so a library message names no flag.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Advice {
+    /// Words, as given.
+    Words(String),
+    /// A template whose `{}` are replaced by the fixes in order.
+    Fixes(&'static str, Vec<Fix>),
+}
+
+impl std::fmt::Display for Advice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Advice::Words(words) => f.write_str(words),
+            Advice::Fixes(template, fixes) => {
+                let mut fixes = fixes.iter();
+                let mut parts = template.split("{}");
+                f.write_str(parts.next().unwrap_or(""))?;
+                for part in parts {
+                    match fixes.next() {
+                        Some(fix) => write!(f, "{fix}")?,
+                        None => f.write_str("{}")?,
+                    }
+                    f.write_str(part)?;
+                }
+                Ok(())
+            }
+        }
+    }
 }
 
 /// Sets the process-wide memory limit in bytes (`None`: derive it from the machine again).
@@ -170,6 +204,15 @@ pub fn check(
     what: impl FnOnce() -> String,
     needed: f64,
     fix: impl FnOnce() -> String,
+) -> Result<(), ResourceError> {
+    check_advised(what, needed, || Advice::Words(fix()))
+}
+
+/// [`check`] with the fix as [`Advice`] (typed fixes spelled where the error is printed).
+pub fn check_advised(
+    what: impl FnOnce() -> String,
+    needed: f64,
+    fix: impl FnOnce() -> Advice,
 ) -> Result<(), ResourceError> {
     let limit = memory_limit();
     if needed.is_nan() || needed > limit as f64 {
@@ -390,7 +433,16 @@ impl ImageEstimate {
         what: impl FnOnce() -> String,
         fix: impl FnOnce() -> String,
     ) -> Result<(), ResourceError> {
-        check(
+        self.check_advised(what, || Advice::Words(fix()))
+    }
+
+    /// [`ImageEstimate::check`] with the fix as [`Advice`].
+    pub fn check_advised(
+        &self,
+        what: impl FnOnce() -> String,
+        fix: impl FnOnce() -> Advice,
+    ) -> Result<(), ResourceError> {
+        check_advised(
             || format!("{} ({})", what(), self.parts()),
             self.total(),
             fix,

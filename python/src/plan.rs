@@ -30,11 +30,10 @@ use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
 
 use crate::arrays::{image_out, positions_out};
-use crate::errors::{invalid, raise, to_py, warn_all};
+use crate::errors::{invalid, to_py, warn_all};
 use crate::image::{plane_of, samples_of};
 use crate::params::{plan_options, PlanArgs};
 use crate::report::to_dict;
-use rkwave::error::ErrorKind;
 
 /// Seconds a plan spent inside the library (fits, positions, reconstructions) and in this
 /// module's own work around it (checks, conversion, copies of the samples).
@@ -417,16 +416,10 @@ impl PyPlan {
     /// True
     #[pyo3(signature = (dir, overwrite=false))]
     fn save(&mut self, py: Python<'_>, dir: PathBuf, overwrite: bool) -> PyResult<()> {
-        let home = canonical(&dir);
-        if !overwrite && PlanState::path(&dir).exists() && self.home.as_ref() != Some(&home) {
-            return Err(raise(
-                ErrorKind::OutputRefused,
-                &format!(
-                    "{} holds another plan: pass overwrite=True to replace it, or save to \
-                     another folder",
-                    dir.display()
-                ),
-            ));
+        // The command line's one "holds a plan already" refusal; the plan's own folder is
+        // its to write.
+        if self.home.as_ref() != Some(&canonical(&dir)) {
+            PlanState::check_new(&dir, &[], overwrite).map_err(to_py)?;
         }
         let state = &self.state;
         let samples = self.samples.as_ref();

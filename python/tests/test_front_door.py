@@ -111,14 +111,29 @@ def test_lossless_dtypes_are_accepted_unchanged():
     np.testing.assert_array_equal(a, c)
 
 
-def test_plan_save_refuses_another_plans_folder(tmp_path):
+def test_plan_save_refuses_another_plans_folder(tmp_path, cli):
+    # The command line's one refusal (PlanState::check_new): the same kind and message, the
+    # fixes spelled as keywords here and as flags there.
     first = rkwave.Plan(resolution=(W, H), spp=4)
     first.save(tmp_path)
     first.save(tmp_path)  # its own folder: saved again, no question
     other = rkwave.Plan(resolution=(W, H), spp=8, seed=3)
     with pytest.raises(rkwave.RkwaveError, match="overwrite=True") as err:
         other.save(tmp_path)
-    assert err.value.kind == "OutputRefused"
+    code, _, cli_err = cli(
+        "plan", "--resolution", f"{W}x{H}", "--spp", 8, "--state", tmp_path, "--out",
+        tmp_path / "n0.npy", check=False,
+    )
+    assert code == 2, cli_err
+    theirs = cli_error(cli_err)
+    assert err.value.kind == "InvalidInput"
+    assert theirs.startswith(f"{tmp_path} holds a plan already: continue it (--samples)"), theirs
+    spelled = {"--samples": "the rendered samples of the plan's positions",
+               "--force": "overwrite=True", "--state": "the Plan"}
+    for flag, keyword in spelled.items():
+        theirs = theirs.replace(f"({flag})", f"({keyword})")
+    assert theirs == str(err.value)
+    assert not (tmp_path / "n0.npy").exists()
     assert rkwave.Plan.load(tmp_path).report["budget"] == first.report["budget"]
     other.save(tmp_path, overwrite=True)
     assert rkwave.Plan.load(tmp_path).report["budget"] == other.report["budget"]

@@ -2,7 +2,8 @@
 
 use std::time::Instant;
 
-use rkwave::report::basis::{basis_report, BasisReport};
+use rkwave::lab::basis::basis_facts;
+use rkwave::report::basis::BasisReport;
 
 use super::{check_writable, figures, BasisArgs, CliError};
 
@@ -19,20 +20,8 @@ pub fn run(args: &BasisArgs) -> Result<(), CliError> {
     }
     let started = Instant::now();
     let basis = args.spec.build()?;
-    // The facts multiply sparse synthesis matrices of all P = 2^{N+1} functions: about
-    // 256 (N - n + 2) 2p bytes per function at their peak.
-    let (n, fine) = (basis.coarse(), basis.fine());
-    rkwave::resources::check(
-        || format!("the basis facts of levels {n}..{fine} (P = 2^{})", fine + 1),
-        256.0
-            * rkwave::resources::dimension(fine)
-            * (fine.saturating_sub(n) as f64 + 2.0)
-            * (2 * basis.p()) as f64
-            + rkwave::resources::grid_bytes(args.points, 1),
-        || "lower --fine (evaluation alone, `rkwave eval`, works up to level 60)".into(),
-    )
-    .map_err(rkwave::reconstruct::ReconstructError::from)?;
-    let rep = basis_report(&basis, args.points, args.seed, started);
+    // The job refuses facts above the memory limit before measuring them.
+    let rep = basis_facts(&basis, args.points, args.seed, started)?;
     if args.json {
         super::print_json(&rep);
     } else {

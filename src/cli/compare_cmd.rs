@@ -14,7 +14,8 @@ use rkwave::image::{ImageMethod, WaveletParams};
 use rkwave::lab::adaptive::{
     adaptive_markdown, adaptive_rows_markdown, compare_adaptive, AdaptiveComparison,
 };
-use rkwave::lab::experiment::{compare_methods, Comparison, SamplingParams, TruthParams};
+use rkwave::lab::comparison::{ComparisonJob, ComparisonRequest};
+use rkwave::lab::experiment::{Comparison, SamplingParams, TruthParams};
 use rkwave::lab::figure::{save_error_vs_time, save_side_by_side};
 use rkwave::lab::table::{
     comparison_csv, comparison_markdown, comparison_times_markdown, CSV_HEADER,
@@ -25,7 +26,6 @@ use super::image_args::{
 };
 use super::{check_writable, CliError};
 use rkwave::image::adaptive::{ImageSampling, TreeParams};
-use rkwave::image::job::memory;
 
 /// `rkwave compare`.
 #[derive(Args, Debug)]
@@ -135,52 +135,34 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: PathBuf::from("out/truth"),
     };
-    // Before any work: the largest run (the methods one after the other, each result image
-    // held for the figures; the adaptive rows' tree fit when asked for).
-    let images = methods.len() + 1;
-    let mut request = methods
-        .iter()
-        .map(|&m| {
-            memory::method_request(
-                plane,
-                3,
-                args.spp as f64 * plane.pixels() as f64,
-                m,
-                p,
-                wavelet.rho,
-                images,
-            )
-        })
-        .reduce(rkwave::resources::ImageRequest::larger)
-        .ok_or_else(|| CliError::Invalid("--methods: give at least one method".into()))?;
-    if args.adaptive {
-        let defaults = AdaptiveParams {
-            tree: rkwave::adaptive::TreeParams {
-                p,
-                ..AdaptiveParams::default().tree
-            },
-            ..AdaptiveParams::default()
-        };
-        let tree = memory::tree_request(
-            plane,
-            3,
-            args.spp as f64 * plane.pixels() as f64,
-            &defaults,
-            8,
-        );
-        request = request.larger(tree);
-    }
-    memory::check(
-        &request,
-        || {
-            format!(
-                "comparing {} methods on {plane} at {} samples per pixel",
-                methods.len(),
-                args.spp
-            )
+    let adaptive_params = args.adaptive.then(|| AdaptiveParams {
+        tree: TreeParams {
+            p,
+            ..AdaptiveParams::default().tree
         },
-        || "a smaller --resolution or --spp, or fewer --methods".into(),
-    )?;
+        sampling: ImageSampling {
+            seed: args.seed,
+            ..AdaptiveParams::default().sampling
+        },
+        ..AdaptiveParams::default()
+    });
+    // The job checks the largest run against the memory limit before any work (the methods
+    // one after the other, each result image held for the figures; the adaptive rows' tree
+    // fit when asked for).
+    let job = ComparisonJob::new(ComparisonRequest {
+        sampling: SamplingParams {
+            plane,
+            spp: args.spp,
+            sampler,
+            noise: 0.0,
+            seed: args.seed,
+        },
+        methods: methods.clone(),
+        wavelet,
+        truth: truth.clone(),
+        filter_at: None,
+        adaptive: adaptive_params,
+    })?;
     std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
         path: args.out.clone(),
         source,
@@ -198,14 +180,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     for scene in &scenes {
         for &noise in &args.noise {
             bar.set_message(format!("{} noise {noise}", scene.name()));
-            let sampling = SamplingParams {
-                plane,
-                spp: args.spp,
-                sampler,
-                noise,
-                seed: args.seed,
-            };
-            let cmp = compare_methods(scene, &sampling, &methods, &wavelet, &truth)?;
+            let cmp = job.run(scene, noise)?.comparison;
             let fig = args
                 .out
                 .join(format!("{}_noise{}.png", scene.name(), noise));
@@ -234,10 +209,9 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         format!("PSNR (dB):\n\n{md}\nSeconds per method (fit + pixels):\n\n{times}"),
     )?;
     save_error_vs_time(&comparisons, &time_path, args.force)?;
-    let adaptive = if args.adaptive {
-        Some(adaptive_rows(args, &scenes, plane, p, &truth)?)
-    } else {
-        None
+    let adaptive = match &adaptive_params {
+        Some(params) => Some(adaptive_rows(args, &scenes, plane, params, &truth)?),
+        None => None,
     };
     if args.json {
         let value = match &adaptive {
@@ -319,27 +293,16 @@ fn adaptive_rows(
     args: &CompareArgs,
     scenes: &[Scene],
     plane: rkwave::image::ImagePlane,
-    p: usize,
+    params: &AdaptiveParams,
     truth: &TruthParams,
 ) -> Result<AdaptiveRows, CliError> {
     let table = args.out.join(ADAPTIVE_TABLE);
-    let params = AdaptiveParams {
-        tree: TreeParams {
-            p,
-            ..AdaptiveParams::default().tree
-        },
-        sampling: ImageSampling {
-            seed: args.seed,
-            ..AdaptiveParams::default().sampling
-        },
-        ..AdaptiveParams::default()
-    };
     let mut notes = Vec::new();
     let mut comparisons = Vec::with_capacity(scenes.len() * args.noise.len());
     for scene in scenes {
         for &noise in &args.noise {
             let fig = adaptive_figure(args, scene, noise);
-            let out = compare_adaptive(scene, plane, args.spp, noise, &params, truth)?;
+            let out = compare_adaptive(scene, plane, args.spp, noise, params, truth)?;
             let c = &out.comparison;
             let title = format!(
                 "{} at {plane}, noise {noise}, {} samples ({} spp on average), PSNR {:.2} dB \

@@ -2,12 +2,11 @@
 //! `out/`.
 
 use std::fmt::Write as _;
-use std::time::Instant;
 
-use rkwave::basis::{minimum_level, CdvBasis, FilterFamily, MAX_VANISHING_MOMENTS};
+use rkwave::basis::{CdvBasis, FilterFamily, MAX_VANISHING_MOMENTS};
 use rkwave::sampling::Domain;
 
-use rkwave::report::basis::basis_report;
+use rkwave::lab::basis::default_basis_facts;
 use rkwave::report::DemoSummary;
 
 use rkwave::lab::refine::{adaptive_vs_uniform, compare_uniform, comparison_budgets, Truth};
@@ -44,15 +43,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let _ = writeln!(summary, "|---|---|---|---|---|---|---|---|---|");
     let mut reports = Vec::new();
     for p in 1..=MAX_VANISHING_MOMENTS {
-        let started = Instant::now();
-        let basis = CdvBasis::new(
-            p,
-            FilterFamily::cdv_default(p),
-            minimum_level(p),
-            DEMO_FINE,
-            Domain::UNIT,
-        )?;
-        let r = basis_report(&basis, 20_000, 1, started);
+        let r = default_basis_facts(p, DEMO_FINE, 20_000, 1)?;
         let _ = writeln!(
             summary,
             "| {} | {}{} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {:.2} |",

@@ -143,15 +143,8 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
-    // Before sampling: the budget's samples (and as many stratified ones for the film
-    // filters), the tree fit at the depth limit, the truth and the images.
-    let mut request = rkwave::image::job::memory::tree_request(plane, 3, budget as f64, &params, 8);
-    request.positions = budget as f64;
-    rkwave::image::job::memory::check(
-        &request,
-        || format!("the adaptive image of {plane} at a budget of {budget} samples"),
-        || "a smaller --budget, --spp or --resolution, or --solver pcg".into(),
-    )?;
+    // The job checks the request against the memory limit before sampling (the budget's
+    // samples, the tree fit at the depth limit, the truth and the images).
     let bar = spinner(&format!("adaptive on {} at {plane}", scene.name()));
     let out = compare_adaptive(&scene, plane, spp, args.noise, &params, &truth)?;
     bar.finish_and_clear();

@@ -5,11 +5,10 @@ use std::path::{Path, PathBuf};
 
 use rkwave::image::filters::FilmFilterKind;
 use rkwave::image::scene::Scene;
-use rkwave::image::{sample_weights, ImageMethod, WaveletParams};
+use rkwave::image::{ImageMethod, WaveletParams};
 use rkwave::io::image_file::{write_image, ImageFormat};
-use rkwave::lab::experiment::{
-    compare_methods, sample_scene, ImageReport, SamplingParams, TruthParams,
-};
+use rkwave::lab::comparison::{ComparisonJob, ComparisonRequest};
+use rkwave::lab::experiment::{ImageReport, SamplingParams, TruthParams};
 
 use super::image_args::{
     check_outputs, check_p, check_rho, check_ridge, parse_resolution, parse_sampler, scene_path,
@@ -91,45 +90,28 @@ pub fn run(args: &ImageArgs) -> Result<(), CliError> {
         rate: args.truth_rate,
         cache: args.truth_cache.clone(),
     };
-    // Before sampling: the samples, the fit, the truth and the output image (twice the
-    // samples when the equivalent filter resamples the scene).
-    let mut request = rkwave::image::job::memory::method_request(
-        plane,
-        3,
-        sampling.spp as f64 * plane.pixels() as f64,
-        method,
-        wavelet.p,
-        wavelet.rho,
-        2,
-    );
-    if show.is_some() {
-        request.samples *= 2.0;
-    }
-    rkwave::image::job::memory::check(
-        &request,
-        || {
-            format!(
-                "{method} on {plane} at {} samples per pixel ({} samples)",
-                sampling.spp,
-                rkwave::norms::show(request.samples)
-            )
-        },
-        || "a smaller --resolution or --spp".into(),
-    )?;
+    // The job checks the request against the memory limit before sampling (the samples, the
+    // fit, the truth and the output image; twice the samples when the equivalent filter
+    // resamples the scene).
+    let job = ComparisonJob::new(ComparisonRequest {
+        sampling,
+        methods: vec![method],
+        wavelet,
+        truth,
+        filter_at: show,
+        adaptive: None,
+    })?;
     let bar = spinner(&format!("{} on {} at {plane}", method, scene.name()));
-    let cmp = compare_methods(&scene, &sampling, &[method], &wavelet, &truth)?;
+    let run = job.run(&scene, sampling.noise)?;
     bar.finish_and_clear();
+    let cmp = run.comparison;
     let report = ImageReport::from_comparison(&cmp, 0);
     write_image(&args.out, &cmp.results[0].image, args.force)?;
     let mut filter_file = None;
-    if let Some((x, y)) = show {
-        let samples = sample_scene(&scene, &sampling)?;
-        let weights = sample_weights(method, &samples, &wavelet, x, y).map_err(|e| {
-            CliError::reworded(&e, format!("the wavelet reconstruction failed: {e}"))
-        })?;
+    if let (Some((x, y)), Some(weights)) = (show, &run.weights) {
         let path = filter_csv_path(&args.out, x, y);
         let mut text = String::from("index,x,y,weight\n");
-        for w in &weights {
+        for w in weights {
             text.push_str(&format!("{},{},{},{}\n", w.index, w.x, w.y, w.weight));
         }
         rkwave::io::output::write_new(&path, text.as_bytes(), args.force)?;

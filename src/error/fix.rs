@@ -92,11 +92,17 @@ pub enum Param {
     Scratch,
     /// A plan's samples of its last round (to continue the plan).
     Samples,
+    /// Samples per pixel of a sampled scene (the lab's `SamplingParams::spp`).
+    Spp,
+    /// The methods a lab comparison runs.
+    Methods,
+    /// The fine level `N` of a 1D basis `Psi(n, N)`.
+    Fine,
 }
 
 impl Param {
     /// Every parameter, so a front end can check that it spells each one.
-    pub const ALL: [Param; 20] = [
+    pub const ALL: [Param; 23] = [
         Param::P,
         Param::Rho,
         Param::Ridge,
@@ -117,6 +123,9 @@ impl Param {
         Param::MemoryLimit,
         Param::Scratch,
         Param::Samples,
+        Param::Spp,
+        Param::Methods,
+        Param::Fine,
     ];
 
     /// The parameter in the library's terms (the field of `image::job::ImageParams`
@@ -143,13 +152,16 @@ impl Param {
             Param::MemoryLimit => "resources::set_memory_limit",
             Param::Scratch => "TiledParams::scratch",
             Param::Samples => "the rendered samples of the plan's positions",
+            Param::Spp => "SamplingParams::spp",
+            Param::Methods => "the methods compared",
+            Param::Fine => "the basis's fine level N",
         }
     }
 }
 
 impl Fix {
     /// Every fix, so a front end can check that it spells each one.
-    pub const ALL: [Fix; 35] = [
+    pub const ALL: [Fix; 38] = [
         Fix::RegularizedAnswer,
         Fix::RegularizeOrLocal,
         Fix::Cutoff,
@@ -184,6 +196,9 @@ impl Fix {
         Fix::Set(Param::ALL[17]),
         Fix::Set(Param::ALL[18]),
         Fix::Set(Param::ALL[19]),
+        Fix::Set(Param::ALL[20]),
+        Fix::Set(Param::ALL[21]),
+        Fix::Set(Param::ALL[22]),
         Fix::SolverPcg,
     ];
 

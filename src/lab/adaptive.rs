@@ -22,17 +22,20 @@
 use serde::Serialize;
 
 use super::experiment::{run_method, sample_scene, ImageRunError, SamplingParams, TruthParams};
+use crate::error::{Fix, Param};
 use crate::image::adaptive::{
     refine_image, AdaptiveError, AdaptiveImage, AdaptiveParams, AdaptiveReport, ImageOracle,
     NoisyOracle, SceneOracle, StopParams,
 };
 use crate::image::filters::FilmFilterKind;
+use crate::image::job::memory::tree_request;
 use crate::image::metrics::{compare, ImageMetrics};
 use crate::image::sampler::Sampler;
 use crate::image::scene::Scene;
 use crate::image::truth::truth_cached;
 use crate::image::{ImageMethod, WaveletParams};
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
+use crate::resources::{Advice, ImageRequest};
 
 /// Why an adaptive comparison failed.
 #[derive(Debug, thiserror::Error)]
@@ -110,6 +113,20 @@ pub struct AdaptiveOutput {
     pub truth: PixelImage,
 }
 
+/// Images of the output's size the adaptive comparison holds at its peak: the adaptive
+/// image, its fit-only and unclamped variants, the truth, the depth and sample figures and
+/// the film filters' images on the two sample sets, one after the other.
+const ADAPTIVE_IMAGES: usize = 8;
+
+/// The memory request of the adaptive comparison at a budget of `budget` samples on `plane`:
+/// the tree fit at the depth limit of `params` with its positions and
+/// [`ADAPTIVE_IMAGES`] images ([`tree_request`]).
+pub fn adaptive_request(plane: ImagePlane, budget: usize, params: &AdaptiveParams) -> ImageRequest {
+    let mut request = tree_request(plane, 3, budget as f64, params, ADAPTIVE_IMAGES);
+    request.positions = budget as f64;
+    request
+}
+
 /// Runs the comparison on `scene` at `spp` samples per pixel on average, sample values with
 /// Gaussian noise of deviation `noise` (0: none).
 pub fn compare_adaptive(
@@ -120,15 +137,7 @@ pub fn compare_adaptive(
     params: &AdaptiveParams,
     truth: &TruthParams,
 ) -> Result<AdaptiveOutput, AdaptiveRunError> {
-    let (truth_image, _, _) = truth_cached(&truth.cache, scene, plane, truth.rate);
-    let t = std::time::Instant::now();
-    let params = AdaptiveParams {
-        stop: StopParams {
-            budget: spp * plane.pixels(),
-            ..params.stop
-        },
-        ..*params
-    };
+    let budget = spp * plane.pixels();
     if !(noise.is_finite() && noise >= 0.0) {
         return Err(AdaptiveError::Parameter {
             parameter: "noise sigma",
@@ -137,6 +146,34 @@ pub fn compare_adaptive(
         }
         .into());
     }
+    // Before the truth and the samples: the tree fit at the depth limit, the budget's
+    // positions and the images ([`adaptive_request`]).
+    adaptive_request(plane, budget, params)
+        .estimate()
+        .check_advised(
+            || format!("the adaptive image of {plane} at a budget of {budget} samples"),
+            || {
+                Advice::Fixes(
+                    "a smaller {}, {} or {}, or {}",
+                    vec![
+                        Fix::Set(Param::Budget),
+                        Fix::Set(Param::Spp),
+                        Fix::Set(Param::Resolution),
+                        Fix::SolverPcg,
+                    ],
+                )
+            },
+        )
+        .map_err(ImageRunError::from)?;
+    let (truth_image, _, _) = truth_cached(&truth.cache, scene, plane, truth.rate);
+    let t = std::time::Instant::now();
+    let params = AdaptiveParams {
+        stop: StopParams {
+            budget,
+            ..params.stop
+        },
+        ..*params
+    };
     let clean = SceneOracle { scene, plane };
     let noisy = NoisyOracle {
         inner: &clean,

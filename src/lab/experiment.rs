@@ -81,6 +81,9 @@ pub enum ImageRunError {
     /// The wavelet fit failed.
     #[error("the wavelet reconstruction failed: {0}")]
     Wavelet(#[from] WaveletError),
+    /// The run would need more memory than the limit: refused before sampling.
+    #[error(transparent)]
+    Resources(#[from] crate::resources::ResourceError),
 }
 
 /// Draws `m = s W H` samples of `scene`: positions from the sampler, RGB values with optional
@@ -336,6 +339,7 @@ impl ImageRunError {
             ImageRunError::Image(e) => e.kind(),
             ImageRunError::Parameter { .. } => crate::error::ErrorKind::InvalidInput,
             ImageRunError::Wavelet(e) => e.kind(),
+            ImageRunError::Resources(e) => e.kind(),
         }
     }
 }

@@ -2,6 +2,9 @@
 //! `plot`). Nothing in the library's production path calls into it; the command line's
 //! measuring commands (`image`, `compare`, the demo) do.
 //!
+//! * [`comparison`]: the job of `image` and `compare`: methods on a sampled scene, checked
+//!   against the memory limit before a sample is drawn;
+//! * [`basis`]: the job of `basis`: a basis's measured facts, checked the same way;
 //! * [`experiment`]: a scene sampled (with seeded noise), every image-plane [`ImageMethod`] run on
 //!   the same samples through the library's [`reconstruct`], each measured against the
 //!   box-filtered ground truth (PSNR, RMSE, relative MSE, SSIM), as typed `Serialize` reports;
@@ -15,6 +18,8 @@
 //! [`reconstruct`]: crate::image::reconstruct
 
 pub mod adaptive;
+pub mod basis;
+pub mod comparison;
 pub mod experiment;
 pub mod figure;
 pub mod halo_study;

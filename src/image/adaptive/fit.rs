@@ -87,6 +87,11 @@ pub struct TreeFitReport {
     pub schwarz: Option<SchwarzReport>,
     /// Seconds of `solve_s` spent building and factoring the Schwarz blocks.
     pub schwarz_setup_s: f64,
+    /// What the fit does at PCG's iteration limit, named at the call (`None`: the direct
+    /// solve, which has none): [`IterationLimit::FallBack`] to the direct solve up to
+    /// `DIRECT_FALLBACK_MAX` functions (taken: `solver` `"pcg->direct"`),
+    /// [`IterationLimit::Accept`] above and for the Schwarz PCG (taken: `converged` false).
+    pub on_limit: Option<IterationLimit>,
 }
 
 /// What a fit leaves for the next round's fit (more samples after the same ones, a tree that
@@ -309,6 +314,7 @@ pub fn fit_tree_updating(
                 fit.report.relative_residual = report.relative_residual[worst];
                 fit.report.condition = condition(&report)[worst];
                 fit.report.converged = false;
+                fit.report.on_limit = Some(on_limit);
                 return Ok(fit);
             }
             Ok(TreeFit {
@@ -323,6 +329,7 @@ pub fn fit_tree_updating(
                     relative_residual: largest(&report.relative_residual),
                     condition: largest(condition(&report)),
                     converged,
+                    on_limit: Some(on_limit),
                     ..TreeFitReport::default()
                 },
                 coefficients,
@@ -402,6 +409,7 @@ fn fit_direct(
                 converged: cg.all_converged(),
                 schwarz: Some(pre.report()),
                 schwarz_setup_s: setup_s,
+                on_limit: Some(IterationLimit::Accept),
                 ..TreeFitReport::default()
             },
             coefficients: solved

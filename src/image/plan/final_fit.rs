@@ -24,9 +24,12 @@ use crate::image::adaptive::gram::{seal, unseal, GramBytesError, Words};
 use crate::image::adaptive::schwarz::SchwarzReport;
 use crate::image::adaptive::{mix64, TreeFit, TreeFitReport};
 use crate::image::ImageSamples;
+use crate::solve::cg::IterationLimit;
 
-/// The first bytes of [`FinalFit::to_bytes`]: the layout's name and version.
-const FINAL_MAGIC: &[u8; 8] = b"RKWFIN01";
+/// The first bytes of [`FinalFit::to_bytes`]: the layout's name and version (`02`: the
+/// report's `on_limit` after its Schwarz fields; a `01` file is refused as another layout,
+/// and the final image fitted again with a note).
+const FINAL_MAGIC: &[u8; 8] = b"RKWFIN02";
 
 /// The stopping round's fit of a plan (module docs).
 #[derive(Clone, Debug)]
@@ -209,7 +212,18 @@ fn report_words(r: &TreeFitReport, out: &mut Vec<u64>) {
         s.overlap.to_bits(),
         s.ridged as u64,
         r.schwarz_setup_s.to_bits(),
+        limit_word(r.on_limit),
     ]);
+}
+
+/// `on_limit` as a word: 0 none, then [`IterationLimit`]'s variants from 1.
+fn limit_word(on_limit: Option<IterationLimit>) -> u64 {
+    match on_limit {
+        None => 0,
+        Some(IterationLimit::Fail) => 1,
+        Some(IterationLimit::FallBack) => 2,
+        Some(IterationLimit::Accept) => 3,
+    }
 }
 
 /// The report of [`report_words`].
@@ -245,6 +259,17 @@ fn read_report(
     };
     r.schwarz = schwarz.then_some(s);
     r.schwarz_setup_s = f64::from_bits(next()?);
+    r.on_limit = match next()? {
+        0 => None,
+        1 => Some(IterationLimit::Fail),
+        2 => Some(IterationLimit::FallBack),
+        3 => Some(IterationLimit::Accept),
+        _ => {
+            return Err(GramBytesError::Damaged(
+                "an iteration-limit policy out of range",
+            ))
+        }
+    };
     Ok(r)
 }
 
@@ -320,6 +345,7 @@ mod tests {
                         overlap: 1.5,
                         ridged: 0,
                     }),
+                    on_limit: Some(IterationLimit::FallBack),
                     ..TreeFitReport::default()
                 },
             },
@@ -339,6 +365,27 @@ mod tests {
         assert_eq!(a.relative_residual, b.relative_residual);
         assert_eq!((a.iterations, a.converged, &a.solver), (9, true, &b.solver));
         assert_eq!(a.schwarz.unwrap().overlap, 1.5);
+        assert_eq!(a.on_limit, Some(IterationLimit::FallBack));
+        // Every policy and none come back; a file of the layout before `on_limit` (`01`) is
+        // refused as another layout (the caller fits the final image again, with a note).
+        for on_limit in [
+            None,
+            Some(IterationLimit::Fail),
+            Some(IterationLimit::Accept),
+        ] {
+            let mut other = fit.clone();
+            other.fit.report.on_limit = on_limit;
+            let back = FinalFit::from_bytes(&other.to_bytes(7), 7, n).unwrap();
+            assert_eq!(back.fit.report.on_limit, on_limit);
+        }
+        let mut old = bytes.clone();
+        old[..8].copy_from_slice(b"RKWFIN01");
+        let refused = FinalFit::from_bytes(&old, 7, n).unwrap_err();
+        assert!(
+            matches!(refused, GramBytesError::Layout { .. }),
+            "{refused:?}"
+        );
+        assert!(refused.to_string().contains("RKWFIN02"), "{refused}");
         assert!(FinalFit::from_bytes(&bytes, 8, n).is_err());
         assert!(FinalFit::from_bytes(&bytes, 7, n + 1).is_err());
         let mut flipped = bytes.clone();
