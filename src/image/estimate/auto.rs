@@ -9,10 +9,7 @@
 //!    stratum) and keeping what the stratified mean really varies by; then checked against
 //!    the box pixels' own differences across pixels and lowered wherever it says more than
 //!    twice the noise they show (texture inside the strata, a sampler that stratifies more
-//!    than the model knows; never raised, [`super::spatial`]); then, where the pixel's
-//!    samples lie within its neighbours', `min(vbar_P, 4 v_P)` with `vbar_P` the mean over
-//!    its 3 x 3 neighbourhood, so that SURE's `v_P` does not rise and fall with the very draw
-//!    it judges (a glyph stroke's rare bright sample; [`super::pooled`]).
+//!    than the model knows; never raised, [`super::spatial`]).
 //! 2. **Films**: the film filter of least SURE over the window around each pixel
 //!    ([`super::sure`]; the box film `F = m`, `A = 1`, is one of the five).
 //! 3. **SureShrink of the box pixels**: cycle-spun Haar, heteroscedastic coefficient variances
@@ -42,7 +39,6 @@ use serde::Serialize;
 use super::clamp::clamp_to_local_range;
 use super::gate::{gate, GateCandidate, GateCount, GATE_HALF};
 use super::noise::{DifferenceCount, PixelNoise};
-use super::pooled::{pool_variance, within_neighbours, PooledNoise};
 use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
 use super::spatial::{apply_factors, spatial_factors, SpatialCheck};
@@ -96,8 +92,6 @@ pub struct AutoReport {
     /// The check of `v_P` against the box pixels' differences across pixels
     /// ([`super::spatial`]).
     pub spatial: SpatialCheck,
-    /// The pooling of `v_P` over the 3 x 3 neighbourhood ([`super::pooled`]).
-    pub pooled: PooledNoise,
     /// Pixels per gate candidate.
     pub gate: Vec<GateCount>,
     /// Mean estimated risk per pixel of the output (summed over channels).
@@ -165,7 +159,7 @@ impl AutoReport {
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
              coefficients killed); noise of each pixel's mean from the least of three difference \
-             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}; {}; {}); estimated risk per pixel {:.3e} \
+             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}; {}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
              samples in their 3x3 neighbourhood (largest move {:.3e}); {}",
             self.shrink.shifts * self.shrink.shifts,
@@ -178,7 +172,6 @@ impl AutoReport {
             self.pixels_with_blocks,
             super::list(&self.sigma),
             self.spatial.describe(),
-            self.pooled.describe(),
             self.estimated_risk,
             self.box_risk,
             self.range_clamped,
@@ -240,10 +233,6 @@ pub fn estimate(
     let factors = spatial_factors(&mean, &variance, w, h, GATE_HALF);
     apply_factors(&mut noise.mean_variance, &factors, GATE_HALF);
     let spatial = apply_factors(&mut variance, &factors, GATE_HALF);
-    // 1c. pooled over the 3 x 3 neighbourhood where the pixel's samples lie within its
-    // neighbours' (`super::pooled`): SURE's `v_P` decoupled from the draw it judges
-    let stats = super::PixelStatistics::new(samples);
-    let pooled = pool_variance(&mut variance, &within_neighbours(&stats), w, h);
     let choice = choose_films(
         samples,
         &bins,
@@ -307,6 +296,7 @@ pub fn estimate(
         image: robust_image,
         divergence: robust_divergence,
     });
+    let stats = super::PixelStatistics::new(samples);
     let in_range: Vec<GateCandidate> = candidates[1..]
         .iter()
         .map(|c| own_range_candidate(c, &stats))
@@ -363,7 +353,6 @@ pub fn estimate(
             noise_estimators: noise.estimator_counts(),
             pure_noise_ratio: noise.pure_noise_ratio,
             spatial,
-            pooled,
             gate: gated.counts,
             estimated_risk: gated.risk,
             box_risk: gated.box_risk,

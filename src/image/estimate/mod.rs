@@ -36,7 +36,6 @@ pub mod clamp;
 pub mod gate;
 pub mod haar;
 pub mod noise;
-pub mod pooled;
 mod report;
 pub mod robust;
 pub mod shrink;
@@ -145,7 +144,6 @@ pub fn reconstruct_estimated(
         noise_estimators: None,
         pure_noise_ratio: None,
         spatial_check: None,
-        pooled_noise: None,
         threshold: None,
         shrink: None,
         clamped_values: None,

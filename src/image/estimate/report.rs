@@ -6,7 +6,6 @@ use super::auto::{AutoReport, FilmCount, WINDOW_HALF};
 use super::choice::UniformEstimate;
 use super::gate::GateCount;
 use super::noise::DifferenceCount;
-use super::pooled::PooledNoise;
 use super::robust::RobustReport;
 use super::shrink::ShrinkParams;
 use super::spatial::SpatialCheck;
@@ -59,10 +58,6 @@ pub struct EstimateReport {
     /// the pixels whose noise it lowered, the median and total factor (`auto` only;
     /// [`spatial`](super::spatial)).
     pub spatial_check: Option<SpatialCheck>,
-    /// The pooling of the noise over each pixel's 3 x 3 neighbourhood where its samples lie
-    /// within its neighbours': pixels pooled, at the cap, kept, total factor (`auto` only;
-    /// [`pooled`](super::pooled)).
-    pub pooled_noise: Option<PooledNoise>,
     /// Threshold `t_c = k sigma_c sqrt(2 ln N)` per channel (`shrunk` and `auto`).
     pub threshold: Option<Vec<f64>>,
     /// The shrinkage's parameters (`shrunk` and `auto`).
@@ -90,7 +85,6 @@ impl AutoReport {
         report.noise_estimators = Some(self.noise_estimators);
         report.pure_noise_ratio = self.pure_noise_ratio;
         report.spatial_check = Some(self.spatial);
-        report.pooled_noise = Some(self.pooled);
         report.gate = Some(self.gate);
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
