@@ -433,6 +433,8 @@ fn command_line_protocol_gives_the_in_process_image() {
                 budget,
                 ..AdaptiveParams::default().stop
             },
+            // the command line's plan fits the renderer plan's probe channels
+            noise: AdaptiveParams::renderer_plan().noise,
             ..AdaptiveParams::default()
         },
     )

@@ -21,6 +21,17 @@
 //!   keep the estimate from the residuals of unresolved edges as long as they are fewer than
 //!   half the samples; without noise the estimate is the approximation error's level.
 //!
+//! *How many probes.* `sigma` is a median over every sample's probe residual (`m k` values):
+//! its relative spread is about `1.2 / sqrt(m k)`, below 1 % at one probe and `m >= 10^4`.
+//! `v_C` is a mean of `27 k` squares at most (fewer at the image's border and where the
+//! neighbours are inactive), each `G^{-1}_aa chi^2_1`: unbiased for any `k`, with a relative
+//! spread of about `sqrt(2 / (27 k))` (27 % at `k = 1`, 14 % at `k = 4`, ignoring the
+//! correlation of neighbouring coefficients). The cost is `k` more right-hand sides: free
+//! for the direct solve (one factorization), but under PCG a probe of white noise takes 8-15
+//! iterations where the warm-started image channels take 2-3, so the renderer's plan fits
+//! one probe and the in-process default four (`RENDERER_PROBES`;
+//! docs/measurements/plan-speed.md, "The noise test's probes").
+//!
 //! The probes are deterministic: seeded by the seed and each position's bits, so a renderer
 //! returning the samples in any order gets the same test (the file protocol and the
 //! in-process loop agree). They do not depend on the round: a sample keeps its probe values,

@@ -216,8 +216,8 @@ pub(super) fn noise_notes(rounds: &[ImageRound], false_alarm: f64) -> Vec<String
             notes.push(format!(
                 "{} slots not deepened because their detail is not significant (within the \
                  noise at false-alarm rate {false_alarm}; estimated noise sigma {:.3e} from the \
-                 residuals)",
-                last.insignificant, level.sigma
+                 residuals, {} probe channel(s))",
+                last.insignificant, level.sigma, level.probes
             ));
         }
     }

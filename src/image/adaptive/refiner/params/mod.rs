@@ -215,6 +215,17 @@ impl Default for AdaptiveParams {
 /// plan-quality.md, "Placement"), so it is a parameter to set (`pixel_floor`), not a default.
 pub const RENDERER_PIXEL_FLOOR: f64 = 0.0;
 
+/// The noise test's probe channels in a plan a renderer drives ([`AdaptiveParams::renderer_plan`]):
+/// one. Under PCG the probes were about 85 % of the rounds' channel-iterations (the image
+/// channels, warm-started, converge in 2-3 iterations; a probe of white noise takes 8-15), and
+/// the noise level `sigma` (a median over every sample's probe residual) keeps its accuracy
+/// with one probe; the variance `v_C` (pooled over a cell's neighbours: `27 k` degrees of
+/// freedom) is unbiased with a wider spread. Chosen on the issue-38 suite's tuning half
+/// against four probes (docs/measurements/plan-speed.md, "The noise test's probes"); the
+/// in-process default keeps four (its direct solve takes the probes as right-hand sides of one
+/// factorization, at little cost).
+pub const RENDERER_PROBES: usize = 1;
+
 /// A parameter out of its range.
 fn bad(parameter: &'static str, value: String, expected: &'static str) -> AdaptiveError {
     AdaptiveError::Parameter {
@@ -249,7 +260,8 @@ impl AdaptiveParams {
     /// the loop's calls several times faster, a tenth of the memory, the same final image to
     /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG"); the
     /// uniform floor ([`ImageSampling::pixel_floor`]) at `RENDERER_PIXEL_FLOOR` (none: its
-    /// cost in rounds, docs/measurements/plan-quality.md, "Placement").
+    /// cost in rounds, docs/measurements/plan-quality.md, "Placement"); and the noise test
+    /// with `RENDERER_PROBES` probe channels (one: the probes were most of PCG's work).
     pub fn renderer_plan() -> Self {
         let d = Self::default();
         Self {
@@ -264,6 +276,10 @@ impl AdaptiveParams {
             sampling: ImageSampling {
                 pixel_floor: RENDERER_PIXEL_FLOOR,
                 ..d.sampling
+            },
+            noise: NoiseParams {
+                probes: RENDERER_PROBES,
+                ..d.noise
             },
             ..d
         }
