@@ -78,7 +78,8 @@ use super::{PlanOptions, PlanStart};
 pub use error::TiledPlanError;
 pub use round::{TiledFinal, TiledStep};
 pub use state::{
-    SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
+    SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
+    TILED_STATE_VERSION,
 };
 use window::{keep_owned, mix_index, sizes, window_plane, windows_not_dyadic};
 pub use window::{plan_window, tile_bytes, CONCENTRATION};
