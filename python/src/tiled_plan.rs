@@ -41,7 +41,9 @@ pub struct TiledCore {
     pub steps: Vec<TiledStep>,
 }
 
-/// The plan of a `rkwave.Plan`: untiled or on tiles.
+/// The plan of a `rkwave.Plan`: untiled or on tiles. One per Python object, never in a
+/// collection, so the untiled variant's size is not boxed away.
+#[allow(clippy::large_enum_variant)]
 pub enum PlanCore {
     /// The untiled plan.
     Untiled(PlanState),
