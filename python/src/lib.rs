@@ -28,6 +28,7 @@ mod params;
 mod plan;
 mod report;
 mod stream;
+mod tiled_plan;
 mod tiles;
 
 use pyo3::prelude::*;

@@ -22,6 +22,7 @@ use std::time::Instant;
 use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
+use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
@@ -34,6 +35,7 @@ use crate::errors::{invalid, to_py, warn_all};
 use crate::image::{plane_of, samples_of};
 use crate::params::{plan_options, PlanArgs};
 use crate::report::to_dict;
+use crate::tiled_plan::PlanCore;
 
 /// Seconds a plan spent inside the library (fits, positions, reconstructions) and in this
 /// module's own work around it (checks, conversion, copies of the samples).
@@ -50,19 +52,30 @@ pub struct PlanSeconds {
 struct PlanReport<'a> {
     resolution: String,
     budget: usize,
+    /// `(tile, halo)` of a tiled plan.
+    tiles: Option<(usize, usize)>,
     round: usize,
     handed_out: usize,
     samples: usize,
     done: bool,
     stop: Option<rkwave::refine::StopReason>,
-    steps: &'a [PlanStep],
+    steps: Steps<'a>,
     time_s: PlanSeconds,
+}
+
+/// The rounds' reports: the untiled plan's or the tiled plan's.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Steps<'a> {
+    Untiled(&'a [PlanStep]),
+    Tiled(&'a [rkwave::image::job::tiled_plan::TiledStep]),
 }
 
 /// Adaptive sampling of the image plane (module docs).
 #[pyclass(name = "Plan", module = "rkwave")]
 pub struct PyPlan {
-    state: PlanState,
+    /// The plan: untiled, or on tiles (`tile=`).
+    state: PlanCore,
     /// Positions handed out for the round in progress (empty once the plan stopped).
     next: SamplePositions,
     /// Every sample so far, in the order added (those with a finite value).
@@ -188,9 +201,20 @@ impl PyPlan {
     /// >>> plan = rkwave.Plan(resolution=(32, 32), spp=4)
     /// >>> plan.positions().shape[1], plan.done
     /// (2, False)
+    ///
+    /// `tile=T` plans on tiles (the job of `rkwave plan --tile`): a quadtree and its fits per
+    /// tile of `T` pixels over a window that holds the tile and its `halo=` (default 0)
+    /// grown to a power of two, one global budget shared by the tiles' indicators, memory
+    /// bounded by the tile; the final image stitched from the tiles' interiors. A tiled
+    /// plan refuses non-finite samples (no `drop_nonfinite`) and gives its image once done.
+    ///
+    /// >>> plan = rkwave.Plan(resolution=(64, 64), spp=4, tile=32)
+    /// >>> plan.report["tiles"]
+    /// [32, 0]
     #[new]
     #[pyo3(signature = (resolution, spp=None, budget=None, *, p=None, rho=None,
-        below_pixel=None, seed=None, false_alarm=None, solver=None, output_pixels=None))]
+        below_pixel=None, seed=None, false_alarm=None, solver=None, output_pixels=None,
+        tile=None, halo=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -204,6 +228,8 @@ impl PyPlan {
         false_alarm: Option<f64>,
         solver: Option<&str>,
         output_pixels: Option<&str>,
+        tile: Option<usize>,
+        halo: Option<usize>,
     ) -> PyResult<Self> {
         let plane = plane_of(resolution)?;
         let options = plan_options(&PlanArgs {
@@ -218,8 +244,25 @@ impl PyPlan {
             output_pixels,
         })?;
         let t = Instant::now();
-        let start = PlanStart::new(plane, &options).map_err(to_py)?;
-        let (state, next) = py.detach(|| start.run()).map_err(to_py)?;
+        let (state, next) = match tile {
+            Some(tile) => {
+                let (core, next, notes) = py
+                    .detach(|| PlanCore::tiled(plane, &options, tile, halo))
+                    .map_err(to_py)?;
+                warn_all(py, &notes)?;
+                (core, next)
+            }
+            None if halo.is_some() => {
+                return Err(invalid(
+                    "halo= is the tiles' halo: give it with tile=, or leave it out",
+                ))
+            }
+            None => {
+                let start = PlanStart::new(plane, &options).map_err(to_py)?;
+                let (state, next) = py.detach(|| start.run()).map_err(to_py)?;
+                (PlanCore::Untiled(state), next)
+            }
+        };
         Ok(Self {
             state,
             next,
@@ -269,14 +312,20 @@ impl PyPlan {
         values: &Bound<'_, PyAny>,
         drop_nonfinite: bool,
     ) -> PyResult<()> {
-        if self.state.stop.is_some() {
+        if self.state.stop().is_some() {
             return Err(invalid(
                 "the plan has stopped: no positions are pending; take the result with image()",
             ));
         }
+        if drop_nonfinite && self.state.tiles().is_some() {
+            return Err(invalid(
+                "drop_nonfinite=True: the tiled plan refuses non-finite samples; remove them, \
+                 or plan untiled (no tile=)",
+            ));
+        }
         let t = Instant::now();
         let (new, dropped) = samples_of(
-            self.state.plane,
+            self.state.plane(),
             xy,
             values,
             rkwave::image::NonFinitePolicy::dropping(drop_nonfinite),
@@ -286,7 +335,20 @@ impl PyPlan {
         let mut all_dropped = self.dropped.clone();
         all_dropped.extend(dropped, rows);
         let t_lib = Instant::now();
-        let state = &mut self.state;
+        let state = match &mut self.state {
+            PlanCore::Untiled(state) => state,
+            PlanCore::Tiled(core) => {
+                let step = py.detach(|| core.state.advance(&all)).map_err(to_py)?;
+                self.made = None;
+                let library = t_lib.elapsed().as_secs_f64();
+                self.next = step.next.clone();
+                self.samples = Some(all);
+                core.steps.push(step);
+                self.time_s.library += library;
+                self.time_s.glue += t.elapsed().as_secs_f64() - library;
+                return Ok(());
+            }
+        };
         let so_far = all_dropped.clone();
         let step = py
             .detach(|| PlanRound::new(state, None, &PlanOptions::default())?.run(&all, so_far))
@@ -315,7 +377,7 @@ impl PyPlan {
     /// `positions()` is empty and `image()` is the final image.
     #[getter]
     fn done(&self) -> bool {
-        self.state.stop.is_some()
+        self.state.stop().is_some()
     }
 
     /// The last round whose positions were handed out (0: the base positions).
@@ -347,12 +409,30 @@ impl PyPlan {
         };
         let t = Instant::now();
         let fit_only = !residual;
+        if let PlanCore::Tiled(core) = &self.state {
+            // the tiled plan's final image: every tile's fit, its interior stitched
+            let estimate = fit_only.then_some(rkwave::image::adaptive::PixelEstimate::FitOnly);
+            let done = py
+                .detach(|| core.state.final_image(samples, estimate))
+                .map_err(to_py)?;
+            self.time_s.library += t.elapsed().as_secs_f64();
+            let plane = core.state.plane;
+            return Ok(image_out(
+                py,
+                &done.image.channels,
+                plane.width(),
+                plane.height(),
+            ));
+        }
         let done = match self.made.take() {
             Some((made, done)) if made == fit_only => done,
             _ => {
                 // the plan's final image job, as `rkwave plan --final-image` and `rkwave
                 // reconstruct --dim 2 --state` make it
-                let (state, dropped) = (&self.state, self.dropped.clone());
+                let PlanCore::Untiled(state) = &self.state else {
+                    unreachable!("the tiled plan returned above")
+                };
+                let dropped = self.dropped.clone();
                 let stopping = self.steps.last().filter(|s| s.stop.is_some());
                 py.detach(|| PlanFinal::of(state, fit_only).run(samples, dropped, stopping))
                     .map_err(to_py)?
@@ -364,7 +444,7 @@ impl PyPlan {
         notes.extend(done.solver_note.clone());
         notes.extend(done.dropped.note());
         warn_all(py, &notes)?;
-        let plane = self.state.plane;
+        let plane = self.state.plane();
         let out = image_out(py, &done.image.channels, plane.width(), plane.height());
         self.made = Some((fit_only, done));
         self.time_s.glue += t.elapsed().as_secs_f64();
@@ -392,14 +472,18 @@ impl PyPlan {
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let report = PlanReport {
-            resolution: self.state.plane.to_string(),
-            budget: self.state.params.stop.budget,
+            resolution: self.state.plane().to_string(),
+            budget: self.state.budget(),
+            tiles: self.state.tiles(),
             round: self.state.round(),
             handed_out: self.state.positions(),
             samples: self.samples.as_ref().map_or(0, ImageSamples::len),
             done: self.done(),
-            stop: self.state.stop,
-            steps: &self.steps,
+            stop: self.state.stop(),
+            steps: match &self.state {
+                PlanCore::Untiled(_) => Steps::Untiled(&self.steps),
+                PlanCore::Tiled(core) => Steps::Tiled(&core.steps),
+            },
             time_s: self.time_s,
         };
         to_dict(py, &serde_json::to_string(&report).expect("plain data"))
@@ -419,7 +503,7 @@ impl PyPlan {
         // The command line's one "holds a plan already" refusal; the plan's own folder is
         // its to write.
         if self.home.as_ref() != Some(&canonical(&dir)) {
-            PlanState::check_new(&dir, &[], overwrite).map_err(to_py)?;
+            PlanState::check_new(&dir, &[dir.join(TILED_STATE_FILE)], overwrite).map_err(to_py)?;
         }
         let state = &self.state;
         let samples = self.samples.as_ref();
@@ -448,7 +532,8 @@ impl PyPlan {
         Ok(())
     }
 
-    /// A plan from `dir`: a state written by `save` or by `rkwave plan --state DIR`. The
+    /// A plan from `dir`: a state written by `save` or by `rkwave plan --state DIR` (with
+    /// `--tile`: `tiled-state.json`, a tiled plan). The
     /// samples so far come from `samples` (an `(m, 2 + channels)` array or a sample file) or
     /// else `DIR/samples.npy`; the pending positions from `positions` (an `(n, 2)` array or
     /// the `.npy` that `rkwave plan --out` wrote) or else `DIR/next.npy` (a plan at its base
@@ -465,8 +550,8 @@ impl PyPlan {
         samples: Option<&Bound<'_, PyAny>>,
         positions: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let state = PlanState::load(&dir).map_err(to_py)?;
-        let plane = state.plane;
+        let state = PlanCore::load(&dir).map_err(|e| e.into_py())?;
+        let plane = state.plane();
         let samples = match samples {
             Some(obj) => Some(samples_from(plane, obj)?),
             None => {
@@ -480,13 +565,13 @@ impl PyPlan {
         };
         let next = match positions {
             Some(obj) => positions_from(obj)?,
-            None if state.stop.is_some() => SamplePositions::default(),
+            None if state.stop().is_some() => SamplePositions::default(),
             None => {
                 let file = dir.join("next.npy");
                 if file.exists() {
                     positions_file(&file)?
-                } else if state.round() == 0 && samples.is_none() {
-                    PlanState::start(plane, &state.params).map_err(to_py)?.1
+                } else if let (PlanCore::Untiled(s), 0, None) = (&state, state.round(), &samples) {
+                    PlanState::start(plane, &s.params).map_err(to_py)?.1
                 } else {
                     return Err(invalid(format!(
                         "the positions of round {} are not in {}: pass positions= (the .npy \
@@ -511,12 +596,15 @@ impl PyPlan {
 
     fn __repr__(&self) -> String {
         format!(
-            "rkwave.Plan(resolution={}, budget={}, round={}, samples={}, done={})",
-            self.state.plane,
-            self.state.params.stop.budget,
+            "rkwave.Plan(resolution={}, budget={}, round={}, samples={}, done={}{})",
+            self.state.plane(),
+            self.state.budget(),
             self.state.round(),
             self.samples.as_ref().map_or(0, ImageSamples::len),
-            if self.done() { "True" } else { "False" }
+            if self.done() { "True" } else { "False" },
+            self.state
+                .tiles()
+                .map_or(String::new(), |(t, h)| format!(", tile={t}, halo={h}"))
         )
     }
 }

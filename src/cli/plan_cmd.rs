@@ -109,12 +109,13 @@ pub struct PlanArgs {
     #[arg(long)]
     pub drop_nonfinite: bool,
     /// Tile side in pixels: the plan on tiles (a quadtree and its fits per tile over the
-    /// tile plus its halo, one global budget shared by the tiles' indicators, memory bounded
+    /// tile plus its halo grown to a power of two, one global budget shared by the tiles' indicators, memory bounded
     /// by the tile; the final image stitched as `reconstruct --dim 2 --tile` does). Recorded
     /// in the state (`tiled-state.json`); later calls continue it without the flag.
     #[arg(long)]
     pub tile: Option<usize>,
-    /// Halo of each tile in pixels (default 12, clipped to the tile); with --tile.
+    /// Halo of each tile in pixels, at most the tile (default 0: a power-of-two tile is its
+    /// own window); with --tile.
     #[arg(long, requires = "tile")]
     pub halo: Option<usize>,
     /// Print one JSON object.

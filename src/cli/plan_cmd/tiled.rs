@@ -14,8 +14,7 @@ use super::super::image_args::parse_resolution;
 use super::super::CliError;
 use super::{positions_npy, PlanArgs};
 
-/// The tiled state's file name inside the plan's folder.
-pub const TILED_STATE_FILE: &str = "tiled-state.json";
+use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 
 /// The tiled state file in the folder `dir`.
 pub fn path(dir: &Path) -> PathBuf {

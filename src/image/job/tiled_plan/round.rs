@@ -8,7 +8,9 @@ use serde::Serialize;
 
 use super::error::TiledPlanError;
 use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
-use super::window::{keep_owned, stitch, tile_bytes, tile_output, window_plane};
+use super::window::{
+    keep_owned, plan_window, reach, stitch, tile_bytes, tile_output, window_plane,
+};
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{
     mix64, AdaptiveError, AdaptiveParams, Decision, FitState, ImagePlan, PixelEstimate,
@@ -187,19 +189,25 @@ impl TiledPlanState {
             })
     }
 
-    /// The indices of the samples in each tile's window (one pass; a sample in a halo is in
-    /// up to four windows).
+    /// The indices of the samples in each tile's window ([`plan_window`]; one pass over the
+    /// samples, each checked against the windows of the tiles within [`reach`] of its own).
     fn buckets(&self, samples: &ImageSamples) -> Vec<Vec<usize>> {
         let g = self.geometry();
-        let nx = g.grid().0;
+        let (nx, ny) = g.grid();
+        let (kx, ky) = reach(&g);
+        let windows: Vec<PixelRect> = (0..g.count()).map(|t| plan_window(&g, t)).collect();
         let mut buckets = vec![Vec::new(); g.count()];
+        let span = |v: f64, k: usize, n: usize| {
+            let own = ((v / g.tile as f64) as usize).min(n - 1);
+            (own.saturating_sub(k + 1), (own + k + 1).min(n - 1))
+        };
         for (i, (&x, &y)) in samples.xs().iter().zip(samples.ys()).enumerate() {
-            let (r0, r1) = g.rows_of(y);
-            let (c0, c1) = g.columns_of(x);
+            let (r0, r1) = span(y, ky, ny);
+            let (c0, c1) = span(x, kx, nx);
             for ty in r0..=r1 {
                 for tx in c0..=c1 {
                     let t = ty * nx + tx;
-                    if g.window(t).contains(x, y) {
+                    if windows[t].contains(x, y) {
                         buckets[t].push(i);
                     }
                 }
@@ -223,7 +231,7 @@ impl TiledPlanState {
         held: f64,
         channels: usize,
     ) -> Result<(), TiledPlanError> {
-        let window = self.geometry().window(index);
+        let window = plan_window(&self.geometry(), index);
         let per_tile = tile_bytes(&window, &self.params, channels, n as f64);
         let needed = held + self.workers as f64 * per_tile;
         let limit = memory_limit();
@@ -232,14 +240,14 @@ impl TiledPlanState {
         }
         let g = self.geometry();
         let fits = (1..g.tile).rev().find(|&t| {
-            let side = (t + 2 * g.halo.min(t)) as f64;
-            let scale = (side * side / window.pixels() as f64).min(1.0);
+            let side = (t + 2 * g.halo.min(t)).next_power_of_two();
             let w = PixelRect {
                 x0: 0,
-                x1: (t + 2 * g.halo.min(t)).min(window.width()),
+                x1: side.min(window.width()),
                 y0: 0,
-                y1: (t + 2 * g.halo.min(t)).min(window.height()),
+                y1: side.min(window.height()),
             };
+            let scale = (w.pixels() as f64 / window.pixels() as f64).min(1.0);
             held + self.workers as f64 * tile_bytes(&w, &self.params, channels, n as f64 * scale)
                 <= limit as f64
         });
@@ -267,7 +275,7 @@ impl TiledPlanState {
 
     /// The window-local samples of tile `index` (the indices of [`Self::buckets`]).
     fn local(&self, samples: &ImageSamples, index: usize, picks: &[usize]) -> ImageSamples {
-        let w = self.geometry().window(index);
+        let w = plan_window(&self.geometry(), index);
         let (x0, y0) = (w.x0 as f64, w.y0 as f64);
         let xs = picks.iter().map(|&i| samples.xs()[i] - x0).collect();
         let ys = picks.iter().map(|&i| samples.ys()[i] - y0).collect();
@@ -289,7 +297,7 @@ impl TiledPlanState {
         budget: usize,
         growth: f64,
     ) -> Result<ImagePlan, ProtocolError> {
-        let window = self.geometry().window(tile.index);
+        let window = plan_window(&self.geometry(), tile.index);
         let mut params: AdaptiveParams = tile.params;
         params.stop.budget = budget.max(1);
         params.growth.min_growth = growth.clamp(0.0, 10.0);
@@ -318,7 +326,7 @@ impl TiledPlanState {
         *plan.start_mut() = tile.start_f64();
         let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(local.xs(), local.ys(), &values)?;
-        let window = self.geometry().window(tile.index);
+        let window = plan_window(&self.geometry(), tile.index);
         let mut state = tile.clone();
         state.steps += 1;
         state.indicator_sq =

@@ -7,6 +7,10 @@ use crate::image::adaptive::{AdaptiveParams, PlanProgress};
 use crate::image::plan::IssuedRound;
 use crate::image::ImagePlane;
 
+/// The tiled state's file name inside a plan's folder (the command line's `plan --tile` and
+/// Python's `Plan(tile=...).save`).
+pub const TILED_STATE_FILE: &str = "tiled-state.json";
+
 /// The `format` field of a tiled plan's state.
 pub const TILED_STATE_FORMAT: &str = "rkwave-tiled-plan";
 /// The version of the tiled state layout this build reads and writes.

@@ -20,6 +20,53 @@ pub(super) fn mix_index(index: usize) -> u64 {
     )
 }
 
+/// Tile `index`'s window in the tiled plan: on each axis the interior `[a, b)` grown to the
+/// side `W = min(n, 2^ceil(log2(b - a + 2 H_a)))` (`n` the image's side), centred on the
+/// interior and shifted to lie inside the image. `W` is a power of two unless the image's
+/// side is smaller: the tile's tree on `[0, W)` then has cells of `W 2^-L` pixels at level
+/// `L`, so its slots at pixel level **are** the window's pixels (on a side such as the uniform
+/// tiles' `T + 2 H_a = 88` the finest slots straddle pixels and the base is coarser than a
+/// pixel: docs/measurements/scale-out.md). The halo is inside the window: at least `H_a`
+/// on each side away from the image border, more where the power of two or the border leaves
+/// room. With `H_a = 0` and a power-of-two tile the window is the interior, aligned with the
+/// untiled plan's cells at every level (tile origins are multiples of `T`).
+pub fn plan_window(g: &TileGeometry, index: usize) -> PixelRect {
+    let r = g.interior(index);
+    let (x0, x1) = axis_window(r.x0, r.x1, g.halo, g.plane.width());
+    let (y0, y1) = axis_window(r.y0, r.y1, g.halo, g.plane.height());
+    PixelRect { x0, x1, y0, y1 }
+}
+
+/// One axis of [`plan_window`]: `[lo, hi)` in an image side of `size`.
+fn axis_window(lo: usize, hi: usize, halo: usize, size: usize) -> (usize, usize) {
+    let side = hi - lo;
+    let want = (side + 2 * halo).next_power_of_two().min(size);
+    let start = lo.saturating_sub((want - side) / 2).min(size - want);
+    (start, start + want)
+}
+
+/// How many tiles' windows are not a power of two on some axis (the image's side is smaller).
+pub(super) fn windows_not_dyadic(g: &TileGeometry) -> usize {
+    (0..g.count())
+        .filter(|&t| {
+            let w = plan_window(g, t);
+            !w.width().is_power_of_two() || !w.height().is_power_of_two()
+        })
+        .count()
+}
+
+/// `(kx, ky)`: how many tiles beyond its own a window reaches on each axis, at most
+/// (`ceil(e / T)`, `e` the largest extent of a window past its interior).
+pub(super) fn reach(g: &TileGeometry) -> (usize, usize) {
+    let (mut ex, mut ey) = (0, 0);
+    for t in 0..g.count() {
+        let (r, w) = (g.interior(t), plan_window(g, t));
+        ex = ex.max(r.x0 - w.x0).max(w.x1 - r.x1);
+        ey = ey.max(r.y0 - w.y0).max(w.y1 - r.y1);
+    }
+    (ex.div_ceil(g.tile), ey.div_ceil(g.tile))
+}
+
 /// The window as an image plane of its own (window-local coordinates).
 pub(super) fn window_plane(window: &PixelRect) -> ImagePlane {
     ImagePlane::new(window.width(), window.height()).expect("a window of a valid grid has pixels")
@@ -73,7 +120,7 @@ pub(super) fn sizes(
     let held = budget * (16.0 + 8.0 * channels as f64)
         + 2.0 * 8.0 * g.plane.pixels() as f64 * channels as f64;
     let window = (0..g.count().min(4))
-        .map(|t| g.window(t))
+        .map(|t| plan_window(g, t))
         .max_by_key(|w| w.pixels());
     let window = window.expect("a grid has tiles");
     let share =
@@ -111,7 +158,7 @@ pub fn tile_bytes(
 /// The final image's stitch: tile `index`'s window pixels `tile` into `image` (its interior).
 pub(super) fn stitch(image: &mut PixelImage, g: &TileGeometry, index: usize, tile: &PixelImage) {
     let r = g.interior(index);
-    let win = g.window(index);
+    let win = plan_window(g, index);
     let width = g.plane.width();
     let ww = win.width();
     for (c, px) in tile.channels.iter().enumerate() {
