@@ -34,7 +34,10 @@
 //!   deepened since the base only: a base slot's `m_f` samples are the floor's, not the
 //!   tree's. Where the tree cannot follow the signal (texture past the depth limit, thin
 //!   geometry, noise) the final image is close to the box mean of each pixel's samples, of
-//!   error `sigma_P^2 / n_P`, and the floor bounds `n_P` from below. (Held back and filled at
+//!   error `sigma_P^2 / n_P`, and the floor bounds `n_P` from below. Only where the base
+//!   slots are the pixels (the base then holds a prefix of each pixel's sequence); elsewhere
+//!   (a tiled plan's windows, sides that are not powers of two) the floor is off and the
+//!   notes say so. (Held back and filled at
 //!   the end instead, the floor doubled the loop's rounds: a sample a round put in a pixel
 //!   below the floor was paid from the reserve, so what a round could spend did not shrink
 //!   and small rounds went on until the floor was met: docs/measurements/plan-quality.md.)
