@@ -24,14 +24,23 @@
 //!   least one base step; a base level the user gives is kept, and if it leaves no room the
 //!   plan says how many samples are missing).
 //!
-//! * *Floor.* With `ImageSampling::pixel_floor = f > 0`, `m` is raised to `floor(f N / (W
-//!   H))` (at most `floor(N / (W H))`), held back and filled in the same way: the rounds
-//!   adapt with the rest, and the pixels their samples did not reach get the floor at the
-//!   end, drawn from the pixel's own (0, 2)-sequence (`top_up`). Where the tree cannot follow
-//!   the signal (texture past the depth limit, thin geometry) the final image is close to the
-//!   box mean of each pixel's samples, of error `sigma_P^2 / n_P`; the tree's marking follows
-//!   the wavelet detail and left such pixels at their two base samples while it spent up to
-//!   70 on others (docs/measurements/plan-quality.md, "Placement").
+//! * *Floor.* With `ImageSampling::pixel_floor = f > 0` and `m_f = floor(f N / (W H))` (at
+//!   most `floor(N / (W H))`) above the coverage count, the floor goes in the *first* round:
+//!   the base positions top every pixel up to `m_f`, drawn from the pixel's own (0, 2)-sequence
+//!   where the pixel is a base slot (`top_up`: the pixel then holds the first `m_f` points of
+//!   one sequence, a `(0, k, 2)`-net when `m_f = 2^k`), and `m = max(m, m_f)` is met from the
+//!   start: nothing is held back, no round fills, and the rounds adapt with the rest, `N - m_f
+//!   W H`. The tree's oversampling (the children's count, `ceil(rho)`) counts the slots
+//!   deepened since the base only: a base slot's `m_f` samples are the floor's, not the
+//!   tree's. Where the tree cannot follow the signal (texture past the depth limit, thin
+//!   geometry, noise) the final image is close to the box mean of each pixel's samples, of
+//!   error `sigma_P^2 / n_P`, and the floor bounds `n_P` from below. Only where the base
+//!   slots are the pixels (the base then holds a prefix of each pixel's sequence); elsewhere
+//!   (a tiled plan's windows, sides that are not powers of two) the floor is off and the
+//!   notes say so. (Held back and filled at
+//!   the end instead, the floor doubled the loop's rounds: a sample a round put in a pixel
+//!   below the floor was paid from the reserve, so what a round could spend did not shrink
+//!   and small rounds went on until the floor was met: docs/measurements/plan-quality.md.)
 //!
 //! Topping up after the rounds is cheaper than the base up front, but on the suite's 4 spp it
 //! is behind it (adapting on a sparse base, the rounds decide on noisier fits and leave an
@@ -42,8 +51,9 @@ use rand_pcg::Pcg64;
 
 use super::pixel_counts::pixel_shortfall;
 use super::positions::{round_rng, slot_sobol, PositionPattern};
-use super::{ImagePlan, SamplePositions};
-use crate::adaptive::Cell;
+use super::{AdaptiveParams, ImagePlan, SamplePositions};
+use crate::adaptive::{Cell, QuadTree};
+use crate::image::ImagePlane;
 
 /// `need` positions in each pixel of `short` (`(pixel, need)`, the pixel holding `have`
 /// samples of the `m` it should), each moved to the pixel's centre if rounding carries it
@@ -58,15 +68,15 @@ use crate::adaptive::Cell;
 /// multi-jittered samples). Under [`PositionPattern::Stratified`], and in a pixel the tree
 /// deepened (its children's points are not a prefix of the pixel's sequence): jittered
 /// strata of the pixel from `rng`'s stream.
-fn top_up(
-    plan: &ImagePlan,
+pub(super) fn top_up(
+    plane: ImagePlane,
+    tree: &QuadTree,
+    params: &AdaptiveParams,
     short: &[(usize, usize)],
     m: usize,
     rng: &mut Pcg64,
 ) -> SamplePositions {
-    let plane = plan.plane;
     let w = plane.width();
-    let tree = &plan.tree;
     // the step whose cells are the pixels, if any
     let pixel_step =
         (0..=tree.steps()).find(|&s| tree.cell_dims(s) == (plane.width(), plane.height()));
@@ -85,7 +95,7 @@ fn top_up(
                 ky: py,
             })
         });
-        match plan.params.sampling.pattern {
+        match params.sampling.pattern {
             PositionPattern::Stratified => out.stratified(rect, need, rng),
             PositionPattern::Sobol if deepened => out.stratified(rect, need, rng),
             PositionPattern::Sobol => {
@@ -103,13 +113,7 @@ fn top_up(
                     },
                 };
                 let have = m.saturating_sub(need);
-                out.append(slot_sobol(
-                    plan.params.sampling.seed,
-                    cell,
-                    rect,
-                    have,
-                    need,
-                ));
+                out.append(slot_sobol(params.sampling.seed, cell, rect, have, need));
             }
         }
         for i in from..out.len() {
@@ -133,8 +137,7 @@ impl ImagePlan {
         } else {
             0
         };
-        let floor = (self.params.sampling.pixel_floor * budget as f64 / pixels as f64).floor();
-        cover.max((floor as usize).min(budget / pixels))
+        cover.max(self.floor)
     }
 
     /// The pixels short of [`ImagePlan::per_pixel`] samples so far and what each lacks.
@@ -184,7 +187,7 @@ impl ImagePlan {
         }
         // a partial fill: the next round, with nothing left, says what is missing
         let mut rng = round_rng(self.params.sampling.seed, round + 1);
-        let next = top_up(self, &paid, m, &mut rng);
+        let next = top_up(self.plane, &self.tree, &self.params, &paid, m, &mut rng);
         self.progress.marked.push(Vec::new());
         self.progress.samples_fitted = samples;
         let note = format!(
@@ -199,8 +202,6 @@ impl ImagePlan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::adaptive::AdaptiveParams;
-    use crate::image::ImagePlane;
 
     /// Whether `pts` (in the unit square, `2^k` of them) are a `(0, k, 2)`-net: for every
     /// split `2^a x 2^(k - a)` of the square into elementary intervals of area `2^-k`, one
@@ -219,8 +220,8 @@ mod tests {
     }
 
     /// The fill of the uniform floor continues each pixel's own (0, 2)-sequence: on a
-    /// 32 x 32 plane at 16 samples a pixel with the floor at half of them (`m = 8`), the base
-    /// (two samples in every pixel, slots the size of a pixel) topped up by `top_up` gives
+    /// 32 x 32 plane at 16 samples a pixel with the floor at half of them (`m = 8`), the bare
+    /// base (two samples in every pixel, slots the size of a pixel) topped up by `top_up` gives
     /// every pixel a `(0, 3, 2)`-net (one point in each of the 8 elementary intervals of all
     /// four shapes), and so does every power-of-two count from 2 to 32. Jittered strata
     /// chosen at random (the stratified pattern) or a wrong start index in the sequence fail
@@ -235,7 +236,10 @@ mod tests {
             params.stop.budget = (16 * plane.pixels()).max(m * plane.pixels());
             let plan = ImagePlan::new(plane, &params).unwrap();
             assert_eq!(plan.per_pixel(), m.max(2));
-            let base = plan.base_positions();
+            // the base without the floor (the plan's own base holds it already)
+            let mut bare = params;
+            bare.sampling.pixel_floor = 0.0;
+            let base = ImagePlan::new(plane, &bare).unwrap().base_positions();
             assert_eq!(
                 base.len(),
                 2 * plane.pixels(),
@@ -243,7 +247,7 @@ mod tests {
             );
             let short = pixel_shortfall(plane, &base.xs, &base.ys, m);
             let mut rng = round_rng(1, 1);
-            let fill = top_up(&plan, &short, m, &mut rng);
+            let fill = top_up(plane, plan.tree(), plan.params(), &short, m, &mut rng);
             let mut per_pixel = vec![Vec::new(); plane.pixels()];
             for (&x, &y) in base
                 .xs

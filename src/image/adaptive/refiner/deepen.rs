@@ -42,12 +42,15 @@ impl ImagePlan {
             None => values.to_vec(),
         };
         let moments = SlotMoments::new(&self.tree, xs, ys, &of);
-        // the oversampling so far: ceil(rho), or more after densifying rounds
+        // the oversampling so far: ceil(rho), or more after densifying rounds; with the
+        // uniform floor in the base, over the slots deepened since (the base slots' counts
+        // are the floor's, a share of the pixel, not the tree's oversampling)
         let counts: HashMap<Cell, usize> = moments.0.iter().map(|(c, m)| (*c, m.n)).collect();
         let slots = self.tree.leaves();
         let uncertainty = moments.uncertainty(&self.tree, &slots);
         let target = slots
             .iter()
+            .filter(|s| self.floor == 0 || s.step > self.base_steps)
             .map(|s| counts.get(s).copied().unwrap_or(0))
             .min()
             .unwrap_or(0)

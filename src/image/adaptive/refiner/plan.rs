@@ -8,7 +8,8 @@ use super::super::fit::{fit_tree_updating, FitState, TreeFit};
 use super::super::pcg::{SingleScaleRows, TreeSolver};
 use super::super::significance::{probe_values, Significance};
 use super::super::AdaptiveError;
-use super::positions::Placer;
+use super::coverage::top_up;
+use super::positions::{round_rng, Placer};
 use super::report::{fit_notes, noise_notes};
 use super::{AdaptiveParams, AdaptiveReport, AdaptiveTimes, ImageRound, SamplePositions};
 use crate::adaptive::StopReason;
@@ -80,6 +81,12 @@ pub struct ImagePlan {
     pub(super) start: Option<Vec<Vec<f64>>>,
     /// What the coverage rule did to the base level (`None`: nothing), for the notes.
     pub(super) coverage: Option<String>,
+    /// The uniform floor's samples a pixel, `floor(f N / (W H))` ([`ImageSampling::
+    /// pixel_floor`]), when above the coverage rule's count (else 0): the base positions
+    /// already give every pixel this many (module `coverage`, "Floor").
+    ///
+    /// [`ImageSampling::pixel_floor`]: super::ImageSampling::pixel_floor
+    pub(super) floor: usize,
 }
 
 impl ImagePlan {
@@ -173,10 +180,17 @@ impl ImagePlan {
         // after the base must fit in the budget beside it; the automatic base level comes down
         // until they do (a base level given by the user is kept as given).
         let m = per_slot.min(params.stop.budget / plane.pixels());
+        let cover = if params.sampling.cover_pixels { m } else { 0 };
+        // The uniform floor in the base (module `coverage`, "Floor"): every pixel topped up
+        // to `floor(f N / (W H))` from its own sequence before the first round.
+        let share = params.sampling.pixel_floor * params.stop.budget as f64 / pixels as f64;
+        let floor = (share.floor() as usize).min(params.stop.budget / pixels);
+        let floor = if floor > cover { floor } else { 0 };
+
         if params.sampling.cover_pixels && params.quad.base_level.is_none() && m > 0 {
             let chosen = s0;
             let need = |s: u32| {
-                let base = base_positions_of(&basis, s, per_slot, params);
+                let base = base_positions_of(plane, &basis, s, per_slot, floor, params);
                 let short = super::pixel_counts::pixel_shortfall(plane, &base.xs, &base.ys, m);
                 base.len() + short.iter().map(|s| s.1).sum::<usize>()
             };
@@ -210,6 +224,40 @@ impl ImagePlan {
                 per_slot,
             });
         }
+        // The floor needs base slots of one pixel (the pixel's own sequence continued from
+        // its base samples); where the base slots are not pixels (a tiled plan's windows,
+        // sides that are not powers of two) it is off, and the notes say so: there the
+        // tiled plan measured 0.7-1.4 dB further below the untiled one with it
+        // (docs/measurements/plan-quality.md, "The floor in the first round").
+        let pixel_slots = (1usize << (cx + s0)) == w && (1usize << (cy + s0)) == h;
+        let mut floor = floor;
+        if floor > 0 && !pixel_slots {
+            let note = format!(
+                "floor: pixel_floor asks for {floor} samples a pixel, but the base slots are not \
+                 the pixels (a {w}x{h} plane): no floor (the coverage rule's {cover} a pixel \
+                 holds)"
+            );
+            coverage = Some(match coverage {
+                Some(c) => format!("{c}; {note}"),
+                None => note,
+            });
+            floor = 0;
+        }
+        // the base with the floor must fit in the budget: the floor comes down until it does
+        let wanted = floor;
+        while floor > 0
+            && base_positions_of(plane, &basis, s0, per_slot, floor, params).len()
+                > params.stop.budget
+        {
+            floor = if floor - 1 > cover { floor - 1 } else { 0 };
+        }
+        if floor < wanted {
+            coverage = Some(format!(
+                "floor: lowered from {wanted} to {floor} samples a pixel so that the base and the \
+                 floor fit in the budget of {} (lower pixel_floor, or raise the budget)",
+                params.stop.budget
+            ));
+        }
         Ok(Self {
             params: *params,
             plane,
@@ -220,6 +268,7 @@ impl ImagePlan {
             state: FitState::default(),
             start: None,
             coverage,
+            floor,
         })
     }
 
@@ -288,14 +337,23 @@ impl ImagePlan {
     }
 
     /// The base positions: `ceil(rho)` positions in every base slot by the plan's pattern
-    /// (module `positions`), the same for every call.
+    /// (module `positions`), then with a uniform floor every pixel topped up to it from its
+    /// own sequence (module `coverage`, "Floor"); the same for every call.
     pub fn base_positions(&self) -> SamplePositions {
         base_positions_of(
+            self.plane,
             self.tree.basis(),
             self.base_steps,
             self.per_slot,
+            self.floor,
             &self.params,
         )
+    }
+
+    /// The uniform floor's samples a pixel that the base positions hold (0: no floor above
+    /// the coverage rule's count).
+    pub fn floor(&self) -> usize {
+        self.floor
     }
 
     /// The placer of round `round`'s positions (0: the base) by the plan's pattern.
@@ -426,12 +484,16 @@ impl ImagePlan {
     }
 }
 
-/// The base positions of a plan on `basis` with base step `s0`: `per_slot` positions in every
-/// base slot by the plan's pattern.
+/// The base positions of a plan on `plane` and `basis` with base step `s0`: `per_slot`
+/// positions in every base slot by the plan's pattern, then every pixel holding fewer than
+/// `floor` topped up to it (`super::coverage::top_up`: the pixel's own sequence continued
+/// where the pixel is a base slot; jittered strata of round 0's stream elsewhere).
 fn base_positions_of(
+    plane: ImagePlane,
     basis: &TensorBasis,
     s0: u32,
     per_slot: usize,
+    floor: usize,
     params: &AdaptiveParams,
 ) -> SamplePositions {
     let base = QuadTree::uniform(basis.clone(), s0);
@@ -440,6 +502,13 @@ fn base_positions_of(
     let mut out = SamplePositions::default();
     for slot in base.leaves() {
         placer.place(&mut out, slot, base.rect(slot), 0, per_slot);
+    }
+    if floor > 0 {
+        let short = super::pixel_counts::pixel_shortfall(plane, &out.xs, &out.ys, floor);
+        // a stream of its own (the base placer's is `round_rng(seed, 0)`)
+        let mut rng = round_rng(!s.seed, 0);
+        let fill = top_up(plane, &base, params, &short, floor, &mut rng);
+        out.append(fill);
     }
     out
 }

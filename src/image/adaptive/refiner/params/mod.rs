@@ -208,12 +208,12 @@ impl Default for AdaptiveParams {
     }
 }
 
-/// The uniform floor of a plan a renderer drives ([`AdaptiveParams::renderer_plan`]): none by
-/// default. A floor of half the budget's samples a pixel (`0.5`) gained on the issue-38
-/// suite's tuning half (+3.78 against +3.44 dB over the best film at 8/16 spp) but the rounds
-/// that top pixels up to it doubled the loop's rounds and cost (docs/measurements/
-/// plan-quality.md, "Placement"), so it is a parameter to set (`pixel_floor`), not a default.
-pub const RENDERER_PIXEL_FLOOR: f64 = 0.0;
+/// The uniform floor of a plan a renderer drives ([`AdaptiveParams::renderer_plan`]): half
+/// the budget's samples a pixel, given by the base positions before the first round (module
+/// `coverage`, "Floor"). Chosen on the issue-38 suite's tuning half: +3.90 dB over the best
+/// film against +3.34 without, rounds 120 against 183 (docs/measurements/plan-quality.md,
+/// "The floor in the first round"); 0.375 was measured beside it.
+pub const RENDERER_PIXEL_FLOOR: f64 = 0.5;
 
 /// The noise test's probe channels in a plan a renderer drives ([`AdaptiveParams::renderer_plan`]):
 /// one. Under PCG the probes were about 85 % of the rounds' channel-iterations (the image
@@ -259,9 +259,10 @@ impl AdaptiveParams {
     /// and auto"); and fitted by matrix-free PCG ([`TreeSolver::plan_pcg`]:
     /// the loop's calls several times faster, a tenth of the memory, the same final image to
     /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG"); the
-    /// uniform floor ([`ImageSampling::pixel_floor`]) at `RENDERER_PIXEL_FLOOR` (none: its
-    /// cost in rounds, docs/measurements/plan-quality.md, "Placement"); and the noise test
-    /// with `RENDERER_PROBES` probe channels (one: the probes were most of PCG's work).
+    /// uniform floor ([`ImageSampling::pixel_floor`]) at `RENDERER_PIXEL_FLOOR` (half the
+    /// budget's samples a pixel, in the base: docs/measurements/plan-quality.md, "The floor in
+    /// the first round"); and the noise test with `RENDERER_PROBES` probe channels (one: the
+    /// probes were most of PCG's work).
     pub fn renderer_plan() -> Self {
         let d = Self::default();
         Self {
