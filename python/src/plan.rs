@@ -21,8 +21,8 @@ use std::time::Instant;
 
 use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
-use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
+use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
 use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
