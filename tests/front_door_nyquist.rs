@@ -6,7 +6,8 @@ mod common;
 
 use std::path::Path;
 
-use common::image_cli::{arg, reconstruct2d, write_npy_unchecked};
+use common::image_cli::{arg, npy_pixels, reconstruct2d, write_npy_unchecked};
+use common::scenes::nyquist_value;
 use common::{scratch, succeeds};
 use rkwave::image::sampler::Sampler;
 use rkwave::image::ImagePlane;
@@ -18,24 +19,7 @@ use rkwave::io::SampleSet;
 fn nyquist_npy(path: &Path, n: usize) {
     let plane = ImagePlane::new(n, n).unwrap();
     let (xs, ys) = Sampler::Stratified.positions(plane, 8, 5);
-    let tau = std::f64::consts::TAU;
-    let nf = n as f64;
-    let value = |x: f64, y: f64, c: usize| {
-        let stripes = 0.5 + 0.4 * (tau * 0.4 * x).sin();
-        let r2 = (x * x + y * y) / (nf * nf);
-        let chirp = 0.5 + 0.4 * (std::f64::consts::PI * 0.9 * nf * r2).cos();
-        let line = if (y - 0.37 * x - 5.0).abs() < 0.3 {
-            0.6
-        } else {
-            0.0
-        };
-        let hash = 0.05 * (12.9898 * x + 78.233 * y).sin();
-        match c {
-            0 => stripes + hash,
-            1 => chirp + line,
-            _ => 0.5 * stripes + 0.5 * chirp + hash,
-        }
-    };
+    let value = |x: f64, y: f64, c: usize| nyquist_value(n, x, y, c);
     let mut values = vec![ys.clone()];
     values.extend((0..3).map(|c| xs.iter().zip(&ys).map(|(&x, &y)| value(x, y, c)).collect()));
     let set = SampleSet {
@@ -44,15 +28,6 @@ fn nyquist_npy(path: &Path, n: usize) {
         names: ["y", "r", "g", "b"].map(String::from).to_vec(),
     };
     write_npy_unchecked(path, &set);
-}
-
-/// The pixel values of an `(H, W, C)` float64 `.npy` image: its last `n` 8-byte words.
-fn pixels(path: &Path, n: usize) -> Vec<f64> {
-    let bytes = std::fs::read(path).unwrap();
-    bytes[bytes.len() - 8 * n..]
-        .chunks_exact(8)
-        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
-        .collect()
 }
 
 /// `reconstruct --dim 2 --pixels fit` untiled (the default solver, CG with the forward-error
@@ -77,7 +52,7 @@ fn tiled_and_untiled_images_agree_near_nyquist() {
     args.extend(["--pixels", "fit", "--tile", "32", "--halo", "12"].map(String::from));
     succeeds(&args);
     let count = 3 * n * n;
-    let (a, b) = (pixels(&untiled, count), pixels(&tiled, count));
+    let (a, b) = (npy_pixels(&untiled, count), npy_pixels(&tiled, count));
     let range =
         a.iter().fold(f64::MIN, |m, &v| m.max(v)) - a.iter().fold(f64::MAX, |m, &v| m.min(v));
     let d = a

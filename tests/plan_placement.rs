@@ -4,37 +4,11 @@
 //! the notes; with no floor the plan is the one before. (The stratification of the draws is
 //! checked by the unit tests of the refiner's `positions` and `coverage` modules.)
 
-use rkwave::image::adaptive::{
-    pixel_shortfall, position_normal, refine_image, AdaptiveParams, ImageOracle,
-};
+use rkwave::image::adaptive::{pixel_shortfall, refine_image, AdaptiveParams};
 use rkwave::image::ImagePlane;
 
-/// Fine stripes past Nyquist on the right half (period 0.7 pixel, slanted), a disc edge on the
-/// left, noise of deviation 0.05: texture the tree cannot follow beside an edge it can.
-struct StripesAndDisc {
-    w: f64,
-    h: f64,
-}
-
-impl ImageOracle for StripesAndDisc {
-    fn channels(&self) -> usize {
-        1
-    }
-    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
-        let v = if x > 0.5 * self.w {
-            0.5 + 0.4 * (std::f64::consts::TAU * (x + 0.3 * y) / 0.7).sin()
-        } else {
-            let (dx, dy) = (x - 0.25 * self.w, y - 0.5 * self.h);
-            let r = 0.2 * self.w.min(self.h);
-            if dx * dx + dy * dy < r * r {
-                0.9
-            } else {
-                0.1
-            }
-        };
-        out[0] = v + 0.05 * position_normal(3, x, y, 0);
-    }
-}
+mod common;
+use common::scenes::StripesAndDisc;
 
 fn params(budget: usize, floor: f64) -> AdaptiveParams {
     let mut p = AdaptiveParams::default();

@@ -4,19 +4,8 @@
 
 mod common;
 
-use std::path::Path;
-
-use common::image_cli::{arg, reconstruct2d, samples_npy};
+use common::image_cli::{arg, npy_pixels, reconstruct2d, samples_npy};
 use common::{rkwave, scratch, succeeds, text, user_error};
-
-/// The pixel values of an `(H, W, C)` float64 `.npy` image: its last `n` 8-byte words.
-fn pixels(path: &Path, n: usize) -> Vec<f64> {
-    let bytes = std::fs::read(path).unwrap();
-    bytes[bytes.len() - 8 * n..]
-        .chunks_exact(8)
-        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
-        .collect()
-}
 
 fn with(mut args: Vec<String>, extra: &[&str]) -> Vec<String> {
     args.extend(extra.iter().map(|s| s.to_string()));
@@ -61,7 +50,11 @@ fn tiled_matches_untiled_and_ignores_the_worker_count() {
         json["notes"]
     );
     let n = 64 * 48 * 2;
-    let (u, a, b) = (pixels(&untiled, n), pixels(&one, n), pixels(&three, n));
+    let (u, a, b) = (
+        npy_pixels(&untiled, n),
+        npy_pixels(&one, n),
+        npy_pixels(&three, n),
+    );
     assert_eq!(a, b, "the worker count changed the image");
     assert_eq!(json["tiled"]["passes"], 2, "a file is read twice");
     let left: Vec<_> = std::fs::read_dir(&*dir)
@@ -147,7 +140,7 @@ fn the_fit_flags_reach_the_image_plane() {
     let run = |name: &str, extra: &[&str]| {
         let out = dir.join(name);
         succeeds(&with(reconstruct2d(&input, &out, "32x24"), extra));
-        pixels(&out, n)
+        npy_pixels(&out, n)
     };
     let default = run("default.npy", &["--pixels", "fit"]);
     assert_eq!(default, run("rho4.npy", &["--rho", "4", "--ridge", "1e-9"]));

@@ -15,6 +15,8 @@
 //! the CG's image is the CG's error, the same for every halo. The reference here is
 //! therefore the untiled fit by the sparse Cholesky.
 
+mod common;
+use common::scenes::nyquist_value;
 use rkwave::image::fit::{fit_samples, NormalSolver};
 use rkwave::image::pixels::filter_image;
 use rkwave::image::sampler::Sampler;
@@ -22,32 +24,12 @@ use rkwave::image::tiles::{reconstruct_tiled, TileGeometry, TiledInput, TiledPar
 use rkwave::image::wavelet::{fit_params, pixel_matrices};
 use rkwave::image::{CoefficientSolve, ImagePlane, ImageSamples, WaveletParams};
 
-/// Detail at and near Nyquist on a `n x n` image, 8 stratified samples a pixel: vertical
-/// stripes of 0.4 cycles a pixel (Nyquist is 0.5), a chirp `cos(pi k r^2)` whose local
-/// frequency `k r / n` passes 0.5 cycles a pixel inside the image, and a thin bright line,
-/// with a deterministic hash `0.05 sin(12.9898 x + 78.233 y)` so the values
-/// are not a low-degree polynomial the fit would reproduce exactly.
+/// Detail at and near Nyquist on a `n x n` image ([`nyquist_value`]), 8 stratified samples a
+/// pixel.
 fn nyquist_samples(n: usize, seed: u64) -> ImageSamples {
     let plane = ImagePlane::new(n, n).unwrap();
     let (xs, ys) = Sampler::Stratified.positions(plane, 8, seed);
-    let tau = std::f64::consts::TAU;
-    let nf = n as f64;
-    let value = |x: f64, y: f64, c: usize| {
-        let stripes = 0.5 + 0.4 * (tau * 0.4 * x).sin();
-        let r2 = (x * x + y * y) / (nf * nf);
-        let chirp = 0.5 + 0.4 * (std::f64::consts::PI * 0.9 * nf * r2).cos();
-        let line = if (y - 0.37 * x - 5.0).abs() < 0.3 {
-            0.6
-        } else {
-            0.0
-        };
-        let hash = 0.05 * (12.9898 * x + 78.233 * y).sin();
-        match c {
-            0 => stripes + hash,
-            1 => chirp + line,
-            _ => 0.5 * stripes + 0.5 * chirp + hash,
-        }
-    };
+    let value = |x: f64, y: f64, c: usize| nyquist_value(n, x, y, c);
     let values = (0..3)
         .map(|c| xs.iter().zip(&ys).map(|(&x, &y)| value(x, y, c)).collect())
         .collect();

@@ -190,3 +190,12 @@ pub fn append_rendered(set: &mut SampleSet, next: &Path, scene: impl Fn(f64, f64
     }
     set.names = vec!["y".into(), "value".into()];
 }
+
+/// The pixel values of an `(H, W, C)` float64 `.npy` image: its last `n` 8-byte words.
+pub fn npy_pixels(path: &Path, n: usize) -> Vec<f64> {
+    let bytes = std::fs::read(path).unwrap();
+    bytes[bytes.len() - 8 * n..]
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+        .collect()
+}

@@ -3,7 +3,8 @@
 //! - [`runner`]: run the `rkwave` binary (every test starts it through [`runner::command`])
 //!   and read what it printed and its exit code; scratch
 //!   folders that remove themselves;
-//! - [`scenes`]: the image-plane scenes several tests fit (a straight edge, a polynomial the
+//! - [`scenes`]: the image-plane scenes several tests fit (a straight edge, stripes past
+//!   Nyquist beside a disc, a polynomial the
 //!   basis reproduces);
 //! - [`trees`]: random quadtrees (closed under "parent present") and samples in every slot,
 //!   for the tree fits;

@@ -2,6 +2,7 @@
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
+use rkwave::image::adaptive::{position_normal, ImageOracle};
 
 /// The line `x + 0.3 y = 20` (pixels) that [`straight_edge`] jumps across.
 pub const EDGE_OFFSET: f64 = 20.0;
@@ -70,5 +71,58 @@ impl rkwave::image::adaptive::ImageOracle for DiscsAndLine {
         out[0] = smooth + 0.5 * disc1 + line;
         out[1] = smooth + 0.4 * disc2;
         out[2] = 0.6 * smooth + 0.3 * disc1 * v;
+    }
+}
+
+/// Fine stripes past Nyquist on the right half (period 0.7 pixel, slanted), a disc edge on the
+/// left, noise of deviation 0.05: texture the tree cannot follow beside an edge it can.
+pub struct StripesAndDisc {
+    /// Width in pixels.
+    pub w: f64,
+    /// Height in pixels.
+    pub h: f64,
+}
+
+impl ImageOracle for StripesAndDisc {
+    fn channels(&self) -> usize {
+        1
+    }
+    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
+        let v = if x > 0.5 * self.w {
+            0.5 + 0.4 * (std::f64::consts::TAU * (x + 0.3 * y) / 0.7).sin()
+        } else {
+            let (dx, dy) = (x - 0.25 * self.w, y - 0.5 * self.h);
+            let r = 0.2 * self.w.min(self.h);
+            if dx * dx + dy * dy < r * r {
+                0.9
+            } else {
+                0.1
+            }
+        };
+        out[0] = v + 0.05 * position_normal(3, x, y, 0);
+    }
+}
+
+/// Detail at and near Nyquist on an `n x n` image, channel `c` of three at `(x, y)`: vertical
+/// stripes of 0.4 cycles a pixel (Nyquist is 0.5), a chirp `cos(pi k r^2)` whose local
+/// frequency `k r / n` passes 0.5 cycles a pixel inside the image, and a thin bright line,
+/// with a deterministic hash `0.05 sin(12.9898 x + 78.233 y)` so the values are not a
+/// low-degree polynomial the fit would reproduce exactly.
+pub fn nyquist_value(n: usize, x: f64, y: f64, c: usize) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let nf = n as f64;
+    let stripes = 0.5 + 0.4 * (tau * 0.4 * x).sin();
+    let r2 = (x * x + y * y) / (nf * nf);
+    let chirp = 0.5 + 0.4 * (std::f64::consts::PI * 0.9 * nf * r2).cos();
+    let line = if (y - 0.37 * x - 5.0).abs() < 0.3 {
+        0.6
+    } else {
+        0.0
+    };
+    let hash = 0.05 * (12.9898 * x + 78.233 * y).sin();
+    match c {
+        0 => stripes + hash,
+        1 => chirp + line,
+        _ => 0.5 * stripes + 0.5 * chirp + hash,
     }
 }
