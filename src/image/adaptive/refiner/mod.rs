@@ -67,6 +67,7 @@ mod positions;
 mod report;
 mod run;
 mod step;
+mod top_up;
 
 pub use params::{
     AdaptiveParams, FitParams, GrowthParams, ImageSampling, IndicatorParams, NoiseParams,

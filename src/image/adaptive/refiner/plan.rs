@@ -8,9 +8,9 @@ use super::super::fit::{fit_tree_updating, FitState, TreeFit};
 use super::super::pcg::{SingleScaleRows, TreeSolver};
 use super::super::significance::{probe_values, Significance};
 use super::super::AdaptiveError;
-use super::coverage::top_up;
 use super::positions::{round_rng, Placer};
 use super::report::{fit_notes, noise_notes};
+use super::top_up::top_up;
 use super::{AdaptiveParams, AdaptiveReport, AdaptiveTimes, ImageRound, SamplePositions};
 use crate::adaptive::StopReason;
 use crate::adaptive::{Cell, QuadTree};
@@ -486,7 +486,7 @@ impl ImagePlan {
 
 /// The base positions of a plan on `plane` and `basis` with base step `s0`: `per_slot`
 /// positions in every base slot by the plan's pattern, then every pixel holding fewer than
-/// `floor` topped up to it (`super::coverage::top_up`: the pixel's own sequence continued
+/// `floor` topped up to it (`super::top_up::top_up`: the pixel's own sequence continued
 /// where the pixel is a base slot; jittered strata of round 0's stream elsewhere).
 fn base_positions_of(
     plane: ImagePlane,
