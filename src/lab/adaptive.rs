@@ -120,7 +120,7 @@ const ADAPTIVE_IMAGES: usize = 8;
 
 /// The memory request of the adaptive comparison at a budget of `budget` samples on `plane`:
 /// the tree fit at the depth limit of `params` with its positions and
-/// [`ADAPTIVE_IMAGES`] images ([`tree_request`]).
+/// `ADAPTIVE_IMAGES` (8) images ([`tree_request`]).
 pub fn adaptive_request(plane: ImagePlane, budget: usize, params: &AdaptiveParams) -> ImageRequest {
     let mut request = tree_request(plane, 3, budget as f64, params, ADAPTIVE_IMAGES);
     request.positions = budget as f64;
