@@ -5,10 +5,13 @@
 //! than without the floor. (Before, the floor was held back from the rounds and filled at
 //! the end: the loop's rounds doubled on the suite, docs/measurements/plan-quality.md.)
 
-use rkwave::image::adaptive::{pixel_shortfall, refine_image, AdaptiveParams, ImagePlan};
+use rkwave::image::adaptive::{
+    pixel_shortfall, refine_image, AdaptiveParams, ImagePlan, SamplePositions,
+};
 use rkwave::image::ImagePlane;
 
 mod common;
+use common::nets::is_net;
 use common::scenes::StripesAndDisc;
 
 fn params(budget: usize, floor: f64) -> AdaptiveParams {
@@ -16,22 +19,6 @@ fn params(budget: usize, floor: f64) -> AdaptiveParams {
     p.stop.budget = budget;
     p.sampling.pixel_floor = floor;
     p
-}
-
-/// Whether `pts` (in the unit square, `2^k` of them) are a `(0, k, 2)`-net: for every split
-/// `2^a x 2^(k - a)` of the square into elementary intervals of area `2^-k`, one point in
-/// each. Exact counts.
-fn is_net(pts: &[(f64, f64)], k: u32) -> bool {
-    (0..=k).all(|a| {
-        let (nx, ny) = (1usize << a, 1usize << (k - a));
-        let mut hit = vec![0usize; nx * ny];
-        for &(u, v) in pts {
-            let i = ((u * nx as f64) as usize).min(nx - 1);
-            let j = ((v * ny as f64) as usize).min(ny - 1);
-            hit[j * nx + i] += 1;
-        }
-        hit.iter().all(|&h| h == 1)
-    })
 }
 
 /// The first round gives every pixel its floor share: at 16 samples a pixel and floors
@@ -53,15 +40,21 @@ fn the_first_round_gives_every_pixel_its_floor_share() {
             m * plane.pixels(),
             "f = {f}: the base is the floor"
         );
-        let mut per_pixel = vec![Vec::new(); plane.pixels()];
+        let mut per_pixel = vec![SamplePositions::default(); plane.pixels()];
         for (&x, &y) in base.xs.iter().zip(&base.ys) {
             let (px, py) = plane.pixel_of(x, y);
-            per_pixel[py * 32 + px].push((x - px as f64, y - py as f64));
+            let pixel = &mut per_pixel[py * 32 + px];
+            pixel.xs.push(x);
+            pixel.ys.push(y);
         }
         let k = m.trailing_zeros();
         for (p, pts) in per_pixel.iter().enumerate() {
+            let (px, py) = ((p % 32) as f64, (p / 32) as f64);
             assert_eq!(pts.len(), m, "f = {f}, pixel {p}");
-            assert!(is_net(pts, k), "f = {f}, pixel {p}: not a (0, {k}, 2)-net");
+            assert!(
+                is_net(pts, [px, px + 1.0, py, py + 1.0], k),
+                "f = {f}, pixel {p}: not a (0, {k}, 2)-net"
+            );
         }
     }
     // base slots that are not the pixels: no floor, and the notes say so

@@ -13,7 +13,8 @@
 //! - [`image_cli`]: image-plane sample files, `reconstruct --dim 2` / `plan` arguments and a
 //!   renderer answering a plan, for the image plane's hardening tests;
 //! - [`rendered`]: one-channel samples grown round by round, for the plan's library tests;
-//! - [`metrics`]: the PSNR of clipped images (the harness's definition).
+//! - [`metrics`]: the PSNR of clipped images (the harness's definition);
+//! - [`nets`]: whether positions are a `(0, m, 2)`-net of a rectangle (the plan's placement).
 //!
 //! Each test file that needs them declares `mod common;`; what a file does not use is dead
 //! code there, hence the `allow`.
@@ -21,6 +22,7 @@
 
 pub mod image_cli;
 pub mod metrics;
+pub mod nets;
 pub mod oracle;
 pub mod rendered;
 pub mod runner;

@@ -2,7 +2,9 @@
 //! out, in order, and an oracle's values at them (one channel: [`Rendered`]; every channel of
 //! the oracle: [`RenderedChannels`]).
 
-use rkwave::image::adaptive::{AdaptiveParams, ImageOracle, NoisyOracle, SamplePositions};
+use rkwave::image::adaptive::{
+    AdaptiveImage, AdaptiveParams, ImageOracle, NoisyOracle, SamplePositions,
+};
 use rkwave::image::{ImagePlane, ImageSamples};
 
 use super::scenes::straight_edge;
@@ -95,4 +97,19 @@ impl RenderedChannels {
     pub fn samples(&self, plane: ImagePlane) -> ImageSamples {
         ImageSamples::new(plane, self.xs.clone(), self.ys.clone(), self.values.clone()).unwrap()
     }
+}
+
+/// A run on a scene whose only detail is noise did not chase it: no leaf more than one step
+/// below the base, and at most one round marked cells (the noise test's false-alarm rate).
+pub fn assert_noise_not_chased(run: &AdaptiveImage) {
+    let base_step = run.report.base_levels.0 - run.report.coarse_levels.0;
+    let deeper = run
+        .tree
+        .leaves()
+        .iter()
+        .filter(|c| c.step > base_step + 1)
+        .count();
+    assert_eq!(deeper, 0, "{:?}", run.report.cells_per_step);
+    let marking = run.report.rounds.iter().filter(|r| r.marked > 0).count();
+    assert!(marking <= 1, "{marking} rounds deepened the tree");
 }

@@ -116,13 +116,3 @@ pub fn tree_request(
         images,
     )
 }
-
-/// Refuses `request` above the memory limit: `what` names the request, `fix` the parameter
-/// to change (both in the caller's words; [`crate::resources::ImageEstimate::check`]).
-pub fn check(
-    request: &ImageRequest,
-    what: impl FnOnce() -> String,
-    fix: impl FnOnce() -> String,
-) -> Result<(), crate::resources::ResourceError> {
-    request.estimate().check(what, fix)
-}
