@@ -8,6 +8,9 @@ mod common;
 use rkwave::image::adaptive::{refine_image, AdaptiveParams, ImageOracle, ImagePlan, NoisyOracle};
 use rkwave::image::ImagePlane;
 
+use rkwave::image::adaptive::significance::chi_square_quantile;
+use rkwave::image::adaptive::{QuadTree, Significance};
+
 use common::rendered::assert_noise_not_chased;
 use common::scenes::polynomial;
 
@@ -32,6 +35,16 @@ fn plan_params(side: usize, probes: usize) -> (ImagePlane, AdaptiveParams) {
 /// The noise level and the mean variance `v_P` over the parents of the base slots from the
 /// base round's fit (PCG to the solver's own `1e-4`) with `probes` probe channels.
 fn base_test(probes: usize) -> (f64, f64, usize) {
+    let (significance, tree, _, m) = base_fit(probes);
+    let s = significance;
+    let parents: Vec<_> = tree.leaves().iter().filter_map(|c| c.parent()).collect();
+    let v = parents.iter().map(|&p| s.variance(&tree, p)).sum::<f64>() / parents.len() as f64;
+    (s.level.sigma, v, m)
+}
+
+/// The base round's test, tree and coefficients (one channel) with `probes` probe channels,
+/// and the samples fitted.
+fn base_fit(probes: usize) -> (Significance, QuadTree, Vec<f64>, usize) {
     let (plane, params) = plan_params(128, probes);
     let plan = ImagePlan::new(plane, &params).unwrap();
     let base = plan.base_positions();
@@ -45,13 +58,11 @@ fn base_test(probes: usize) -> (f64, f64, usize) {
             v[0]
         })
         .collect();
-    let (_, significance) = plan.fit(&base.xs, &base.ys, &[&values]).unwrap();
+    let (fit, significance) = plan.fit(&base.xs, &base.ys, &[&values]).unwrap();
     let s = significance.expect("the renderer plan runs the noise test");
     assert_eq!(s.level.probes, probes, "the probes fitted are reported");
-    let tree = plan.tree();
-    let parents: Vec<_> = tree.leaves().iter().filter_map(|c| c.parent()).collect();
-    let v = parents.iter().map(|&p| s.variance(tree, p)).sum::<f64>() / parents.len() as f64;
-    (s.level.sigma, v, base.xs.len())
+    let coefficients = fit.coefficients[0].clone();
+    (s, plan.tree().clone(), coefficients, base.xs.len())
 }
 
 /// The renderer plan fits one probe channel by default.
@@ -122,4 +133,41 @@ fn one_probe_does_not_chase_the_noise() {
         "{:?}",
         run.report.notes
     );
+}
+
+/// The test's false-alarm rate on noise alone, through the plan's own fit: on the noisy
+/// polynomial every detail coefficient is noise, so at the level `p` per function
+/// ([`Significance::threshold_at`]: `ch F(ch, d)`'s quantile, `d` the probe terms of `v_C`)
+/// the functions of the base tree (`N` of them, cells of every step) exceeding it number at
+/// most `Binomial(N, p)`'s mean plus 5 standard deviations (one-sided: `v_C` is the larger
+/// of the cell's own and the pooled estimate, and the bound is for the pooled one). With one
+/// probe and with four. The chi-square quantile's rate (which ignores the spread of `v_C`)
+/// is printed beside it.
+#[test]
+fn noise_alone_false_alarms_within_the_binomial_bound() {
+    for probes in [1, 4] {
+        let (s, tree, c, _) = base_fit(probes);
+        for p in [1e-2, 1e-3] {
+            let (mut n, mut alarms, mut alarms_chi) = (0usize, 0usize, 0usize);
+            for f in tree.functions() {
+                let Some(cell) = tree.cell_of_function(f) else {
+                    continue;
+                };
+                n += 1;
+                alarms += usize::from(c[f].abs() > s.threshold_at(&tree, cell, p));
+                let chi = s.level.sigma * (s.variance(&tree, cell) * chi_square_quantile(1, p)).sqrt();
+                alarms_chi += usize::from(c[f].abs() > chi);
+            }
+            let mean = n as f64 * p;
+            let bound = mean + 5.0 * (mean * (1.0 - p)).sqrt();
+            println!(
+                "{probes} probe(s), p {p}: {alarms} of {n} functions (mean {mean:.1}, bound \
+                 {bound:.1}); chi-square quantile {alarms_chi}"
+            );
+            assert!(
+                alarms as f64 <= bound,
+                "{probes} probe(s), p {p}: {alarms} false alarms of {n}, bound {bound}"
+            );
+        }
+    }
 }

@@ -42,14 +42,32 @@
 //! needs; across rounds an unchanged cell sees nearly the same test instead of a fresh draw,
 //! so a false alarm is not re-drawn every round.
 //!
-//! *Test.* Under noise alone, `|c_a|^2 / (sigma^2 v_C)` (`|c|` the norm over `ch` channels) is
-//! about `chi^2_ch`. A slot is deepened only if a function of its parent is *significant*:
-//! `|c_a|^2 > sigma^2 v_P q`, `q` the `chi^2_ch` quantile exceeded with probability
-//! `alpha / n` (`n = 3 x` the slots tested, Bonferroni): noise alone marks a slot in a round
-//! with probability at most about `alpha` (the false-alarm rate), whatever the image size and
-//! the channels. `q` by Wilson–Hilferty, `q = ch (1 - 2/(9 ch) + z sqrt(2/(9 ch)))^3`, `z`
-//! the normal quantile (Abramowitz–Stegun 26.2.23, error below `4.5e-4`); for `ch = 1` in
-//! the far tail it is above the exact quantile: conservative.
+//! *Test.* Under noise alone a function's coefficients over the `ch` channels are
+//! `c_a ~ N(0, sigma^2 g_a I_ch)` (`g_a = [G^{-1}]_aa`), so `|c_a|^2 / (sigma^2 g_a) ~ chi^2_ch`.
+//! The variance is not known but estimated by the probes: `v_C` is a mean of `d = 3 k n_C`
+//! squares (`n_C` the cells pooled, [`Significance::variance`]), each `g chi^2_1` and
+//! independent of `c_a` (the probes are drawn apart from the samples' noise), so with the
+//! pooled functions' `g` equal to `g_a` and uncorrelated, `d v_C / g_a ~ chi^2_d` and
+//!
+//! ```text
+//! T_a = |c_a|^2 / (ch sigma^2 v_C) = (chi^2_ch / ch) / (chi^2_d / d) ~ F(ch, d)
+//! ```
+//!
+//! (`sigma` from a median over `m k` values, relative spread below 1 %, taken as known). A
+//! slot is deepened only if a function of its parent is *significant*:
+//! `|c_a|^2 > sigma^2 v_P q_d`, `q_d = ch F^{-1}_{ch, d}(1 - alpha / n)` the `ch`-scaled upper
+//! quantile of `F(ch, d)` exceeded with probability `alpha / n` (`n = 3 x` the slots tested,
+//! Bonferroni): noise alone marks a slot in a round with probability at most about `alpha`
+//! (the false-alarm rate), whatever the image size, the channels *and the probes*. As
+//! `d -> infinity`, `ch F(ch, d) -> chi^2_ch` ([`chi_square_quantile`], the quantile used
+//! before, which ignored the spread of `v_C`: with one probe, `d = 27` inside the image and
+//! `ch = 3`, its rate at the Bonferroni level was several times `alpha`). Where `v_C` is the
+//! cell's own estimate (the `max` in [`Significance::variance`]), it is at least the pooled
+//! one, so the pooled `d` keeps the rate at most `alpha / n`: conservative. `F`'s tail is
+//! `P(F > x) = I_y(d / 2, ch / 2)`, `y = d / (d + ch x)` (the regularized incomplete beta,
+//! [`f_upper_tail`]), inverted by bisection on `ln y` ([`f_upper_quantile`]). Correlated
+//! neighbours or unequal `g` within the pool lower the effective `d` (a higher rate);
+//! `tests/significance_probes.rs` measures the rate of the plan's own fit on noise alone.
 //!
 //! Tried: `|c_a| > kappa sigma sqrt(ch v_P)` with a fixed `kappa = 3`, and `v` from the cell
 //! alone. With one channel that is `P(chi^2_1 > 9) = 2.7e-3` per function, a few false
@@ -79,8 +97,12 @@ pub struct Significance {
     pub level: NoiseLevel,
     /// The false-alarm rate `alpha` per round.
     pub false_alarm: f64,
-    /// The `chi^2_ch` quantile `q` of the test.
+    /// The `chi^2_ch` quantile at the test's level: the limit of the quantiles `q_d` for
+    /// many probe terms `d` (reported; the test uses `q_d`).
     pub quantile: f64,
+    /// `q_d = ch F^{-1}_{ch, d}(1 - alpha / n)` for `d = 3 k n_C` probe terms, indexed by the
+    /// cells pooled `n_C - 1` (`1..=9`); empty without probes.
+    quantiles: Vec<f64>,
     /// Image channels.
     pub channels: usize,
     /// Per probe, the coefficients in the full Mallat layout.
@@ -173,13 +195,13 @@ impl Significance {
         } else {
             0.0
         };
+        let probes = coefficients.len() - channels;
+        let level = false_alarm / (3 * slots.max(1)) as f64;
         Self {
-            level: NoiseLevel {
-                sigma,
-                probes: coefficients.len() - channels,
-            },
+            level: NoiseLevel { sigma, probes },
             false_alarm,
-            quantile: chi_square_quantile(channels, false_alarm / (3 * slots.max(1)) as f64),
+            quantile: chi_square_quantile(channels, level),
+            quantiles: pooled_quantiles(channels, probes, level),
             channels,
             probe_coefficients: coefficients[channels..].to_vec(),
         }
@@ -192,15 +214,21 @@ impl Significance {
     /// with the local sample density): the cell alone (`3k` degrees of freedom) underestimates
     /// the variance often enough to let noise deepen scattered cells of a flat background.
     pub fn variance(&self, tree: &QuadTree, cell: Cell) -> f64 {
+        self.pooled_variance(tree, cell).0
+    }
+
+    /// [`Significance::variance`] and the cells pooled `n_C` (`1..=9`; 0 without probes).
+    fn pooled_variance(&self, tree: &QuadTree, cell: Cell) -> (f64, usize) {
         if self.probe_coefficients.is_empty() {
-            return 0.0;
+            return (0.0, 0);
         }
         let own = self.mean_square(tree, std::iter::once(cell));
-        let (mut sum, mut terms) = (0.0, 0usize);
+        let (mut sum, mut terms, mut cells) = (0.0, 0usize, 0usize);
         for q in tree.neighbourhood(cell) {
             if q != cell && !tree.is_active(q) {
                 continue;
             }
+            cells += 1;
             for c in &self.probe_coefficients {
                 for a in tree.cell_functions(q) {
                     sum += c[a] * c[a];
@@ -210,7 +238,7 @@ impl Significance {
         }
         // the cell's own estimate guards cells whose variance differs from their
         // neighbours' (boundary functions)
-        own.max(sum / terms as f64)
+        (own.max(sum / terms as f64), cells)
     }
 
     /// The mean square of the probes' coefficients over the functions of `cells`.
@@ -232,10 +260,40 @@ impl Significance {
         &self.probe_coefficients
     }
 
-    /// The least significant magnitude of a coefficient of `cell`: `sigma sqrt(v_C q)`.
+    /// The least significant magnitude of a coefficient of `cell`: `sigma sqrt(v_C q_d)`,
+    /// `d = 3 k n_C` the probe terms of `v_C`.
     pub fn threshold(&self, tree: &QuadTree, cell: Cell) -> f64 {
-        self.level.sigma * (self.variance(tree, cell) * self.quantile).sqrt()
+        let (v, cells) = self.pooled_variance(tree, cell);
+        match cells.checked_sub(1).and_then(|i| self.quantiles.get(i)) {
+            Some(q) => self.level.sigma * (v * q).sqrt(),
+            None => 0.0,
+        }
     }
+
+    /// The threshold of [`Significance::threshold`] at the level `p` for one function
+    /// instead of the round's `alpha / n`: noise alone exceeds it with probability `p`
+    /// (under the test's model), so over many functions the fraction of false alarms
+    /// estimates the test's true rate.
+    pub fn threshold_at(&self, tree: &QuadTree, cell: Cell, p: f64) -> f64 {
+        let (v, cells) = self.pooled_variance(tree, cell);
+        if cells == 0 {
+            return 0.0;
+        }
+        let d = (3 * self.level.probes * cells) as f64;
+        let ch = self.channels as f64;
+        self.level.sigma * (v * ch * f_upper_quantile(ch, d, p)).sqrt()
+    }
+}
+
+/// `q_d = ch F^{-1}_{ch, d}(1 - p)` for `d = 3 k n_C`, `n_C = 1..=9` (empty for `k = 0`).
+fn pooled_quantiles(channels: usize, probes: usize, p: f64) -> Vec<f64> {
+    if probes == 0 {
+        return Vec::new();
+    }
+    let ch = channels.max(1) as f64;
+    (1..=9)
+        .map(|cells| ch * f_upper_quantile(ch, (3 * probes * cells) as f64, p))
+        .collect()
 }
 
 /// The upper normal quantile `z` with `P(N > z) = p`, `0 < p <= 1/2` (Abramowitz–Stegun
@@ -253,4 +311,108 @@ pub fn chi_square_quantile(k: usize, p: f64) -> f64 {
     let a = 2.0 / (9.0 * k);
     let z = normal_upper_quantile(p);
     k * (1.0 - a + z * a.sqrt()).max(0.0).powi(3)
+}
+
+/// `ln Gamma(x)` for `x >= 1/2` (Lanczos, `g = 7`, nine terms: relative error near `1e-15`).
+fn ln_gamma(x: f64) -> f64 {
+    const G: f64 = 7.0;
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    let x = x - 1.0;
+    let a = C[1..]
+        .iter()
+        .enumerate()
+        .fold(C[0], |a, (i, c)| a + c / (x + (i + 1) as f64));
+    let t = x + G + 0.5;
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// The continued fraction of the incomplete beta function (modified Lentz; Numerical
+/// Recipes 6.4), converging fast for `x < (a + 1) / (a + b + 2)`.
+fn beta_continued_fraction(a: f64, b: f64, x: f64) -> f64 {
+    const TINY: f64 = 1e-300;
+    let guard = |v: f64| if v.abs() < TINY { TINY } else { v };
+    let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
+    let mut c = 1.0;
+    let mut d = 1.0 / guard(1.0 - qab * x / qap);
+    let mut h = d;
+    for m in 1..=500 {
+        let m = m as f64;
+        let m2 = 2.0 * m;
+        let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
+        d = 1.0 / guard(1.0 + aa * d);
+        c = guard(1.0 + aa / c);
+        h *= d * c;
+        let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
+        d = 1.0 / guard(1.0 + aa * d);
+        c = guard(1.0 + aa / c);
+        let step = d * c;
+        h *= step;
+        if (step - 1.0).abs() < 1e-15 {
+            break;
+        }
+    }
+    h
+}
+
+/// The regularized incomplete beta function `I_x(a, b) = B(x; a, b) / B(a, b)`, `a, b >=
+/// 1/2`, `0 <= x <= 1`: `x^a (1 - x)^b / (a B(a, b))` times the continued fraction, or
+/// `1 - I_{1-x}(b, a)` where that converges faster (relative accuracy in the lower tail).
+pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= 1.0 {
+        return 1.0;
+    }
+    let ln_front =
+        a * x.ln() + b * (-x).ln_1p() - (ln_gamma(a) + ln_gamma(b) - ln_gamma(a + b));
+    if x < (a + 1.0) / (a + b + 2.0) {
+        ln_front.exp() * beta_continued_fraction(a, b, x) / a
+    } else {
+        1.0 - ln_front.exp() * beta_continued_fraction(b, a, 1.0 - x) / b
+    }
+}
+
+/// `P(F > x)` for `F ~ F(d1, d2)` (Fisher's F with `d1` and `d2` degrees of freedom, `>= 1`):
+/// `I_y(d2 / 2, d1 / 2)`, `y = d2 / (d2 + d1 x)`.
+pub fn f_upper_tail(d1: f64, d2: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    incomplete_beta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * x))
+}
+
+/// The upper quantile `x` of `F(d1, d2)` with `P(F > x) = p` (`0 < p < 1`; `p >= 1` gives 0,
+/// `p <= 0` infinity): `I_y(d2 / 2, d1 / 2) = p` solved for `y` by bisection on `ln y`
+/// (`I_y` increases with `y`; 160 halvings of `[-745, 0]`, to the last bits of `y`), then
+/// `x = d2 (1 - y) / (d1 y)`.
+pub fn f_upper_quantile(d1: f64, d2: f64, p: f64) -> f64 {
+    if p >= 1.0 {
+        return 0.0;
+    }
+    if p <= 0.0 {
+        return f64::INFINITY;
+    }
+    let (a, b) = (d2 / 2.0, d1 / 2.0);
+    let (mut lo, mut hi) = (-745.0_f64, 0.0_f64);
+    for _ in 0..160 {
+        let mid = 0.5 * (lo + hi);
+        if incomplete_beta(a, b, mid.exp()) < p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let y = (0.5 * (lo + hi)).exp();
+    d2 * (1.0 - y) / (d1 * y)
 }
