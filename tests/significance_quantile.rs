@@ -22,8 +22,8 @@ fn normal(rng: &mut Pcg64) -> f64 {
 /// Bonferroni levels the plan uses (`1e-12`).
 #[test]
 fn f_quantile_with_two_numerator_degrees_matches_the_closed_form() {
-    for d in [1.0, 3.0, 6.0, 27.0, 108.0] {
-        for p in [0.5, 1e-2, 1e-5, 1e-8, 1e-12] {
+    for d in [1.0f64, 3.0, 6.0, 27.0, 108.0] {
+        for p in [0.5f64, 1e-2, 1e-5, 1e-8, 1e-12] {
             let exact = d / 2.0 * (p.powf(-2.0 / d) - 1.0);
             let q = f_upper_quantile(2.0, d, p);
             assert!(
@@ -43,24 +43,36 @@ fn f_quantile_with_one_and_one_degrees_is_the_squared_cauchy() {
     for p in [0.5, 0.1, 1e-3, 1e-6, 1e-10] {
         let exact = (1.0 / (std::f64::consts::FRAC_PI_2 * p).tan()).powi(2);
         let q = f_upper_quantile(1.0, 1.0, p);
-        assert!(((q - exact) / exact).abs() < 1e-9, "{p}: {q} against {exact}");
+        assert!(
+            ((q - exact) / exact).abs() < 1e-9,
+            "{p}: {q} against {exact}"
+        );
     }
 }
 
 /// `I_x(a, b) + I_{1-x}(b, a) = 1` and `I_x(1, b) = 1 - (1 - x)^b` (closed form), to `1e-13`.
 #[test]
 fn incomplete_beta_keeps_its_symmetry_and_closed_forms() {
-    for (a, b) in [(0.5, 0.5), (1.5, 13.5), (13.5, 1.5), (54.0, 1.5), (2.0, 7.0)] {
+    for (a, b) in [
+        (0.5, 0.5),
+        (1.5, 13.5),
+        (13.5, 1.5),
+        (54.0, 1.5),
+        (2.0, 7.0),
+    ] {
         for x in [1e-6, 0.01, 0.3, 0.5, 0.77, 0.999] {
             let s = incomplete_beta(a, b, x) + incomplete_beta(b, a, 1.0 - x);
             assert!((s - 1.0).abs() < 1e-13, "({a}, {b}) at {x}: {s}");
         }
     }
     for b in [0.5, 1.5, 4.0] {
-        for x in [1e-3, 0.2, 0.9] {
+        for x in [1e-3f64, 0.2, 0.9] {
             let exact = 1.0 - (1.0 - x).powf(b);
             let got = incomplete_beta(1.0, b, x);
-            assert!((got - exact).abs() < 1e-13 * exact.max(1e-3), "{got} against {exact}");
+            assert!(
+                (got - exact).abs() < 1e-13 * exact.max(1e-3),
+                "{got} against {exact}"
+            );
         }
     }
 }
@@ -75,7 +87,10 @@ fn many_probe_terms_give_the_chi_square_quantile() {
         for p in [1e-2, 1e-4, 1e-7] {
             let f = ch as f64 * f_upper_quantile(ch as f64, 1e7, p);
             let chi = chi_square_quantile(ch, p);
-            assert!(((f - chi) / chi).abs() < 1e-2, "ch {ch}, p {p}: {f} against {chi}");
+            assert!(
+                ((f - chi) / chi).abs() < 1e-2,
+                "ch {ch}, p {p}: {f} against {chi}"
+            );
             let few = ch as f64 * f_upper_quantile(ch as f64, 3.0, p);
             assert!(few > 2.0 * chi, "d = 3: {few} against {chi}");
         }
@@ -95,7 +110,14 @@ fn false_alarm_rate_is_the_stated_one_for_any_probe_count() {
     let p = 1e-3;
     let expected = trials as f64 * p;
     let bound = 5.0 * (expected * (1.0 - p)).sqrt();
-    for (ch, d) in [(1usize, 3usize), (3, 3), (3, 12), (3, 27), (1, 27), (3, 108)] {
+    for (ch, d) in [
+        (1usize, 3usize),
+        (3, 3),
+        (3, 12),
+        (3, 27),
+        (1, 27),
+        (3, 108),
+    ] {
         let q_f = ch as f64 * f_upper_quantile(ch as f64, d as f64, p);
         let q_chi = chi_square_quantile(ch, p);
         let (mut alarms_f, mut alarms_chi) = (0usize, 0usize);

@@ -492,16 +492,35 @@ impl MultilevelEvaluator<'_> {
         y: f64,
         out: &mut Vec<TensorValue>,
     ) -> Result<(), TensorError> {
+        self.eval_unordered_steps_into(x, y, self.basis.steps(), out)
+    }
+
+    /// [`Self::eval_unordered_into`] for the coarse scaling functions and the first `steps`
+    /// steps' functions only (levels `c..c + steps` per axis; `steps` at most the basis's):
+    /// the same values in the same order, a prefix of the whole row. The scaling functions
+    /// of the deeper levels, which the products need and whose evaluation costs most, are
+    /// not evaluated: for sums over a tree that is shallower than the basis around the point.
+    pub fn eval_unordered_steps_into(
+        &mut self,
+        x: f64,
+        y: f64,
+        steps: u32,
+        out: &mut Vec<TensorValue>,
+    ) -> Result<(), TensorError> {
         let b = self.basis;
         b.check(x, y)?;
+        let steps = steps.min(b.steps());
         let nx = b.dims().0;
         let (tx, ty) = (b.scale_x.domain().to_unit(x), b.scale_y.domain().to_unit(y));
         self.wx.eval_unit_into(tx, &mut self.buf_wx);
         self.wy.eval_unit_into(ty, &mut self.buf_wy);
-        for (e, buf) in self.sx.iter_mut().zip(&mut self.buf_sx) {
+        // levels `c..c + steps` (the coarse one at least); the finest, `V_J`, is never a
+        // factor of a multilevel function
+        let used = steps.max(1) as usize;
+        for (e, buf) in self.sx.iter_mut().zip(&mut self.buf_sx).take(used) {
             e.eval_scaling_unit_into(tx, buf);
         }
-        for (e, buf) in self.sy.iter_mut().zip(&mut self.buf_sy) {
+        for (e, buf) in self.sy.iter_mut().zip(&mut self.buf_sy).take(used) {
             e.eval_scaling_unit_into(ty, buf);
         }
         out.clear();
@@ -518,7 +537,7 @@ impl MultilevelEvaluator<'_> {
         let sx0: Vec<&BasisValue> = self.buf_sx[0].iter().collect();
         push(&mut self.buf_sy[0].iter(), &sx0);
         let (cx, cy) = b.coarse_levels();
-        for s in 0..b.steps() {
+        for s in 0..steps {
             let wxs: Vec<&BasisValue> = wavelets_of(&self.buf_wx, cx + s).collect();
             let sxs: Vec<&BasisValue> = self.buf_sx[s as usize].iter().collect();
             push(&mut self.buf_sy[s as usize].iter(), &wxs);

@@ -26,7 +26,8 @@
 //! `v_C` is a mean of `27 k` squares at most (fewer at the image's border and where the
 //! neighbours are inactive), each `G^{-1}_aa chi^2_1`: unbiased for any `k`, with a relative
 //! spread of about `sqrt(2 / (27 k))` (27 % at `k = 1`, 14 % at `k = 4`, ignoring the
-//! correlation of neighbouring coefficients). The cost is `k` more right-hand sides: free
+//! correlation of neighbouring coefficients), a spread the test's quantile accounts for
+//! (*Test* below: `F(ch, d)` instead of `chi^2_ch`). The cost is `k` more right-hand sides: free
 //! for the direct solve (one factorization), but under PCG a probe of white noise takes 8-15
 //! iterations where the warm-started image channels take 2-3, so the renderer's plan fits
 //! one probe and the in-process default four (`RENDERER_PROBES`;
@@ -374,8 +375,7 @@ pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
     if x >= 1.0 {
         return 1.0;
     }
-    let ln_front =
-        a * x.ln() + b * (-x).ln_1p() - (ln_gamma(a) + ln_gamma(b) - ln_gamma(a + b));
+    let ln_front = a * x.ln() + b * (-x).ln_1p() - (ln_gamma(a) + ln_gamma(b) - ln_gamma(a + b));
     if x < (a + 1.0) / (a + b + 2.0) {
         ln_front.exp() * beta_continued_fraction(a, b, x) / a
     } else {

@@ -1,11 +1,17 @@
 //! The exact diagonal `G_aa = sum_i Psi_a(x_i, y_i)^2` of the tree's normal matrix, from
 //! one pass of the multilevel evaluator over the samples, continued from round to round:
 //! PCG's Jacobi preconditioner.
+//!
+//! Each sample is evaluated only to the depth of the tree around it ([`StepReach`]): a
+//! function of step `s` is nonzero only inside its structural support, so where no tree
+//! function of step `s` or deeper reaches a sample, the evaluation stops above `s` (the
+//! deeper levels' scaling functions are the evaluation's largest cost). The terms kept are
+//! the same, added in the same order: the sums are those of the whole evaluation bit for
+//! bit (`tests/image_adaptive_pcg.rs`).
 
 use rayon::prelude::*;
 
 use crate::adaptive::tree::quad::QuadTree;
-use crate::basis::tensor::TensorBasis;
 
 /// The exact diagonal `G_aa = sum_i Psi_a(x_i, y_i)^2` of a tree's normal matrix over the
 /// first `samples` samples, kept so that the next round continues it: a round's samples are
@@ -56,7 +62,7 @@ impl DiagonalSums {
         });
         let positions = positions_hash(xs, ys);
         let Some(previous) = usable else {
-            let sums = exact_diagonal(basis, &mask, xs, ys);
+            let sums = exact_diagonal(tree, &mask, xs, ys);
             return Self {
                 samples: xs.len(),
                 positions,
@@ -73,7 +79,7 @@ impl DiagonalSums {
         };
         add(
             &mut sums,
-            exact_diagonal(basis, &mask, &xs[old..], &ys[old..]),
+            exact_diagonal(tree, &mask, &xs[old..], &ys[old..]),
         );
         let fresh: Vec<bool> = mask
             .iter()
@@ -92,7 +98,7 @@ impl DiagonalSums {
                 })
                 .map(|(&x, &y)| (x, y))
                 .unzip();
-            add(&mut sums, exact_diagonal(basis, &fresh, &cx, &cy));
+            add(&mut sums, exact_diagonal(tree, &fresh, &cx, &cy));
         }
         Self {
             samples: xs.len(),
@@ -149,8 +155,69 @@ fn support_cover(tree: &QuadTree, functions: &[bool]) -> Vec<bool> {
 /// Parts of the exact diagonal's sum (fixed, so the sum's order does not depend on threads).
 const DIAGONAL_PARTS: usize = 8;
 
-/// `G_aa = sum_i Psi_a(x_i, y_i)^2` on the tree (`mask`), from the multilevel evaluator.
-fn exact_diagonal(basis: &TensorBasis, mask: &[bool], xs: &[f64], ys: &[f64]) -> Vec<f64> {
+/// Per step `s`, the cells of step `s` inside the structural support of a function of
+/// `functions` (a mask over the Mallat layout) of step `s`, grown by one cell on each side
+/// (a sample on a cell's edge is inside whichever cell [`QuadTree::cell_at`] gives): at a
+/// sample outside every grown support of the steps `s` and deeper, the functions of those
+/// steps vanish.
+struct StepReach {
+    /// Per step, row-major over the step's cells.
+    reach: Vec<Vec<bool>>,
+}
+
+impl StepReach {
+    fn new(tree: &QuadTree, functions: &[bool]) -> Self {
+        let steps = tree.steps();
+        let (cx, cy) = tree.basis().coarse_levels();
+        let p = tree.basis().p();
+        let mut reach: Vec<Vec<bool>> = (0..steps)
+            .map(|s| {
+                let (w, h) = tree.cell_dims(s);
+                vec![false; w * h]
+            })
+            .collect();
+        for (f, _) in functions.iter().enumerate().filter(|(_, &m)| m) {
+            let Some(cell) = tree.cell_of_function(f) else {
+                continue; // a coarse scaling function: always evaluated
+            };
+            let (w, h) = tree.cell_dims(cell.step);
+            let (x0, x1) = crate::basis::support_cells(p, cx + cell.step, cell.kx);
+            let (y0, y1) = crate::basis::support_cells(p, cy + cell.step, cell.ky);
+            let grid = &mut reach[cell.step as usize];
+            let (x0, x1) = (
+                (x0 as usize).saturating_sub(1),
+                (x1 as usize + 1).min(w - 1),
+            );
+            let (y0, y1) = (
+                (y0 as usize).saturating_sub(1),
+                (y1 as usize + 1).min(h - 1),
+            );
+            for ky in y0..=y1 {
+                grid[ky * w + x0..=ky * w + x1].fill(true);
+            }
+        }
+        Self { reach }
+    }
+
+    /// The steps to evaluate at `(x, y)`: one past the deepest step whose grown supports
+    /// reach it (0: the coarse scaling functions only).
+    fn steps_at(&self, tree: &QuadTree, x: f64, y: f64) -> u32 {
+        (0..self.reach.len() as u32)
+            .rev()
+            .find(|&s| {
+                let c = tree.cell_at(s, x, y);
+                let (w, _) = tree.cell_dims(s);
+                self.reach[s as usize][c.ky * w + c.kx]
+            })
+            .map_or(0, |s| s + 1)
+    }
+}
+
+/// `G_aa = sum_i Psi_a(x_i, y_i)^2` on the tree (`mask`), from the multilevel evaluator
+/// (each sample to the steps the tree's functions reach there, [`StepReach`]).
+fn exact_diagonal(tree: &QuadTree, mask: &[bool], xs: &[f64], ys: &[f64]) -> Vec<f64> {
+    let basis = tree.basis();
+    let reach = StepReach::new(tree, mask);
     let part = xs.len().div_ceil(DIAGONAL_PARTS).max(1);
     let parts: Vec<Vec<f64>> = xs
         .par_chunks(part)
@@ -160,7 +227,7 @@ fn exact_diagonal(basis: &TensorBasis, mask: &[bool], xs: &[f64], ys: &[f64]) ->
             let mut row = Vec::new();
             let mut acc = vec![0.0; mask.len()];
             for (&x, &y) in cx.iter().zip(cy) {
-                ev.eval_unordered_into(x, y, &mut row)
+                ev.eval_unordered_steps_into(x, y, reach.steps_at(tree, x, y), &mut row)
                     .expect("positions are checked before the solve");
                 for v in &row {
                     if mask[v.index] {
