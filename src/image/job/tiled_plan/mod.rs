@@ -62,6 +62,7 @@
 //! (`image::plan`) nor the tiles (`image::tiles`) call back into it.
 
 mod error;
+mod kept;
 mod round;
 mod state;
 mod window;
@@ -76,7 +77,7 @@ use crate::resources::memory_limit;
 use super::{PlanOptions, PlanStart};
 
 pub use error::TiledPlanError;
-pub use round::{TiledFinal, TiledStep};
+pub use round::{TiledFinal, TiledStep, TiledTimes};
 pub use state::{
     SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
     TILED_STATE_VERSION,
@@ -284,6 +285,7 @@ impl TiledPlanStart {
                 fingerprint: format!("{:016x}", round::fingerprint(0, &base.xs, &base.ys)),
             }],
             stop: None,
+            kept: Default::default(),
         };
         Ok((state, base))
     }

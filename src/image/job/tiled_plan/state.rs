@@ -7,6 +7,8 @@ use crate::image::adaptive::{AdaptiveParams, PlanProgress};
 use crate::image::plan::IssuedRound;
 use crate::image::ImagePlane;
 
+use super::kept::KeptDiagonals;
+
 /// The tiled state's file name inside a plan's folder (the command line's `plan --tile` and
 /// Python's `Plan(tile=...).save`).
 pub const TILED_STATE_FILE: &str = "tiled-state.json";
@@ -110,4 +112,21 @@ pub struct TiledPlanState {
     pub issued: Vec<IssuedRound>,
     /// Why the plan stopped (`None` while it runs).
     pub stop: Option<StopReason>,
+    /// The tiles' PCG diagonals kept between rounds in memory ([`KeptDiagonals`]; never
+    /// written, off unless [`TiledPlanState::keep_diagonals`] turns it on).
+    #[serde(skip)]
+    pub(super) kept: KeptDiagonals,
+}
+
+impl TiledPlanState {
+    /// Keeps each tile's PCG diagonal between rounds in this process, up to `bound` bytes in
+    /// all (`None`: off, the default: every round rebuilds it, as a plan read back from its
+    /// state file does). The fits then differ from the rebuilt ones by PCG's rounding, within
+    /// its tolerance (module `kept`); a tile over the bound is rebuilt, counted in the step.
+    pub fn keep_diagonals(&mut self, bound: Option<u64>) {
+        self.kept = KeptDiagonals {
+            bound,
+            ..Default::default()
+        };
+    }
 }
