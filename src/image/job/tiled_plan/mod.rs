@@ -44,9 +44,11 @@
 //! ([`IssuedRound`]: count and order-free fingerprint per round, the untiled plan's rule).
 //! Between rounds nothing else is held: each tile's tree and fit are rebuilt from its history
 //! for its step ([`ImagePlan::resume`]) and dropped after, so memory holds the samples, the
-//! per-tile history and `workers` tile fits. A round ([`TiledPlanState::advance`]) computes
-//! everything first and changes the state only when every tile succeeded: committed as one
-//! step, or not at all.
+//! per-tile history and `workers` tile fits; in one process each tile's PCG diagonal may be
+//! kept for its next fit, up to a bound ([`TiledPlanState::keep_diagonals`], off by default:
+//! the sums then continue, the fits change by rounding only). A round
+//! ([`TiledPlanState::advance`]) computes everything first and changes the state only when
+//! every tile succeeded: committed as one step, or not at all.
 //!
 //! **Memory.** [`TiledPlanStart::check_memory`] refuses, before anything is allocated, a
 //! tile whose fit (`workers` of them at once), beside the samples and the image, would exceed
