@@ -339,6 +339,12 @@ impl ImageSamples {
         &self.values
     }
 
+    /// The positions and values moved out, `(xs, ys, values)` (no copy: a caller that adds
+    /// samples between rounds takes them back, appends and validates again).
+    pub fn into_parts(self) -> (Vec<f64>, Vec<f64>, Vec<Vec<f64>>) {
+        (self.xs, self.ys, self.values)
+    }
+
     /// Channel `c` of every sample.
     pub fn channel(&self, c: usize) -> &[f64] {
         &self.values[c]

@@ -44,9 +44,11 @@
 //! ([`IssuedRound`]: count and order-free fingerprint per round, the untiled plan's rule).
 //! Between rounds nothing else is held: each tile's tree and fit are rebuilt from its history
 //! for its step ([`ImagePlan::resume`]) and dropped after, so memory holds the samples, the
-//! per-tile history and `workers` tile fits. A round ([`TiledPlanState::advance`]) computes
-//! everything first and changes the state only when every tile succeeded: committed as one
-//! step, or not at all.
+//! per-tile history and `workers` tile fits; in one process each tile's PCG diagonal may be
+//! kept for its next fit, up to a bound ([`TiledPlanState::keep_diagonals`], off by default:
+//! the sums then continue, the fits change by rounding only). A round
+//! ([`TiledPlanState::advance`]) computes everything first and changes the state only when
+//! every tile succeeded: committed as one step, or not at all.
 //!
 //! **Memory.** [`TiledPlanStart::check_memory`] refuses, before anything is allocated, a
 //! tile whose fit (`workers` of them at once), beside the samples and the image, would exceed
@@ -62,6 +64,7 @@
 //! (`image::plan`) nor the tiles (`image::tiles`) call back into it.
 
 mod error;
+mod kept;
 mod round;
 mod state;
 mod window;
@@ -76,7 +79,7 @@ use crate::resources::memory_limit;
 use super::{PlanOptions, PlanStart};
 
 pub use error::TiledPlanError;
-pub use round::{TiledFinal, TiledStep};
+pub use round::{TiledFinal, TiledStep, TiledTimes};
 pub use state::{
     SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
     TILED_STATE_VERSION,
@@ -284,6 +287,7 @@ impl TiledPlanStart {
                 fingerprint: format!("{:016x}", round::fingerprint(0, &base.xs, &base.ys)),
             }],
             stop: None,
+            kept: Default::default(),
         };
         Ok((state, base))
     }

@@ -2,6 +2,7 @@
 //! JSON.
 
 use std::path::Path;
+use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -59,6 +60,56 @@ pub struct TiledStep {
     pub cut: usize,
     /// The largest samples in one tile's window this round.
     pub largest_window: usize,
+    /// Tiles whose PCG diagonal is kept for the next round
+    /// ([`TiledPlanState::keep_diagonals`]; 0 when off).
+    pub diagonals_kept: usize,
+    /// Tiles whose diagonal did not fit the bound and is rebuilt next round.
+    pub diagonals_over: usize,
+    /// Where the round's time went ([`TiledTimes`]).
+    pub times: TiledTimes,
+}
+
+/// Where a tiled round's (or final image's) time went, in seconds. The per-tile phases are
+/// summed over the tiles (CPU seconds of the workers, `workers` of them at once); `buckets_s`,
+/// `commit_s` and `wall_s` are the caller's wall clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct TiledTimes {
+    /// Sorting the samples into the tiles' windows (one pass, wall).
+    pub buckets_s: f64,
+    /// Copying each window's samples to window-local coordinates (sum over tiles).
+    pub local_s: f64,
+    /// Building each tile's refiner from its history, or taking the one kept (sum).
+    pub rebuild_s: f64,
+    /// The tiles' fits, the noise test's included (sum; the final image's fit too).
+    pub fit_s: f64,
+    /// Of `fit_s`: the fits' single-scale rows and exact diagonal (PCG's `kernel_s`; sum).
+    pub kernel_s: f64,
+    /// Of `fit_s`: the fits' solves (PCG's iterations; sum).
+    pub solve_s: f64,
+    /// Indicator, stop test, tally and marking (sum).
+    pub refine_s: f64,
+    /// Deepening and drawing the next positions (sum).
+    pub position_s: f64,
+    /// The final image's output pixels (sum; 0 in a round).
+    pub output_s: f64,
+    /// Committing the round and stitching the image (wall).
+    pub commit_s: f64,
+    /// The whole call (wall).
+    pub wall_s: f64,
+}
+
+impl TiledTimes {
+    /// The per-tile phases of `other` added to these.
+    fn add_tile(&mut self, other: &TiledTimes) {
+        self.local_s += other.local_s;
+        self.rebuild_s += other.rebuild_s;
+        self.fit_s += other.fit_s;
+        self.kernel_s += other.kernel_s;
+        self.solve_s += other.solve_s;
+        self.refine_s += other.refine_s;
+        self.position_s += other.position_s;
+        self.output_s += other.output_s;
+    }
 }
 
 /// The final image of a tiled plan.
@@ -70,6 +121,8 @@ pub struct TiledFinal {
     pub round: usize,
     /// Whether the plan has stopped at that round.
     pub complete: bool,
+    /// Where the final image's time went.
+    pub times: TiledTimes,
 }
 
 /// A tile's step: what the round keeps of it.
@@ -78,6 +131,9 @@ struct TileOutcome {
     next: SamplePositions,
     halo_drawn: usize,
     cut: usize,
+    times: TiledTimes,
+    /// The fit's diagonal and its bytes, for `KeptDiagonals::keep` (`None`: not kept).
+    fit_state: Option<(FitState, u64)>,
 }
 
 impl TiledPlanState {
@@ -191,29 +247,57 @@ impl TiledPlanState {
 
     /// The indices of the samples in each tile's window ([`plan_window`]; one pass over the
     /// samples, each checked against the windows of the tiles within [`reach`] of its own).
-    fn buckets(&self, samples: &ImageSamples) -> Vec<Vec<usize>> {
+    ///
+    /// Indices are `u32` (4 bytes a sample and window, sized exactly by a counting pass:
+    /// at 3840x2160 and 8 spp, 66M samples, `usize` lists grown by doubling held up to
+    /// 1 GB); more samples than `u32` holds are refused.
+    fn buckets(&self, samples: &ImageSamples) -> Result<Vec<Vec<u32>>, TiledPlanError> {
+        if u32::try_from(samples.len()).is_err() {
+            let held = self.held_bytes(samples);
+            return Err(TiledPlanError::TooLarge {
+                what: format!(
+                    "{} samples (the tiles index at most {} samples)",
+                    samples.len(),
+                    u32::MAX
+                ),
+                per_tile: 0.0,
+                workers: self.workers,
+                held,
+                needed: held,
+                limit: memory_limit(),
+                fix: format!(
+                    "a smaller {}",
+                    crate::error::Fix::Set(crate::error::Param::Budget)
+                ),
+            });
+        }
         let g = self.geometry();
         let (nx, ny) = g.grid();
         let (kx, ky) = reach(&g);
         let windows: Vec<PixelRect> = (0..g.count()).map(|t| plan_window(&g, t)).collect();
-        let mut buckets = vec![Vec::new(); g.count()];
         let span = |v: f64, k: usize, n: usize| {
             let own = ((v / g.tile as f64) as usize).min(n - 1);
             (own.saturating_sub(k + 1), (own + k + 1).min(n - 1))
         };
-        for (i, (&x, &y)) in samples.xs().iter().zip(samples.ys()).enumerate() {
-            let (r0, r1) = span(y, ky, ny);
-            let (c0, c1) = span(x, kx, nx);
-            for ty in r0..=r1 {
-                for tx in c0..=c1 {
-                    let t = ty * nx + tx;
-                    if windows[t].contains(x, y) {
-                        buckets[t].push(i);
+        let each = |visit: &mut dyn FnMut(usize, usize)| {
+            for (i, (&x, &y)) in samples.xs().iter().zip(samples.ys()).enumerate() {
+                let (r0, r1) = span(y, ky, ny);
+                let (c0, c1) = span(x, kx, nx);
+                for ty in r0..=r1 {
+                    for tx in c0..=c1 {
+                        let t = ty * nx + tx;
+                        if windows[t].contains(x, y) {
+                            visit(t, i);
+                        }
                     }
                 }
             }
-        }
-        buckets
+        };
+        let mut counts = vec![0usize; g.count()];
+        each(&mut |t, _| counts[t] += 1);
+        let mut buckets: Vec<Vec<u32>> = counts.iter().map(|&c| Vec::with_capacity(c)).collect();
+        each(&mut |t, i| buckets[t].push(i as u32));
+        Ok(buckets)
     }
 
     /// Memory held beside the tile fits: the samples and two images.
@@ -274,15 +358,21 @@ impl TiledPlanState {
     }
 
     /// The window-local samples of tile `index` (the indices of [`Self::buckets`]).
-    fn local(&self, samples: &ImageSamples, index: usize, picks: &[usize]) -> ImageSamples {
+    fn local(&self, samples: &ImageSamples, index: usize, picks: &[u32]) -> ImageSamples {
         let w = plan_window(&self.geometry(), index);
         let (x0, y0) = (w.x0 as f64, w.y0 as f64);
-        let xs = picks.iter().map(|&i| samples.xs()[i] - x0).collect();
-        let ys = picks.iter().map(|&i| samples.ys()[i] - y0).collect();
+        let xs = picks
+            .iter()
+            .map(|&i| samples.xs()[i as usize] - x0)
+            .collect();
+        let ys = picks
+            .iter()
+            .map(|&i| samples.ys()[i as usize] - y0)
+            .collect();
         let values = samples
             .values()
             .iter()
-            .map(|v| picks.iter().map(|&i| v[i]).collect())
+            .map(|v| picks.iter().map(|&i| v[i as usize]).collect())
             .collect();
         ImageSamples::new(window_plane(&w), xs, ys, values)
             .expect("a window's samples, moved by an integer, lie in the window")
@@ -320,12 +410,24 @@ impl TiledPlanState {
         tile: &TilePlanState,
         local: &ImageSamples,
         share: usize,
+        kept: Option<FitState>,
     ) -> Result<TileOutcome, ProtocolError> {
         let n = local.len();
+        let mut times = TiledTimes::default();
+        let t = Instant::now();
         let mut plan = self.tile_plan(tile, n + share, share as f64 / n.max(1) as f64)?;
         *plan.start_mut() = tile.start_f64();
+        *plan.fit_state_mut() = kept.unwrap_or_default();
+        times.rebuild_s = t.elapsed().as_secs_f64();
         let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
         let round = plan.step(local.xs(), local.ys(), &values)?;
+        times.fit_s = round.fit_s;
+        for report in std::iter::once(&round.log.fit).chain(&round.log.final_fit) {
+            times.kernel_s += report.kernel_s;
+            times.solve_s += report.solve_s;
+        }
+        times.refine_s = round.refine_s;
+        times.position_s = round.position_s;
         let window = plan_window(&self.geometry(), tile.index);
         let mut state = tile.clone();
         state.steps += 1;
@@ -354,11 +456,25 @@ impl TiledPlanState {
             Decision::Stop(StopReason::Budget) => {}
             Decision::Stop(stop) => state.stop = Some(stop),
         }
+        // the diagonal alone, only when kept: the rows (80 bytes a sample at p = 2) of every
+        // tile's outcome until the commit were 0.66 GB at 1920x1080
+        let fit_state = self.kept.bound.map(|_| {
+            let kept = std::mem::take(plan.fit_state_mut());
+            let diagonal = FitState {
+                diagonal: kept.diagonal,
+                ..FitState::default()
+            };
+            // sums and mask over the window's basis at the depth limit
+            (diagonal, 9 * plan.tree().basis().len() as u64)
+        });
+        drop(plan);
         Ok(TileOutcome {
             state,
             next,
             halo_drawn,
             cut,
+            times,
+            fit_state,
         })
     }
 
@@ -414,12 +530,13 @@ impl TiledPlanState {
     /// tile with a share steps, in parallel; then the next positions or the stop. The state
     /// changes only when the whole round succeeded.
     pub fn advance(&mut self, samples: &ImageSamples) -> Result<TiledStep, TiledPlanError> {
+        let wall = Instant::now();
         let k = self.matching_round(samples)?;
         if k < self.round() {
             unreachable!("matching_round refuses earlier rounds");
         }
         if let Some(stop) = self.stop {
-            return Ok(self.stopped(stop, 0, 0, 0, 0, 0));
+            return Ok(self.stopped(stop, 0, 0, 0, 0, 0, TiledTimes::default()));
         }
         let n = self.positions();
         let budget = self.params.stop.budget;
@@ -435,12 +552,15 @@ impl TiledPlanState {
         if let Some(stop) = stop_now {
             self.channels = Some(samples.channels());
             self.stop = Some(stop);
-            return Ok(self.stopped(stop, 0, 0, 0, 0, 0));
+            return Ok(self.stopped(stop, 0, 0, 0, 0, 0, TiledTimes::default()));
         }
         let growth = (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize);
         let shares = self.shares(growth);
-        let buckets = self.buckets(samples);
-        let held = self.held_bytes(samples) + 8.0 * samples.len() as f64;
+        let mut times = TiledTimes::default();
+        let t = Instant::now();
+        let buckets = self.buckets(samples)?;
+        times.buckets_s = t.elapsed().as_secs_f64();
+        let held = self.held_bytes(samples) + 4.0 * samples.len() as f64;
         for (t, picks) in buckets.iter().enumerate() {
             if shares[t] > 0 {
                 self.check_tile(t, picks.len(), held, samples.channels())?;
@@ -448,35 +568,56 @@ impl TiledPlanState {
         }
         let largest_window = buckets.iter().map(Vec::len).max().unwrap_or(0);
         let pool = self.pool()?;
-        let outcomes: Vec<Result<Option<TileOutcome>, ProtocolError>> = pool.install(|| {
-            self.tiles
-                .par_iter()
-                .zip(&buckets)
-                .zip(&shares)
-                .map(|((tile, picks), &share)| {
-                    if share == 0 {
-                        return Ok(None);
-                    }
-                    let local = self.local(samples, tile.index, picks);
-                    self.step_tile(tile, &local, share).map(Some)
-                })
-                .collect()
-        });
-        // commit: everything computed, nothing changed yet
-        let mut tiles = self.tiles.clone();
+        // a failed round loses the kept diagonals (solver state only: rebuilt next round)
+        let kept = self.kept.take_all(self.tiles.len());
+        let outcomes: Vec<Result<Result<TileOutcome, Option<FitState>>, ProtocolError>> = pool
+            .install(|| {
+                self.tiles
+                    .par_iter()
+                    .zip(&buckets)
+                    .zip(&shares)
+                    .zip(kept)
+                    .map(|(((tile, picks), &share), kept)| {
+                        if share == 0 {
+                            return Ok(Err(kept));
+                        }
+                        let t = Instant::now();
+                        let local = self.local(samples, tile.index, picks);
+                        let local_s = t.elapsed().as_secs_f64();
+                        let mut outcome = self.step_tile(tile, &local, share, kept)?;
+                        outcome.times.local_s = local_s;
+                        Ok(Ok(outcome))
+                    })
+                    .collect()
+            });
+        // commit: everything computed, nothing changed yet; a failed tile fails the round
+        // before any tile's state is replaced (no copy of the tiles' states is needed)
+        let outcomes: Vec<Result<TileOutcome, Option<FitState>>> =
+            outcomes.into_iter().collect::<Result<_, _>>()?;
+        let t = Instant::now();
         let mut next = SamplePositions::default();
         let (mut stepped, mut halo, mut cut) = (0, 0, 0);
-        for (t, outcome) in outcomes.into_iter().enumerate() {
-            if let Some(o) = outcome? {
-                stepped += 1;
-                halo += o.halo_drawn;
-                cut += o.cut;
-                next.xs.extend(o.next.xs);
-                next.ys.extend(o.next.ys);
-                tiles[t] = o.state;
+        let mut fit_states = Vec::with_capacity(self.tiles.len());
+        for (tile, outcome) in self.tiles.iter_mut().zip(outcomes) {
+            match outcome {
+                Ok(o) => {
+                    stepped += 1;
+                    halo += o.halo_drawn;
+                    cut += o.cut;
+                    times.add_tile(&o.times);
+                    next.xs.extend(o.next.xs);
+                    next.ys.extend(o.next.ys);
+                    *tile = o.state;
+                    fit_states.push(o.fit_state);
+                }
+                // a tile without a share keeps what it kept (its samples did not change)
+                Err(kept) => fit_states.push(kept.map(|s| {
+                    let bytes = s.diagonal.as_ref().map_or(0, |d| 9 * d.sums().len() as u64);
+                    (s, bytes)
+                })),
             }
         }
-        self.tiles = tiles;
+        let (diagonals_kept, diagonals_over) = self.kept.keep(fit_states);
         self.channels = Some(samples.channels());
         if next.is_empty() {
             let stop = if self.tiles.iter().all(|t| t.stop.is_some()) {
@@ -485,7 +626,11 @@ impl TiledPlanState {
                 StopReason::Budget
             };
             self.stop = Some(stop);
-            return Ok(self.stopped(stop, growth, stepped, halo, cut, largest_window));
+            times.commit_s = t.elapsed().as_secs_f64();
+            times.wall_s = wall.elapsed().as_secs_f64();
+            let mut step = self.stopped(stop, growth, stepped, halo, cut, largest_window, times);
+            (step.diagonals_kept, step.diagonals_over) = (diagonals_kept, diagonals_over);
+            return Ok(step);
         }
         let prev = self
             .issued
@@ -499,6 +644,8 @@ impl TiledPlanState {
             total: prev.total + next.len(),
             fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
         });
+        times.commit_s = t.elapsed().as_secs_f64();
+        times.wall_s = wall.elapsed().as_secs_f64();
         Ok(TiledStep {
             next_positions: next.len(),
             next,
@@ -512,9 +659,13 @@ impl TiledPlanState {
             halo_drawn: halo,
             cut,
             largest_window,
+            diagonals_kept,
+            diagonals_over,
+            times,
         })
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn stopped(
         &self,
         stop: StopReason,
@@ -523,6 +674,7 @@ impl TiledPlanState {
         halo: usize,
         cut: usize,
         largest_window: usize,
+        times: TiledTimes,
     ) -> TiledStep {
         TiledStep {
             next: SamplePositions::default(),
@@ -537,6 +689,9 @@ impl TiledPlanState {
             halo_drawn: halo,
             cut,
             largest_window,
+            diagonals_kept: 0,
+            diagonals_over: 0,
+            times,
         }
     }
 
@@ -563,44 +718,73 @@ impl TiledPlanState {
             }
             .into());
         }
+        let wall = Instant::now();
         let estimate = estimate.unwrap_or(self.params.output.pixels);
-        let buckets = self.buckets(samples);
-        let held = self.held_bytes(samples) + 8.0 * samples.len() as f64;
+        let mut times = TiledTimes::default();
+        let buckets = self.buckets(samples)?;
+        times.buckets_s = wall.elapsed().as_secs_f64();
+        let held = self.held_bytes(samples) + 4.0 * samples.len() as f64;
         for (t, picks) in buckets.iter().enumerate() {
             self.check_tile(t, picks.len(), held, samples.channels())?;
         }
         let pool = self.pool()?;
-        let images: Vec<Result<PixelImage, ProtocolError>> = pool.install(|| {
+        let images: Vec<Result<(PixelImage, TiledTimes), ProtocolError>> = pool.install(|| {
             self.tiles
                 .par_iter()
                 .zip(&buckets)
                 .map(|(tile, picks)| {
+                    // the kept diagonal continued (a copy: the image may be asked again)
+                    let mut fit_state = self
+                        .kept
+                        .states
+                        .get(tile.index)
+                        .cloned()
+                        .flatten()
+                        .unwrap_or_default();
+                    let mut times = TiledTimes::default();
+                    let t = Instant::now();
                     let local = self.local(samples, tile.index, picks);
+                    times.local_s = t.elapsed().as_secs_f64();
+                    let t = Instant::now();
                     let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
                     let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
                     let start = tile.start_f64();
+                    times.rebuild_s = t.elapsed().as_secs_f64();
+                    let t = Instant::now();
                     let (fit, significance) = plan.fit_updating(
                         local.xs(),
                         local.ys(),
                         &values,
                         plan.params().fit.solver,
                         start.as_deref(),
-                        &mut FitState::default(),
+                        &mut fit_state,
                     )?;
+                    times.fit_s = t.elapsed().as_secs_f64();
+                    times.kernel_s = fit.report.kernel_s;
+                    times.solve_s = fit.report.solve_s;
+                    let t = Instant::now();
                     let sigma = significance.map_or(0.0, |s| s.level.sigma);
-                    tile_output(&plan, &fit, &local, sigma, estimate)
+                    let image = tile_output(&plan, &fit, &local, sigma, estimate)?;
+                    times.output_s = t.elapsed().as_secs_f64();
+                    Ok((image, times))
                 })
                 .collect()
         });
+        let t = Instant::now();
         let g = self.geometry();
         let mut image = PixelImage::zeros(self.plane, samples.channels());
-        for (t, tile) in images.into_iter().enumerate() {
-            stitch(&mut image, &g, t, &tile?);
+        for (index, tile) in images.into_iter().enumerate() {
+            let (tile, tile_times) = tile?;
+            times.add_tile(&tile_times);
+            stitch(&mut image, &g, index, &tile);
         }
+        times.commit_s = t.elapsed().as_secs_f64();
+        times.wall_s = wall.elapsed().as_secs_f64();
         Ok(TiledFinal {
             image,
             round: k,
             complete: self.stop.is_some(),
+            times,
         })
     }
 }
