@@ -61,6 +61,7 @@
 //! beside [`super::PlanStart`] and [`super::TiledJob`]; neither the state machine
 //! (`image::plan`) nor the tiles (`image::tiles`) call back into it.
 
+mod band;
 mod error;
 mod round;
 mod state;
@@ -75,6 +76,10 @@ use crate::resources::memory_limit;
 
 use super::{PlanOptions, PlanStart};
 
+pub use band::{
+    tile_row_bands, BandOutcome, BandStrip, BandTask, BandTileOutcome, BandedRound, FinalBandTask,
+    RoundPlan,
+};
 pub use error::TiledPlanError;
 pub use round::{TiledFinal, TiledStep};
 pub use state::{
