@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import warnings
 
 import numpy as np
 
@@ -613,7 +614,13 @@ class TiledPlan:
             dask.delayed(fn, pure=False)(t, s, self._before, self._keep_heap) for t, s in tasks
         ]
         self._tasks_run += len(graph)
-        return _compute(graph, client, self._retries)
+        with warnings.catch_warnings():
+            # The bands' states and samples travel inside the graph on purpose: the scheduler
+            # then holds them, and a task rerun after its worker was lost still has its
+            # inputs (data scattered to a worker would be lost with it). Dask's advice to
+            # load large data through Dask does not apply; the warning is left out.
+            warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
+            return _compute(graph, client, self._retries)
 
     def positions(self):
         """The positions to render next, ``(n, 2)`` (``(0, 2)`` once done)."""
