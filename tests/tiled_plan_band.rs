@@ -6,11 +6,10 @@ mod common;
 
 use rkwave::image::adaptive::{ImageOracle, NoisyOracle, SceneOracle};
 use rkwave::image::job::tiled_plan::{
-    BandOutcome, BandTask, BandedRound, FinalBandTask, TiledPlanError, TiledPlanOptions,
-    TiledPlanStart, TiledPlanState,
+    BandError, BandOutcome, BandTask, BandedRound, FinalBandTask, TiledPlanOptions, TiledPlanStart,
+    TiledPlanState,
 };
 use rkwave::image::job::{PlanBudget, PlanOptions};
-use rkwave::image::plan::ProtocolError;
 use rkwave::image::scene::Scene;
 use rkwave::image::{ImagePlane, ImageSamples, PixelImage};
 
@@ -137,8 +136,8 @@ fn a_round_commits_whole_or_not_at_all() {
     let outcomes: Vec<BandOutcome> = plan.tasks.iter().map(|(t, s)| t.run(s).unwrap()).collect();
     assert!(outcomes.len() >= 2);
     let before = state.clone();
-    let refused = |e: Result<_, TiledPlanError>, what: &str| match e {
-        Err(TiledPlanError::Protocol(ProtocolError::State { problem, .. })) => {
+    let refused = |e: Result<_, BandError>, what: &str| match e {
+        Err(BandError::Foreign { problem, .. }) => {
             assert!(problem.contains(what), "{problem}")
         }
         other => panic!("expected a refusal naming {what:?}, got {other:?}"),

@@ -45,6 +45,42 @@ use crate::image::plan::{IssuedRound, ProtocolError};
 use crate::image::tiles::TileGeometry;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
+/// Why a band's task, the bands' outcomes or their strips were refused.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BandError {
+    /// The plan's own refusal (the samples, a tile's step, the memory).
+    #[error(transparent)]
+    Plan(#[from] TiledPlanError),
+    /// A task, an outcome or a strip that does not belong to the grid, round or plan it was
+    /// given to (`what` names it; `problem` says what and the way out).
+    #[error("{what}: {problem}")]
+    Foreign {
+        /// What was refused.
+        what: &'static str,
+        /// What is wrong and the fix.
+        problem: String,
+    },
+}
+
+impl From<ProtocolError> for BandError {
+    fn from(e: ProtocolError) -> Self {
+        BandError::Plan(e.into())
+    }
+}
+
+impl BandError {
+    /// The kind of this error ([`crate::error`]).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            BandError::Plan(e) => e.kind(),
+            BandError::Foreign { .. } => crate::error::ErrorKind::InvalidInput,
+        }
+    }
+}
+
+crate::error::classified!(BandError);
+
 /// The bands of `rows` tile rows each (the last may be shorter) of a grid of `grid_rows`
 /// tile rows; `rows` 0 is taken as 1.
 pub fn tile_row_bands(grid_rows: usize, rows: usize) -> Vec<Range<usize>> {
@@ -198,7 +234,7 @@ impl BandTask {
     }
 
     /// Checks the task against its grid: every tile in the band's rows, one share each.
-    fn check(&self) -> Result<TileGeometry, TiledPlanError> {
+    fn check(&self) -> Result<TileGeometry, BandError> {
         let g = TileGeometry::new(self.plane, self.tile, self.halo).map_err(|source| {
             TiledPlanError::Grid {
                 param: crate::error::Param::Tile,
@@ -209,8 +245,8 @@ impl BandTask {
         let in_band =
             |t: &TilePlanState| self.rows.contains(&(t.index / nx)) && t.index < g.count();
         if self.tiles.len() != self.shares.len() || !self.tiles.iter().all(in_band) {
-            return Err(ProtocolError::State {
-                file: "band task".into(),
+            return Err(BandError::Foreign {
+                what: "a band task",
                 problem: format!(
                     "{} tiles and {} shares for tile rows {:?} of a {}x{} grid: give the \
                      task begin_round made",
@@ -220,15 +256,14 @@ impl BandTask {
                     nx,
                     g.grid().1
                 ),
-            }
-            .into());
+            });
         }
         Ok(g)
     }
 
     /// The band's step (module docs): each tile with a share steps on its window's samples
     /// taken from `samples` (the band's `S_b`), `threads` tiles at once.
-    pub fn run(&self, samples: &ImageSamples) -> Result<BandOutcome, TiledPlanError> {
+    pub fn run(&self, samples: &ImageSamples) -> Result<BandOutcome, BandError> {
         self.check()?;
         let scratch = self.scratch();
         let buckets = scratch.buckets(samples);
@@ -265,7 +300,7 @@ impl BandTask {
 impl FinalBandTask {
     /// The band's tiles' fits of their windows' samples (taken from the band's `samples`)
     /// and their interiors' rows, as [`TiledPlanState::final_image`] makes each tile's.
-    pub fn run(&self, samples: &ImageSamples) -> Result<BandStrip, TiledPlanError> {
+    pub fn run(&self, samples: &ImageSamples) -> Result<BandStrip, BandError> {
         let g = self.band.check()?;
         let scratch = self.band.scratch();
         let buckets = scratch.buckets(samples);
@@ -412,13 +447,10 @@ impl TiledPlanState {
         &mut self,
         plan: &RoundPlan,
         outcomes: Vec<BandOutcome>,
-    ) -> Result<super::TiledStep, TiledPlanError> {
-        let refuse = |problem: String| -> TiledPlanError {
-            ProtocolError::State {
-                file: "band outcomes".into(),
-                problem,
-            }
-            .into()
+    ) -> Result<super::TiledStep, BandError> {
+        let refuse = |problem: String| BandError::Foreign {
+            what: "the bands' outcomes",
+            problem,
         };
         let last = self.issued.last().expect("a plan has its base round");
         if self.stop.is_some() || self.round() != plan.round || last.fingerprint != plan.fingerprint
@@ -562,7 +594,7 @@ impl TiledPlanState {
         &self,
         strips: Vec<BandStrip>,
         channels: usize,
-    ) -> Result<super::TiledFinal, TiledPlanError> {
+    ) -> Result<super::TiledFinal, BandError> {
         let g = self.geometry();
         let mut image = PixelImage::zeros(self.plane, channels);
         let mut covered = vec![false; g.grid().1];
@@ -574,15 +606,14 @@ impl TiledPlanState {
                 || s.channels.iter().any(|c| c.len() != s.y.len() * width)
                 || s.y.end > g.plane.height();
             if bad {
-                return Err(ProtocolError::State {
-                    file: "band strips".into(),
+                return Err(BandError::Foreign {
+                    what: "the bands' strips",
                     problem: format!(
                         "the strip of tile rows {:?} does not fit the image (or is given \
                          twice): give each band's strip once",
                         s.rows
                     ),
-                }
-                .into());
+                });
             }
             covered[s.rows.clone()].iter_mut().for_each(|c| *c = true);
             for (c, px) in s.channels.iter().enumerate() {
@@ -590,11 +621,10 @@ impl TiledPlanState {
             }
         }
         if let Some(row) = covered.iter().position(|&c| !c) {
-            return Err(ProtocolError::State {
-                file: "band strips".into(),
+            return Err(BandError::Foreign {
+                what: "the bands' strips",
                 problem: format!("tile row {row} has no strip: give every band's strip"),
-            }
-            .into());
+            });
         }
         Ok(super::TiledFinal {
             image,

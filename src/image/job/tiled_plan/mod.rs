@@ -77,8 +77,8 @@ use crate::resources::memory_limit;
 use super::{PlanOptions, PlanStart};
 
 pub use band::{
-    tile_row_bands, BandOutcome, BandStrip, BandTask, BandTileOutcome, BandedRound, FinalBandTask,
-    RoundPlan,
+    tile_row_bands, BandError, BandOutcome, BandStrip, BandTask, BandTileOutcome, BandedRound,
+    FinalBandTask, RoundPlan,
 };
 pub use error::TiledPlanError;
 pub use round::{TiledFinal, TiledStep};
