@@ -201,3 +201,51 @@ def fit_tile(
     rho: Optional[float] = None,
     ridge: Optional[float] = None,
 ) -> Tuple[FloatArray, dict[str, Any]]: ...
+
+class PendingRound:
+    """A round of ``TiledPlanRounds`` begun and not yet committed."""
+
+class TiledPlanRounds:
+    """The client's side of a tiled plan run as band tasks (``rkwave.dask.TiledPlan``)."""
+
+    def __init__(
+        self,
+        resolution: Tuple[int, int],
+        spp: Optional[int] = None,
+        budget: Optional[int] = None,
+        *,
+        tile: int,
+        halo: Optional[int] = None,
+        p: Optional[int] = None,
+        rho: Optional[float] = None,
+        below_pixel: Optional[int] = None,
+        seed: Optional[int] = None,
+        false_alarm: Optional[float] = None,
+        solver: Optional[str] = None,
+        output_pixels: Optional[str] = None,
+        rows_per_task: int = 1,
+        threads: int = 1,
+    ) -> None: ...
+    def positions(self) -> FloatArray: ...
+    def begin(
+        self, xy: ArrayLike, values: ArrayLike
+    ) -> Tuple[Optional[PendingRound], list[Tuple[bytes, FloatArray]]]: ...
+    def commit(self, pending: PendingRound, outcomes: list[bytes]) -> None: ...
+    def final_tasks(self, residual: bool = True) -> list[Tuple[bytes, FloatArray]]: ...
+    def stitch(
+        self, strips: list[Tuple[int, int, int, int, FloatArray]]
+    ) -> FloatArray: ...
+    @property
+    def done(self) -> bool: ...
+    @property
+    def round(self) -> int: ...
+    @property
+    def channels(self) -> Optional[int]: ...
+    @property
+    def report(self) -> dict[str, Any]: ...
+    def state_json(self) -> str: ...
+
+def tiled_plan_band(task: bytes, samples: FloatArray) -> bytes: ...
+def tiled_plan_final_band(
+    task: bytes, samples: FloatArray
+) -> Tuple[int, int, int, int, FloatArray]: ...

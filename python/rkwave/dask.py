@@ -19,6 +19,15 @@
     ``(H, W, C)`` image through a temporary file and a rename. The image is that of
     ``rkwave reconstruct --dim 2 --tile T --halo H`` on the concatenated files, bit for bit.
 
+``TiledPlan(resolution, spp=, tile=, halo=None, client=None, rows_per_task=1, ...)``
+    The adaptive plan on tiles (``rkwave.Plan(tile=)``) with each round's steps as Dask tasks,
+    one per band of ``rows_per_task`` tile rows: ``positions()``, ``add(xy, values)``,
+    ``image()`` as ``rkwave.Plan``. The client keeps every sample and the plan's state; a
+    round's ``add`` checks the samples and computes the tiles' shares (nothing changed yet),
+    sends each band its tiles' states, shares and the samples of its windows, and commits
+    the bands' new positions and tile states as one step, or none of them. The positions
+    and the image are those of ``rkwave.Plan(tile=, halo=)`` bit for bit.
+
 Every task is a pure function of its inputs, so a lost worker costs a re-run of its tasks
 (``retries``) and the same result. The inputs are checked on the client before any task is
 submitted: missing or malformed files, the tile grid, samples outside the image or the
@@ -31,6 +40,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import warnings
 
 import numpy as np
 
@@ -46,7 +56,7 @@ except ImportError as _missing:  # pragma: no cover - exercised by the test with
 import rkwave
 from rkwave import _rkwave
 
-__all__ = ["fit_chunks", "reconstruct_image_tiles", "merge_tree"]
+__all__ = ["fit_chunks", "reconstruct_image_tiles", "merge_tree", "TiledPlan"]
 
 #: Rows read at once by the client's checks of a sample file.
 CHECK_ROWS = 1 << 20
@@ -515,3 +525,140 @@ def _write_atomic(output, image):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+# ----------------------------------------------------------------------------------------
+# 2D: the tiled plan's rounds
+
+
+def _plan_band_task(task, samples, before_band, keep_heap):
+    """Task: one band's step of a round (``_rkwave.tiled_plan_band``), its outcome as bytes."""
+    if keep_heap:
+        _keep_heap()
+    if before_band is not None:
+        before_band(task)
+    return _rkwave.tiled_plan_band(task, samples)
+
+
+def _plan_final_task(task, samples, before_band, keep_heap):
+    """Task: one band's part of the final image, ``(r0, r1, y0, y1, pixels)``."""
+    if keep_heap:
+        _keep_heap()
+    if before_band is not None:
+        before_band(task)
+    return _rkwave.tiled_plan_final_band(task, samples)
+
+
+class TiledPlan:
+    """The adaptive plan on tiles with its rounds as Dask tasks, one per band of tile rows.
+
+    ``resolution``, ``spp``/``budget``, ``tile``, ``halo`` and the other keywords (``p``,
+    ``rho``, ``below_pixel``, ``seed``, ``false_alarm``, ``solver``, ``output_pixels``) are
+    ``rkwave.Plan``'s, with the same defaults and refusals; the positions handed out and the
+    final image are those of ``rkwave.Plan(tile=, halo=)`` bit for bit (the same per-tile
+    steps on the same samples, committed in the same order).
+
+    A round (``add``): the client checks the samples (they must be the positions handed
+    out, finite, of one channel count; else refused, the plan unchanged), computes each
+    tile's share of the round's growth from the tiles' last indicators, and submits one task
+    per band of ``rows_per_task`` tile rows holding a tile with a share: the band's tiles'
+    states, their shares and the samples in the band's windows (each task steps its tiles
+    in turn, ``threads`` at once). The bands' new positions and tile states are committed
+    together once every band has returned; a failed task is rerun (``retries``; a task is a
+    pure function of its inputs, so the rerun gives the same outcome), and a round whose
+    tasks fail for good leaves the plan as it was (the round can be added again).
+    ``image()`` fits every tile in band tasks the same way and stitches the interiors.
+
+    ``client``: a ``distributed.Client`` (default: the current one, else dask's local
+    threaded scheduler). ``before_band(task_bytes)``, if given, runs at the start of every
+    band's task (a hook for progress or fault injection; it must be picklable).
+    ``keep_heap``: as :func:`reconstruct_image_tiles` (each worker's allocator keeps freed
+    memory, as the command line's does).
+    """
+
+    def __init__(
+        self,
+        resolution,
+        spp=None,
+        budget=None,
+        *,
+        tile,
+        halo=None,
+        client=None,
+        rows_per_task=1,
+        threads=1,
+        retries=3,
+        before_band=None,
+        keep_heap=True,
+        **plan,
+    ):
+        self._core = _rkwave.TiledPlanRounds(
+            tuple(resolution),
+            spp,
+            budget,
+            tile=tile,
+            halo=halo,
+            rows_per_task=rows_per_task,
+            threads=threads,
+            **plan,
+        )
+        self._client = client
+        self._retries = retries
+        self._before = before_band
+        self._keep_heap = keep_heap
+        self._tasks_run = 0
+
+    def _run(self, fn, tasks):
+        client = _client(self._client)
+        graph = [
+            dask.delayed(fn, pure=False)(t, s, self._before, self._keep_heap) for t, s in tasks
+        ]
+        self._tasks_run += len(graph)
+        with warnings.catch_warnings():
+            # The bands' states and samples travel inside the graph on purpose: the scheduler
+            # then holds them, and a task rerun after its worker was lost still has its
+            # inputs (data scattered to a worker would be lost with it). Dask's advice to
+            # load large data through Dask does not apply; the warning is left out.
+            warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
+            return _compute(graph, client, self._retries)
+
+    def positions(self):
+        """The positions to render next, ``(n, 2)`` (``(0, 2)`` once done)."""
+        return self._core.positions()
+
+    def add(self, xy, values):
+        """Adds the rendered samples of the positions handed out and plans the next round
+        (class docs): committed as one step, or refused with the plan unchanged."""
+        pending, tasks = self._core.begin(xy, values)
+        if pending is None:
+            return
+        outcomes = self._run(_plan_band_task, tasks)
+        self._core.commit(pending, list(outcomes))
+
+    def image(self, residual=True):
+        """The image ``(H, W, C)``: every tile's fit in band tasks, the interiors stitched
+        (``residual=False``: the fit's box pixels alone), as ``rkwave.Plan(tile=).image``."""
+        strips = self._run(_plan_final_task, self._core.final_tasks(residual))
+        return self._core.stitch(list(strips))
+
+    @property
+    def done(self):
+        """Whether the plan has stopped."""
+        return self._core.done
+
+    @property
+    def round(self):
+        """The last round whose positions were handed out (0: the base positions)."""
+        return self._core.round
+
+    @property
+    def report(self):
+        """Where the plan stands (as ``rkwave.Plan.report``), the bands' layout and the
+        tasks run so far (``tasks_run``)."""
+        r = self._core.report
+        r["tasks_run"] = self._tasks_run
+        return r
+
+    def state_json(self):
+        """The plan's state as ``rkwave plan --tile --state`` writes it."""
+        return self._core.state_json()

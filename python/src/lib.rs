@@ -12,6 +12,7 @@
 //! | `adapt(f, domain, ...)` | `refine::refine` | `rkwave adapt` |
 //! | `partial(...)` → `PartialFits` (`merge`, `finish`), `auto_levels` | `reconstruct::stream::SingleScaleAccumulator` | `rkwave reconstruct --stream` |
 //! | `TileGeometry(...)`, `fit_tile(...)` | `image::tiles::fit_tile` | `rkwave reconstruct --dim 2 --tile` |
+//! | `TiledPlanRounds(...)`, `tiled_plan_band(...)` (`rkwave.dask.TiledPlan`) | `image::job::tiled_plan::{BandTask, BandedRound}` | `rkwave plan --tile` |
 //!
 //! The GIL is released during every computation (`Python::detach`). Errors map by kind
 //! ([`errors`]); conversions of arrays are in [`arrays`]; every parameter struct is built in
@@ -21,6 +22,7 @@
 
 mod adapt;
 mod arrays;
+mod dask_plan;
 mod errors;
 mod fit;
 mod image;
@@ -75,6 +77,10 @@ fn _rkwave(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<tiles::PyTileGeometry>()?;
     m.add_class::<fit::PyFit>()?;
     m.add_class::<plan::PyPlan>()?;
+    m.add_class::<dask_plan::PyTiledPlanRounds>()?;
+    m.add_class::<dask_plan::PyPendingRound>()?;
+    m.add_function(wrap_pyfunction!(dask_plan::tiled_plan_band, m)?)?;
+    m.add_function(wrap_pyfunction!(dask_plan::tiled_plan_final_band, m)?)?;
     m.add("RkwaveError", py.get_type::<errors::RkwaveError>())?;
     m.add(
         "ResourceLimitError",

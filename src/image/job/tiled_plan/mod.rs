@@ -63,6 +63,7 @@
 //! beside [`super::PlanStart`] and [`super::TiledJob`]; neither the state machine
 //! (`image::plan`) nor the tiles (`image::tiles`) call back into it.
 
+mod band;
 mod error;
 mod kept;
 mod round;
@@ -78,6 +79,10 @@ use crate::resources::memory_limit;
 
 use super::{PlanOptions, PlanStart};
 
+pub use band::{
+    tile_row_bands, BandError, BandOutcome, BandStrip, BandTask, BandTileOutcome, BandedRound,
+    FinalBandTask, RoundPlan,
+};
 pub use error::TiledPlanError;
 pub use round::{TiledFinal, TiledStep, TiledTimes};
 pub use state::{

@@ -126,14 +126,14 @@ pub struct TiledFinal {
 }
 
 /// A tile's step: what the round keeps of it.
-struct TileOutcome {
-    state: TilePlanState,
-    next: SamplePositions,
-    halo_drawn: usize,
-    cut: usize,
-    times: TiledTimes,
+pub(super) struct TileOutcome {
+    pub(super) state: TilePlanState,
+    pub(super) next: SamplePositions,
+    pub(super) halo_drawn: usize,
+    pub(super) cut: usize,
+    pub(super) times: TiledTimes,
     /// The fit's diagonal and its bytes, for `KeptDiagonals::keep` (`None`: not kept).
-    fit_state: Option<(FitState, u64)>,
+    pub(super) fit_state: Option<(FitState, u64)>,
 }
 
 impl TiledPlanState {
@@ -201,7 +201,7 @@ impl TiledPlanState {
     }
 
     /// The round whose positions are exactly `samples` (the untiled plan's refusals).
-    fn matching_round(&self, samples: &ImageSamples) -> Result<usize, ProtocolError> {
+    pub(super) fn matching_round(&self, samples: &ImageSamples) -> Result<usize, ProtocolError> {
         if samples.plane() != self.plane {
             return Err(ProtocolError::Plane {
                 state: self.plane,
@@ -235,7 +235,7 @@ impl TiledPlanState {
     }
 
     /// The pool of the plan's workers.
-    fn pool(&self) -> Result<rayon::ThreadPool, TiledPlanError> {
+    pub(super) fn pool(&self) -> Result<rayon::ThreadPool, TiledPlanError> {
         rayon::ThreadPoolBuilder::new()
             .num_threads(self.workers)
             .build()
@@ -251,7 +251,7 @@ impl TiledPlanState {
     /// Indices are `u32` (4 bytes a sample and window, sized exactly by a counting pass:
     /// at 3840x2160 and 8 spp, 66M samples, `usize` lists grown by doubling held up to
     /// 1 GB); more samples than `u32` holds are refused.
-    fn buckets(&self, samples: &ImageSamples) -> Result<Vec<Vec<u32>>, TiledPlanError> {
+    pub(super) fn buckets(&self, samples: &ImageSamples) -> Result<Vec<Vec<u32>>, TiledPlanError> {
         if u32::try_from(samples.len()).is_err() {
             let held = self.held_bytes(samples);
             return Err(TiledPlanError::TooLarge {
@@ -301,14 +301,14 @@ impl TiledPlanState {
     }
 
     /// Memory held beside the tile fits: the samples and two images.
-    fn held_bytes(&self, samples: &ImageSamples) -> f64 {
+    pub(super) fn held_bytes(&self, samples: &ImageSamples) -> f64 {
         let c = samples.channels() as f64;
         samples.len() as f64 * (16.0 + 8.0 * c) + 2.0 * 8.0 * self.plane.pixels() as f64 * c
     }
 
     /// Refuses tile `index`'s fit of `n` samples when `workers` of its size beside the held
     /// samples exceed the memory limit (before its window is copied).
-    fn check_tile(
+    pub(super) fn check_tile(
         &self,
         index: usize,
         n: usize,
@@ -358,7 +358,12 @@ impl TiledPlanState {
     }
 
     /// The window-local samples of tile `index` (the indices of [`Self::buckets`]).
-    fn local(&self, samples: &ImageSamples, index: usize, picks: &[u32]) -> ImageSamples {
+    pub(super) fn local(
+        &self,
+        samples: &ImageSamples,
+        index: usize,
+        picks: &[u32],
+    ) -> ImageSamples {
         let w = plan_window(&self.geometry(), index);
         let (x0, y0) = (w.x0 as f64, w.y0 as f64);
         let xs = picks
@@ -381,7 +386,7 @@ impl TiledPlanState {
     /// The tile's refiner as of its history with `budget` and least growth `growth`; a
     /// budget below the tile's base raised to it (the tile then draws at most its share:
     /// the round cuts the rest).
-    fn tile_plan(
+    pub(super) fn tile_plan(
         &self,
         tile: &TilePlanState,
         budget: usize,
@@ -405,7 +410,7 @@ impl TiledPlanState {
     }
 
     /// One tile's step on its window's samples with `share` new samples (module docs).
-    fn step_tile(
+    pub(super) fn step_tile(
         &self,
         tile: &TilePlanState,
         local: &ImageSamples,
@@ -480,7 +485,7 @@ impl TiledPlanState {
 
     /// Every active tile's share of the round's growth `growth` (module docs): by the last
     /// `eta_t^2`, by interior pixels before any indicator, largest remainders.
-    fn shares(&self, growth: usize) -> Vec<usize> {
+    pub(super) fn shares(&self, growth: usize) -> Vec<usize> {
         let g = self.geometry();
         let weight = |t: &TilePlanState| match (t.stop, t.indicator_sq) {
             (Some(_), _) => 0.0,
@@ -666,7 +671,7 @@ impl TiledPlanState {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn stopped(
+    pub(super) fn stopped(
         &self,
         stop: StopReason,
         growth: usize,
@@ -791,7 +796,7 @@ impl TiledPlanState {
 
 /// The stop of a plan whose tiles all stopped: the tolerance when every tile reached it,
 /// else the depth limit.
-fn all_stopped(tiles: &[TilePlanState]) -> StopReason {
+pub(super) fn all_stopped(tiles: &[TilePlanState]) -> StopReason {
     if tiles.iter().all(|t| t.stop == Some(StopReason::Tolerance)) {
         StopReason::Tolerance
     } else {

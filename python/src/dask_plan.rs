@@ -1,0 +1,418 @@
+//! The tiled plan's rounds as tasks, one per band of tile rows (`rkwave.dask.TiledPlan`; the
+//! library's seam `rkwave::image::job::tiled_plan::{BandTask, BandedRound}`).
+//!
+//! The client holds a `_rkwave.TiledPlanRounds`: every sample so far and the plan's state. A
+//! round is `begin(xy, values)` (the samples checked as `Plan(tile=).add` checks them, the
+//! shares computed, nothing changed: a refused round leaves the plan as it was), which gives
+//! a pending round and its band tasks `(task, samples)`: the task as JSON bytes (the band's
+//! tiles' states with PCG's starts as bits, so every number reads back the same) and the
+//! band's samples as a planar `(2 + C, m)` float64 array; any process runs a task with
+//! `tiled_plan_band(task, samples)`, which gives the band's outcome as JSON bytes; then
+//! `commit(pending, outcomes)` takes the round as one step, or refuses it whole. The final
+//! image is `final_tasks()`, `tiled_plan_final_band(task, samples)` per band and
+//! `stitch(strips)`.
+
+use numpy::{IntoPyArray, PyReadonlyArray2, PyReadonlyArray3};
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+use rkwave::image::adaptive::{PixelEstimate, SamplePositions};
+use rkwave::image::job::tiled_plan::{
+    BandOutcome, BandStrip, BandTask, BandedRound, FinalBandTask, RoundPlan, TiledPlanOptions,
+    TiledPlanStart, TiledPlanState, TiledStep,
+};
+use rkwave::image::{ImagePlane, ImageSamples, NonFinitePolicy};
+use serde::Serialize;
+
+use crate::arrays::{image_out, positions_out};
+use crate::errors::{invalid, to_py, warn_all};
+use crate::image::{plane_of, samples_of};
+use crate::params::{plan_options, PlanArgs};
+use crate::report::to_dict;
+
+/// Samples as a planar `(2 + C, m)` array: x, y, then each channel.
+fn planar<'py>(py: Python<'py>, s: &ImageSamples) -> Bound<'py, PyAny> {
+    let m = s.len();
+    let mut flat = Vec::with_capacity((2 + s.channels()) * m);
+    flat.extend_from_slice(s.xs());
+    flat.extend_from_slice(s.ys());
+    for v in s.values() {
+        flat.extend_from_slice(v);
+    }
+    numpy::ndarray::Array2::from_shape_vec((2 + s.channels(), m), flat)
+        .expect("rows of m")
+        .into_pyarray(py)
+        .into_any()
+}
+
+/// A planar `(2 + C, m)` array back to samples on `plane` (checked).
+fn from_planar(plane: ImagePlane, a: &PyReadonlyArray2<'_, f64>) -> PyResult<ImageSamples> {
+    let a = a.as_array();
+    if a.nrows() < 3 {
+        return Err(invalid(format!(
+            "band samples must have shape (2 + channels, m), got ({}, {})",
+            a.nrows(),
+            a.ncols()
+        )));
+    }
+    let mut rows = a.rows().into_iter().map(|r| r.to_vec());
+    let (xs, ys) = (rows.next().expect("x"), rows.next().expect("y"));
+    ImageSamples::new(plane, xs, ys, rows.collect()).map_err(to_py)
+}
+
+/// JSON bytes of `value` (plain data: it serialises).
+fn json_bytes<'py, T: Serialize>(py: Python<'py>, value: &T) -> Bound<'py, PyBytes> {
+    PyBytes::new(py, &serde_json::to_vec(value).expect("plain data"))
+}
+
+/// A task or outcome read back from JSON bytes, named in the error.
+fn from_json<T: serde::de::DeserializeOwned>(bytes: &[u8], what: &str) -> PyResult<T> {
+    serde_json::from_slice(bytes).map_err(|e| {
+        invalid(format!(
+            "{what} could not be read ({e}): give the bytes the plan's client made"
+        ))
+    })
+}
+
+/// Runs one band's step of a round (module docs): `task` as `begin` made it, `samples` its
+/// planar `(2 + C, m)` samples; returns the band's outcome as JSON bytes. A pure function of
+/// its inputs: run again, it gives the same bytes.
+#[pyfunction]
+pub fn tiled_plan_band<'py>(
+    py: Python<'py>,
+    task: &[u8],
+    samples: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let task: BandTask = from_json(task, "the band task")?;
+    let samples = from_planar(task.plane, &samples)?;
+    let outcome = py.detach(|| task.run(&samples)).map_err(to_py)?;
+    Ok(json_bytes(py, &outcome))
+}
+
+/// Runs one band's part of the final image: `(r0, r1, y0, y1, pixels)`, the band's tile
+/// rows, its image rows and their pixels `(y1 - y0, W, C)`.
+#[pyfunction]
+pub fn tiled_plan_final_band<'py>(
+    py: Python<'py>,
+    task: &[u8],
+    samples: PyReadonlyArray2<'py, f64>,
+) -> PyResult<(usize, usize, usize, usize, Bound<'py, PyAny>)> {
+    let task: FinalBandTask = from_json(task, "the final band task")?;
+    let samples = from_planar(task.band.plane, &samples)?;
+    let strip = py.detach(|| task.run(&samples)).map_err(to_py)?;
+    let width = task.band.plane.width();
+    let pixels = image_out(py, &strip.channels, width, strip.y.len());
+    Ok((
+        strip.rows.start,
+        strip.rows.end,
+        strip.y.start,
+        strip.y.end,
+        pixels,
+    ))
+}
+
+/// A round begun and not yet committed: its plan and the samples it is on.
+#[pyclass(name = "PendingRound", module = "rkwave")]
+pub struct PyPendingRound {
+    plan: RoundPlan,
+    samples: ImageSamples,
+}
+
+/// The client's side of a tiled plan run as band tasks (module docs).
+#[pyclass(name = "TiledPlanRounds", module = "rkwave")]
+pub struct PyTiledPlanRounds {
+    state: TiledPlanState,
+    next: SamplePositions,
+    samples: Option<ImageSamples>,
+    steps: Vec<TiledStep>,
+    rows_per_task: usize,
+    threads: usize,
+}
+
+#[derive(Serialize)]
+struct RoundsReport<'a> {
+    resolution: String,
+    budget: usize,
+    tiles: (usize, usize),
+    rows_per_task: usize,
+    threads: usize,
+    tasks_per_round: usize,
+    round: usize,
+    handed_out: usize,
+    samples: usize,
+    done: bool,
+    stop: Option<rkwave::refine::StopReason>,
+    steps: &'a [TiledStep],
+}
+
+#[pymethods]
+impl PyTiledPlanRounds {
+    /// A new tiled plan (the keywords of `rkwave.Plan(tile=...)`), its rounds in bands of
+    /// `rows_per_task` tile rows, `threads` tiles at once inside a band's task (its memory
+    /// check counts that many tile fits at once).
+    #[new]
+    #[pyo3(signature = (resolution, spp=None, budget=None, *, tile, halo=None, p=None,
+        rho=None, below_pixel=None, seed=None, false_alarm=None, solver=None,
+        output_pixels=None, rows_per_task=1, threads=1))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        resolution: (usize, usize),
+        spp: Option<usize>,
+        budget: Option<usize>,
+        tile: usize,
+        halo: Option<usize>,
+        p: Option<usize>,
+        rho: Option<f64>,
+        below_pixel: Option<u32>,
+        seed: Option<u64>,
+        false_alarm: Option<f64>,
+        solver: Option<&str>,
+        output_pixels: Option<&str>,
+        rows_per_task: usize,
+        threads: usize,
+    ) -> PyResult<Self> {
+        if rows_per_task == 0 || threads == 0 {
+            return Err(invalid(format!(
+                "rows_per_task={rows_per_task}, threads={threads}: give both at least 1 (tile \
+                 rows per task, tiles stepped at once in a task)"
+            )));
+        }
+        let plane = plane_of(resolution)?;
+        let options = plan_options(&PlanArgs {
+            budget,
+            spp,
+            p,
+            rho,
+            below_pixel,
+            seed,
+            false_alarm,
+            solver,
+            output_pixels,
+        })?;
+        let tiles = TiledPlanOptions {
+            tile,
+            halo,
+            workers: Some(threads),
+        };
+        let start = TiledPlanStart::new(plane, &options, &tiles).map_err(to_py)?;
+        let (state, next) = py.detach(|| start.run(3)).map_err(to_py)?;
+        warn_all(py, &start.notes())?;
+        Ok(Self {
+            state,
+            next,
+            samples: None,
+            steps: Vec::new(),
+            rows_per_task,
+            threads,
+        })
+    }
+
+    /// The positions to render next, `(n, 2)`; `(0, 2)` once the plan is done.
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        positions_out(py, &self.next.xs, &self.next.ys)
+    }
+
+    /// Begins a round on the rendered samples of the positions handed out (`xy` `(n, 2)`,
+    /// `values` `(n,)` or `(n, C)`): checked, the shares computed, nothing changed. Returns
+    /// `(pending, tasks)`, `tasks` a list of `(task bytes, planar samples)`; `pending` is
+    /// `None` when the plan stopped here (then committed already, `tasks` empty).
+    #[allow(clippy::type_complexity)]
+    fn begin<'py>(
+        &mut self,
+        py: Python<'py>,
+        xy: &Bound<'py, PyAny>,
+        values: &Bound<'py, PyAny>,
+    ) -> PyResult<(
+        Option<PyPendingRound>,
+        Vec<(Bound<'py, PyBytes>, Bound<'py, PyAny>)>,
+    )> {
+        if self.state.stop.is_some() {
+            return Err(invalid(
+                "the plan has stopped: no positions are pending; take the result with image()",
+            ));
+        }
+        let (new, _) = samples_of(
+            self.state.plane,
+            xy,
+            values,
+            NonFinitePolicy::dropping(false),
+        )?;
+        let all = match &self.samples {
+            None => new,
+            Some(old) => appended(old, &new)?,
+        };
+        let mut state = self.state.clone();
+        let (rows, threads) = (self.rows_per_task, self.threads);
+        let begun = py
+            .detach(|| state.begin_round(&all, rows, threads))
+            .map_err(to_py)?;
+        match begun {
+            BandedRound::Stopped(step) => {
+                self.state = state;
+                self.next = step.next.clone();
+                self.samples = Some(all);
+                self.steps.push(step);
+                Ok((None, Vec::new()))
+            }
+            BandedRound::Steps(mut plan) => {
+                let tasks = std::mem::take(&mut plan.tasks)
+                    .into_iter()
+                    .map(|(t, s)| (json_bytes(py, &t), planar(py, &s)))
+                    .collect();
+                let pending = PyPendingRound { plan, samples: all };
+                Ok((Some(pending), tasks))
+            }
+        }
+    }
+
+    /// Commits a pending round from its bands' outcomes (JSON bytes of `tiled_plan_band`),
+    /// as one step: refused whole, the plan unchanged, when an outcome is missing, repeated
+    /// or of another round, or the plan moved on since `begin`.
+    fn commit(&mut self, pending: &PyPendingRound, outcomes: Vec<Vec<u8>>) -> PyResult<()> {
+        let outcomes = outcomes
+            .iter()
+            .map(|b| from_json::<BandOutcome>(b, "a band's outcome"))
+            .collect::<PyResult<Vec<_>>>()?;
+        let step = self
+            .state
+            .commit_round(&pending.plan, outcomes)
+            .map_err(to_py)?;
+        self.next = step.next.clone();
+        self.samples = Some(pending.samples.clone());
+        self.steps.push(step);
+        Ok(())
+    }
+
+    /// The final image's band tasks, `(task bytes, planar samples)` per band: the plan's
+    /// output pixels, or the fit's alone (`residual=False`).
+    #[pyo3(signature = (residual=true))]
+    fn final_tasks<'py>(
+        &self,
+        py: Python<'py>,
+        residual: bool,
+    ) -> PyResult<Vec<(Bound<'py, PyBytes>, Bound<'py, PyAny>)>> {
+        let Some(samples) = &self.samples else {
+            return Err(invalid(
+                "the plan has no samples yet: render positions() and add() them first",
+            ));
+        };
+        let estimate = (!residual).then_some(PixelEstimate::FitOnly);
+        let (rows, threads) = (self.rows_per_task, self.threads);
+        let tasks = py
+            .detach(|| self.state.final_bands(samples, estimate, rows, threads))
+            .map_err(to_py)?;
+        Ok(tasks
+            .iter()
+            .map(|(t, s)| (json_bytes(py, t), planar(py, s)))
+            .collect())
+    }
+
+    /// The image `(H, W, C)` from every band's strip `(r0, r1, y0, y1, pixels)` (as
+    /// `tiled_plan_final_band` gives them, in any order), each band once.
+    #[allow(clippy::type_complexity)]
+    fn stitch<'py>(
+        &self,
+        py: Python<'py>,
+        strips: Vec<(usize, usize, usize, usize, PyReadonlyArray3<'py, f64>)>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let channels = self.channels().ok_or_else(|| {
+            invalid("the plan has no samples yet: render positions() and add() them first")
+        })?;
+        let strips = strips
+            .into_iter()
+            .map(|(r0, r1, y0, y1, px)| {
+                let px = px.as_array();
+                let (h, w, c) = px.dim();
+                let channels = (0..c)
+                    .map(|k| {
+                        let mut v = Vec::with_capacity(h * w);
+                        for y in 0..h {
+                            v.extend((0..w).map(|x| px[(y, x, k)]));
+                        }
+                        v
+                    })
+                    .collect();
+                BandStrip {
+                    rows: r0..r1,
+                    y: y0..y1,
+                    channels,
+                }
+            })
+            .collect();
+        let done = self.state.stitch_bands(strips, channels).map_err(to_py)?;
+        let plane = self.state.plane;
+        Ok(image_out(
+            py,
+            &done.image.channels,
+            plane.width(),
+            plane.height(),
+        ))
+    }
+
+    /// Whether the plan has stopped.
+    #[getter]
+    fn done(&self) -> bool {
+        self.state.stop.is_some()
+    }
+
+    /// The last round whose positions were handed out.
+    #[getter]
+    fn round(&self) -> usize {
+        self.state.round()
+    }
+
+    /// The channels of the samples so far (`None` before the first round).
+    #[getter]
+    fn channels(&self) -> Option<usize> {
+        self.samples.as_ref().map(ImageSamples::channels)
+    }
+
+    /// Where the plan stands, as a plain dict (as `Plan.report`, and the bands' layout).
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self.state.geometry().grid().1;
+        let report = RoundsReport {
+            resolution: self.state.plane.to_string(),
+            budget: self.state.params.stop.budget,
+            tiles: (self.state.tile, self.state.halo),
+            rows_per_task: self.rows_per_task,
+            threads: self.threads,
+            tasks_per_round: rows.div_ceil(self.rows_per_task),
+            round: self.state.round(),
+            handed_out: self.state.positions(),
+            samples: self.samples.as_ref().map_or(0, ImageSamples::len),
+            done: self.done(),
+            stop: self.state.stop,
+            steps: &self.steps,
+        };
+        to_dict(py, &serde_json::to_string(&report).expect("plain data"))
+    }
+
+    /// The plan's state as the JSON of `rkwave plan --tile --state` (`tiled-state.json`).
+    fn state_json(&self) -> String {
+        self.state.to_json()
+    }
+}
+
+/// `old` with `new` appended (the channels must agree).
+fn appended(old: &ImageSamples, new: &ImageSamples) -> PyResult<ImageSamples> {
+    if old.channels() != new.channels() {
+        return Err(to_py(rkwave::image::plan::ProtocolError::Channels {
+            state: old.channels(),
+            given: new.channels(),
+        }));
+    }
+    let join = |a: &[f64], b: &[f64]| [a, b].concat();
+    ImageSamples::new(
+        old.plane(),
+        join(old.xs(), new.xs()),
+        join(old.ys(), new.ys()),
+        old.values()
+            .iter()
+            .zip(new.values())
+            .map(|(a, b)| join(a, b))
+            .collect(),
+    )
+    .map_err(to_py)
+}
