@@ -110,6 +110,9 @@ pub struct AutoReport {
     pub largest_clamp: f64,
     /// The shrinkage's parameters.
     pub shrink: ShrinkParams,
+    /// `v_{P,c}`, the noise of each pixel's mean every step used (per channel and pixel,
+    /// after the check against the box pixels' differences across pixels).
+    pub pixel_variance: Vec<Vec<f64>>,
 }
 
 impl AutoReport {
@@ -362,6 +365,7 @@ pub fn estimate(
             range_clamped,
             largest_clamp,
             shrink: *shrink,
+            pixel_variance: variance,
         },
     ))
 }

@@ -58,7 +58,9 @@ pub use haar::{Haar2d, HaarCoefficients};
 pub use noise::{DifferenceCount, PixelNoise, StrataDifference};
 pub use report::EstimateReport;
 pub use robust::RobustReport;
-pub use shrink::{shrink_channel, soft, universal_threshold, ShrinkParams};
+pub use shrink::{
+    shrink_channel, shrink_channel_with_divergence, soft, universal_threshold, ShrinkParams,
+};
 pub use statistics::PixelStatistics;
 pub use sure::{choose_films, FilmChoice, FilmRisks};
 use text::list;
