@@ -36,8 +36,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::error::TiledPlanError;
-use super::round::{all_stopped, fingerprint, TileOutcome, TiledTimes};
-use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
+use super::round::{fingerprint, TileOutcome};
+use super::state::{
+    all_stopped, TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
+};
+use super::times::TiledTimes;
 use super::window::{plan_window, tile_output};
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{AdaptiveParams, FitState, PixelEstimate, SamplePositions};
@@ -390,41 +393,10 @@ impl TiledPlanState {
     ) -> Result<BandedRound, TiledPlanError> {
         let k = self.matching_round(samples)?;
         debug_assert_eq!(k, self.round(), "matching_round refuses earlier rounds");
-        if let Some(stop) = self.stop {
-            return Ok(BandedRound::Stopped(self.stopped(
-                stop,
-                0,
-                0,
-                0,
-                0,
-                0,
-                TiledTimes::default(),
-            )));
+        if let Some(step) = self.stop_before_stepping(samples) {
+            return Ok(BandedRound::Stopped(step));
         }
-        let n = self.positions();
-        let budget = self.params.stop.budget;
-        let stop_now = if n >= budget {
-            Some(StopReason::Budget)
-        } else if self.round() >= self.params.stop.max_rounds {
-            Some(StopReason::MaxRounds)
-        } else if self.tiles.iter().all(|t| t.stop.is_some()) {
-            Some(all_stopped(&self.tiles))
-        } else {
-            None
-        };
-        if let Some(stop) = stop_now {
-            self.channels = Some(samples.channels());
-            self.stop = Some(stop);
-            return Ok(BandedRound::Stopped(self.stopped(
-                stop,
-                0,
-                0,
-                0,
-                0,
-                0,
-                TiledTimes::default(),
-            )));
-        }
+        let (n, budget) = (self.positions(), self.params.stop.budget);
         let growth = (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize);
         let shares = self.shares(growth);
         let buckets = self.buckets(samples)?;

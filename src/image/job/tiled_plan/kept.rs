@@ -11,7 +11,7 @@
 //! depth limit: 0.6 MB for a window of 128² one level below the pixel).
 //!
 //! **Bound.** Diagonals are kept up to the caller's byte bound in all
-//! ([`super::TiledPlanState::keep_diagonals`]); a tile whose diagonal would pass it is
+//! (`TiledPlanState::keep_diagonals`); a tile whose diagonal would pass it is
 //! rebuilt the next round (the step's report counts them, with a note). Off by default, so
 //! a plan driven in one process gives the bits of the same plan driven through the state file
 //! (the command line's `plan --tile`, which rebuilds every round).

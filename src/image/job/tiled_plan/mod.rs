@@ -68,6 +68,8 @@ mod error;
 mod kept;
 mod round;
 mod state;
+mod stops;
+mod times;
 mod window;
 
 use crate::error::{Fix, Param};
@@ -84,11 +86,12 @@ pub use band::{
     FinalBandTask, RoundPlan,
 };
 pub use error::TiledPlanError;
-pub use round::{TiledFinal, TiledStep, TiledTimes};
+pub use round::{TiledFinal, TiledStep};
 pub use state::{
     SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
     TILED_STATE_VERSION,
 };
+pub use times::TiledTimes;
 use window::{keep_owned, mix_index, sizes, window_plane, windows_not_dyadic};
 pub use window::{plan_window, tile_bytes, CONCENTRATION};
 

@@ -8,7 +8,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::error::TiledPlanError;
-use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
+use super::state::{
+    all_stopped, TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
+};
+use super::times::TiledTimes;
 use super::window::{
     keep_owned, plan_window, reach, stitch, tile_bytes, tile_output, window_plane,
 };
@@ -67,49 +70,6 @@ pub struct TiledStep {
     pub diagonals_over: usize,
     /// Where the round's time went ([`TiledTimes`]).
     pub times: TiledTimes,
-}
-
-/// Where a tiled round's (or final image's) time went, in seconds. The per-tile phases are
-/// summed over the tiles (CPU seconds of the workers, `workers` of them at once); `buckets_s`,
-/// `commit_s` and `wall_s` are the caller's wall clock.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct TiledTimes {
-    /// Sorting the samples into the tiles' windows (one pass, wall).
-    pub buckets_s: f64,
-    /// Copying each window's samples to window-local coordinates (sum over tiles).
-    pub local_s: f64,
-    /// Building each tile's refiner from its history, or taking the one kept (sum).
-    pub rebuild_s: f64,
-    /// The tiles' fits, the noise test's included (sum; the final image's fit too).
-    pub fit_s: f64,
-    /// Of `fit_s`: the fits' single-scale rows and exact diagonal (PCG's `kernel_s`; sum).
-    pub kernel_s: f64,
-    /// Of `fit_s`: the fits' solves (PCG's iterations; sum).
-    pub solve_s: f64,
-    /// Indicator, stop test, tally and marking (sum).
-    pub refine_s: f64,
-    /// Deepening and drawing the next positions (sum).
-    pub position_s: f64,
-    /// The final image's output pixels (sum; 0 in a round).
-    pub output_s: f64,
-    /// Committing the round and stitching the image (wall).
-    pub commit_s: f64,
-    /// The whole call (wall).
-    pub wall_s: f64,
-}
-
-impl TiledTimes {
-    /// The per-tile phases of `other` added to these.
-    fn add_tile(&mut self, other: &TiledTimes) {
-        self.local_s += other.local_s;
-        self.rebuild_s += other.rebuild_s;
-        self.fit_s += other.fit_s;
-        self.kernel_s += other.kernel_s;
-        self.solve_s += other.solve_s;
-        self.refine_s += other.refine_s;
-        self.position_s += other.position_s;
-        self.output_s += other.output_s;
-    }
 }
 
 /// The final image of a tiled plan.
@@ -540,25 +500,10 @@ impl TiledPlanState {
         if k < self.round() {
             unreachable!("matching_round refuses earlier rounds");
         }
-        if let Some(stop) = self.stop {
-            return Ok(self.stopped(stop, 0, 0, 0, 0, 0, TiledTimes::default()));
+        if let Some(step) = self.stop_before_stepping(samples) {
+            return Ok(step);
         }
-        let n = self.positions();
-        let budget = self.params.stop.budget;
-        let stop_now = if n >= budget {
-            Some(StopReason::Budget)
-        } else if self.round() >= self.params.stop.max_rounds {
-            Some(StopReason::MaxRounds)
-        } else if self.tiles.iter().all(|t| t.stop.is_some()) {
-            Some(all_stopped(&self.tiles))
-        } else {
-            None
-        };
-        if let Some(stop) = stop_now {
-            self.channels = Some(samples.channels());
-            self.stop = Some(stop);
-            return Ok(self.stopped(stop, 0, 0, 0, 0, 0, TiledTimes::default()));
-        }
+        let (n, budget) = (self.positions(), self.params.stop.budget);
         let growth = (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize);
         let shares = self.shares(growth);
         let mut times = TiledTimes::default();
@@ -670,36 +615,6 @@ impl TiledPlanState {
         })
     }
 
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn stopped(
-        &self,
-        stop: StopReason,
-        growth: usize,
-        stepped: usize,
-        halo: usize,
-        cut: usize,
-        largest_window: usize,
-        times: TiledTimes,
-    ) -> TiledStep {
-        TiledStep {
-            next: SamplePositions::default(),
-            next_positions: 0,
-            next_round: None,
-            stop: Some(stop),
-            total_positions: self.positions(),
-            budget: self.params.stop.budget,
-            growth,
-            tiles_stepped: stepped,
-            tiles_stopped: self.tiles.iter().filter(|t| t.stop.is_some()).count(),
-            halo_drawn: halo,
-            cut,
-            largest_window,
-            diagonals_kept: 0,
-            diagonals_over: 0,
-            times,
-        }
-    }
-
     /// The final image of `samples` (the positions of rounds `0..=k` for some `k`): every
     /// tile's fit of its window's samples on its tree, warm-started from its carried start,
     /// its output pixels by `estimate` (`None`: the plan's), the interiors stitched.
@@ -791,16 +706,6 @@ impl TiledPlanState {
             complete: self.stop.is_some(),
             times,
         })
-    }
-}
-
-/// The stop of a plan whose tiles all stopped: the tolerance when every tile reached it,
-/// else the depth limit.
-pub(super) fn all_stopped(tiles: &[TilePlanState]) -> StopReason {
-    if tiles.iter().all(|t| t.stop == Some(StopReason::Tolerance)) {
-        StopReason::Tolerance
-    } else {
-        StopReason::DepthLimit
     }
 }
 

@@ -222,3 +222,13 @@ impl TiledPlanState {
         };
     }
 }
+
+/// The stop of a plan whose tiles all stopped: the tolerance when every tile reached it,
+/// else the depth limit.
+pub(super) fn all_stopped(tiles: &[TilePlanState]) -> StopReason {
+    if tiles.iter().all(|t| t.stop == Some(StopReason::Tolerance)) {
+        StopReason::Tolerance
+    } else {
+        StopReason::DepthLimit
+    }
+}
