@@ -28,6 +28,7 @@ use crate::arrays::{image_out, positions_out};
 use crate::errors::{invalid, to_py, warn_all};
 use crate::image::{plane_of, samples_of};
 use crate::params::{plan_options, PlanArgs};
+use crate::plan::appended;
 use crate::report::to_dict;
 
 /// Samples as a planar `(2 + C, m)` array: x, y, then each channel.
@@ -238,10 +239,7 @@ impl PyTiledPlanRounds {
             values,
             NonFinitePolicy::dropping(false),
         )?;
-        let all = match &self.samples {
-            None => new,
-            Some(old) => appended(old, &new)?,
-        };
+        let all = appended(self.samples.as_ref(), new)?;
         let mut state = self.state.clone();
         let (rows, threads) = (self.rows_per_task, self.threads);
         let begun = py
@@ -393,26 +391,4 @@ impl PyTiledPlanRounds {
     fn state_json(&self) -> String {
         self.state.to_json()
     }
-}
-
-/// `old` with `new` appended (the channels must agree).
-fn appended(old: &ImageSamples, new: &ImageSamples) -> PyResult<ImageSamples> {
-    if old.channels() != new.channels() {
-        return Err(to_py(rkwave::image::plan::ProtocolError::Channels {
-            state: old.channels(),
-            given: new.channels(),
-        }));
-    }
-    let join = |a: &[f64], b: &[f64]| [a, b].concat();
-    ImageSamples::new(
-        old.plane(),
-        join(old.xs(), new.xs()),
-        join(old.ys(), new.ys()),
-        old.values()
-            .iter()
-            .zip(new.values())
-            .map(|(a, b)| join(a, b))
-            .collect(),
-    )
-    .map_err(to_py)
 }

@@ -159,7 +159,7 @@ fn positions_from(obj: &Bound<'_, PyAny>) -> PyResult<SamplePositions> {
 }
 
 /// `samples` with the samples of `new` appended (the channels must agree).
-fn appended(old: Option<&ImageSamples>, new: ImageSamples) -> PyResult<ImageSamples> {
+pub(crate) fn appended(old: Option<&ImageSamples>, new: ImageSamples) -> PyResult<ImageSamples> {
     let Some(old) = old else { return Ok(new) };
     if old.channels() != new.channels() {
         return Err(to_py(ProtocolError::Channels {

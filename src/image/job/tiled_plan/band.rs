@@ -558,20 +558,7 @@ impl TiledPlanState {
         rows_per_band: usize,
         threads: usize,
     ) -> Result<Vec<(FinalBandTask, ImageSamples)>, TiledPlanError> {
-        let k = match self.matching_round(samples) {
-            Ok(k) => k,
-            Err(ProtocolError::AlreadyPlanned { matched, .. }) => matched,
-            Err(e) => return Err(e.into()),
-        };
-        if k != self.round() {
-            return Err(ProtocolError::AlreadyPlanned {
-                given: samples.len(),
-                matched: k,
-                round: self.round(),
-                expected: self.positions(),
-            }
-            .into());
-        }
+        self.check_final_samples(samples)?;
         let estimate = estimate.unwrap_or(self.params.output.pixels);
         let buckets = self.buckets(samples)?;
         let held = self.held_bytes(samples) + 8.0 * samples.len() as f64;

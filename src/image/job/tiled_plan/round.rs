@@ -615,21 +615,15 @@ impl TiledPlanState {
         })
     }
 
-    /// The final image of `samples` (the positions of rounds `0..=k` for some `k`): every
-    /// tile's fit of its window's samples on its tree, warm-started from its carried start,
-    /// its output pixels by `estimate` (`None`: the plan's), the interiors stitched.
-    pub fn final_image(
-        &self,
-        samples: &ImageSamples,
-        estimate: Option<PixelEstimate>,
-    ) -> Result<TiledFinal, TiledPlanError> {
+    /// Checks that `samples` are the positions of every round handed out (the final image's
+    /// samples): only the last round's tiles' trees are kept, so earlier rounds are refused.
+    pub(super) fn check_final_samples(&self, samples: &ImageSamples) -> Result<(), TiledPlanError> {
         let k = match self.matching_round(samples) {
             Ok(k) => k,
             Err(ProtocolError::AlreadyPlanned { matched, .. }) => matched,
             Err(e) => return Err(e.into()),
         };
         if k != self.round() {
-            // only the last round's tiles' trees are kept: earlier rounds are refused
             return Err(ProtocolError::AlreadyPlanned {
                 given: samples.len(),
                 matched: k,
@@ -638,6 +632,18 @@ impl TiledPlanState {
             }
             .into());
         }
+        Ok(())
+    }
+
+    /// The final image of `samples` (the positions of rounds `0..=k` for some `k`): every
+    /// tile's fit of its window's samples on its tree, warm-started from its carried start,
+    /// its output pixels by `estimate` (`None`: the plan's), the interiors stitched.
+    pub fn final_image(
+        &self,
+        samples: &ImageSamples,
+        estimate: Option<PixelEstimate>,
+    ) -> Result<TiledFinal, TiledPlanError> {
+        self.check_final_samples(samples)?;
         let wall = Instant::now();
         let estimate = estimate.unwrap_or(self.params.output.pixels);
         let mut times = TiledTimes::default();
@@ -702,7 +708,7 @@ impl TiledPlanState {
         times.wall_s = wall.elapsed().as_secs_f64();
         Ok(TiledFinal {
             image,
-            round: k,
+            round: self.round(),
             complete: self.stop.is_some(),
             times,
         })
