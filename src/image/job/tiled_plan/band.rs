@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::error::TiledPlanError;
-use super::round::{fingerprint, TileOutcome};
+use super::round::TileOutcome;
 use super::state::{
     all_stopped, TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
 };
@@ -44,7 +44,7 @@ use super::times::TiledTimes;
 use super::window::{plan_window, tile_output};
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{AdaptiveParams, FitState, PixelEstimate, SamplePositions};
-use crate::image::plan::{IssuedRound, ProtocolError};
+use crate::image::plan::ProtocolError;
 use crate::image::tiles::TileGeometry;
 use crate::image::{ImagePlane, ImageSamples, PixelImage};
 
@@ -517,22 +517,11 @@ impl TiledPlanState {
                 TiledTimes::default(),
             ));
         }
-        let prev = self
-            .issued
-            .last()
-            .expect("a plan has its base round")
-            .clone();
-        let start = u64::from_str_radix(&prev.fingerprint, 16).expect("checked when read");
-        self.issued.push(IssuedRound {
-            round: prev.round + 1,
-            positions: next.len(),
-            total: prev.total + next.len(),
-            fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
-        });
+        let next_round = self.issue_round(&next);
         Ok(super::TiledStep {
             next_positions: next.len(),
             next,
-            next_round: Some(prev.round + 1),
+            next_round: Some(next_round),
             stop: None,
             total_positions: self.positions(),
             budget: self.params.stop.budget,

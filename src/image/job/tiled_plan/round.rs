@@ -582,24 +582,13 @@ impl TiledPlanState {
             (step.diagonals_kept, step.diagonals_over) = (diagonals_kept, diagonals_over);
             return Ok(step);
         }
-        let prev = self
-            .issued
-            .last()
-            .expect("a plan has its base round")
-            .clone();
-        let start = u64::from_str_radix(&prev.fingerprint, 16).expect("checked when read");
-        self.issued.push(IssuedRound {
-            round: prev.round + 1,
-            positions: next.len(),
-            total: prev.total + next.len(),
-            fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
-        });
+        let next_round = self.issue_round(&next);
         times.commit_s = t.elapsed().as_secs_f64();
         times.wall_s = wall.elapsed().as_secs_f64();
         Ok(TiledStep {
             next_positions: next.len(),
             next,
-            next_round: Some(prev.round + 1),
+            next_round: Some(next_round),
             stop: None,
             total_positions: self.positions(),
             budget,
@@ -613,6 +602,24 @@ impl TiledPlanState {
             diagonals_over,
             times,
         })
+    }
+
+    /// Records the positions `next` handed out as the next round (count and order-free
+    /// fingerprint chained from the last round's, the untiled plan's rule); returns its number.
+    pub(super) fn issue_round(&mut self, next: &SamplePositions) -> usize {
+        let prev = self
+            .issued
+            .last()
+            .expect("a plan has its base round")
+            .clone();
+        let start = u64::from_str_radix(&prev.fingerprint, 16).expect("checked when read");
+        self.issued.push(IssuedRound {
+            round: prev.round + 1,
+            positions: next.len(),
+            total: prev.total + next.len(),
+            fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
+        });
+        prev.round + 1
     }
 
     /// Checks that `samples` are the positions of every round handed out (the final image's
