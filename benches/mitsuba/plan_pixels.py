@@ -15,6 +15,11 @@ estimates the pixels from them). Nothing is rendered.
 pixels in quarters by texture (the variance of the uniform samples inside each pixel, summed
 over channels) with their mean count and the clipped MSE of the plan's final image, of the
 mean of the plan's samples and of the mean of the uniform samples at the same spp.
+
+`--by-count` adds, per row, the pixels binned by how many samples the plan gave them: the
+clipped MSE of the mean of the plan's samples in each bin beside the MSE of Mitsuba's box
+films at 4 / 8 / 16 / 32 (35) spp on the same pixels (what uniform stratified samples at
+those counts would give there) and the bin's share of the plan's error.
 """
 
 import argparse
@@ -50,6 +55,7 @@ def main():
     ap.add_argument("--cache", default=DEFAULT_CACHE, help="the suite's cache (SCENE/ref.npy)")
     ap.add_argument("--estimates", nargs="+", default=ESTIMATES, help="the output estimates")
     ap.add_argument("--placement", action="store_true", help="counts and texture quarters")
+    ap.add_argument("--by-count", action="store_true", help="error by the pixels' sample counts")
     args = ap.parse_args()
     n = args.resolution
     cols = args.estimates + ["mean of the plan's samples", "box film (uniform samples)"]
@@ -87,6 +93,8 @@ def main():
             print(f"| {scene} | {spp} | " + " | ".join(cells) + " |", flush=True)
             if args.placement:
                 placement(args, scene, spp, samples, ref)
+            if args.by_count:
+                by_count(args, scene, spp, samples, ref)
 
 
 def placement(args, scene, spp, samples, ref):
@@ -116,6 +124,35 @@ def placement(args, scene, spp, samples, ref):
         sel = order[i * q:(i + 1) * q]
         print(f"    {name:22s} mean count {c[sel].mean():5.1f}; MSE final {mse(plan, sel):.2e}, "
               f"plan's mean {mse(pm, sel):.2e}, uniform mean {mse(um, sel):.2e}")
+
+
+COUNT_BINS = [0, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 1 << 30]
+
+
+def by_count(args, scene, spp, samples, ref):
+    """The mean of the plan's samples against uniform films, pixels binned by the plan's count."""
+    n = args.resolution
+    pm, counts, _, _ = oidn.pixel_mean(np.load(samples), n, n)
+    c = counts.ravel()
+    clip = np.clip(ref, 0, 1)
+
+    def err(img):
+        return ((np.clip(img, 0, 1) - clip) ** 2).reshape(-1, 3).mean(1)
+
+    ep = err(pm)
+    films = {}
+    for k in (4, 8, 16, 32):
+        path = os.path.join(args.cache, scene, f"film-box-{k}.npy")
+        if os.path.exists(path):
+            films[k] = err(np.load(path).astype(np.float64))
+    print(f"  {scene} {spp}: MSE of the plan's mean {ep.mean():.3e}; by the plan's samples a pixel "
+          f"(pixels; plan's mean; box film at {' / '.join(map(str, films))} spp on the same pixels; share of the error):")
+    for a, b in zip(COUNT_BINS[:-1], COUNT_BINS[1:]):
+        sel = (c > a) & (c <= b)
+        if sel.any():
+            films_cell = " / ".join(f"{films[k][sel].mean():.2e}" for k in films)
+            print(f"    ({a}, {min(b, int(c.max()))}]: {sel.sum()}; {ep[sel].mean():.2e}; "
+                  f"{films_cell}; {ep[sel].sum() / ep.sum():.2f}")
 
 
 if __name__ == "__main__":
