@@ -84,12 +84,18 @@ pub fn film_candidate(
                     let s2 = &sample_variance[q * channels..(q + 1) * channels];
                     acc.add(wt, i, q == row + px, samples, s2);
                 });
-                let (a, out) = acc.finish();
-                own[px] = a;
-                for (c, (v, var)) in out.into_iter().enumerate() {
-                    values[px * channels + c] = v;
-                    variances[px * channels + c] = var;
+                if acc.cancels() {
+                    // The signed weights cancel: the sums again with `|w|`, in the same order.
+                    acc.clear_sums();
+                    weights.pixel(px, |i, q, wt| {
+                        let s2 = &sample_variance[q * channels..(q + 1) * channels];
+                        acc.add_sums(wt.abs(), i, samples, s2);
+                    });
                 }
+                own[px] = acc.finish(
+                    &mut values[px * channels..(px + 1) * channels],
+                    &mut variances[px * channels..(px + 1) * channels],
+                );
             }
             (values, variances, own)
         });
@@ -113,12 +119,20 @@ pub fn film_candidate(
     }
 }
 
-/// Sums of one pixel's weighted samples, with signed and with absolute weights.
+/// Sums of one pixel's weighted samples: the weights' sums with signed and with absolute
+/// weights, the values' and variances' sums with one of them (the signed weights, or `|w|`
+/// after [`Accumulator::clear_sums`] where [`Accumulator::cancels`]).
+///
+/// The sums with `|w|` are needed only where the signed weights cancel, so they are formed
+/// only there, by a second pass over the pixel's samples in the same order: every sum is the
+/// one a single pass forming both would give, bit for bit.
 struct Accumulator {
     den: [f64; 2],
     own: [f64; 2],
-    num: [Vec<f64>; 2],
-    var: [Vec<f64>; 2],
+    num: Vec<f64>,
+    var: Vec<f64>,
+    /// Whether `num` and `var` hold the `|w|` sums.
+    absolute: bool,
 }
 
 impl Accumulator {
@@ -126,18 +140,24 @@ impl Accumulator {
         Self {
             den: [0.0; 2],
             own: [0.0; 2],
-            num: [vec![0.0; channels], vec![0.0; channels]],
-            var: [vec![0.0; channels], vec![0.0; channels]],
+            num: vec![0.0; channels],
+            var: vec![0.0; channels],
+            absolute: false,
         }
     }
 
     fn clear(&mut self) {
         self.den = [0.0; 2];
         self.own = [0.0; 2];
-        for k in 0..2 {
-            self.num[k].iter_mut().for_each(|v| *v = 0.0);
-            self.var[k].iter_mut().for_each(|v| *v = 0.0);
-        }
+        self.absolute = false;
+        self.clear_sums();
+    }
+
+    /// Empties the values' and variances' sums for a pass with `|w|`.
+    fn clear_sums(&mut self) {
+        self.num.iter_mut().for_each(|v| *v = 0.0);
+        self.var.iter_mut().for_each(|v| *v = 0.0);
+        self.absolute = true;
     }
 
     /// Adds sample `i` with weight `wt`; `mine` when it lies in the pixel itself, `s2` the
@@ -149,34 +169,47 @@ impl Accumulator {
             if mine {
                 self.own[k] += wk;
             }
-            let w2 = wk * wk;
-            let (num, var) = (&mut self.num[k], &mut self.var[k]);
-            for (((n, v), values), s) in num
-                .iter_mut()
-                .zip(var.iter_mut())
-                .zip(samples.values())
-                .zip(s2)
-            {
-                *n += wk * values[i];
-                *v += w2 * s;
-            }
+        }
+        self.add_sums(wt, i, samples, s2);
+    }
+
+    /// Adds sample `i` with weight `wk` to the values' and variances' sums alone.
+    #[inline]
+    fn add_sums(&mut self, wk: f64, i: usize, samples: &ImageSamples, s2: &[f64]) {
+        let w2 = wk * wk;
+        for (((n, v), values), s) in self
+            .num
+            .iter_mut()
+            .zip(self.var.iter_mut())
+            .zip(samples.values())
+            .zip(s2)
+        {
+            *n += wk * values[i];
+            *v += w2 * s;
         }
     }
 
-    /// `(A_P, [(F_P, Var F_P) per channel])`, with `|w|` where the signed weights cancel.
-    fn finish(&self) -> (f64, Vec<(f64, f64)>) {
-        let k = if self.den[0].abs() <= CANCELLATION_RATIO * self.den[1] {
-            1
-        } else {
-            0
-        };
+    /// Whether the signed weights cancel, `|sum w| <= CANCELLATION_RATIO sum |w|`, so that
+    /// the pixel is averaged with `|w|`.
+    fn cancels(&self) -> bool {
+        self.den[0].abs() <= CANCELLATION_RATIO * self.den[1]
+    }
+
+    /// Writes `F_P` and `Var F_P` per channel into `value` and `variance`, and returns
+    /// `A_P`, with `|w|` where the signed weights cancel.
+    fn finish(&self, value: &mut [f64], variance: &mut [f64]) -> f64 {
+        let k = usize::from(self.cancels());
+        debug_assert_eq!(k == 1, self.absolute, "the sums' weights match the choice");
         let den = self.den[k];
-        let out = self.num[k]
-            .iter()
-            .zip(&self.var[k])
-            .map(|(n, v)| (n / den, v / (den * den)))
-            .collect();
-        (self.own[k] / den, out)
+        for ((out, var), (n, v)) in value
+            .iter_mut()
+            .zip(variance.iter_mut())
+            .zip(self.num.iter().zip(&self.var))
+        {
+            *out = n / den;
+            *var = v / (den * den);
+        }
+        self.own[k] / den
     }
 }
 
