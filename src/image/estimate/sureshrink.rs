@@ -56,7 +56,7 @@ pub fn sure_lambda(d: &[f64], s: &[f64], cap: f64) -> f64 {
     if z.is_empty() {
         return 0.0;
     }
-    sort_by_ratio(&mut z);
+    z.sort_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = z.iter().map(|c| c.2).sum();
     // lambda = 0: every coefficient kept, risk sum s² (SURE of the identity).
     let (mut best, mut best_risk) = (0.0, total);
@@ -75,56 +75,6 @@ pub fn sure_lambda(d: &[f64], s: &[f64], cap: f64) -> f64 {
         }
     }
     best
-}
-
-/// Lists shorter than this are sorted by comparisons; longer ones by radix.
-const RADIX_FROM: usize = 2048;
-
-/// Bits of the key a radix pass sorts by.
-const RADIX_BITS: u32 = 11;
-
-/// Sorts `z` by its first entry in the order of `f64::total_cmp`, stably (ties keep their
-/// order): the order `z.sort_by(|a, b| a.0.total_cmp(&b.0))` gives, element for element, so
-/// the sums [`sure_lambda`] forms in that order are the same bits.
-///
-/// The first entries are absolute values (sign bit 0, NaN included), and on those
-/// `total_cmp` is the order of the bit patterns read as `u64`; a least-significant-digit
-/// radix sort by those bits, [`RADIX_BITS`] a pass, each pass stable, is a stable sort by
-/// the whole key (`O(n)` a pass; passes whose digit is the same for every key are skipped).
-fn sort_by_ratio(z: &mut Vec<(f64, f64, f64)>) {
-    debug_assert!(z.iter().all(|c| c.0.is_sign_positive()), "absolute values");
-    if z.len() < RADIX_FROM {
-        z.sort_by(|a, b| a.0.total_cmp(&b.0));
-        return;
-    }
-    let buckets = 1usize << RADIX_BITS;
-    let mask = (buckets - 1) as u64;
-    let mut other = z.clone();
-    let mut count = vec![0usize; buckets];
-    let mut shift = 0;
-    while shift < 64 {
-        count.iter_mut().for_each(|c| *c = 0);
-        for c in z.iter() {
-            count[((c.0.to_bits() >> shift) & mask) as usize] += 1;
-        }
-        if count.iter().any(|&n| n == z.len()) {
-            shift += RADIX_BITS;
-            continue;
-        }
-        let mut start = 0;
-        for c in count.iter_mut() {
-            let n = *c;
-            *c = start;
-            start += n;
-        }
-        for c in z.iter() {
-            let digit = ((c.0.to_bits() >> shift) & mask) as usize;
-            other[count[digit]] = *c;
-            count[digit] += 1;
-        }
-        std::mem::swap(z, &mut other);
-        shift += RADIX_BITS;
-    }
 }
 
 /// Heteroscedastic cycle-spun SureShrink of one channel `image` (`width x height`, row-major)
@@ -251,50 +201,6 @@ mod tests {
         for i in 0..=3000 {
             let l = cap * i as f64 / 3000.0;
             assert!(best <= sure(l) + 1e-9 * best.abs(), "{lambda} {l}");
-        }
-    }
-
-    /// The radix sort gives the stable comparison sort's order element for element (`==` on
-    /// the bits): long lists with ties (coarse values), zeros, infinities and NaN, and a short
-    /// list (the comparison path).
-    #[test]
-    fn the_radix_order_is_the_stable_sorts() {
-        let mut state = 99u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for (n, coarse) in [
-            (5000, false),
-            (5000, true),
-            (100, true),
-            (RADIX_FROM, false),
-        ] {
-            let z: Vec<(f64, f64, f64)> = (0..n)
-                .map(|k| {
-                    let x = next() * 1e3;
-                    let v = match k % 97 {
-                        0 => 0.0,
-                        1 => f64::INFINITY,
-                        2 => f64::NAN.abs(),
-                        _ if coarse => x.round(),
-                        _ => x * next().powi(20),
-                    };
-                    (v, k as f64, next())
-                })
-                .collect();
-            let mut expected = z.clone();
-            expected.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let mut got = z;
-            sort_by_ratio(&mut got);
-            let bits = |v: &[(f64, f64, f64)]| -> Vec<[u64; 3]> {
-                v.iter()
-                    .map(|c| [c.0.to_bits(), c.1.to_bits(), c.2.to_bits()])
-                    .collect()
-            };
-            assert_eq!(bits(&got), bits(&expected), "{n} {coarse}");
         }
     }
 
