@@ -132,6 +132,13 @@ impl RowWeights<'_> {
     /// pixel `(px, Y)`, in the direct gather's order (module docs).
     #[inline]
     pub fn pixel(&self, px: usize, mut visit: impl FnMut(usize, usize, f64)) {
+        self.pixel_slots(px, |_, i, q, wt| visit(i, q, wt));
+    }
+
+    /// [`Self::pixel`], with each sample's position `pos` in `bins.order` (`order[pos] = i`)
+    /// first: `visit(pos, i, q, w_i)`, for data the caller laid out in bin order.
+    #[inline]
+    pub fn pixel_slots(&self, px: usize, mut visit: impl FnMut(usize, usize, usize, f64)) {
         let (r, reach, w) = (self.radius, self.reach, self.width);
         let k = 2 * reach + 1;
         let (cx, cy) = (px as f64 + 0.5, self.py as f64 + 0.5);
@@ -147,7 +154,7 @@ impl RowWeights<'_> {
                         continue;
                     }
                     let slot = pos - self.base;
-                    visit(i, q, self.fx[slot * k + column] * self.fy[slot]);
+                    visit(pos, i, q, self.fx[slot * k + column] * self.fy[slot]);
                 }
             }
         }

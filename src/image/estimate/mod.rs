@@ -40,6 +40,7 @@ mod report;
 pub mod robust;
 pub mod shrink;
 pub mod spatial;
+pub mod spin;
 pub mod statistics;
 pub mod sure;
 pub mod sureshrink;

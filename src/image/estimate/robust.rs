@@ -39,6 +39,7 @@
 //! `d r_P / d m_P = (n_P - k_P) / n_P + k_P / N_W(P)`, `N_W` the samples of the window (the
 //! threshold's own small move with the pixel's samples neglected).
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::statistics::median;
@@ -106,6 +107,41 @@ impl RobustReport {
     }
 }
 
+/// The threshold `tau_P = med + kappa 1.4826 MAD` of every pixel (row-major) from the values
+/// of the samples of its 3 x 3 neighbourhood (module docs), `None` where the neighbourhood
+/// holds none. The rows in parallel: each pixel's threshold is its own neighbourhood's alone.
+fn cut_thresholds(
+    bins: &PixelBins,
+    values: &[f64],
+    (w, h): (usize, usize),
+    kappa: f64,
+) -> Vec<Option<f64>> {
+    let rows: Vec<Vec<Option<f64>>> = (0..h)
+        .into_par_iter()
+        .map_init(Vec::new, |neighbourhood: &mut Vec<f64>, py| {
+            (0..w)
+                .map(|px| {
+                    neighbourhood.clear();
+                    for qy in py.saturating_sub(1)..(py + 2).min(h) {
+                        for qx in px.saturating_sub(1)..(px + 2).min(w) {
+                            neighbourhood
+                                .extend(bins.in_pixel(qy * w + qx).iter().map(|&i| values[i]));
+                        }
+                    }
+                    if neighbourhood.is_empty() {
+                        return None;
+                    }
+                    let med = median(neighbourhood);
+                    neighbourhood.iter_mut().for_each(|v| *v = (*v - med).abs());
+                    let mad = median(neighbourhood);
+                    Some(med + kappa * 1.4826 * mad)
+                })
+                .collect()
+        })
+        .collect();
+    rows.concat()
+}
+
 /// The robust estimate: its pixels, their divergence per channel and the report (with
 /// `gated_pixels` 0; the caller fills it).
 pub fn robust_estimate(
@@ -124,37 +160,22 @@ pub fn robust_estimate(
     let mut divergence = vec![vec![1.0; pixels]; channels];
     let mut cut_any = vec![false; samples.len()];
     let (mut cut_fraction, mut mean_bias, mut bias_bound) = (vec![], vec![], vec![]);
-    let mut neighbourhood: Vec<f64> = Vec::new();
     for (c, values) in samples.values().iter().enumerate() {
         let mut cut_sum = vec![0.0; pixels];
         let mut excess = vec![0.0; pixels];
         let mut cut_count = vec![0.0; pixels];
-        for py in 0..h {
-            for px in 0..w {
-                neighbourhood.clear();
-                for qy in py.saturating_sub(1)..(py + 2).min(h) {
-                    for qx in px.saturating_sub(1)..(px + 2).min(w) {
-                        neighbourhood.extend(bins.in_pixel(qy * w + qx).iter().map(|&i| values[i]));
-                    }
-                }
-                if neighbourhood.is_empty() {
-                    continue;
-                }
-                let med = median(&mut neighbourhood);
-                neighbourhood.iter_mut().for_each(|v| *v = (*v - med).abs());
-                let mad = median(&mut neighbourhood);
-                let tau = med + kappa * 1.4826 * mad;
-                let p = py * w + px;
-                for &i in bins.in_pixel(p) {
-                    let v = values[i];
-                    if v > tau {
-                        cut_sum[p] += tau;
-                        excess[p] += v - tau;
-                        cut_count[p] += 1.0;
-                        cut_any[i] = true;
-                    } else {
-                        cut_sum[p] += v;
-                    }
+        let thresholds = cut_thresholds(bins, values, (w, h), kappa);
+        for (p, tau) in thresholds.into_iter().enumerate() {
+            let Some(tau) = tau else { continue };
+            for &i in bins.in_pixel(p) {
+                let v = values[i];
+                if v > tau {
+                    cut_sum[p] += tau;
+                    excess[p] += v - tau;
+                    cut_count[p] += 1.0;
+                    cut_any[i] = true;
+                } else {
+                    cut_sum[p] += v;
                 }
             }
         }

@@ -19,6 +19,7 @@
 //! unchanged (its details are zero); each channel is shrunk with its own `sigma_c`.
 
 use super::haar::{Haar2d, HaarCoefficients};
+use super::spin::{add_into, for_each_shift_in_order};
 
 /// Parameters of the shrinkage.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -92,32 +93,33 @@ fn shrink_spun(
     let shifts = shifts.max(1);
     let mut sum = vec![0.0; image.len()];
     let mut div = vec![0.0; image.len()];
-    for oy in 0..shifts {
-        for ox in 0..shifts {
-            let haar = Haar2d::new(width, height, ox, oy);
-            let mut c = haar.forward(image);
-            if divergence {
-                let mut keep = HaarCoefficients {
-                    approximation: vec![1.0; c.approximation.len()],
-                    levels: c.levels.clone(),
-                };
-                for (bands, kbands) in c.levels.iter().zip(&mut keep.levels) {
-                    for (d, g) in bands.values().zip(kbands.values_mut()) {
-                        *g = f64::from(u8::from(d.abs() > t || t == 0.0));
-                    }
-                }
-                for (s, v) in div.iter_mut().zip(haar.inverse_squared(&keep)) {
-                    *s += v;
+    // The offsets in parallel, summed in the serial order (`super::spin`).
+    let one_shift = |ox: usize, oy: usize| {
+        let haar = Haar2d::new(width, height, ox, oy);
+        let mut c = haar.forward(image);
+        let shift_divergence = divergence.then(|| {
+            let mut keep = HaarCoefficients {
+                approximation: vec![1.0; c.approximation.len()],
+                levels: c.levels.clone(),
+            };
+            for (bands, kbands) in c.levels.iter().zip(&mut keep.levels) {
+                for (d, g) in bands.values().zip(kbands.values_mut()) {
+                    *g = f64::from(u8::from(d.abs() > t || t == 0.0));
                 }
             }
-            for bands in &mut c.levels {
-                bands.values_mut().for_each(|d| *d = soft(*d, t));
-            }
-            for (s, v) in sum.iter_mut().zip(haar.inverse(&c)) {
-                *s += v;
-            }
+            haar.inverse_squared(&keep)
+        });
+        for bands in &mut c.levels {
+            bands.values_mut().for_each(|d| *d = soft(*d, t));
         }
-    }
+        (haar.inverse(&c), shift_divergence)
+    };
+    for_each_shift_in_order(shifts, one_shift, |(shrunk, shift_divergence)| {
+        if let Some(d) = shift_divergence {
+            add_into(&mut div, &d);
+        }
+        add_into(&mut sum, &shrunk);
+    });
     let n = (shifts * shifts) as f64;
     sum.iter_mut().for_each(|s| *s /= n);
     div.iter_mut().for_each(|s| *s /= n);

@@ -61,6 +61,7 @@ pub fn film_candidate(
     film: FilmFilterKind,
 ) -> FilmCandidate {
     let filter = film.build();
+    let reach = crate::image::film_weights::reach(filter.radius());
     let plane = samples.plane();
     let w = plane.width();
     let channels = samples.channels();
@@ -74,22 +75,43 @@ pub fn film_candidate(
     let rows: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
         map_rows(samples, bins, filter.as_ref(), |weights| {
             let row = weights.row() * w;
+            // The values of the samples this row reaches (pixel rows `Y - R..=Y + R`) in bin
+            // order, interleaved by channel (`binned[(pos - first) * ch + c]` =
+            // `v_{c, order[pos]}`): the gather reads them in that order, contiguously, not
+            // scattered over the channels' arrays; the same numbers, so the same sums. One
+            // row's copy at a time, `(2 R + 1)` rows of samples.
+            let (r0, r1) = (
+                weights.row().saturating_sub(reach),
+                (weights.row() + reach + 1).min(plane.height()),
+            );
+            let first = bins.start[r0 * w];
+            let binned: Vec<f64> = bins.order[first..bins.start[r1 * w]]
+                .iter()
+                .flat_map(|&i| samples.values().iter().map(move |v| v[i]))
+                .collect();
+            let values_at = |pos: usize| &binned[(pos - first) * channels..][..channels];
             let mut values = vec![0.0; w * channels];
             let mut variances = vec![0.0; w * channels];
             let mut own = vec![0.0; w];
             let mut acc = Accumulator::new(channels);
             for px in 0..w {
                 acc.clear();
-                weights.pixel(px, |i, q, wt| {
+                weights.pixel_slots(px, |pos, _, q, wt| {
                     let s2 = &sample_variance[q * channels..(q + 1) * channels];
-                    acc.add(wt, i, q == row + px, samples, s2);
+                    acc.add(wt, q == row + px, values_at(pos), s2);
                 });
-                let (a, out) = acc.finish();
-                own[px] = a;
-                for (c, (v, var)) in out.into_iter().enumerate() {
-                    values[px * channels + c] = v;
-                    variances[px * channels + c] = var;
+                if acc.cancels() {
+                    // The signed weights cancel: the sums again with `|w|`, in the same order.
+                    acc.clear_sums();
+                    weights.pixel_slots(px, |pos, _, q, wt| {
+                        let s2 = &sample_variance[q * channels..(q + 1) * channels];
+                        acc.add_sums(wt.abs(), values_at(pos), s2);
+                    });
                 }
+                own[px] = acc.finish(
+                    &mut values[px * channels..(px + 1) * channels],
+                    &mut variances[px * channels..(px + 1) * channels],
+                );
             }
             (values, variances, own)
         });
@@ -113,12 +135,20 @@ pub fn film_candidate(
     }
 }
 
-/// Sums of one pixel's weighted samples, with signed and with absolute weights.
+/// Sums of one pixel's weighted samples: the weights' sums with signed and with absolute
+/// weights, the values' and variances' sums with one of them (the signed weights, or `|w|`
+/// after [`Accumulator::clear_sums`] where [`Accumulator::cancels`]).
+///
+/// The sums with `|w|` are needed only where the signed weights cancel, so they are formed
+/// only there, by a second pass over the pixel's samples in the same order: every sum is the
+/// one a single pass forming both would give, bit for bit.
 struct Accumulator {
     den: [f64; 2],
     own: [f64; 2],
-    num: [Vec<f64>; 2],
-    var: [Vec<f64>; 2],
+    num: Vec<f64>,
+    var: Vec<f64>,
+    /// Whether `num` and `var` hold the `|w|` sums.
+    absolute: bool,
 }
 
 impl Accumulator {
@@ -126,57 +156,77 @@ impl Accumulator {
         Self {
             den: [0.0; 2],
             own: [0.0; 2],
-            num: [vec![0.0; channels], vec![0.0; channels]],
-            var: [vec![0.0; channels], vec![0.0; channels]],
+            num: vec![0.0; channels],
+            var: vec![0.0; channels],
+            absolute: false,
         }
     }
 
     fn clear(&mut self) {
         self.den = [0.0; 2];
         self.own = [0.0; 2];
-        for k in 0..2 {
-            self.num[k].iter_mut().for_each(|v| *v = 0.0);
-            self.var[k].iter_mut().for_each(|v| *v = 0.0);
-        }
+        self.absolute = false;
+        self.clear_sums();
     }
 
-    /// Adds sample `i` with weight `wt`; `mine` when it lies in the pixel itself, `s2` the
-    /// variance `s²_{Q,c}` per channel of one sample of its pixel `Q`.
+    /// Empties the values' and variances' sums for a pass with `|w|`.
+    fn clear_sums(&mut self) {
+        self.num.iter_mut().for_each(|v| *v = 0.0);
+        self.var.iter_mut().for_each(|v| *v = 0.0);
+        self.absolute = true;
+    }
+
+    /// Adds a sample with weight `wt` and values `values` (per channel); `mine` when it lies
+    /// in the pixel itself, `s2` the variance `s²_{Q,c}` per channel of one sample of its
+    /// pixel `Q`.
     #[inline]
-    fn add(&mut self, wt: f64, i: usize, mine: bool, samples: &ImageSamples, s2: &[f64]) {
+    fn add(&mut self, wt: f64, mine: bool, values: &[f64], s2: &[f64]) {
         for (k, wk) in [wt, wt.abs()].into_iter().enumerate() {
             self.den[k] += wk;
             if mine {
                 self.own[k] += wk;
             }
-            let w2 = wk * wk;
-            let (num, var) = (&mut self.num[k], &mut self.var[k]);
-            for (((n, v), values), s) in num
-                .iter_mut()
-                .zip(var.iter_mut())
-                .zip(samples.values())
-                .zip(s2)
-            {
-                *n += wk * values[i];
-                *v += w2 * s;
-            }
+        }
+        self.add_sums(wt, values, s2);
+    }
+
+    /// Adds a sample with weight `wk` to the values' and variances' sums alone.
+    #[inline]
+    fn add_sums(&mut self, wk: f64, values: &[f64], s2: &[f64]) {
+        let w2 = wk * wk;
+        for (((n, v), value), s) in self
+            .num
+            .iter_mut()
+            .zip(self.var.iter_mut())
+            .zip(values)
+            .zip(s2)
+        {
+            *n += wk * value;
+            *v += w2 * s;
         }
     }
 
-    /// `(A_P, [(F_P, Var F_P) per channel])`, with `|w|` where the signed weights cancel.
-    fn finish(&self) -> (f64, Vec<(f64, f64)>) {
-        let k = if self.den[0].abs() <= CANCELLATION_RATIO * self.den[1] {
-            1
-        } else {
-            0
-        };
+    /// Whether the signed weights cancel, `|sum w| <= CANCELLATION_RATIO sum |w|`, so that
+    /// the pixel is averaged with `|w|`.
+    fn cancels(&self) -> bool {
+        self.den[0].abs() <= CANCELLATION_RATIO * self.den[1]
+    }
+
+    /// Writes `F_P` and `Var F_P` per channel into `value` and `variance`, and returns
+    /// `A_P`, with `|w|` where the signed weights cancel.
+    fn finish(&self, value: &mut [f64], variance: &mut [f64]) -> f64 {
+        let k = usize::from(self.cancels());
+        debug_assert_eq!(k == 1, self.absolute, "the sums' weights match the choice");
         let den = self.den[k];
-        let out = self.num[k]
-            .iter()
-            .zip(&self.var[k])
-            .map(|(n, v)| (n / den, v / (den * den)))
-            .collect();
-        (self.own[k] / den, out)
+        for ((out, var), (n, v)) in value
+            .iter_mut()
+            .zip(variance.iter_mut())
+            .zip(self.num.iter().zip(&self.var))
+        {
+            *out = n / den;
+            *var = v / (den * den);
+        }
+        self.own[k] / den
     }
 }
 
@@ -339,8 +389,9 @@ mod tests {
     /// The candidates from the cached 1D factors equal, bit for bit, the same sums over the
     /// direct gather (`eval_2d` per sample and pixel, naive loops): `F_P`, `A_P` and
     /// `Var F_P` of every pixel for all five films, on random positions with border samples,
-    /// a plane taller than one band. Compared by their bits (`0 / 0` where the box has no
-    /// sample, the same NaN both ways).
+    /// a plane taller than one band; the reference forms the signed and the `|w|` sums in one
+    /// pass and keeps the `|w|` ones where the signed weights cancel. Compared by their bits
+    /// (`0 / 0` where the box has no sample, the same NaN both ways).
     #[test]
     fn candidates_equal_the_direct_gather_bit_for_bit() {
         use crate::image::film_weights::test_support::{direct_pixel, random_samples};
@@ -351,26 +402,39 @@ mod tests {
         for film in FilmFilterKind::ALL {
             let candidate = film_candidate(&samples, &bins, &noise, film);
             let filter = film.build();
-            let mut acc = Accumulator::new(samples.channels());
             for py in 0..h {
                 for px in 0..w {
                     let p = py * w + px;
-                    acc.clear();
+                    let mut visits = vec![];
                     direct_pixel(&samples, &bins, filter.as_ref(), (px, py), |i, q, wt| {
-                        let s2: Vec<f64> = (0..samples.channels())
-                            .map(|c| noise.sample_variance(c, q))
-                            .collect();
-                        acc.add(wt, i, q == p, &samples, &s2)
+                        visits.push((i, q, wt))
                     });
-                    let (a, out) = acc.finish();
+                    // One pass forming the signed and the `|w|` sums, in visit order.
+                    let mut den = [0.0; 2];
+                    let mut own = [0.0; 2];
+                    let mut num = [vec![0.0; samples.channels()], vec![0.0; samples.channels()]];
+                    let mut var = num.clone();
+                    for &(i, q, wt) in &visits {
+                        for (k, wk) in [wt, wt.abs()].into_iter().enumerate() {
+                            den[k] += wk;
+                            if q == p {
+                                own[k] += wk;
+                            }
+                            for c in 0..samples.channels() {
+                                num[k][c] += wk * samples.values()[c][i];
+                                var[k][c] += wk * wk * noise.sample_variance(c, q);
+                            }
+                        }
+                    }
+                    let k = usize::from(den[0].abs() <= CANCELLATION_RATIO * den[1]);
                     // The bits (a pixel without samples in reach is 0 / 0 both ways).
                     let same = |x: f64, y: f64| {
                         assert_eq!(x.to_bits(), y.to_bits(), "{film} ({px}, {py}): {x} {y}")
                     };
-                    same(candidate.own_weight[p], a);
-                    for (c, (v, var)) in out.into_iter().enumerate() {
-                        same(candidate.image.channels[c][p], v);
-                        same(candidate.variance[c][p], var);
+                    same(candidate.own_weight[p], own[k] / den[k]);
+                    for c in 0..samples.channels() {
+                        same(candidate.image.channels[c][p], num[k][c] / den[k]);
+                        same(candidate.variance[c][p], var[k][c] / (den[k] * den[k]));
                     }
                 }
             }

@@ -29,6 +29,7 @@
 //! box's `v_P`.
 
 use super::haar::{Haar2d, HaarCoefficients};
+use super::spin::{add_into, for_each_shift_in_order};
 
 /// The shrunk channel and what the shrinkage did.
 #[derive(Debug, Clone, PartialEq)]
@@ -103,44 +104,56 @@ fn shrink_with(
     let mut lambdas = vec![];
     let (mut killed, mut details) = (0usize, 0usize);
     let variance: Vec<f64> = variance.iter().map(|v| v.max(0.0)).collect();
-    for oy in 0..shifts {
-        for ox in 0..shifts {
-            let haar = Haar2d::new(width, height, ox, oy);
-            let mut c = haar.forward(image);
-            let var = haar.forward_squared(&variance);
-            let mut keep = HaarCoefficients {
-                approximation: vec![1.0; c.approximation.len()],
-                levels: var.levels.clone(),
-            };
-            for ((bands, vbands), kbands) in
-                c.levels.iter_mut().zip(&var.levels).zip(&mut keep.levels)
-            {
-                let d: Vec<f64> = bands.values().copied().collect();
-                let s: Vec<f64> = vbands.values().map(|v| v.max(0.0).sqrt()).collect();
-                let cap = (2.0 * (d.len().max(2) as f64).ln()).sqrt();
-                let lambda = fixed.unwrap_or_else(|| sure_lambda(&d, &s, cap));
-                lambdas.push(lambda);
-                for ((dk, sk), gk) in bands.values_mut().zip(&s).zip(kbands.values_mut()) {
-                    let t = lambda * sk;
-                    let kept = dk.abs() > t || t == 0.0;
-                    *dk = if kept {
-                        dk.signum() * (dk.abs() - t)
-                    } else {
-                        0.0
-                    };
-                    *gk = f64::from(u8::from(kept));
-                    killed += usize::from(!kept);
-                    details += 1;
-                }
-            }
-            for (s, v) in sum.iter_mut().zip(haar.inverse(&c)) {
-                *s += v;
-            }
-            for (s, v) in div.iter_mut().zip(haar.inverse_squared(&keep)) {
-                *s += v;
+    // The offsets in parallel, summed in the serial order (`super::spin`).
+    let one_shift = |ox: usize, oy: usize| {
+        let haar = Haar2d::new(width, height, ox, oy);
+        let mut c = haar.forward(image);
+        let var = haar.forward_squared(&variance);
+        let mut keep = HaarCoefficients {
+            approximation: vec![1.0; c.approximation.len()],
+            levels: var.levels.clone(),
+        };
+        let mut shift_lambdas = vec![];
+        let (mut shift_killed, mut shift_details) = (0usize, 0usize);
+        for ((bands, vbands), kbands) in c.levels.iter_mut().zip(&var.levels).zip(&mut keep.levels)
+        {
+            let d: Vec<f64> = bands.values().copied().collect();
+            let s: Vec<f64> = vbands.values().map(|v| v.max(0.0).sqrt()).collect();
+            let cap = (2.0 * (d.len().max(2) as f64).ln()).sqrt();
+            let lambda = fixed.unwrap_or_else(|| sure_lambda(&d, &s, cap));
+            shift_lambdas.push(lambda);
+            for ((dk, sk), gk) in bands.values_mut().zip(&s).zip(kbands.values_mut()) {
+                let t = lambda * sk;
+                let kept = dk.abs() > t || t == 0.0;
+                *dk = if kept {
+                    dk.signum() * (dk.abs() - t)
+                } else {
+                    0.0
+                };
+                *gk = f64::from(u8::from(kept));
+                shift_killed += usize::from(!kept);
+                shift_details += 1;
             }
         }
-    }
+        (
+            haar.inverse(&c),
+            haar.inverse_squared(&keep),
+            shift_lambdas,
+            shift_killed,
+            shift_details,
+        )
+    };
+    for_each_shift_in_order(
+        shifts,
+        one_shift,
+        |(shrunk, shift_divergence, shift_lambdas, shift_killed, shift_details)| {
+            add_into(&mut sum, &shrunk);
+            add_into(&mut div, &shift_divergence);
+            lambdas.extend(shift_lambdas);
+            killed += shift_killed;
+            details += shift_details;
+        },
+    );
     let n = (shifts * shifts) as f64;
     sum.iter_mut().for_each(|s| *s /= n);
     div.iter_mut().for_each(|s| *s /= n);
