@@ -188,12 +188,20 @@ struct Walk {
     cells: Vec<u64>,
     v: Vec<f64>,
     wav: Vec<f64>,
-    tmp: Vec<f64>,
 }
 
 impl Walk {
-    /// `v` at levels `lo..=hi`, wavelet values at `lo..=wav_hi`.
-    fn run(&mut self, tab: &DigitTables, pos: &Position, lo: u32, hi: u32, wav_hi: u32) {
+    /// `v` at levels `lo..=hi`, wavelet values at `lo..=wav_hi`; `v` at `hi` from `chain`
+    /// (the states of the digits below `hi`, shared by the walks of one position).
+    fn run(
+        &mut self,
+        tab: &DigitTables,
+        chain: &mut DigitChain,
+        pos: &Position,
+        lo: u32,
+        hi: u32,
+        wav_hi: u32,
+    ) {
         let w = tab.width;
         let levels = (hi - lo + 1) as usize;
         self.w = w;
@@ -203,7 +211,6 @@ impl Walk {
         self.cells.extend((lo..=hi).map(|j| pos.cell(j)));
         self.v.resize(levels * w, 0.0);
         self.wav.resize(levels * w, 0.0);
-        self.tmp.resize(2 * w, 0.0);
         let top = (hi - lo) as usize * w;
         if pos.one {
             for l in 0..levels {
@@ -219,30 +226,8 @@ impl Walk {
             }
             return;
         }
-        // v at the deepest level: digits hi+1..=K, last first.
-        {
-            let (a, b) = self.tmp.split_at_mut(w);
-            a.copy_from_slice(&tab.v0);
-            let mut cur: &mut [f64] = a;
-            let mut nxt: &mut [f64] = b;
-            if pos.k > hi {
-                let mut remaining = pos.k - hi;
-                while remaining >= 8 {
-                    let first = hi + remaining - 7;
-                    let byte = pos.byte(first);
-                    matvec(&tab.bytes[byte * w * w..(byte + 1) * w * w], cur, nxt);
-                    std::mem::swap(&mut cur, &mut nxt);
-                    remaining -= 8;
-                }
-                while remaining > 0 {
-                    let d = pos.digit(hi + remaining);
-                    matvec(&tab.t[d], cur, nxt);
-                    std::mem::swap(&mut cur, &mut nxt);
-                    remaining -= 1;
-                }
-            }
-            self.v[top..top + w].copy_from_slice(cur);
-        }
+        // v at the deepest level: digits hi+1..=K, last first (the chain's state S(hi)).
+        self.v[top..top + w].copy_from_slice(chain.state(tab, pos, hi));
         for j in (lo..hi).rev() {
             let l = (j - lo) as usize;
             let d = pos.digit(j + 1);
@@ -270,6 +255,93 @@ impl Walk {
     }
 }
 
+/// The states `S(j) = v(frac(2^j t))` of one position's digit walk, computed as a walk to
+/// level `j` computes them ([`Walk::run`]) and kept for every later walk of the same position
+/// (the multilevel evaluator walks one position once per level). With `K` the position's
+/// last binary digit, a walk to `j` applies the byte products of the digits `K-7..K`,
+/// `K-15..K-8`, ... down to level `j + r`, `r = (K - j) mod 8`, then the single digits
+/// `d_{j+r}, ..., d_{j+1}`, so
+///
+/// ```text
+/// S(j) = v(0)                               j >= K,
+/// S(j) = P_{d_{j+1} .. d_{j+8}} S(j + 8)    K - j a positive multiple of 8,
+/// S(j) = T_{d_{j+1}} S(j + 1)               otherwise:
+/// ```
+///
+/// the same products in the same order, so a state from the chain is the walk's own bit for
+/// bit, at the cost of one walk to the lowest level asked for instead of one per level.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct DigitChain {
+    /// The tables' address and the position `m 2^-K` the states belong to.
+    key: (usize, u64, u32),
+    /// `stamp[j] == generation`: `S(j)` is known for the current key.
+    generation: u32,
+    stamp: Vec<u32>,
+    /// `S(j)` at `j w..(j + 1) w`.
+    states: Vec<f64>,
+    pending: Vec<u32>,
+    input: Vec<f64>,
+}
+
+impl DigitChain {
+    /// `S(j)` of `pos` (not at the right end) under the digit tables `tab`.
+    fn state<'s>(&'s mut self, tab: &'s DigitTables, pos: &Position, j: u32) -> &'s [f64] {
+        let (w, k) = (tab.width, pos.k);
+        if j >= k {
+            return &tab.v0;
+        }
+        let key = (tab as *const DigitTables as usize, pos.m, k);
+        if key != self.key || self.generation == 0 {
+            self.key = key;
+            self.generation = self.generation.wrapping_add(1);
+            if self.generation == 0 {
+                self.stamp.fill(0);
+                self.generation = 1;
+            }
+        }
+        if self.stamp.len() < k as usize {
+            self.stamp.resize(k as usize, 0);
+        }
+        if self.states.len() < k as usize * w {
+            self.states.resize(k as usize * w, 0.0);
+        }
+        let step = |l: u32| if (k - l) % 8 == 0 { 8 } else { 1 };
+        self.pending.clear();
+        let mut cur = j;
+        while cur < k && self.stamp[cur as usize] != self.generation {
+            self.pending.push(cur);
+            cur += step(cur);
+        }
+        while let Some(l) = self.pending.pop() {
+            let source = l + step(l);
+            self.input.clear();
+            self.input.extend_from_slice(if source >= k {
+                &tab.v0
+            } else {
+                &self.states[source as usize * w..(source as usize + 1) * w]
+            });
+            let matrix = if step(l) == 8 {
+                let byte = pos.byte(l + 1);
+                &tab.bytes[byte * w * w..(byte + 1) * w * w]
+            } else {
+                &tab.t[pos.digit(l + 1)][..]
+            };
+            let l = l as usize;
+            matvec(matrix, &self.input, &mut self.states[l * w..(l + 1) * w]);
+            self.stamp[l] = self.generation;
+        }
+        &self.states[j as usize * w..(j as usize + 1) * w]
+    }
+}
+
+/// The digit chains of one coordinate (the interior walk's and the right edge's reflected
+/// one), shared by the evaluators of several levels at the same coordinate ([`DigitChain`]).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct DigitChains {
+    interior: DigitChain,
+    mirror: DigitChain,
+}
+
 /// Evaluates `Psi(n, N)` at positions; holds scratch space, so make one per thread.
 pub struct Evaluator<'a> {
     basis: &'a CdvBasis,
@@ -280,6 +352,7 @@ pub struct Evaluator<'a> {
     phi: Vec<f64>,
     wavelet: Vec<f64>,
     scale: Vec<f64>,
+    chains: DigitChains,
 }
 
 impl CdvBasis {
@@ -305,6 +378,7 @@ impl<'a> Evaluator<'a> {
             phi: vec![0.0; 2 * basis.p() - 1],
             wavelet: vec![0.0; basis.p()],
             scale,
+            chains: DigitChains::default(),
         }
     }
 
@@ -351,9 +425,45 @@ impl<'a> Evaluator<'a> {
         self.eval_levels(t, out, None);
     }
 
+    /// [`Evaluator::eval_unit_into`] with the digit states of `t` shared through `chains`
+    /// with the other evaluators of the same coordinate (bases on the same filters and
+    /// domain): the same values bit for bit ([`DigitChain`]).
+    pub(crate) fn eval_unit_sharing_into(
+        &mut self,
+        t: f64,
+        chains: &mut DigitChains,
+        out: &mut Vec<BasisValue>,
+    ) {
+        self.eval_levels_sharing(t, out, Some(self.basis.fine()), chains);
+    }
+
+    /// [`Evaluator::eval_scaling_unit_into`] sharing `chains` as
+    /// [`Evaluator::eval_unit_sharing_into`] does.
+    pub(crate) fn eval_scaling_unit_sharing_into(
+        &mut self,
+        t: f64,
+        chains: &mut DigitChains,
+        out: &mut Vec<BasisValue>,
+    ) {
+        self.eval_levels_sharing(t, out, None, chains);
+    }
+
     /// The scaling functions of `V_n` and the wavelets of levels `n..=wavelet_top` at `t`
     /// (`None`: no wavelet; `wavelet_top <= N`).
     fn eval_levels(&mut self, t: f64, out: &mut Vec<BasisValue>, wavelet_top: Option<u32>) {
+        let mut chains = std::mem::take(&mut self.chains);
+        self.eval_levels_sharing(t, out, wavelet_top, &mut chains);
+        self.chains = chains;
+    }
+
+    /// [`Self::eval_levels`] with the digit states from `chains`.
+    fn eval_levels_sharing(
+        &mut self,
+        t: f64,
+        out: &mut Vec<BasisValue>,
+        wavelet_top: Option<u32>,
+        chains: &mut DigitChains,
+    ) {
         let with_wavelets = wavelet_top.is_some();
         out.clear();
         let basis = self.basis;
@@ -370,7 +480,8 @@ impl<'a> Evaluator<'a> {
         let left_start =
             (e > 0 && !pos.one && pos.cell(n) < w as u64).then(|| edge_start(&pos, n, w));
         let hi = left_start.map_or(top, |s| s.max(top));
-        self.walk.run(&bank.digits, &pos, n, hi, fine);
+        self.walk
+            .run(&bank.digits, &mut chains.interior, &pos, n, hi, fine);
 
         // Left edge values a_j, j = n..=top, and the scaling output.
         let mut left_levels = 0;
@@ -385,8 +496,14 @@ impl<'a> Evaluator<'a> {
             let y = if pos.one { 0.0 } else { 1.0 - t };
             let ypos = Position::new(y);
             let start = edge_start(&ypos, n, w);
-            self.mirror
-                .run(&bank.reversed_digits, &ypos, n, start.max(top), n);
+            self.mirror.run(
+                &bank.reversed_digits,
+                &mut chains.mirror,
+                &ypos,
+                n,
+                start.max(top),
+                n,
+            );
             if let Some(tab) = bank.right_tables.as_ref() {
                 right_levels = edge_recursion(
                     &self.mirror,
@@ -612,5 +729,71 @@ fn edge_wavelets(
     for (k, o) in out.iter_mut().enumerate() {
         *o = dot(&tab.g_edge[k * p..(k + 1) * p], a_finer)
             + dot(&tab.g_interior[k * w..(k + 1) * w], phi);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `S(j)` as a walk to level `j` alone forms it (the loop [`DigitChain`] replaced): the
+    /// byte products of the digits from the last up, then single digits.
+    fn walk_alone(tab: &DigitTables, pos: &Position, j: u32) -> Vec<f64> {
+        let w = tab.width;
+        let (mut cur, mut nxt) = (tab.v0.clone(), vec![0.0; w]);
+        let mut remaining = pos.k.saturating_sub(j);
+        while remaining >= 8 {
+            let byte = pos.byte(j + remaining - 7);
+            matvec(&tab.bytes[byte * w * w..(byte + 1) * w * w], &cur, &mut nxt);
+            std::mem::swap(&mut cur, &mut nxt);
+            remaining -= 8;
+        }
+        while remaining > 0 {
+            matvec(&tab.t[pos.digit(j + remaining)], &cur, &mut nxt);
+            std::mem::swap(&mut cur, &mut nxt);
+            remaining -= 1;
+        }
+        cur
+    }
+
+    /// One chain asked for the levels of a position in a scrambled order (so states are
+    /// reused from earlier requests, deeper and shallower) gives every walk's state bit for
+    /// bit, for seeded positions with 1 to 53 significant digits, subnormal ones and both
+    /// families' tables of several orders; positions alternate so the key changes.
+    #[test]
+    fn the_shared_chain_is_each_walk_bit_for_bit() {
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            crate::image::adaptive::oracle::mix64(seed)
+        };
+        for p in [1usize, 2, 3, 4, 6] {
+            let bank = crate::basis::FilterBank::new(p, crate::basis::FilterFamily::Extremal)
+                .expect("bank");
+            let mut chain = DigitChain::default();
+            for trial in 0..300 {
+                let t = match trial % 5 {
+                    0 => (next() >> 11) as f64 / (1u64 << 53) as f64,
+                    1 => (next() % 4096) as f64 / 4096.0,
+                    2 => f64::from_bits(next() % (1u64 << 52)),
+                    3 => 0.5,
+                    _ => (next() >> 11) as f64 / (1u64 << 53) as f64 * 1e-3,
+                };
+                let pos = Position::new(t);
+                if pos.one {
+                    continue;
+                }
+                for tab in [&bank.digits, &bank.reversed_digits] {
+                    for i in 0..40u32 {
+                        let j = (i * 17 + trial) % (pos.k + 12);
+                        let got: Vec<u64> =
+                            chain.state(tab, &pos, j).iter().map(|v| v.to_bits()).collect();
+                        let want: Vec<u64> =
+                            walk_alone(tab, &pos, j).iter().map(|v| v.to_bits()).collect();
+                        assert_eq!(got, want, "p = {p}, t = {t:e}, level {j}");
+                    }
+                }
+            }
+        }
     }
 }
