@@ -25,8 +25,8 @@ use std::sync::Arc;
 use serde::Serialize;
 use thiserror::Error;
 
+use super::digits::DigitChains;
 use super::{fwt, minimum_level, BasisError, BasisValue, CdvBasis, Evaluator, FilterBank};
-use super::eval::DigitChains;
 use super::{FilterFamily, MAX_LEVEL};
 use crate::domain::Domain;
 
@@ -539,8 +539,10 @@ impl MultilevelEvaluator<'_> {
         let nx = b.dims().0;
         let (tx, ty) = (b.scale_x.domain().to_unit(x), b.scale_y.domain().to_unit(y));
         let (chain_x, chain_y) = (&mut self.chain_x, &mut self.chain_y);
-        self.wx.eval_unit_sharing_into(tx, chain_x, &mut self.buf_wx);
-        self.wy.eval_unit_sharing_into(ty, chain_y, &mut self.buf_wy);
+        self.wx
+            .eval_unit_sharing_into(tx, chain_x, &mut self.buf_wx);
+        self.wy
+            .eval_unit_sharing_into(ty, chain_y, &mut self.buf_wy);
         // levels `c..c + steps` (the coarse one at least); the finest, `V_J`, is never a
         // factor of a multilevel function
         let used = steps.max(1) as usize;
