@@ -21,6 +21,7 @@
 //! so the last cell is closed.
 
 use super::bank::{DigitTables, EdgeTables};
+use super::digits::{matvec, DigitChain, DigitChains, Position};
 use super::CdvBasis;
 
 /// One nonzero (structurally: its support contains the point's finest cell) basis function and
@@ -33,150 +34,9 @@ pub struct BasisValue {
     pub value: f64,
 }
 
-/// `t = m 2^-k` exactly, `m` odd, for `0 < t < 1` (every such f64 is dyadic; subnormals
-/// included, `k <= 1074`).
-pub(super) fn odd_mantissa(t: f64) -> (u64, u32) {
-    let bits = t.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i64;
-    let frac = bits & ((1u64 << 52) - 1);
-    let (mut m, mut k) = if exp == 0 {
-        (frac, 1074i64)
-    } else {
-        (frac | (1u64 << 52), 1075 - exp)
-    };
-    let tz = m.trailing_zeros() as i64;
-    m >>= tz;
-    k -= tz;
-    (m, k as u32)
-}
-
-/// `floor(2^j m 2^-k)`: the index of the level-`j` cell holding `t = m 2^-k`.
-#[inline]
-pub(super) fn dyadic_cell(m: u64, k: u32, j: u32) -> u64 {
-    if j >= k {
-        m << (j - k)
-    } else {
-        let s = k - j;
-        if s >= 64 {
-            0
-        } else {
-            m >> s
-        }
-    }
-}
-
-/// Binary digit `d_i` of `t = m 2^-k = 0.d_1 d_2 ...`.
-#[inline]
-pub(super) fn dyadic_digit(m: u64, k: u32, i: u32) -> usize {
-    if i > k {
-        return 0;
-    }
-    let s = k - i;
-    if s >= 64 {
-        0
-    } else {
-        ((m >> s) & 1) as usize
-    }
-}
-
-/// A position `t = m 2^-k` in `[0, 1]` (`m` odd, or `m = 0`), or the right end.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Position {
-    pub(super) m: u64,
-    pub(super) k: u32,
-    pub(super) one: bool,
-}
-
-impl Position {
-    pub(super) fn new(t: f64) -> Self {
-        if t >= 1.0 {
-            return Self {
-                m: 0,
-                k: 0,
-                one: true,
-            };
-        }
-        if t <= 0.0 {
-            return Self {
-                m: 0,
-                k: 0,
-                one: false,
-            };
-        }
-        let (m, k) = odd_mantissa(t);
-        Self { m, k, one: false }
-    }
-
-    /// `floor(2^j t)` (the last cell `2^j - 1` at `t = 1`).
-    pub(super) fn cell(&self, j: u32) -> u64 {
-        if self.one {
-            return (1u64 << j) - 1;
-        }
-        dyadic_cell(self.m, self.k, j)
-    }
-
-    /// Binary digit `d_i` of `t = 0.d_1 d_2 ...`.
-    fn digit(&self, i: u32) -> usize {
-        dyadic_digit(self.m, self.k, i)
-    }
-
-    /// Eight digits `d_{i..i+7}` as a byte (`d_i` most significant).
-    pub(super) fn byte(&self, i: u32) -> usize {
-        let s = self.k as i64 - (i as i64 + 7);
-        if s >= 64 {
-            0
-        } else if s >= 0 {
-            ((self.m >> s) & 0xff) as usize
-        } else {
-            ((self.m << (-s)) & 0xff) as usize
-        }
-    }
-}
-
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// `y = A x`, `A` row-major `y.len() x x.len()`, each entry summed from 0 in column order.
-/// The widths of p = 1..4 (`2p - 1`) as constants ([`matvec_fixed`]: the same sums in the
-/// same order, unrolled).
-#[inline]
-fn matvec(a: &[f64], x: &[f64], y: &mut [f64]) {
-    match x.len() {
-        1 => matvec_fixed::<1>(a, x, y),
-        3 => matvec_fixed::<3>(a, x, y),
-        5 => matvec_fixed::<5>(a, x, y),
-        7 => matvec_fixed::<7>(a, x, y),
-        _ => matvec_dynamic(a, x, y),
-    }
-}
-
-/// [`matvec`] for `x` of `W` entries.
-#[inline]
-fn matvec_fixed<const W: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
-    let x: &[f64; W] = x.try_into().expect("W entries");
-    for (i, yi) in y.iter_mut().enumerate() {
-        let row: &[f64; W] = a[i * W..(i + 1) * W].try_into().expect("W entries");
-        let mut s = 0.0;
-        for l in 0..W {
-            s += row[l] * x[l];
-        }
-        *yi = s;
-    }
-}
-
-#[inline]
-fn matvec_dynamic(a: &[f64], x: &[f64], y: &mut [f64]) {
-    let w = x.len();
-    for (i, yi) in y.iter_mut().enumerate() {
-        let row = &a[i * w..(i + 1) * w];
-        let mut s = 0.0;
-        for l in 0..w {
-            s += row[l] * x[l];
-        }
-        *yi = s;
-    }
 }
 
 /// Per-level interior values of one digit walk.
@@ -188,12 +48,20 @@ struct Walk {
     cells: Vec<u64>,
     v: Vec<f64>,
     wav: Vec<f64>,
-    tmp: Vec<f64>,
 }
 
 impl Walk {
-    /// `v` at levels `lo..=hi`, wavelet values at `lo..=wav_hi`.
-    fn run(&mut self, tab: &DigitTables, pos: &Position, lo: u32, hi: u32, wav_hi: u32) {
+    /// `v` at levels `lo..=hi`, wavelet values at `lo..=wav_hi`; `v` at `hi` from `chain`
+    /// (the states of the digits below `hi`, shared by the walks of one position).
+    fn run(
+        &mut self,
+        tab: &DigitTables,
+        chain: &mut DigitChain,
+        pos: &Position,
+        lo: u32,
+        hi: u32,
+        wav_hi: u32,
+    ) {
         let w = tab.width;
         let levels = (hi - lo + 1) as usize;
         self.w = w;
@@ -203,7 +71,6 @@ impl Walk {
         self.cells.extend((lo..=hi).map(|j| pos.cell(j)));
         self.v.resize(levels * w, 0.0);
         self.wav.resize(levels * w, 0.0);
-        self.tmp.resize(2 * w, 0.0);
         let top = (hi - lo) as usize * w;
         if pos.one {
             for l in 0..levels {
@@ -219,30 +86,8 @@ impl Walk {
             }
             return;
         }
-        // v at the deepest level: digits hi+1..=K, last first.
-        {
-            let (a, b) = self.tmp.split_at_mut(w);
-            a.copy_from_slice(&tab.v0);
-            let mut cur: &mut [f64] = a;
-            let mut nxt: &mut [f64] = b;
-            if pos.k > hi {
-                let mut remaining = pos.k - hi;
-                while remaining >= 8 {
-                    let first = hi + remaining - 7;
-                    let byte = pos.byte(first);
-                    matvec(&tab.bytes[byte * w * w..(byte + 1) * w * w], cur, nxt);
-                    std::mem::swap(&mut cur, &mut nxt);
-                    remaining -= 8;
-                }
-                while remaining > 0 {
-                    let d = pos.digit(hi + remaining);
-                    matvec(&tab.t[d], cur, nxt);
-                    std::mem::swap(&mut cur, &mut nxt);
-                    remaining -= 1;
-                }
-            }
-            self.v[top..top + w].copy_from_slice(cur);
-        }
+        // v at the deepest level: digits hi+1..=K, last first (the chain's state S(hi)).
+        self.v[top..top + w].copy_from_slice(chain.state(tab, pos, hi));
         for j in (lo..hi).rev() {
             let l = (j - lo) as usize;
             let d = pos.digit(j + 1);
@@ -280,6 +125,9 @@ pub struct Evaluator<'a> {
     phi: Vec<f64>,
     wavelet: Vec<f64>,
     scale: Vec<f64>,
+    chains: DigitChains,
+    /// Working vectors of [`edge_recursion`].
+    edge_scratch: [Vec<f64>; 3],
 }
 
 impl CdvBasis {
@@ -305,6 +153,8 @@ impl<'a> Evaluator<'a> {
             phi: vec![0.0; 2 * basis.p() - 1],
             wavelet: vec![0.0; basis.p()],
             scale,
+            chains: DigitChains::default(),
+            edge_scratch: Default::default(),
         }
     }
 
@@ -351,9 +201,45 @@ impl<'a> Evaluator<'a> {
         self.eval_levels(t, out, None);
     }
 
+    /// [`Evaluator::eval_unit_into`] with the digit states of `t` shared through `chains`
+    /// with the other evaluators of the same coordinate (bases on the same filters and
+    /// domain): the same values bit for bit ([`DigitChain`]).
+    pub(crate) fn eval_unit_sharing_into(
+        &mut self,
+        t: f64,
+        chains: &mut DigitChains,
+        out: &mut Vec<BasisValue>,
+    ) {
+        self.eval_levels_sharing(t, out, Some(self.basis.fine()), chains);
+    }
+
+    /// [`Evaluator::eval_scaling_unit_into`] sharing `chains` as
+    /// [`Evaluator::eval_unit_sharing_into`] does.
+    pub(crate) fn eval_scaling_unit_sharing_into(
+        &mut self,
+        t: f64,
+        chains: &mut DigitChains,
+        out: &mut Vec<BasisValue>,
+    ) {
+        self.eval_levels_sharing(t, out, None, chains);
+    }
+
     /// The scaling functions of `V_n` and the wavelets of levels `n..=wavelet_top` at `t`
     /// (`None`: no wavelet; `wavelet_top <= N`).
     fn eval_levels(&mut self, t: f64, out: &mut Vec<BasisValue>, wavelet_top: Option<u32>) {
+        let mut chains = std::mem::take(&mut self.chains);
+        self.eval_levels_sharing(t, out, wavelet_top, &mut chains);
+        self.chains = chains;
+    }
+
+    /// [`Self::eval_levels`] with the digit states from `chains`.
+    fn eval_levels_sharing(
+        &mut self,
+        t: f64,
+        out: &mut Vec<BasisValue>,
+        wavelet_top: Option<u32>,
+        chains: &mut DigitChains,
+    ) {
         let with_wavelets = wavelet_top.is_some();
         out.clear();
         let basis = self.basis;
@@ -370,12 +256,20 @@ impl<'a> Evaluator<'a> {
         let left_start =
             (e > 0 && !pos.one && pos.cell(n) < w as u64).then(|| edge_start(&pos, n, w));
         let hi = left_start.map_or(top, |s| s.max(top));
-        self.walk.run(&bank.digits, &pos, n, hi, fine);
+        self.walk
+            .run(&bank.digits, &mut chains.interior, &pos, n, hi, fine);
 
         // Left edge values a_j, j = n..=top, and the scaling output.
         let mut left_levels = 0;
         if let (Some(start), Some(tab)) = (left_start, bank.left_tables.as_ref()) {
-            left_levels = edge_recursion(&self.walk, &pos, tab, n, top, start, &mut self.edge);
+            left_levels = edge_recursion(
+                &self.walk,
+                &pos,
+                tab,
+                (n, top, start),
+                &mut self.edge,
+                &mut self.edge_scratch,
+            );
         }
 
         // Right edge in the reflected coordinate.
@@ -385,17 +279,22 @@ impl<'a> Evaluator<'a> {
             let y = if pos.one { 0.0 } else { 1.0 - t };
             let ypos = Position::new(y);
             let start = edge_start(&ypos, n, w);
-            self.mirror
-                .run(&bank.reversed_digits, &ypos, n, start.max(top), n);
+            self.mirror.run(
+                &bank.reversed_digits,
+                &mut chains.mirror,
+                &ypos,
+                n,
+                start.max(top),
+                n,
+            );
             if let Some(tab) = bank.right_tables.as_ref() {
                 right_levels = edge_recursion(
                     &self.mirror,
                     &ypos,
                     tab,
-                    n,
-                    top,
-                    start,
+                    (n, top, start),
                     &mut self.right_edge,
+                    &mut self.edge_scratch,
                 );
             }
         }
@@ -549,15 +448,15 @@ fn interior_near_edge(walk: &Walk, j: u32, out: &mut [f64]) {
 }
 
 /// Runs `a_j = sqrt2 H a_{j+1} + sqrt2 h phi_{j+1}` from `start` down to `lo`; stores `a_j` for
-/// `j = lo..=top` in `edge` (`p` values per level). Returns the number of stored levels.
+/// `j = lo..=top` in `edge` (`p` values per level; `levels = (lo, top, start)`, `scratch`
+/// the three working vectors, kept by the evaluator). Returns the number of stored levels.
 fn edge_recursion(
     walk: &Walk,
     pos: &Position,
     tab: &EdgeTables,
-    lo: u32,
-    top: u32,
-    start: u32,
+    (lo, top, start): (u32, u32, u32),
     edge: &mut Vec<f64>,
+    scratch: &mut [Vec<f64>; 3],
 ) -> usize {
     let p = tab.count;
     let w = 2 * p - 1;
@@ -572,25 +471,27 @@ fn edge_recursion(
             a.iter_mut().for_each(|x| *x = 0.0);
         }
     };
-    let mut a = vec![0.0; p];
-    let mut next = vec![0.0; p];
-    let mut phi = vec![0.0; w];
-    direct(start, &mut a);
+    let [a, next, phi] = scratch;
+    for (v, len) in [(&mut *a, p), (&mut *next, p), (&mut *phi, w)] {
+        v.clear();
+        v.resize(len, 0.0);
+    }
+    direct(start, a);
     for j in (start..=top).filter(|&j| j >= lo) {
-        direct(j, &mut next);
+        direct(j, next);
         let l = (j - lo) as usize;
-        edge[l * p..(l + 1) * p].copy_from_slice(&next);
+        edge[l * p..(l + 1) * p].copy_from_slice(next);
     }
     for j in (lo..start).rev() {
-        interior_near_edge(walk, j + 1, &mut phi);
+        interior_near_edge(walk, j + 1, phi);
         for (k, nk) in next.iter_mut().enumerate() {
-            *nk = dot(&tab.h_edge[k * p..(k + 1) * p], &a)
-                + dot(&tab.h_interior[k * w..(k + 1) * w], &phi);
+            *nk = dot(&tab.h_edge[k * p..(k + 1) * p], a)
+                + dot(&tab.h_interior[k * w..(k + 1) * w], phi);
         }
-        std::mem::swap(&mut a, &mut next);
+        std::mem::swap(a, next);
         if j <= top {
             let l = (j - lo) as usize;
-            edge[l * p..(l + 1) * p].copy_from_slice(&a);
+            edge[l * p..(l + 1) * p].copy_from_slice(a);
         }
     }
     levels

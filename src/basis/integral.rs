@@ -69,18 +69,18 @@ impl Dyadic {
         if t <= 0.0 {
             return Self { m: 0, k: 0 };
         }
-        let (m, k) = super::eval::odd_mantissa(t);
+        let (m, k) = super::digits::odd_mantissa(t);
         Self { m, k }
     }
 
     /// `floor(2^j t)` (`2^j` at `t = 1`).
     fn cell(&self, j: u32) -> u64 {
-        super::eval::dyadic_cell(self.m, self.k, j)
+        super::digits::dyadic_cell(self.m, self.k, j)
     }
 
     /// Binary digit `b_i` of `t = 0.b_1 b_2 ...`.
     fn digit(&self, i: u32) -> usize {
-        super::eval::dyadic_digit(self.m, self.k, i)
+        super::digits::dyadic_digit(self.m, self.k, i)
     }
 }
 

@@ -11,6 +11,7 @@
 pub mod bank;
 mod byte_tables;
 pub mod cdv;
+mod digits;
 mod error;
 pub mod eval;
 pub mod facts;

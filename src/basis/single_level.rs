@@ -17,7 +17,7 @@
 //! The functions with a structurally nonzero value at a point have consecutive indices, so a
 //! row of the single-scale observation matrix `K_J` is `(first, values)`.
 
-use super::eval::Position;
+use super::digits::Position;
 use super::{BasisValue, CdvBasis, Evaluator, MAX_VANISHING_MOMENTS};
 
 /// Longest row: `p` edge functions plus `2p - 1` interior translates overlap on at most

@@ -25,6 +25,7 @@ use std::sync::Arc;
 use serde::Serialize;
 use thiserror::Error;
 
+use super::digits::DigitChains;
 use super::{fwt, minimum_level, BasisError, BasisValue, CdvBasis, Evaluator, FilterBank};
 use super::{FilterFamily, MAX_LEVEL};
 use crate::domain::Domain;
@@ -389,6 +390,8 @@ impl TensorBasis {
             buf_wy: Vec::new(),
             buf_sx: vec![Vec::new(); self.levels_x.len()],
             buf_sy: vec![Vec::new(); self.levels_y.len()],
+            chain_x: DigitChains::default(),
+            chain_y: DigitChains::default(),
         }
     }
 }
@@ -459,12 +462,17 @@ pub struct MultilevelEvaluator<'a> {
     buf_wy: Vec<BasisValue>,
     buf_sx: Vec<Vec<BasisValue>>,
     buf_sy: Vec<Vec<BasisValue>>,
+    chain_x: DigitChains,
+    chain_y: DigitChains,
 }
 
-/// The wavelets of level `j` (global indices `2^j..2^{j+1}`) in a `Psi(n, N)` evaluation.
-fn wavelets_of(values: &[BasisValue], j: u32) -> impl Iterator<Item = &BasisValue> {
+/// The wavelets of level `j` (global indices `2^j..2^{j+1}`) in a `Psi(n, N)` evaluation
+/// (ascending indices, so a contiguous run).
+fn wavelets_of(values: &[BasisValue], j: u32) -> &[BasisValue] {
     let (lo, hi) = (1usize << j, 2usize << j);
-    values.iter().filter(move |v| v.index >= lo && v.index < hi)
+    let start = values.partition_point(|v| v.index < lo);
+    let end = values.partition_point(|v| v.index < hi);
+    &values[start..end]
 }
 
 impl MultilevelEvaluator<'_> {
@@ -507,42 +515,58 @@ impl MultilevelEvaluator<'_> {
         steps: u32,
         out: &mut Vec<TensorValue>,
     ) -> Result<(), TensorError> {
+        out.clear();
+        self.for_each_steps(x, y, steps, |index, value| {
+            out.push(TensorValue { index, value })
+        })
+    }
+
+    /// Calls `visit(index, value)` for the values of
+    /// [`Self::eval_unordered_steps_into`], in its order, without collecting them (for
+    /// sums over samples per function). Each axis's evaluations of the point share their
+    /// digit states ([`DigitChains`]): one digit walk per axis instead of one per level, the
+    /// same values bit for bit.
+    pub(crate) fn for_each_steps(
+        &mut self,
+        x: f64,
+        y: f64,
+        steps: u32,
+        mut visit: impl FnMut(usize, f64),
+    ) -> Result<(), TensorError> {
         let b = self.basis;
         b.check(x, y)?;
         let steps = steps.min(b.steps());
         let nx = b.dims().0;
         let (tx, ty) = (b.scale_x.domain().to_unit(x), b.scale_y.domain().to_unit(y));
-        self.wx.eval_unit_into(tx, &mut self.buf_wx);
-        self.wy.eval_unit_into(ty, &mut self.buf_wy);
+        let (chain_x, chain_y) = (&mut self.chain_x, &mut self.chain_y);
+        self.wx
+            .eval_unit_sharing_into(tx, chain_x, &mut self.buf_wx);
+        self.wy
+            .eval_unit_sharing_into(ty, chain_y, &mut self.buf_wy);
         // levels `c..c + steps` (the coarse one at least); the finest, `V_J`, is never a
         // factor of a multilevel function
         let used = steps.max(1) as usize;
         for (e, buf) in self.sx.iter_mut().zip(&mut self.buf_sx).take(used) {
-            e.eval_scaling_unit_into(tx, buf);
+            e.eval_scaling_unit_sharing_into(tx, chain_x, buf);
         }
         for (e, buf) in self.sy.iter_mut().zip(&mut self.buf_sy).take(used) {
-            e.eval_scaling_unit_into(ty, buf);
+            e.eval_scaling_unit_sharing_into(ty, chain_y, buf);
         }
-        out.clear();
-        let mut push = |fy: &mut dyn Iterator<Item = &BasisValue>, fx: &[&BasisValue]| {
+        let mut products = |fy: &[BasisValue], fx: &[BasisValue]| {
             for vy in fy {
                 for vx in fx {
-                    out.push(TensorValue {
-                        index: vy.index * nx + vx.index,
-                        value: vy.value * vx.value,
-                    });
+                    visit(vy.index * nx + vx.index, vy.value * vx.value);
                 }
             }
         };
-        let sx0: Vec<&BasisValue> = self.buf_sx[0].iter().collect();
-        push(&mut self.buf_sy[0].iter(), &sx0);
+        products(&self.buf_sy[0], &self.buf_sx[0]);
         let (cx, cy) = b.coarse_levels();
         for s in 0..steps {
-            let wxs: Vec<&BasisValue> = wavelets_of(&self.buf_wx, cx + s).collect();
-            let sxs: Vec<&BasisValue> = self.buf_sx[s as usize].iter().collect();
-            push(&mut self.buf_sy[s as usize].iter(), &wxs);
-            push(&mut wavelets_of(&self.buf_wy, cy + s), &sxs);
-            push(&mut wavelets_of(&self.buf_wy, cy + s), &wxs);
+            let wxs = wavelets_of(&self.buf_wx, cx + s);
+            let wys = wavelets_of(&self.buf_wy, cy + s);
+            products(&self.buf_sy[s as usize], wxs);
+            products(wys, &self.buf_sx[s as usize]);
+            products(wys, wxs);
         }
         Ok(())
     }

@@ -224,16 +224,14 @@ fn exact_diagonal(tree: &QuadTree, mask: &[bool], xs: &[f64], ys: &[f64]) -> Vec
         .zip(ys.par_chunks(part))
         .map(|(cx, cy)| {
             let mut ev = basis.multilevel_evaluator();
-            let mut row = Vec::new();
             let mut acc = vec![0.0; mask.len()];
             for (&x, &y) in cx.iter().zip(cy) {
-                ev.eval_unordered_steps_into(x, y, reach.steps_at(tree, x, y), &mut row)
-                    .expect("positions are checked before the solve");
-                for v in &row {
-                    if mask[v.index] {
-                        acc[v.index] += v.value * v.value;
+                ev.for_each_steps(x, y, reach.steps_at(tree, x, y), |index, value| {
+                    if mask[index] {
+                        acc[index] += value * value;
                     }
-                }
+                })
+                .expect("positions are checked before the solve");
             }
             acc
         })
