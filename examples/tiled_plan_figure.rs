@@ -8,8 +8,12 @@
 //! (defaults `512x512`, 128, `shapes`; `untiled` runs the untiled plan instead; the tiled plan
 //! keeps each tile's PCG diagonal between rounds up to 512 MiB, `rebuild` sums it afresh
 //! every round as the command line does). Every round's report (with where its time went)
-//! and the final image's times go to stderr as JSON.
+//! and the final image's times go to stderr as JSON, with the heap in every phase (`heap
+//! {...}` lines: bytes live at the phase's end and the most live during it, counted by this
+//! example's allocator; `/usr/bin/time -v`'s peak RSS adds the allocator's free lists).
 
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use rkwave::image::adaptive::{ImageOracle, NoisyOracle, SamplePositions, SceneOracle};
@@ -23,6 +27,63 @@ use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
 /// The bound on the tiles' kept PCG diagonals (0.6 MB a window of 128²: 80 MB at 1080p,
 /// 300 MB at 4K in tiles of 128).
 const KEPT_DIAGONALS: u64 = 512 << 20;
+
+/// The system allocator, counting the bytes live and their most since the last
+/// [`heap_phase`] (relaxed atomics: a count, not a synchronisation).
+struct CountingAlloc;
+
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+fn grew(by: usize) {
+    let now = LIVE.fetch_add(by, Ordering::Relaxed) + by;
+    PEAK.fetch_max(now, Ordering::Relaxed);
+}
+
+// SAFETY: every call is the system allocator's own; the counts only observe sizes.
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) };
+        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+            grew(new_size);
+        }
+        p
+    }
+}
+
+#[global_allocator]
+static HEAP: CountingAlloc = CountingAlloc;
+
+/// Prints the heap's bytes live now and the most live since the last phase (GB, 10^9), then
+/// starts the next phase's peak from now.
+fn heap_phase(phase: &str) {
+    let live = LIVE.load(Ordering::Relaxed);
+    let peak = PEAK.swap(live, Ordering::Relaxed);
+    eprintln!(
+        "heap {{\"phase\": \"{phase}\", \"live_gb\": {:.3}, \"peak_gb\": {:.3}}}",
+        live as f64 / 1e9,
+        peak as f64 / 1e9
+    );
+}
 
 /// The samples so far: positions in the order handed out and every channel's values.
 struct Rendered {
@@ -133,8 +194,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             state.keep_diagonals(Some(KEPT_DIAGONALS));
         }
         spent += t.elapsed().as_secs_f64();
+        heap_phase("start");
         r.render(&oracle, &base);
         drop(base);
+        heap_phase("render base");
         loop {
             let samples = r.take(plane)?;
             let t = Instant::now();
@@ -142,10 +205,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             spent += t.elapsed().as_secs_f64();
             eprintln!("{}", serde_json::to_string(&step)?);
             r.restore(samples);
+            heap_phase(&format!("round {}", state.round()));
             if step.stop.is_some() {
                 break;
             }
             r.render(&oracle, &step.next);
+            drop(step);
+            heap_phase("render");
         }
         let starts: usize = state
             .tiles
@@ -158,11 +224,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         let last = state.final_image(&samples, None)?;
         spent += t.elapsed().as_secs_f64();
+        heap_phase("final image");
         eprintln!("final {}", serde_json::to_string(&last.times)?);
         r.restore(samples);
         last.image
     };
     let m = compare(&image, &box_truth(&scene, plane, 4));
+    heap_phase("truth and metrics");
     println!(
         "{size} {} {scene_name}: rkwave {spent:.2} s, {} samples, PSNR {:.3} dB, relMSE {:.4e}",
         if untiled {

@@ -12,7 +12,9 @@ tolerance early); its time is not counted. Per size and round, alternating: the 
 ``LocalCluster(n_workers=2, processes=True, threads_per_worker=1)`` started before the rounds
 (one task per band of ``rows_per_task`` tile rows, one tile at a time in a task), each run
 from its start to its stop and its final image. Time: wall clock of the plan's calls
-(construction, every ``add``, ``image``), the renderer's calls excluded. The overhead is the
+(construction, every ``add``, ``image``), the renderer's calls excluded. The band samples
+sent to the workers are counted (each band's samples stay on a worker between rounds, only
+the new ones are sent). The overhead is the
 per-round ratio Dask / local minus one (median, min, max). Every round's positions and the
 final image are checked equal bit for bit.
 """
@@ -106,7 +108,8 @@ def main():
                 print(
                     f"{size}^2 round {r}: local {a:.1f} s, dask {b:.1f} s, ratio {b / a:.3f}, "
                     f"{len(ra)} plan rounds, {report['handed_out']} samples, "
-                    f"{report['tasks_run']} tasks, identical {same} "
+                    f"{report['tasks_run']} tasks, band samples sent "
+                    f"{report['samples_sent_mb']:.0f} MB, identical {same} "
                     f"(wall {time.perf_counter() - t0:.0f} s)",
                     flush=True,
                 )
@@ -119,6 +122,7 @@ def main():
                     "samples": report["handed_out"],
                     "plan_rounds": len(ra),
                     "tasks": report["tasks_run"],
+                    "samples_sent_mb": report["samples_sent_mb"],
                     "local_s": local_s,
                     "dask_s": dask_s,
                     "overhead": {"median": med - 1, "min": min(ratios) - 1, "max": max(ratios) - 1},

@@ -31,7 +31,7 @@ while not core.done:
     if pending is None:
         break
     outs, tt = [], []
-    for task, s in tasks:
+    for task, s, _ in tasks:
         t = time.perf_counter()
         outs.append(_rkwave.tiled_plan_band(task, s))
         tt.append(time.perf_counter() - t)
@@ -40,8 +40,8 @@ while not core.done:
     tc = time.perf_counter() - t
     print(
         f"round {core.round}: begin {tb:.2f} s, tasks {[round(x, 1) for x in tt]} s, "
-        f"commit {tc:.2f} s, task JSON {sum(len(a) for a, _ in tasks) / 1e6:.1f} MB, "
-        f"samples {sum(s.nbytes for _, s in tasks) / 1e6:.1f} MB, "
+        f"commit {tc:.2f} s, task JSON {sum(len(a) for a, _, _ in tasks) / 1e6:.1f} MB, "
+        f"samples {sum(s.nbytes for _, s, _ in tasks) / 1e6:.1f} MB, "
         f"outcomes {sum(map(len, outs)) / 1e6:.1f} MB",
         flush=True,
     )

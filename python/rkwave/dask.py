@@ -24,9 +24,12 @@
     one per band of ``rows_per_task`` tile rows: ``positions()``, ``add(xy, values)``,
     ``image()`` as ``rkwave.Plan``. The client keeps every sample and the plan's state; a
     round's ``add`` checks the samples and computes the tiles' shares (nothing changed yet),
-    sends each band its tiles' states, shares and the samples of its windows, and commits
-    the bands' new positions and tile states as one step, or none of them. The positions
-    and the image are those of ``rkwave.Plan(tile=, halo=)`` bit for bit.
+    sends each band its tiles' states, shares and the samples of its windows that the band's
+    worker does not hold yet (on a ``distributed`` client a band's samples stay on a worker
+    between rounds, as a future; a band whose worker was lost is sent whole again from the
+    client's copy), and commits the bands' new positions and tile states as one step, or
+    none of them. The positions and the image are those of ``rkwave.Plan(tile=, halo=)``
+    bit for bit.
 
 Every task is a pure function of its inputs, so a lost worker costs a re-run of its tasks
 (``retries``) and the same result. The inputs are checked on the client before any task is
@@ -38,6 +41,7 @@ Dask is an optional dependency: ``pip install dask[distributed]``.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import tempfile
 import warnings
@@ -531,6 +535,24 @@ def _write_atomic(output, image):
 # 2D: the tiled plan's rounds
 
 
+def _band_samples(held, new):
+    """Task: a band's samples so far on its worker, planar ``(2 + C, m)``: the columns it
+    held since the last round (``None``: none) followed by the round's new ones."""
+    if held is None:
+        return new
+    return np.concatenate([held, new], axis=1)
+
+
+def _prefix_digest(samples, m):
+    """A digest of the first ``m`` columns of a planar band array (row by row, each row's
+    prefix contiguous): what a worker holds is checked against the client's copy with it."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(np.int64(m).tobytes())
+    for row in samples:
+        h.update(np.ascontiguousarray(row[:m]).data)
+    return h.digest()
+
+
 def _plan_band_task(task, samples, before_band, keep_heap):
     """Task: one band's step of a round (``_rkwave.tiled_plan_band``), its outcome as bytes."""
     if keep_heap:
@@ -568,6 +590,16 @@ class TiledPlan:
     pure function of its inputs, so the rerun gives the same outcome), and a round whose
     tasks fail for good leaves the plan as it was (the round can be added again).
     ``image()`` fits every tile in band tasks the same way and stitches the interiors.
+
+    On a ``distributed`` client a band's samples stay on a worker between rounds (a future
+    of its planar array): a band's samples are every sample in one of its tiles' windows in
+    the order handed out, so the next round's are this round's followed by the new ones, and
+    only those new columns are sent (checked: the held columns' digest must be the client's
+    copy's, else the band is sent whole). A band whose held samples were lost with their
+    worker (between rounds, or during a round whose tasks then fail) is sent whole from the
+    client's copy and the round run again: the same inputs, the same bits.
+    ``report["samples_sent_mb"]`` counts the samples sent, ``report["bands_resent"]`` the
+    bands sent whole again (held samples lost, or a round run again after a failure).
 
     ``client``: a ``distributed.Client`` (default: the current one, else dask's local
     threaded scheduler). ``before_band(task_bytes)``, if given, runs at the start of every
@@ -607,11 +639,73 @@ class TiledPlan:
         self._before = before_band
         self._keep_heap = keep_heap
         self._tasks_run = 0
+        # band rows -> (future of its samples on a worker, their columns, their digest)
+        self._held = {}
+        self._sent_bytes = 0
+        self._resent = 0
+
+    def _band_data(self, client, rows, samples):
+        """The future of band ``rows``' samples on a worker: the held columns extended by the
+        new ones, or (nothing held, the holder lost, or the held columns not the client's)
+        the whole band. Returns ``(future, whether held columns were used)``."""
+        m = samples.shape[1]
+        held = self._held.get(rows)
+        if held is not None:
+            future, n, digest = held
+            if future.status == "finished" and n <= m and _prefix_digest(samples, n) == digest:
+                if n == m:
+                    return future, True
+                new = np.ascontiguousarray(samples[:, n:])
+                self._sent_bytes += new.nbytes
+                data = client.submit(_band_samples, future, new, pure=False)
+                self._held[rows] = (data, m, _prefix_digest(samples, m))
+                return data, True
+            if future.status != "finished":
+                self._resent += 1
+        self._sent_bytes += samples.nbytes
+        data = client.submit(_band_samples, None, samples, pure=False)
+        self._held[rows] = (data, m, _prefix_digest(samples, m))
+        return data, False
+
+    def _run_held(self, client, fn, tasks):
+        """The band tasks on the samples their workers hold (class docs); a failure where
+        held samples were used (their worker may have been lost) runs the round again with
+        every band sent whole, and a second failure is raised."""
+        for attempt in (0, 1):
+            if attempt:
+                self._resent += len(self._held)
+                self._held.clear()
+            futures, used = [], False
+            for t, s, rows in tasks:
+                data, held = self._band_data(client, tuple(rows), s)
+                used |= held
+                futures.append(
+                    client.submit(
+                        fn, t, data, self._before, self._keep_heap, pure=False,
+                        retries=self._retries,
+                    )
+                )
+            self._tasks_run += len(futures)
+            try:
+                return client.gather(futures)
+            except Exception:
+                if attempt or not used:
+                    raise
 
     def _run(self, fn, tasks):
         client = _client(self._client)
+        if client is not None:
+            with warnings.catch_warnings():
+                # a band sent whole travels in its task on purpose: the scheduler then holds
+                # it and can rerun the task after its worker was lost
+                warnings.filterwarnings("ignore", message="Large object", category=UserWarning)
+                warnings.filterwarnings(
+                    "ignore", message="Sending large graph", category=UserWarning
+                )
+                return self._run_held(client, fn, tasks)
         graph = [
-            dask.delayed(fn, pure=False)(t, s, self._before, self._keep_heap) for t, s in tasks
+            dask.delayed(fn, pure=False)(t, s, self._before, self._keep_heap)
+            for t, s, _ in tasks
         ]
         self._tasks_run += len(graph)
         with warnings.catch_warnings():
@@ -653,10 +747,14 @@ class TiledPlan:
 
     @property
     def report(self):
-        """Where the plan stands (as ``rkwave.Plan.report``), the bands' layout and the
-        tasks run so far (``tasks_run``)."""
+        """Where the plan stands (as ``rkwave.Plan.report``), the bands' layout, the tasks
+        run so far (``tasks_run``), the band samples sent to workers (``samples_sent_mb``,
+        MB) and the bands sent whole again after their held samples were lost or a round
+        was run again after a failure (``bands_resent``)."""
         r = self._core.report
         r["tasks_run"] = self._tasks_run
+        r["samples_sent_mb"] = self._sent_bytes / 1e6
+        r["bands_resent"] = self._resent
         return r
 
     def state_json(self):

@@ -4,9 +4,11 @@
 //! The client holds a `_rkwave.TiledPlanRounds`: every sample so far and the plan's state. A
 //! round is `begin(xy, values)` (the samples checked as `Plan(tile=).add` checks them, the
 //! shares computed, nothing changed: a refused round leaves the plan as it was), which gives
-//! a pending round and its band tasks `(task, samples)`: the task as JSON bytes (the band's
-//! tiles' states with PCG's starts as bits, so every number reads back the same) and the
-//! band's samples as a planar `(2 + C, m)` float64 array; any process runs a task with
+//! a pending round and its band tasks `(task, samples, rows)`: the task as JSON bytes (the
+//! band's tiles' states with PCG's starts as bits, so every number reads back the same), the
+//! band's samples as a planar `(2 + C, m)` float64 array and its tile rows (the band's name
+//! from round to round: its samples grow only at their end, so a worker may keep them and be
+//! sent only the new columns); any process runs a task with
 //! `tiled_plan_band(task, samples)`, which gives the band's outcome as JSON bytes; then
 //! `commit(pending, outcomes)` takes the round as one step, or refuses it whole. The final
 //! image is `final_tasks()`, `tiled_plan_final_band(task, samples)` per band and
@@ -112,6 +114,11 @@ pub fn tiled_plan_final_band<'py>(
     ))
 }
 
+/// A band's task as Python sees it: the task's JSON bytes, the band's samples as a planar
+/// `(2 + C, m)` array (every sample in one of its tiles' windows, in the order handed out, so
+/// a later round's are this round's followed by the new ones), and its tile rows `(r0, r1)`.
+type BandTaskOut<'py> = (Bound<'py, PyBytes>, Bound<'py, PyAny>, (usize, usize));
+
 /// A round begun and not yet committed: its plan and the samples it is on.
 #[pyclass(name = "PendingRound", module = "rkwave")]
 pub struct PyPendingRound {
@@ -216,7 +223,7 @@ impl PyTiledPlanRounds {
 
     /// Begins a round on the rendered samples of the positions handed out (`xy` `(n, 2)`,
     /// `values` `(n,)` or `(n, C)`): checked, the shares computed, nothing changed. Returns
-    /// `(pending, tasks)`, `tasks` a list of `(task bytes, planar samples)`; `pending` is
+    /// `(pending, tasks)`, `tasks` a list of `(task bytes, planar samples, tile rows)`; `pending` is
     /// `None` when the plan stopped here (then committed already, `tasks` empty).
     #[allow(clippy::type_complexity)]
     fn begin<'py>(
@@ -224,10 +231,7 @@ impl PyTiledPlanRounds {
         py: Python<'py>,
         xy: &Bound<'py, PyAny>,
         values: &Bound<'py, PyAny>,
-    ) -> PyResult<(
-        Option<PyPendingRound>,
-        Vec<(Bound<'py, PyBytes>, Bound<'py, PyAny>)>,
-    )> {
+    ) -> PyResult<(Option<PyPendingRound>, Vec<BandTaskOut<'py>>)> {
         if self.state.stop.is_some() {
             return Err(invalid(
                 "the plan has stopped: no positions are pending; take the result with image()",
@@ -256,7 +260,10 @@ impl PyTiledPlanRounds {
             BandedRound::Steps(mut plan) => {
                 let tasks = std::mem::take(&mut plan.tasks)
                     .into_iter()
-                    .map(|(t, s)| (json_bytes(py, &t), planar(py, &s)))
+                    .map(|(t, s)| {
+                        let rows = (t.rows.start, t.rows.end);
+                        (json_bytes(py, &t), planar(py, &s), rows)
+                    })
                     .collect();
                 let pending = PyPendingRound { plan, samples: all };
                 Ok((Some(pending), tasks))
@@ -282,14 +289,10 @@ impl PyTiledPlanRounds {
         Ok(())
     }
 
-    /// The final image's band tasks, `(task bytes, planar samples)` per band: the plan's
+    /// The final image's band tasks, `(task bytes, planar samples, tile rows)` per band: the plan's
     /// output pixels, or the fit's alone (`residual=False`).
     #[pyo3(signature = (residual=true))]
-    fn final_tasks<'py>(
-        &self,
-        py: Python<'py>,
-        residual: bool,
-    ) -> PyResult<Vec<(Bound<'py, PyBytes>, Bound<'py, PyAny>)>> {
+    fn final_tasks<'py>(&self, py: Python<'py>, residual: bool) -> PyResult<Vec<BandTaskOut<'py>>> {
         let Some(samples) = &self.samples else {
             return Err(invalid(
                 "the plan has no samples yet: render positions() and add() them first",
@@ -302,7 +305,10 @@ impl PyTiledPlanRounds {
             .map_err(to_py)?;
         Ok(tasks
             .iter()
-            .map(|(t, s)| (json_bytes(py, t), planar(py, s)))
+            .map(|(t, s)| {
+                let rows = (t.band.rows.start, t.band.rows.end);
+                (json_bytes(py, t), planar(py, s), rows)
+            })
             .collect())
     }
 

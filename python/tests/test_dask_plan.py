@@ -1,7 +1,8 @@
 """rkwave.dask.TiledPlan on a LocalCluster of two worker processes (one thread each): the
 tiled plan's rounds as one task per band of tile rows give the positions and the final image
 of the local `rkwave.Plan(tile=)` bit for bit; a band's task that fails once (injected) or
-whose worker is killed is rerun with the identical result; a round with a bad value count,
+whose worker is killed is rerun with the identical result; a worker lost between rounds
+costs a resend of the bands' samples it held, not the bits; a round with a bad value count,
 or whose tasks fail for good, is refused with the plan unchanged. Skipped without Dask."""
 
 import os
@@ -117,6 +118,28 @@ def test_a_failed_band_task_is_rerun_with_the_identical_result(
     got = run(plan)
     assert marker.exists(), "the hook never ran: nothing failed"
     assert_same_run(local, got)
+
+
+def test_a_worker_lost_between_rounds_costs_a_resend_not_the_bits(rd, client, local):
+    """Each band's samples stay on a worker between rounds; a worker restarted between two
+    rounds loses the bands it held, which come back with the same bits."""
+    plan = rd.TiledPlan((W, H), spp=SPP, tile=TILE, halo=4, client=client)
+    rounds = []
+    for _ in range(2):
+        xy = plan.positions()
+        rounds.append(xy)
+        plan.add(xy, disc_scene(xy))
+    assert not plan.done, "the plan stopped before a worker could be lost between rounds"
+    sent = plan.report["samples_sent_mb"]
+    held = [f for f, _, _ in plan._held.values()]
+    holders = {w for ws in client.who_has(held).values() for w in ws}
+    assert holders, "no band's samples are held on a worker"
+    client.restart_workers([sorted(holders)[0]])
+    more, image = run(plan)
+    assert_same_run(local, (rounds + more, image))
+    # the lost bands came back either recomputed by the scheduler from what it was sent
+    # (their tasks' inputs) or sent whole again (`bands_resent`): the same bits either way
+    assert plan.report["samples_sent_mb"] > sent
 
 
 class AlwaysFail:

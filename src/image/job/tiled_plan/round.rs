@@ -2,6 +2,7 @@
 //! JSON.
 
 use std::path::Path;
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -524,7 +525,8 @@ impl TiledPlanState {
             .install(|| {
                 self.tiles
                     .par_iter()
-                    .zip(&buckets)
+                    // each window's indices dropped once its samples are copied
+                    .zip(buckets)
                     .zip(&shares)
                     .zip(kept)
                     .map(|(((tile, picks), &share), kept)| {
@@ -532,7 +534,8 @@ impl TiledPlanState {
                             return Ok(Err(kept));
                         }
                         let t = Instant::now();
-                        let local = self.local(samples, tile.index, picks);
+                        let local = self.local(samples, tile.index, &picks);
+                        drop(picks);
                         let local_s = t.elapsed().as_secs_f64();
                         let mut outcome = self.step_tile(tile, &local, share, kept)?;
                         outcome.times.local_s = local_s;
@@ -545,7 +548,12 @@ impl TiledPlanState {
         let outcomes: Vec<Result<TileOutcome, Option<FitState>>> =
             outcomes.into_iter().collect::<Result<_, _>>()?;
         let t = Instant::now();
-        let mut next = SamplePositions::default();
+        // sized exactly: grown by doubling it could hold twice the round's positions
+        let drawn = outcomes.iter().flatten().map(|o| o.next.len()).sum();
+        let mut next = SamplePositions {
+            xs: Vec::with_capacity(drawn),
+            ys: Vec::with_capacity(drawn),
+        };
         let (mut stepped, mut halo, mut cut) = (0, 0, 0);
         let mut fit_states = Vec::with_capacity(self.tiles.len());
         for (tile, outcome) in self.tiles.iter_mut().zip(outcomes) {
@@ -661,10 +669,16 @@ impl TiledPlanState {
             self.check_tile(t, picks.len(), held, samples.channels())?;
         }
         let pool = self.pool()?;
-        let images: Vec<Result<(PixelImage, TiledTimes), ProtocolError>> = pool.install(|| {
+        let g = self.geometry();
+        // each tile's interior stitched as soon as its fit is done (interiors are disjoint, so
+        // the order does not matter): every tile's window image held to the end was a second
+        // image and more (0.2 GB at 3840x2160)
+        let image = Mutex::new(PixelImage::zeros(self.plane, samples.channels()));
+        let tiles: Vec<Result<TiledTimes, ProtocolError>> = pool.install(|| {
             self.tiles
                 .par_iter()
-                .zip(&buckets)
+                // each window's indices dropped once its samples are copied
+                .zip(buckets)
                 .map(|(tile, picks)| {
                     // the kept diagonal continued (a copy: the image may be asked again)
                     let mut fit_state = self
@@ -676,7 +690,8 @@ impl TiledPlanState {
                         .unwrap_or_default();
                     let mut times = TiledTimes::default();
                     let t = Instant::now();
-                    let local = self.local(samples, tile.index, picks);
+                    let local = self.local(samples, tile.index, &picks);
+                    drop(picks);
                     times.local_s = t.elapsed().as_secs_f64();
                     let t = Instant::now();
                     let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
@@ -697,21 +712,25 @@ impl TiledPlanState {
                     times.solve_s = fit.report.solve_s;
                     let t = Instant::now();
                     let sigma = significance.map_or(0.0, |s| s.level.sigma);
-                    let image = tile_output(&plan, &fit, &local, sigma, estimate)?;
+                    let pixels = tile_output(&plan, &fit, &local, sigma, estimate)?;
+                    drop((plan, fit, local));
                     times.output_s = t.elapsed().as_secs_f64();
-                    Ok((image, times))
+                    let t = Instant::now();
+                    // poisoned only by a panic in another tile's `stitch`, which rayon passes on
+                    let mut image = image.lock().unwrap_or_else(PoisonError::into_inner);
+                    stitch(&mut image, &g, tile.index, &pixels);
+                    times.commit_s = t.elapsed().as_secs_f64();
+                    Ok(times)
                 })
                 .collect()
         });
-        let t = Instant::now();
-        let g = self.geometry();
-        let mut image = PixelImage::zeros(self.plane, samples.channels());
-        for (index, tile) in images.into_iter().enumerate() {
-            let (tile, tile_times) = tile?;
+        for tile_times in tiles {
+            let tile_times = tile_times?;
             times.add_tile(&tile_times);
-            stitch(&mut image, &g, index, &tile);
+            // stitching, summed over the tiles (thread seconds, as the tiles' phases)
+            times.commit_s += tile_times.commit_s;
         }
-        times.commit_s = t.elapsed().as_secs_f64();
+        let image = image.into_inner().unwrap_or_else(PoisonError::into_inner);
         times.wall_s = wall.elapsed().as_secs_f64();
         Ok(TiledFinal {
             image,

@@ -5,7 +5,7 @@ use serde::Serialize;
 
 /// Where a tiled round's (or final image's) time went, in seconds. The per-tile phases are
 /// summed over the tiles (CPU seconds of the workers, `workers` of them at once); `buckets_s`,
-/// `commit_s` and `wall_s` are the caller's wall clock.
+/// a round's `commit_s` and `wall_s` are the caller's wall clock.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct TiledTimes {
     /// Sorting the samples into the tiles' windows (one pass, wall).
@@ -26,7 +26,7 @@ pub struct TiledTimes {
     pub position_s: f64,
     /// The final image's output pixels (sum; 0 in a round).
     pub output_s: f64,
-    /// Committing the round and stitching the image (wall).
+    /// Committing the round (wall), or stitching the final image's tiles (sum).
     pub commit_s: f64,
     /// The whole call (wall).
     pub wall_s: f64,
