@@ -1,7 +1,8 @@
 //! Cycle spinning's shifts run in parallel and summed in their fixed order.
 //!
 //! A cycle-spun estimate is the mean over the `S²` offsets `(o_x, o_y) in {0 .. S - 1}²` of
-//! one estimate per offset of the Haar partition ([`super::haar::Haar2d`]) ([`super::shrink`], [`super::sureshrink`]):
+//! one estimate per offset of the Haar partition (`haar.rs`; used by `shrink.rs` and
+//! `sureshrink.rs`, named without links: a link counts as an import, and they import this):
 //! `x^ = (1 / S²) sum_{o_y} sum_{o_x} x^_o`. The offsets are independent, so they are computed
 //! in parallel; their per-pixel sums are formed in the order `o_y` outer, `o_x` inner, as the
 //! serial loop did, so every output is the serial loop's bit for bit (floating-point addition
