@@ -112,6 +112,14 @@ pub struct GrowthParams {
     /// Share of each round's least growth kept for spreading ([`GrowthParams::spread`])
     /// whatever the marked leaves cost (0: only what they leave).
     pub spread_share: f64,
+    /// Share `q` of each round's new samples given to the *pixels* by their own pooled
+    /// spread (module `pixel_spread`): `ceil(q G)` of a round's least growth `G` (of a
+    /// densifying round's samples), and with `q > 0` whatever the marked slots leave of `G`,
+    /// water-filled so that each pixel's count rises towards `lambda s_P` (Neyman's
+    /// allocation `n_P ~ s_P`, `s_P` the spread of the pixel's samples, channels clipped to
+    /// `[0, 1]` and summed, pooled over its 3 x 3 neighbourhood); each pixel continues its
+    /// own sequence. Only where the base slots are the pixels (0: off, the tree alone).
+    pub pixel_share: f64,
 }
 
 /// The solver of the rounds' fits.
@@ -185,6 +193,7 @@ impl Default for AdaptiveParams {
                 min_growth: 0.25,
                 spread: SpreadRule::Indicator,
                 spread_share: 0.0,
+                pixel_share: 0.0,
             },
             stop: StopParams {
                 tolerance: 0.0,
@@ -391,7 +400,13 @@ impl GrowthParams {
             self.spread_share.is_finite() && (0.0..=1.0).contains(&self.spread_share),
             "spread_share",
             self.spread_share,
-            "a share of the least growth in [0, 1]",
+            "a share from 0 to 1",
+        )?;
+        check(
+            self.pixel_share.is_finite() && (0.0..=1.0).contains(&self.pixel_share),
+            "pixel_share",
+            self.pixel_share,
+            "a share from 0 to 1",
         )
     }
 
