@@ -224,6 +224,13 @@ impl Default for AdaptiveParams {
 /// "The floor in the first round"); 0.375 was measured beside it.
 pub const RENDERER_PIXEL_FLOOR: f64 = 0.5;
 
+/// The pixel share of a plan a renderer drives ([`AdaptiveParams::renderer_plan`],
+/// [`GrowthParams::pixel_share`]): half of each round's least growth over the pixels by
+/// their pooled spread, beside the tree's marking. Chosen on the issue-38 suite's tuning half
+/// (0.25, 0.5 and 1 on stripes, grid, direct and rough at 4 and 8 spp, then 0.5 on the whole
+/// half): docs/measurements/plan-quality.md, "The hybrid".
+pub const RENDERER_PIXEL_SHARE: f64 = 0.5;
+
 /// The noise test's probe channels in a plan a renderer drives ([`AdaptiveParams::renderer_plan`]):
 /// one. Under PCG the probes were about 85 % of the rounds' channel-iterations (the image
 /// channels, warm-started, converge in 2-3 iterations; a probe of white noise takes 8-15), and
@@ -270,7 +277,8 @@ impl AdaptiveParams {
     /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG"); the
     /// uniform floor ([`ImageSampling::pixel_floor`]) at `RENDERER_PIXEL_FLOOR` (half the
     /// budget's samples a pixel, in the base: docs/measurements/plan-quality.md, "The floor in
-    /// the first round"); and the noise test with `RENDERER_PROBES` probe channels (one: the
+    /// the first round"); the pixel share ([`GrowthParams::pixel_share`]) at `RENDERER_PIXEL_SHARE`;
+    /// and the noise test with `RENDERER_PROBES` probe channels (one: the
     /// probes were most of PCG's work).
     pub fn renderer_plan() -> Self {
         let d = Self::default();
@@ -286,6 +294,10 @@ impl AdaptiveParams {
             sampling: ImageSampling {
                 pixel_floor: RENDERER_PIXEL_FLOOR,
                 ..d.sampling
+            },
+            growth: GrowthParams {
+                pixel_share: RENDERER_PIXEL_SHARE,
+                ..d.growth
             },
             noise: NoiseParams {
                 probes: RENDERER_PROBES,
