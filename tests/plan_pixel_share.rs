@@ -68,11 +68,19 @@ fn the_pixel_share_follows_the_noise_and_continues_each_pixels_sequence() {
         let hybrid = run(&HalfNoisy, plane, budget, 1.0);
         let tree_only = run(&HalfNoisy, plane, budget, 0.0);
         let what = format!("{spp} spp");
-        assert_eq!(hybrid.xs.len(), budget, "{what}: the budget is spent exactly");
+        assert_eq!(
+            hybrid.xs.len(),
+            budget,
+            "{what}: the budget is spent exactly"
+        );
         let by_pixel: usize = hybrid.report.rounds.iter().map(|r| r.pixel_spread).sum();
         assert!(by_pixel > 0, "{what}: no sample went to the pixels");
         assert!(
-            hybrid.report.notes.iter().any(|n| n.contains("pixel share")),
+            hybrid
+                .report
+                .notes
+                .iter()
+                .any(|n| n.contains("pixel share")),
             "{what}: the notes do not say so"
         );
         let band = |xs: &[f64]| xs.iter().filter(|&&x| x >= 20.0).count();
