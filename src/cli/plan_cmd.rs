@@ -72,6 +72,10 @@ pub struct PlanArgs {
     /// of the refinement.
     #[arg(long)]
     pub min_growth: Option<f64>,
+    /// Share of each round's new samples given to the pixels by the spread of their own
+    /// samples (pooled over 3 x 3 pixels), beside the tree's marking (0 to 1; 0: the tree alone).
+    #[arg(long)]
+    pub pixel_share: Option<f64>,
     /// Where a slot's positions go (recorded in the state, continued by later calls):
     /// `sobol` (default: per slot an Owen-scrambled Sobol (0, 2)-sequence, each round taking
     /// its next points) or `stratified` (jittered strata per round).
@@ -137,6 +141,7 @@ pub(super) fn options(args: &PlanArgs) -> PlanOptions {
         seed: args.seed,
         false_alarm: args.false_alarm,
         min_growth: args.min_growth,
+        pixel_share: args.pixel_share,
         pattern: args.pattern,
         spread: args.spread,
         output_pixels: args.output_pixels,

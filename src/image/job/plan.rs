@@ -129,6 +129,9 @@ pub struct PlanOptions {
     pub pattern: Option<PositionPattern>,
     /// Where a round's spare samples go (default by the indicator).
     pub spread: Option<SpreadRule>,
+    /// Share of each round's new samples given to the pixels by their pooled spread
+    /// ([`crate::image::adaptive::GrowthParams::pixel_share`]).
+    pub pixel_share: Option<f64>,
     /// The final image's pixels (default `blend` for a new plan).
     pub output_pixels: Option<PixelEstimate>,
     /// The solver of the rounds' fits (default PCG for a new plan).
@@ -168,6 +171,7 @@ impl PlanOptions {
             growth: GrowthParams {
                 min_growth: self.min_growth.unwrap_or(base.growth.min_growth),
                 spread: self.spread.unwrap_or(base.growth.spread),
+                pixel_share: self.pixel_share.unwrap_or(base.growth.pixel_share),
                 ..base.growth
             },
             output: OutputParams {

@@ -9,6 +9,7 @@ use std::time::Instant;
 use super::super::fit::TreeFit;
 use super::super::indicator::Indication;
 use super::super::significance::residuals;
+use super::pixel_spread::{pooled_spread, spread_over_pixels};
 use super::positions::spread_samples;
 use super::{ImagePlan, ImageRound, SamplePositions};
 use crate::adaptive::marking::{dorfler, within_budget, SpreadRule};
@@ -65,6 +66,12 @@ impl ImagePlan {
             .copied()
             .collect();
         let decaying: HashSet<Cell> = ind.units.iter().map(|u| u.0).collect();
+        // the pixels' spreads, when the share is on and some pixel's samples spread (else
+        // the round is the tree's alone)
+        let pixels = self
+            .pixel_share_on()
+            .then(|| pooled_spread(self.plane, xs, ys, values))
+            .filter(|(s, _)| s.iter().any(|&v| v > 0.0));
         Tally {
             slots,
             counts,
@@ -74,6 +81,7 @@ impl ImagePlan {
             eta,
             decaying,
             uncertainty,
+            pixels,
         }
     }
 
@@ -104,12 +112,16 @@ impl ImagePlan {
             SpreadRule::Uncertainty => SpreadRule::Uncertainty,
             _ => SpreadRule::Uniform,
         };
+        // the pixel share first (module `pixel_spread`), the rest over the slots
+        let share = (self.params.growth.pixel_share * extra as f64).ceil() as usize;
+        let by_pixel = self.over_pixels(tally, &tally.slots, share, &mut next, &mut placer);
+        log.pixel_spread = by_pixel;
         let (_, to) = spread_samples(
             &self.tree,
             &tally.slots,
             &tally.counts,
             &tally.weights(rule, &tally.slots),
-            extra,
+            extra - by_pixel,
             &mut next,
             &mut placer,
         );
@@ -159,19 +171,32 @@ impl ImagePlan {
             .zip(&child_counts)
             .map(|(m, cc)| cc.iter().map(|&c| per_child.of(m).saturating_sub(c)).sum())
             .collect();
-        // a share of the least growth kept for spreading
+        // a share of the least growth kept for spreading, and the pixels' share
         let reserved = (params.growth.spread_share * goal as f64).ceil() as usize;
-        let mark_goal = goal - reserved.min(goal);
+        let by_pixel = if tally.pixels.is_some() {
+            (params.growth.pixel_share * goal as f64).ceil() as usize
+        } else {
+            0
+        };
+        let kept = reserved + by_pixel;
+        let mark_goal = goal - kept.min(goal);
         let mut k = n;
         let mut spent: usize = costs[..n].iter().sum();
         while k < costs.len() && spent < mark_goal && etas[k] > 0.0 {
             spent += costs[k];
             k += 1;
         }
-        let k = within_budget(&costs[..k], left - reserved.min(left));
+        let k = within_budget(&costs[..k], left - kept.min(left));
         let spent: usize = costs[..k].iter().sum();
-        // the spare samples: the least growth the marked slots do not take
-        let extra = goal.saturating_sub(spent).max(reserved).min(left - spent);
+        // the spare samples: the least growth the marked slots do not take; with the pixel
+        // share on, all but the slots' own share go to the pixels
+        let rest = goal.saturating_sub(spent).max(kept).min(left - spent);
+        let (extra, pixels) = if tally.pixels.is_some() {
+            (reserved.min(rest), rest - reserved.min(rest))
+        } else {
+            (rest, 0)
+        };
+        let extra = extra + pixels;
         // a round must hand out positions: marks whose children already hold their samples
         // and no spare sample (the coverage reserve took the rest) end the marking
         if spent + extra == 0 {
@@ -182,6 +207,7 @@ impl ImagePlan {
             child_counts,
             k,
             extra,
+            pixels,
             per_child,
         })
     }
@@ -217,12 +243,16 @@ impl ImagePlan {
                 .copied()
                 .filter(|s| !deepened.contains(s))
                 .collect();
+            // the pixels' share first (module `pixel_spread`); what they cannot take (no
+            // spread anywhere) goes to the slots with the rest
+            let by_pixel = self.over_pixels(tally, &stay, marking.pixels, &mut next, &mut placer);
+            log.pixel_spread = by_pixel;
             let (added, _) = spread_samples(
                 &self.tree,
                 &stay,
                 &tally.counts,
                 &tally.weights(self.params.growth.spread, &stay),
-                marking.extra,
+                marking.extra - by_pixel,
                 &mut next,
                 &mut placer,
             );
@@ -231,6 +261,33 @@ impl ImagePlan {
         self.progress.marked.push(marking.marked[..k].to_vec());
         self.progress.samples_fitted = samples;
         next
+    }
+
+    /// `share` samples over the pixels by their pooled spread, in the slots `stay`
+    /// (module `pixel_spread`); the samples added (0 when the share is off or no pixel
+    /// has a spread).
+    fn over_pixels(
+        &self,
+        tally: &Tally,
+        stay: &[Cell],
+        share: usize,
+        next: &mut SamplePositions,
+        placer: &mut super::positions::Placer,
+    ) -> usize {
+        match &tally.pixels {
+            Some((spread_of, pixel_counts)) => spread_over_pixels(
+                self.plane,
+                &self.tree,
+                stay,
+                &tally.counts,
+                spread_of,
+                pixel_counts,
+                share,
+                next,
+                placer,
+            ),
+            None => 0,
+        }
     }
 }
 
@@ -253,6 +310,9 @@ pub(super) struct Tally {
     /// The uncertainty `sqrt(A) s` of every slot's mean, `s` the spread of the fit's
     /// residuals in the slot ([`SlotMoments::uncertainty`]).
     uncertainty: HashMap<Cell, f64>,
+    /// With the pixel share on: every pixel's pooled spread and its samples (module
+    /// `pixel_spread`).
+    pixels: Option<(Vec<f64>, Vec<usize>)>,
 }
 
 impl Tally {
@@ -366,7 +426,10 @@ pub(super) struct Marking {
     child_counts: Vec<[usize; 4]>,
     /// Accepted marks: `marked[..k]`.
     pub(super) k: usize,
-    /// Spare samples to spread over the slots that stay slots.
+    /// Spare samples to spread over the slots that stay slots, `pixels` of them first over
+    /// the pixels by their pooled spread.
     extra: usize,
+    /// The pixels' share of `extra` (module `pixel_spread`).
+    pixels: usize,
     per_child: PerChild,
 }

@@ -62,6 +62,7 @@ mod coverage;
 mod deepen;
 mod params;
 mod pixel_counts;
+mod pixel_spread;
 mod plan;
 mod positions;
 mod report;

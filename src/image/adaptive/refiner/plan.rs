@@ -466,6 +466,30 @@ impl ImagePlan {
                 spread.join(", ")
             ));
         }
+        let share = self.params.growth.pixel_share;
+        if share > 0.0 && !self.base_slots_are_pixels() {
+            notes.push(format!(
+                "pixel_share: {share} asked for, but the base slots are not the pixels: the tree \
+                 alone places the samples (no pixel share)"
+            ));
+        } else if share > 0.0 {
+            let by_pixel: Vec<String> = rounds
+                .iter()
+                .filter(|r| r.pixel_spread > 0)
+                .map(|r| format!("round {}: {}", r.round, r.pixel_spread))
+                .collect();
+            let total: usize = rounds.iter().map(|r| r.pixel_spread).sum();
+            notes.push(format!(
+                "pixel share {share}: {total} samples over the pixels by the spread of their own \
+                 samples (clipped to [0, 1], pooled over 3 x 3 pixels), beside the tree's marking \
+                 ({})",
+                if by_pixel.is_empty() {
+                    "none: no pixel's samples spread".to_string()
+                } else {
+                    by_pixel.join(", ")
+                }
+            ));
+        }
         AdaptiveReport {
             levels: self.tree.basis().levels(),
             coarse_levels: (cx, cy),

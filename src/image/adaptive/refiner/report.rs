@@ -38,6 +38,9 @@ pub struct ImageRound {
     /// Samples spread over the slots that stay slots (beyond the marked slots' children), so
     /// that the round adds at least `min_growth` times the samples or spends the budget.
     pub spread: usize,
+    /// Of the round's new samples, those given to the pixels by their pooled spread
+    /// (`GrowthParams::pixel_share`, module `pixel_spread`).
+    pub pixel_spread: usize,
     /// Samples held back for the pixels short of the coverage rule's samples so far (module
     /// `coverage`; 0 when it is off).
     pub reserved: usize,

@@ -234,6 +234,7 @@ impl ImagePlan {
             insignificant: ind.insignificant.len(),
             densified_to: None,
             spread: 0,
+            pixel_spread: 0,
             reserved: 0,
             filled: 0,
             coverage: None,

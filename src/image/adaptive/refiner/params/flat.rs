@@ -31,6 +31,9 @@ pub(super) struct FlatParams {
     spread: SpreadRule,
     #[serde(default)]
     spread_share: f64,
+    /// Older files lack it: the tree alone, as they were written.
+    #[serde(default)]
+    pixel_share: f64,
     #[serde(default = "default_rho_limit")]
     rho_limit: f64,
     tolerance: f64,
@@ -116,6 +119,7 @@ impl From<AdaptiveParams> for FlatParams {
             min_growth: a.growth.min_growth,
             spread: a.growth.spread,
             spread_share: a.growth.spread_share,
+            pixel_share: a.growth.pixel_share,
             rho_limit: a.sampling.rho_limit,
             tolerance: a.stop.tolerance,
             budget: a.stop.budget,
@@ -159,6 +163,7 @@ impl From<FlatParams> for AdaptiveParams {
                 min_growth: f.min_growth,
                 spread: f.spread,
                 spread_share: f.spread_share,
+                pixel_share: f.pixel_share,
             },
             stop: StopParams {
                 tolerance: f.tolerance,

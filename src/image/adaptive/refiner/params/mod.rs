@@ -112,6 +112,14 @@ pub struct GrowthParams {
     /// Share of each round's least growth kept for spreading ([`GrowthParams::spread`])
     /// whatever the marked leaves cost (0: only what they leave).
     pub spread_share: f64,
+    /// Share `q` of each round's new samples given to the *pixels* by their own pooled
+    /// spread (module `pixel_spread`): `ceil(q G)` of a round's least growth `G` (of a
+    /// densifying round's samples), and with `q > 0` whatever the marked slots leave of `G`,
+    /// water-filled so that each pixel's count rises towards `lambda s_P` (Neyman's
+    /// allocation `n_P ~ s_P`, `s_P` the spread of the pixel's samples, channels clipped to
+    /// `[0, 1]` and summed, pooled over its 3 x 3 neighbourhood); each pixel continues its
+    /// own sequence. Only where the base slots are the pixels (0: off, the tree alone).
+    pub pixel_share: f64,
 }
 
 /// The solver of the rounds' fits.
@@ -185,6 +193,7 @@ impl Default for AdaptiveParams {
                 min_growth: 0.25,
                 spread: SpreadRule::Indicator,
                 spread_share: 0.0,
+                pixel_share: 0.0,
             },
             stop: StopParams {
                 tolerance: 0.0,
@@ -214,6 +223,16 @@ impl Default for AdaptiveParams {
 /// film against +3.34 without, rounds 120 against 183 (docs/measurements/plan-quality.md,
 /// "The floor in the first round"); 0.375 was measured beside it.
 pub const RENDERER_PIXEL_FLOOR: f64 = 0.5;
+
+/// The pixel share of a plan a renderer drives ([`AdaptiveParams::renderer_plan`],
+/// [`GrowthParams::pixel_share`]): off. The issue-38 suite's tuning half chose 0.5 (0.25, 0.5
+/// and 1 on stripes, grid, direct and rough at 4 and 8 spp, then 0.5 on the whole half: +4.31
+/// and +4.03 dB over the best film at two seeds against +3.85), but the validation half loses
+/// 4-5 dB on glass and 1-4 dB on envmap and wires at 8/16 spp, and the tiled plan (whose
+/// windows' base slots are not the pixels) has no share, so with it the untiled plan moved
+/// 3.8 dB ahead of the tiled one on `tests/tiled_plan.rs`'s slanted edge:
+/// docs/measurements/plan-quality.md, "The hybrid". `rkwave plan --pixel-share 0.5` asks for it.
+pub const RENDERER_PIXEL_SHARE: f64 = 0.0;
 
 /// The noise test's probe channels in a plan a renderer drives ([`AdaptiveParams::renderer_plan`]):
 /// one. Under PCG the probes were about 85 % of the rounds' channel-iterations (the image
@@ -261,7 +280,8 @@ impl AdaptiveParams {
     /// a tenth of a dB: docs/measurements/plan-speed.md, "The renderer loop on PCG"); the
     /// uniform floor ([`ImageSampling::pixel_floor`]) at `RENDERER_PIXEL_FLOOR` (half the
     /// budget's samples a pixel, in the base: docs/measurements/plan-quality.md, "The floor in
-    /// the first round"); and the noise test with `RENDERER_PROBES` probe channels (one: the
+    /// the first round"); the pixel share ([`GrowthParams::pixel_share`]) at `RENDERER_PIXEL_SHARE`;
+    /// and the noise test with `RENDERER_PROBES` probe channels (one: the
     /// probes were most of PCG's work).
     pub fn renderer_plan() -> Self {
         let d = Self::default();
@@ -277,6 +297,10 @@ impl AdaptiveParams {
             sampling: ImageSampling {
                 pixel_floor: RENDERER_PIXEL_FLOOR,
                 ..d.sampling
+            },
+            growth: GrowthParams {
+                pixel_share: RENDERER_PIXEL_SHARE,
+                ..d.growth
             },
             noise: NoiseParams {
                 probes: RENDERER_PROBES,
@@ -391,7 +415,13 @@ impl GrowthParams {
             self.spread_share.is_finite() && (0.0..=1.0).contains(&self.spread_share),
             "spread_share",
             self.spread_share,
-            "a share of the least growth in [0, 1]",
+            "a share from 0 to 1",
+        )?;
+        check(
+            self.pixel_share.is_finite() && (0.0..=1.0).contains(&self.pixel_share),
+            "pixel_share",
+            self.pixel_share,
+            "a share from 0 to 1",
         )
     }
 

@@ -1,0 +1,138 @@
+//! The pixel share of the plan's rounds (`GrowthParams::pixel_share`, the hybrid of the tree
+//! and the pixels' own spread): the budget is spent exactly, the share goes to noisy pixels
+//! and not to noise-free ones, and a pixel the tree never deepened holds a prefix of its own
+//! (0, 2)-sequence however many rounds added to it.
+
+use rkwave::adaptive::Cell;
+use rkwave::image::adaptive::{
+    position_normal, refine_image, slot_sobol, AdaptiveImage, AdaptiveParams, GrowthParams,
+    ImageOracle, StopParams,
+};
+use rkwave::image::ImagePlane;
+
+/// Flat 0.5 everywhere; noise of deviation 0.1 on the left half (`x < 16`) only.
+struct HalfNoisy;
+
+impl ImageOracle for HalfNoisy {
+    fn channels(&self) -> usize {
+        1
+    }
+    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
+        out[0] = 0.5;
+        if x < 16.0 {
+            out[0] += 0.1 * position_normal(5, x, y, 0);
+        }
+    }
+}
+
+fn run(oracle: &dyn ImageOracle, plane: ImagePlane, budget: usize, share: f64) -> AdaptiveImage {
+    let d = AdaptiveParams::renderer_plan();
+    let params = AdaptiveParams {
+        growth: GrowthParams {
+            pixel_share: share,
+            ..d.growth
+        },
+        stop: StopParams { budget, ..d.stop },
+        ..d
+    };
+    refine_image(oracle, plane, &params).unwrap()
+}
+
+/// Per pixel (row-major) the positions inside it, relative to the pixel's corner.
+fn per_pixel(plane: ImagePlane, xs: &[f64], ys: &[f64]) -> Vec<Vec<(f64, f64)>> {
+    let mut out = vec![Vec::new(); plane.pixels()];
+    for (&x, &y) in xs.iter().zip(ys) {
+        let (px, py) = plane.pixel_of(x, y);
+        out[py * plane.width() + px].push((x, y));
+    }
+    out
+}
+
+fn sorted(mut v: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    v.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    v
+}
+
+/// On a 32 x 32 plane at 8 and 16 samples a pixel with the pixel share at 1: the budget is
+/// spent exactly; the rounds give samples to the pixels (the report counts them, a note says
+/// so); the noise-free band `x >= 20` (pooled spreads of exactly 0: its samples are all 0.5,
+/// and its 3 x 3 pools stay right of `x = 19`) holds no more samples than the same run
+/// without the share gives it (the share takes none there, only the tree's marking does);
+/// and every pixel the tree never deepened holds exactly the first `n_P` points of its own
+/// sequence (`slot_sobol` of the pixel's cell), bit for bit as a set.
+#[test]
+fn the_pixel_share_follows_the_noise_and_continues_each_pixels_sequence() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    for spp in [8usize, 16] {
+        let budget = spp * plane.pixels();
+        let hybrid = run(&HalfNoisy, plane, budget, 1.0);
+        let tree_only = run(&HalfNoisy, plane, budget, 0.0);
+        let what = format!("{spp} spp");
+        assert_eq!(
+            hybrid.xs.len(),
+            budget,
+            "{what}: the budget is spent exactly"
+        );
+        let by_pixel: usize = hybrid.report.rounds.iter().map(|r| r.pixel_spread).sum();
+        assert!(by_pixel > 0, "{what}: no sample went to the pixels");
+        assert!(
+            hybrid
+                .report
+                .notes
+                .iter()
+                .any(|n| n.contains("pixel share")),
+            "{what}: the notes do not say so"
+        );
+        let band = |xs: &[f64]| xs.iter().filter(|&&x| x >= 20.0).count();
+        assert!(
+            band(&hybrid.xs) <= band(&tree_only.xs),
+            "{what}: the noise-free band got {} samples with the share, {} without",
+            band(&hybrid.xs),
+            band(&tree_only.xs)
+        );
+        let left = |xs: &[f64]| xs.iter().filter(|&&x| x < 16.0).count();
+        assert!(
+            left(&hybrid.xs) > left(&tree_only.xs),
+            "{what}: the noisy half did not gain samples"
+        );
+        // the step whose cells are the pixels
+        let tree = &hybrid.tree;
+        let step = (0..=tree.steps())
+            .find(|&s| tree.cell_dims(s) == (32, 32))
+            .unwrap();
+        let seed = AdaptiveParams::renderer_plan().sampling.seed;
+        for (p, pts) in per_pixel(plane, &hybrid.xs, &hybrid.ys)
+            .into_iter()
+            .enumerate()
+        {
+            let (px, py) = (p % 32, p / 32);
+            let cell = Cell {
+                step,
+                kx: px,
+                ky: py,
+            };
+            if tree.is_active(cell) {
+                continue; // deepened: its children's points
+            }
+            let (x0, y0) = (px as f64, py as f64);
+            let own = slot_sobol(seed, cell, [x0, x0 + 1.0, y0, y0 + 1.0], 0, pts.len());
+            let own: Vec<(f64, f64)> = own.xs.into_iter().zip(own.ys).collect();
+            assert_eq!(sorted(pts), sorted(own), "{what}: pixel {p}");
+        }
+    }
+}
+
+/// A noise-free flat image: no pixel's samples spread, so the share gives nothing to the
+/// pixels and the run is the tree's alone, sample for sample.
+#[test]
+fn a_flat_noise_free_image_gives_the_pixels_nothing() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let flat = |_: f64, _: f64| 0.25;
+    let budget = 8 * plane.pixels();
+    let hybrid = run(&flat, plane, budget, 1.0);
+    let tree_only = run(&flat, plane, budget, 0.0);
+    let by_pixel: usize = hybrid.report.rounds.iter().map(|r| r.pixel_spread).sum();
+    assert_eq!(by_pixel, 0);
+    assert_eq!(hybrid.xs, tree_only.xs);
+    assert_eq!(hybrid.ys, tree_only.ys);
+}
