@@ -6,14 +6,15 @@
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::adaptive::Cell;
 use rkwave::image::adaptive::{
-    position_normal, refine_image, slot_sobol, AdaptiveParams, GrowthParams, ImageOracle,
-    ImageSampling, PositionPattern, SamplePositions, StopParams,
+    refine_image, slot_sobol, AdaptiveParams, GrowthParams, ImageOracle, ImageSampling,
+    PositionPattern, SamplePositions, StopParams,
 };
 use rkwave::image::ImagePlane;
 use rkwave::refine::StopReason;
 
 mod common;
 use common::nets::is_net;
+use common::scenes::HalfNoisy;
 
 fn slice(p: &SamplePositions, a: usize, b: usize) -> SamplePositions {
     SamplePositions {
@@ -103,20 +104,11 @@ fn base_positions_are_a_net_in_every_slot() {
     }
 }
 
-/// Flat 0.5 everywhere; noise of deviation 0.05 on the left half only.
-struct HalfNoisy;
-
-impl ImageOracle for HalfNoisy {
-    fn channels(&self) -> usize {
-        1
-    }
-    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
-        out[0] = 0.5;
-        if x < 16.0 {
-            out[0] += 0.05 * position_normal(11, x, y, 0);
-        }
-    }
-}
+/// The noisy half of the plane: deviation 0.05 on `x < 16`.
+const HALF_NOISY: HalfNoisy = HalfNoisy {
+    sigma: 0.05,
+    seed: 11,
+};
 
 fn params(budget: usize, spread: SpreadRule, pattern: PositionPattern) -> AdaptiveParams {
     let d = AdaptiveParams::default();
@@ -152,7 +144,7 @@ fn the_uncertainty_rule_samples_noise_not_flat_regions() {
     let budget = 8 * plane.pixels() + 5;
     for pattern in PositionPattern::ALL {
         let run = refine_image(
-            &HalfNoisy,
+            &HALF_NOISY,
             plane,
             &params(budget, SpreadRule::Uncertainty, pattern),
         )
@@ -169,7 +161,7 @@ fn the_uncertainty_rule_samples_noise_not_flat_regions() {
         );
         assert!(left >= 5 * right, "{what}");
         let ind = refine_image(
-            &HalfNoisy,
+            &HALF_NOISY,
             plane,
             &params(budget, SpreadRule::Indicator, pattern),
         )

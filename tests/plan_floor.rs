@@ -3,7 +3,7 @@
 //! from the pixel's own (0, 2)-sequence where the pixel is a base slot, so no round holds
 //! samples back for the floor and none tops pixels up at the end: the rounds are no more
 //! than without the floor. (Before, the floor was held back from the rounds and filled at
-//! the end: the loop's rounds doubled on the suite, docs/measurements/plan-quality.md.)
+//! the end: the loop's rounds doubled on the suite, docs/measurements/plan-quality-history.md.)
 
 use rkwave::image::adaptive::{
     pixel_shortfall, refine_image, AdaptiveParams, ImagePlan, SamplePositions,

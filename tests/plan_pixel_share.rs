@@ -5,25 +5,18 @@
 
 use rkwave::adaptive::Cell;
 use rkwave::image::adaptive::{
-    position_normal, refine_image, slot_sobol, AdaptiveImage, AdaptiveParams, GrowthParams,
-    ImageOracle, StopParams,
+    refine_image, slot_sobol, AdaptiveImage, AdaptiveParams, GrowthParams, ImageOracle, StopParams,
 };
 use rkwave::image::ImagePlane;
 
-/// Flat 0.5 everywhere; noise of deviation 0.1 on the left half (`x < 16`) only.
-struct HalfNoisy;
+mod common;
+use common::scenes::HalfNoisy;
 
-impl ImageOracle for HalfNoisy {
-    fn channels(&self) -> usize {
-        1
-    }
-    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
-        out[0] = 0.5;
-        if x < 16.0 {
-            out[0] += 0.1 * position_normal(5, x, y, 0);
-        }
-    }
-}
+/// The noisy half of the plane: deviation 0.1 on `x < 16`.
+const HALF_NOISY: HalfNoisy = HalfNoisy {
+    sigma: 0.1,
+    seed: 5,
+};
 
 fn run(oracle: &dyn ImageOracle, plane: ImagePlane, budget: usize, share: f64) -> AdaptiveImage {
     let d = AdaptiveParams::renderer_plan();
@@ -65,8 +58,8 @@ fn the_pixel_share_follows_the_noise_and_continues_each_pixels_sequence() {
     let plane = ImagePlane::new(32, 32).unwrap();
     for spp in [8usize, 16] {
         let budget = spp * plane.pixels();
-        let hybrid = run(&HalfNoisy, plane, budget, 1.0);
-        let tree_only = run(&HalfNoisy, plane, budget, 0.0);
+        let hybrid = run(&HALF_NOISY, plane, budget, 1.0);
+        let tree_only = run(&HALF_NOISY, plane, budget, 0.0);
         let what = format!("{spp} spp");
         assert_eq!(
             hybrid.xs.len(),

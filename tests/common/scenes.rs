@@ -126,3 +126,22 @@ pub fn nyquist_value(n: usize, x: f64, y: f64, c: usize) -> f64 {
         _ => 0.5 * stripes + 0.5 * chirp + hash,
     }
 }
+
+/// Flat 0.5 everywhere; Gaussian noise of deviation `sigma` (seeded by `seed` through
+/// [`position_normal`], a function of the position) on the left half `x < 16` only.
+pub struct HalfNoisy {
+    pub sigma: f64,
+    pub seed: u64,
+}
+
+impl ImageOracle for HalfNoisy {
+    fn channels(&self) -> usize {
+        1
+    }
+    fn sample(&self, x: f64, y: f64, out: &mut [f64]) {
+        out[0] = 0.5;
+        if x < 16.0 {
+            out[0] += self.sigma * position_normal(self.seed, x, y, 0);
+        }
+    }
+}

@@ -572,7 +572,7 @@ fn output_pixels_and_shrink_divergence(
 /// (before the shrinkage), taken for it in the blend's risk of `shrunk`
 /// ([`PixelEstimate::Blend`]; module docs, *Blend*: `d_S = d_pre d_H`, `d_H` the shrinkage's
 /// exact divergence). The box pixels as a third candidate of the blend (risk `v_P`) and
-/// `d_S = 0` were measured and not kept: docs/measurements/plan-quality.md.
+/// `d_S = 0` were measured and not kept: docs/measurements/plan-quality-history.md.
 pub const SHRUNK_DIVERGENCE_BOUND: f64 = 1.0;
 
 /// [`PixelEstimate::Blend`]: the `shrunk` pixels `S_P` and the `auto` pixels `A_P` of the

@@ -40,12 +40,12 @@
 //!   notes say so. (Held back and filled at
 //!   the end instead, the floor doubled the loop's rounds: a sample a round put in a pixel
 //!   below the floor was paid from the reserve, so what a round could spend did not shrink
-//!   and small rounds went on until the floor was met: docs/measurements/plan-quality.md.)
+//!   and small rounds went on until the floor was met: docs/measurements/plan-quality-history.md.)
 //!
 //! Topping up after the rounds is cheaper than the base up front, but on the suite's 4 spp it
 //! is behind it (adapting on a sparse base, the rounds decide on noisier fits and leave an
-//! uneven density): docs/measurements/plan-quality.md. So the base goes up front wherever the
-//! budget holds it, and the reserve and fill cover only what it cannot.
+//! uneven density): docs/measurements/plan-quality-history.md. So the base goes up front
+//! wherever the budget holds it, and the reserve and fill cover only what it cannot.
 
 use super::pixel_counts::pixel_shortfall;
 use super::positions::round_rng;

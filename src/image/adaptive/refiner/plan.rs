@@ -147,9 +147,9 @@ impl ImagePlan {
         // budget pays for base slots no larger than a pixel, the base tree is raised to them,
         // so that every pixel holds `ceil(rho)` base samples before the tree adapts (on the
         // suite's 4 spp this is ahead of topping the pixels up after the rounds:
-        // docs/measurements/plan-quality.md); elsewhere (planes whose sides are not powers of
-        // two, between 1 and 2 samples a pixel) the reserve and the fill round below cover
-        // the pixels. A base level given by the user is kept as given.
+        // docs/measurements/plan-quality-history.md); elsewhere (planes whose sides are not
+        // powers of two, between 1 and 2 samples a pixel) the reserve and the fill round below
+        // cover the pixels. A base level given by the user is kept as given.
         let mut coverage = None;
         let pixels = w * h;
         if params.sampling.cover_pixels
