@@ -10,7 +10,10 @@
 //! every round as the command line does). Every round's report (with where its time went)
 //! and the final image's times go to stderr as JSON, with the heap in every phase (`heap
 //! {...}` lines: bytes live at the phase's end and the most live during it, counted by this
-//! example's allocator; `/usr/bin/time -v`'s peak RSS adds the allocator's free lists).
+//! example's allocator, with the resident set now and its most during the phase and glibc's
+//! arenas: held, free inside them, and blocks mapped on their own). The peak resident set over
+//! the phases is printed last (`/usr/bin/time -v`'s counts only the last phase: the kernel's
+//! peak is reset at each phase).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -34,6 +37,9 @@ struct CountingAlloc;
 
 static LIVE: AtomicUsize = AtomicUsize::new(0);
 static PEAK: AtomicUsize = AtomicUsize::new(0);
+/// The resident set's most over the phases so far (bytes; the kernel's own peak is reset
+/// every phase, so `/usr/bin/time -v`'s is the last phase's only).
+static RSS_PEAK: AtomicUsize = AtomicUsize::new(0);
 
 fn grew(by: usize) {
     let now = LIVE.fetch_add(by, Ordering::Relaxed) + by;
@@ -73,16 +79,71 @@ unsafe impl GlobalAlloc for CountingAlloc {
 #[global_allocator]
 static HEAP: CountingAlloc = CountingAlloc;
 
-/// Prints the heap's bytes live now and the most live since the last phase (GB, 10^9), then
-/// starts the next phase's peak from now.
+/// The resident set now and its most since the last [`reset_peak_rss`], in bytes
+/// (`/proc/self/status`'s `VmRSS` and `VmHWM`; zeros where that file does not exist).
+fn rss() -> (u64, u64) {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let field = |name: &str| {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(name))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+            .map_or(0, |kb| kb * 1024)
+    };
+    (field("VmRSS:"), field("VmHWM:"))
+}
+
+/// Starts the next phase's resident peak from now (Linux: `5` to `/proc/self/clear_refs`
+/// resets `VmHWM` to the present resident set; elsewhere the peak is the process's).
+fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// Bytes glibc's arenas hold (mapped by `brk` or their own heaps), of those free inside
+/// them, and in blocks mapped on their own (`mallinfo2`: `arena`, `fordblks`, `hblkhd`).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn arenas() -> (usize, usize, usize) {
+    // SAFETY: `mallinfo2` only reads the allocator's counters.
+    let m = unsafe { libc::mallinfo2() };
+    (m.arena, m.fordblks, m.hblkhd)
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn arenas() -> (usize, usize, usize) {
+    (0, 0, 0)
+}
+
+/// Prints the heap's bytes live now and the most live since the last phase, the resident
+/// set now and its most since the last phase, and glibc's arenas (GB, 10^9), then starts the
+/// next phase's peaks from now.
 fn heap_phase(phase: &str) {
     let live = LIVE.load(Ordering::Relaxed);
     let peak = PEAK.swap(live, Ordering::Relaxed);
+    let (rss_now, rss_peak) = rss();
+    reset_peak_rss();
+    RSS_PEAK.fetch_max(rss_peak as usize, Ordering::Relaxed);
+    let (arena, free, mapped) = arenas();
+    let gb = |b: u64| b as f64 / 1e9;
     eprintln!(
-        "heap {{\"phase\": \"{phase}\", \"live_gb\": {:.3}, \"peak_gb\": {:.3}}}",
-        live as f64 / 1e9,
-        peak as f64 / 1e9
+        "heap {{\"phase\": \"{phase}\", \"live_gb\": {:.3}, \"peak_gb\": {:.3}, \
+         \"rss_gb\": {:.3}, \"rss_peak_gb\": {:.3}, \"arenas_gb\": {:.3}, \
+         \"arenas_free_gb\": {:.3}, \"mapped_gb\": {:.3}}}",
+        gb(live as u64),
+        gb(peak as u64),
+        gb(rss_now),
+        gb(rss_peak),
+        gb(arena as u64),
+        gb(free as u64),
+        gb(mapped as u64),
     );
+}
+
+/// FNV-1a over the bits of `values` in order: equal digests for the same numbers in the same
+/// order, so two builds' positions and images are compared bit for bit.
+fn bits_digest<'a>(values: impl Iterator<Item = &'a f64>) -> u64 {
+    values.fold(0xcbf2_9ce4_8422_2325, |h, v| {
+        (h ^ v.to_bits()).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// The samples so far: positions in the order handed out and every channel's values.
@@ -232,7 +293,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let m = compare(&image, &box_truth(&scene, plane, 4));
     heap_phase("truth and metrics");
     println!(
-        "{size} {} {scene_name}: rkwave {spent:.2} s, {} samples, PSNR {:.3} dB, relMSE {:.4e}",
+        "{size} {} {scene_name}: rkwave {spent:.2} s, {} samples, PSNR {:.3} dB, relMSE {:.4e}, \
+         positions {:016x}, image {:016x}",
         if untiled {
             "untiled".to_string()
         } else if rebuild {
@@ -242,7 +304,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         r.xs.len(),
         m.psnr,
-        m.rel_mse
+        m.rel_mse,
+        bits_digest(r.xs.iter().chain(&r.ys)),
+        bits_digest(image.channels.iter().flatten()),
+    );
+    println!(
+        "peak resident set over the phases: {} kB",
+        RSS_PEAK.load(Ordering::Relaxed) / 1024
     );
     Ok(())
 }

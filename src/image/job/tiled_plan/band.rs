@@ -37,12 +37,10 @@ use serde::{Deserialize, Serialize};
 
 use super::error::TiledPlanError;
 use super::round::TileOutcome;
-use super::state::{
-    all_stopped, TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
-};
+use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
+use super::stops::RoundTally;
 use super::times::TiledTimes;
 use super::window::{plan_window, tile_output};
-use crate::adaptive::StopReason;
 use crate::image::adaptive::{AdaptiveParams, FitState, PixelEstimate, SamplePositions};
 use crate::image::plan::ProtocolError;
 use crate::image::tiles::TileGeometry;
@@ -396,8 +394,7 @@ impl TiledPlanState {
         if let Some(step) = self.stop_before_stepping(samples) {
             return Ok(BandedRound::Stopped(step));
         }
-        let (n, budget) = (self.positions(), self.params.stop.budget);
-        let growth = (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize);
+        let growth = self.growth();
         let shares = self.shares(growth);
         let buckets = self.buckets(samples)?;
         let held = self.held_bytes(samples) + 8.0 * samples.len() as f64;
@@ -486,7 +483,12 @@ impl TiledPlanState {
         self.kept.take_all(self.tiles.len());
         // commit: everything checked, nothing changed yet (the local round's order: tiles in
         // index order)
-        let mut next = SamplePositions::default();
+        // sized exactly, as the local round's
+        let drawn = by_tile.iter().flatten().map(|o| o.next_xs.len()).sum();
+        let mut next = SamplePositions {
+            xs: Vec::with_capacity(drawn),
+            ys: Vec::with_capacity(drawn),
+        };
         let (mut halo, mut cut) = (0, 0);
         let stepped = plan.stepped.len();
         for (t, o) in by_tile.into_iter().enumerate() {
@@ -499,42 +501,15 @@ impl TiledPlanState {
             }
         }
         self.channels = Some(plan.channels);
-        let growth = plan.growth;
-        if next.is_empty() {
-            let stop = if self.tiles.iter().all(|t| t.stop.is_some()) {
-                all_stopped(&self.tiles)
-            } else {
-                StopReason::Budget
-            };
-            self.stop = Some(stop);
-            return Ok(self.stopped(
-                stop,
-                growth,
-                stepped,
-                halo,
-                cut,
-                plan.largest_window,
-                TiledTimes::default(),
-            ));
-        }
-        let next_round = self.issue_round(&next);
-        Ok(super::TiledStep {
-            next_positions: next.len(),
-            next,
-            next_round: Some(next_round),
-            stop: None,
-            total_positions: self.positions(),
-            budget: self.params.stop.budget,
-            growth,
-            tiles_stepped: stepped,
-            tiles_stopped: self.tiles.iter().filter(|t| t.stop.is_some()).count(),
+        let tally = RoundTally {
+            growth: plan.growth,
+            stepped,
             halo_drawn: halo,
             cut,
             largest_window: plan.largest_window,
-            diagonals_kept: 0,
-            diagonals_over: 0,
-            times: TiledTimes::default(),
-        })
+            ..RoundTally::default()
+        };
+        Ok(self.finish_round(next, tally, TiledTimes::default()))
     }
 
     /// The final image's band tasks (module docs): the samples checked as

@@ -66,6 +66,7 @@
 mod band;
 mod error;
 mod kept;
+mod memory;
 mod round;
 mod state;
 mod stops;

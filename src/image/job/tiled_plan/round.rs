@@ -9,9 +9,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::error::TiledPlanError;
-use super::state::{
-    all_stopped, TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION,
-};
+use super::memory::release_freed_memory;
+use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
+use super::stops::RoundTally;
 use super::times::TiledTimes;
 use super::window::{
     keep_owned, plan_window, reach, stitch, tile_bytes, tile_output, window_plane,
@@ -504,8 +504,7 @@ impl TiledPlanState {
         if let Some(step) = self.stop_before_stepping(samples) {
             return Ok(step);
         }
-        let (n, budget) = (self.positions(), self.params.stop.budget);
-        let growth = (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize);
+        let growth = self.growth();
         let shares = self.shares(growth);
         let mut times = TiledTimes::default();
         let t = Instant::now();
@@ -538,6 +537,8 @@ impl TiledPlanState {
                         drop(picks);
                         let local_s = t.elapsed().as_secs_f64();
                         let mut outcome = self.step_tile(tile, &local, share, kept)?;
+                        drop(local);
+                        release_freed_memory();
                         outcome.times.local_s = local_s;
                         Ok(Ok(outcome))
                     })
@@ -577,39 +578,19 @@ impl TiledPlanState {
         }
         let (diagonals_kept, diagonals_over) = self.kept.keep(fit_states);
         self.channels = Some(samples.channels());
-        if next.is_empty() {
-            let stop = if self.tiles.iter().all(|t| t.stop.is_some()) {
-                all_stopped(&self.tiles)
-            } else {
-                StopReason::Budget
-            };
-            self.stop = Some(stop);
-            times.commit_s = t.elapsed().as_secs_f64();
-            times.wall_s = wall.elapsed().as_secs_f64();
-            let mut step = self.stopped(stop, growth, stepped, halo, cut, largest_window, times);
-            (step.diagonals_kept, step.diagonals_over) = (diagonals_kept, diagonals_over);
-            return Ok(step);
-        }
-        let next_round = self.issue_round(&next);
-        times.commit_s = t.elapsed().as_secs_f64();
-        times.wall_s = wall.elapsed().as_secs_f64();
-        Ok(TiledStep {
-            next_positions: next.len(),
-            next,
-            next_round: Some(next_round),
-            stop: None,
-            total_positions: self.positions(),
-            budget,
+        let tally = RoundTally {
             growth,
-            tiles_stepped: stepped,
-            tiles_stopped: self.tiles.iter().filter(|t| t.stop.is_some()).count(),
+            stepped,
             halo_drawn: halo,
             cut,
             largest_window,
             diagonals_kept,
             diagonals_over,
-            times,
-        })
+        };
+        let mut step = self.finish_round(next, tally, times);
+        step.times.commit_s = t.elapsed().as_secs_f64();
+        step.times.wall_s = wall.elapsed().as_secs_f64();
+        Ok(step)
     }
 
     /// Records the positions `next` handed out as the next round (count and order-free
@@ -719,6 +700,9 @@ impl TiledPlanState {
                     // poisoned only by a panic in another tile's `stitch`, which rayon passes on
                     let mut image = image.lock().unwrap_or_else(PoisonError::into_inner);
                     stitch(&mut image, &g, tile.index, &pixels);
+                    drop(image);
+                    drop(pixels);
+                    release_freed_memory();
                     times.commit_s = t.elapsed().as_secs_f64();
                     Ok(times)
                 })

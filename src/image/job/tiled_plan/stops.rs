@@ -1,5 +1,7 @@
-//! A tiled round's stops: the plan stopped already, at the budget, at the round limit, or with
-//! every tile stopped (module docs of `tiled_plan`); shared by the local round and the banded one.
+//! A tiled round's end, shared by the local round and the banded one (module docs of
+//! `tiled_plan`): the stops met before any tile steps (the plan stopped already, the budget,
+//! the round limit, every tile stopped), the stop or the next round after the tiles stepped,
+//! and the round's report ([`TiledStep`], built here alone).
 
 use super::round::TiledStep;
 use super::state::{all_stopped, TiledPlanState};
@@ -8,57 +10,100 @@ use crate::adaptive::StopReason;
 use crate::image::adaptive::SamplePositions;
 use crate::image::ImageSamples;
 
+/// What a round counted besides its positions: the fields of [`TiledStep`] the round fills
+/// (all zero for a round that stops before any tile steps).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct RoundTally {
+    /// The round's growth `G` split over the tiles.
+    pub(super) growth: usize,
+    /// Tiles stepped.
+    pub(super) stepped: usize,
+    /// Positions the tiles drew in their halos.
+    pub(super) halo_drawn: usize,
+    /// Positions drawn beyond a tile's share, cut.
+    pub(super) cut: usize,
+    /// The largest samples in one tile's window.
+    pub(super) largest_window: usize,
+    /// Tiles whose PCG diagonal is kept for the next round.
+    pub(super) diagonals_kept: usize,
+    /// Tiles whose diagonal did not fit the bound.
+    pub(super) diagonals_over: usize,
+}
+
 impl TiledPlanState {
     /// The stop a round meets before any tile steps: the plan stopped already, or now at the
     /// budget, the round limit, or with every tile stopped (recorded, with the samples'
     /// channels). `None`: the round steps its tiles. Shared by [`Self::advance`] and the
     /// banded round (`band.rs`).
     pub(super) fn stop_before_stepping(&mut self, samples: &ImageSamples) -> Option<TiledStep> {
-        if let Some(stop) = self.stop {
-            return Some(self.stopped(stop, 0, 0, 0, 0, 0, TiledTimes::default()));
+        if self.stop.is_none() {
+            let n = self.positions();
+            let stop_now = if n >= self.params.stop.budget {
+                Some(StopReason::Budget)
+            } else if self.round() >= self.params.stop.max_rounds {
+                Some(StopReason::MaxRounds)
+            } else if self.tiles.iter().all(|t| t.stop.is_some()) {
+                Some(all_stopped(&self.tiles))
+            } else {
+                None
+            };
+            self.stop = Some(stop_now?);
+            self.channels = Some(samples.channels());
         }
-        let n = self.positions();
-        let stop_now = if n >= self.params.stop.budget {
-            Some(StopReason::Budget)
-        } else if self.round() >= self.params.stop.max_rounds {
-            Some(StopReason::MaxRounds)
-        } else if self.tiles.iter().all(|t| t.stop.is_some()) {
-            Some(all_stopped(&self.tiles))
-        } else {
-            None
-        };
-        let stop = stop_now?;
-        self.channels = Some(samples.channels());
-        self.stop = Some(stop);
-        Some(self.stopped(stop, 0, 0, 0, 0, 0, TiledTimes::default()))
+        Some(self.report(
+            SamplePositions::default(),
+            RoundTally::default(),
+            TiledTimes::default(),
+        ))
     }
 
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn stopped(
-        &self,
-        stop: StopReason,
-        growth: usize,
-        stepped: usize,
-        halo: usize,
-        cut: usize,
-        largest_window: usize,
+    /// The round's growth `G = min(B - N, ceil(g N))` (`N` positions handed out, `B` the
+    /// budget, `g` the least growth; module docs), once [`Self::stop_before_stepping`] found
+    /// `N < B`.
+    pub(super) fn growth(&self) -> usize {
+        let (n, budget) = (self.positions(), self.params.stop.budget);
+        (budget - n).min((self.params.growth.min_growth * n as f64).ceil() as usize)
+    }
+
+    /// The end of a round whose tiles stepped (the state's tiles already replaced): the
+    /// tiles' positions `next` (in tile order) issued as the next round, or, none drawn, the
+    /// plan stopped (every tile stopped: their stop; else the budget). Its report.
+    pub(super) fn finish_round(
+        &mut self,
+        next: SamplePositions,
+        tally: RoundTally,
         times: TiledTimes,
     ) -> TiledStep {
+        if next.is_empty() {
+            self.stop = Some(if self.tiles.iter().all(|t| t.stop.is_some()) {
+                all_stopped(&self.tiles)
+            } else {
+                StopReason::Budget
+            });
+        } else {
+            self.issue_round(&next);
+        }
+        self.report(next, tally, times)
+    }
+
+    /// The round's report as of the state now: the positions `next` to render (empty when the
+    /// plan stopped), the round they belong to, the totals and the round's `tally`.
+    fn report(&self, next: SamplePositions, tally: RoundTally, times: TiledTimes) -> TiledStep {
         TiledStep {
-            next: SamplePositions::default(),
-            next_positions: 0,
-            next_round: None,
-            stop: Some(stop),
+            next_positions: next.len(),
+            next,
+            next_round: self.stop.is_none().then(|| self.round()),
+            stop: self.stop,
             total_positions: self.positions(),
             budget: self.params.stop.budget,
-            growth,
-            tiles_stepped: stepped,
+            growth: tally.growth,
+            tiles_stepped: tally.stepped,
             tiles_stopped: self.tiles.iter().filter(|t| t.stop.is_some()).count(),
-            halo_drawn: halo,
-            cut,
-            largest_window,
-            diagonals_kept: 0,
-            diagonals_over: 0,
+            halo_drawn: tally.halo_drawn,
+            cut: tally.cut,
+            largest_window: tally.largest_window,
+            diagonals_kept: tally.diagonals_kept,
+            diagonals_over: tally.diagonals_over,
             times,
         }
     }
