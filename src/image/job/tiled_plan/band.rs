@@ -36,6 +36,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::error::TiledPlanError;
+use super::memory::release_freed_memory;
 use super::round::TileOutcome;
 use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
 use super::stops::RoundTally;
@@ -509,7 +510,10 @@ impl TiledPlanState {
             largest_window: plan.largest_window,
             ..RoundTally::default()
         };
-        Ok(self.finish_round(next, tally, TiledTimes::default()))
+        let step = self.finish_round(next, tally, TiledTimes::default());
+        // the replaced tile states and the bands' positions (module `memory`)
+        release_freed_memory();
+        Ok(step)
     }
 
     /// The final image's band tasks (module docs): the samples checked as

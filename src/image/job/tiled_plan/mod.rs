@@ -54,6 +54,9 @@
 //! tile whose fit (`workers` of them at once), beside the samples and the image, would exceed
 //! the memory limit, naming the largest tile that would fit; a round refuses a tile whose
 //! actual samples would (the shares are not fixed, so a tile may hold more than its average).
+//! After each tile and each commit the pages the allocator holds free are handed back to the
+//! system (module `memory`), so the resident set follows the bytes live instead of the
+//! tiles' fits' high-water mark.
 //!
 //! **Final image.** Every tile fits all samples in its window on its tree
 //! ([`ImagePlan::fit_updating`], warm-started) and makes the plan's output pixels

@@ -588,6 +588,9 @@ impl TiledPlanState {
             diagonals_over,
         };
         let mut step = self.finish_round(next, tally, times);
+        // the replaced tile states and the tiles' positions, freed after the last tile's
+        // release: half a gigabyte at 3840x2160 held through the caller's render
+        release_freed_memory();
         step.times.commit_s = t.elapsed().as_secs_f64();
         step.times.wall_s = wall.elapsed().as_secs_f64();
         Ok(step)
@@ -715,6 +718,7 @@ impl TiledPlanState {
             times.commit_s += tile_times.commit_s;
         }
         let image = image.into_inner().unwrap_or_else(PoisonError::into_inner);
+        release_freed_memory();
         times.wall_s = wall.elapsed().as_secs_f64();
         Ok(TiledFinal {
             image,
