@@ -2,7 +2,7 @@
 //! untiled plan, at `SIZE` (WxH), 8 spp, on a built-in scene with Gaussian noise 0.05 (a
 //! renderer's Monte Carlo noise in miniature), to its stop. Prints the seconds spent in
 //! rkwave (rendering the scene excluded), the samples taken and PSNR / relMSE against the
-//! scene's box truth (4² strata a pixel). Run under `/usr/bin/time -v` for the peak memory.
+//! scene's box truth (4² strata a pixel), and the peak resident set over the phases.
 //!
 //! `cargo run --release --example tiled_plan_figure -- [SIZE] [TILE] [SCENE] [untiled|rebuild]`
 //! (defaults `512x512`, 128, `shapes`; `untiled` runs the untiled plan instead; the tiled plan
