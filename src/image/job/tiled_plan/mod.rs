@@ -65,6 +65,7 @@
 
 mod band;
 mod error;
+mod held;
 mod kept;
 mod round;
 mod state;
@@ -86,6 +87,9 @@ pub use band::{
     FinalBandTask, RoundPlan,
 };
 pub use error::TiledPlanError;
+pub use held::{
+    tile_record, HeldBand, HeldBandOutcome, HeldBandTask, HeldBands, HeldFinalBandTask,
+};
 pub use round::{TiledFinal, TiledStep};
 pub use state::{
     SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
