@@ -19,9 +19,9 @@ wall time (the plan's calls, the renderer ``dask_plan_overhead.render`` excluded
   busiest worker's compute minus that mean (a worker idle while the other finishes its
   bands: rayon in the local plan balances tiles, Dask balances whole bands), and ``rest``:
   the wall minus the busiest worker's compute (scheduling, transfers, the outcomes'
-  (de)serialisation, the small tasks: the samples' concatenation, the outcomes' getitem);
-- ``python``: the Dask run's wall minus all of the above (the TiledPlan's own Python code,
-  the digests of the held samples on the client).
+  (de)serialisation, ``TiledPlan``'s own Python code in ``add`` such as the held samples'
+  digests, the small tasks: the samples' concatenation, the outcomes' getitem);
+- ``python``: the run's wall outside ``add`` and ``image`` and the core's calls (about 0).
 
 Against the local run's wall, the overhead is the sum of the parts beyond the tiles' steps.
 Every round's positions and the image are checked identical to the local run's. The load
