@@ -22,14 +22,16 @@
 ``TiledPlan(resolution, spp=, tile=, halo=None, client=None, rows_per_task=1, ...)``
     The adaptive plan on tiles (``rkwave.Plan(tile=)``) with each round's steps as Dask tasks,
     one per band of ``rows_per_task`` tile rows: ``positions()``, ``add(xy, values)``,
-    ``image()`` as ``rkwave.Plan``. The client keeps every sample and the plan's state; a
-    round's ``add`` checks the samples and computes the tiles' shares (nothing changed yet),
-    sends each band its tiles' states, shares and the samples of its windows that the band's
-    worker does not hold yet (on a ``distributed`` client a band's samples stay on a worker
-    between rounds, as a future; a band whose worker was lost is sent whole again from the
-    client's copy), and commits the bands' new positions and tile states as one step, or
-    none of them. The positions and the image are those of ``rkwave.Plan(tile=, halo=)``
-    bit for bit.
+    ``image()`` as ``rkwave.Plan``. The client keeps every sample, the plan's state with each
+    tile's record (index, parameters, last indicator, stop) and what it needs to replay a
+    band; a round's ``add`` checks the samples and computes the tiles' shares (nothing changed
+    yet), sends each band its tiles' records and shares and the samples of its windows that
+    the band's worker does not hold yet, and commits the bands' new positions and records as
+    one step, or none of them. On a ``distributed`` client each band's tiles' whole states
+    (refinement history, PCG's start) and samples stay on a worker between rounds, as
+    futures; a band whose worker was lost is sent whole again and its states replayed from
+    the client's records. The positions and the image are those of
+    ``rkwave.Plan(tile=, halo=)`` bit for bit.
 
 Every task is a pure function of its inputs, so a lost worker costs a re-run of its tasks
 (``retries``) and the same result. The inputs are checked on the client before any task is
@@ -41,10 +43,8 @@ Dask is an optional dependency: ``pip install dask[distributed]``.
 
 from __future__ import annotations
 
-import hashlib
 import os
 import tempfile
-import warnings
 
 import numpy as np
 
@@ -532,231 +532,14 @@ def _write_atomic(output, image):
 
 
 # ----------------------------------------------------------------------------------------
-# 2D: the tiled plan's rounds
+# 2D: the tiled plan's rounds (in rkwave/_dask_plan.py, which uses the helpers above)
 
 
-def _band_samples(held, new):
-    """Task: a band's samples so far on its worker, planar ``(2 + C, m)``: the columns it
-    held since the last round (``None``: none) followed by the round's new ones."""
-    if held is None:
-        return new
-    return np.concatenate([held, new], axis=1)
+def __getattr__(name):
+    """``TiledPlan`` from ``rkwave._dask_plan``, imported on first use: that module imports
+    this one (a worker unpickling one of its tasks imports it first)."""
+    if name == "TiledPlan":
+        from rkwave._dask_plan import TiledPlan
 
-
-def _prefix_digest(samples, m):
-    """A digest of the first ``m`` columns of a planar band array (row by row, each row's
-    prefix contiguous): what a worker holds is checked against the client's copy with it."""
-    h = hashlib.blake2b(digest_size=16)
-    h.update(np.int64(m).tobytes())
-    for row in samples:
-        h.update(np.ascontiguousarray(row[:m]).data)
-    return h.digest()
-
-
-def _plan_band_task(task, samples, before_band, keep_heap):
-    """Task: one band's step of a round (``_rkwave.tiled_plan_band``), its outcome as bytes."""
-    if keep_heap:
-        _keep_heap()
-    if before_band is not None:
-        before_band(task)
-    return _rkwave.tiled_plan_band(task, samples)
-
-
-def _plan_final_task(task, samples, before_band, keep_heap):
-    """Task: one band's part of the final image, ``(r0, r1, y0, y1, pixels)``."""
-    if keep_heap:
-        _keep_heap()
-    if before_band is not None:
-        before_band(task)
-    return _rkwave.tiled_plan_final_band(task, samples)
-
-
-class TiledPlan:
-    """The adaptive plan on tiles with its rounds as Dask tasks, one per band of tile rows.
-
-    ``resolution``, ``spp``/``budget``, ``tile``, ``halo`` and the other keywords (``p``,
-    ``rho``, ``below_pixel``, ``seed``, ``false_alarm``, ``solver``, ``output_pixels``) are
-    ``rkwave.Plan``'s, with the same defaults and refusals; the positions handed out and the
-    final image are those of ``rkwave.Plan(tile=, halo=)`` bit for bit (the same per-tile
-    steps on the same samples, committed in the same order).
-
-    A round (``add``): the client checks the samples (they must be the positions handed
-    out, finite, of one channel count; else refused, the plan unchanged), computes each
-    tile's share of the round's growth from the tiles' last indicators, and submits one task
-    per band of ``rows_per_task`` tile rows holding a tile with a share: the band's tiles'
-    states, their shares and the samples in the band's windows (each task steps its tiles
-    in turn, ``threads`` at once). The bands' new positions and tile states are committed
-    together once every band has returned; a failed task is rerun (``retries``; a task is a
-    pure function of its inputs, so the rerun gives the same outcome), and a round whose
-    tasks fail for good leaves the plan as it was (the round can be added again).
-    ``image()`` fits every tile in band tasks the same way and stitches the interiors.
-
-    On a ``distributed`` client a band's samples stay on a worker between rounds (a future
-    of its planar array): a band's samples are every sample in one of its tiles' windows in
-    the order handed out, so the next round's are this round's followed by the new ones, and
-    only those new columns are sent (checked: the held columns' digest must be the client's
-    copy's, else the band is sent whole). A band whose held samples were lost with their
-    worker (between rounds, or during a round whose tasks then fail) is sent whole from the
-    client's copy and the round run again: the same inputs, the same bits.
-    ``report["samples_sent_mb"]`` counts the samples sent, ``report["bands_resent"]`` the
-    bands sent whole again (held samples lost, or a round run again after a failure).
-
-    ``client``: a ``distributed.Client`` (default: the current one, else dask's local
-    threaded scheduler). ``before_band(task_bytes)``, if given, runs at the start of every
-    band's task (a hook for progress or fault injection; it must be picklable).
-    ``keep_heap``: as :func:`reconstruct_image_tiles` (each worker's allocator keeps freed
-    memory, as the command line's does).
-    """
-
-    def __init__(
-        self,
-        resolution,
-        spp=None,
-        budget=None,
-        *,
-        tile,
-        halo=None,
-        client=None,
-        rows_per_task=1,
-        threads=1,
-        retries=3,
-        before_band=None,
-        keep_heap=True,
-        **plan,
-    ):
-        self._core = _rkwave.TiledPlanRounds(
-            tuple(resolution),
-            spp,
-            budget,
-            tile=tile,
-            halo=halo,
-            rows_per_task=rows_per_task,
-            threads=threads,
-            **plan,
-        )
-        self._client = client
-        self._retries = retries
-        self._before = before_band
-        self._keep_heap = keep_heap
-        self._tasks_run = 0
-        # band rows -> (future of its samples on a worker, their columns, their digest)
-        self._held = {}
-        self._sent_bytes = 0
-        self._resent = 0
-
-    def _band_data(self, client, rows, samples):
-        """The future of band ``rows``' samples on a worker: the held columns extended by the
-        new ones, or (nothing held, the holder lost, or the held columns not the client's)
-        the whole band. Returns ``(future, whether held columns were used)``."""
-        m = samples.shape[1]
-        held = self._held.get(rows)
-        if held is not None:
-            future, n, digest = held
-            if future.status == "finished" and n <= m and _prefix_digest(samples, n) == digest:
-                if n == m:
-                    return future, True
-                new = np.ascontiguousarray(samples[:, n:])
-                self._sent_bytes += new.nbytes
-                data = client.submit(_band_samples, future, new, pure=False)
-                self._held[rows] = (data, m, _prefix_digest(samples, m))
-                return data, True
-            if future.status != "finished":
-                self._resent += 1
-        self._sent_bytes += samples.nbytes
-        data = client.submit(_band_samples, None, samples, pure=False)
-        self._held[rows] = (data, m, _prefix_digest(samples, m))
-        return data, False
-
-    def _run_held(self, client, fn, tasks):
-        """The band tasks on the samples their workers hold (class docs); a failure where
-        held samples were used (their worker may have been lost) runs the round again with
-        every band sent whole, and a second failure is raised."""
-        for attempt in (0, 1):
-            if attempt:
-                self._resent += len(self._held)
-                self._held.clear()
-            futures, used = [], False
-            for t, s, rows in tasks:
-                data, held = self._band_data(client, tuple(rows), s)
-                used |= held
-                futures.append(
-                    client.submit(
-                        fn, t, data, self._before, self._keep_heap, pure=False,
-                        retries=self._retries,
-                    )
-                )
-            self._tasks_run += len(futures)
-            try:
-                return client.gather(futures)
-            except Exception:
-                if attempt or not used:
-                    raise
-
-    def _run(self, fn, tasks):
-        client = _client(self._client)
-        if client is not None:
-            with warnings.catch_warnings():
-                # a band sent whole travels in its task on purpose: the scheduler then holds
-                # it and can rerun the task after its worker was lost
-                warnings.filterwarnings("ignore", message="Large object", category=UserWarning)
-                warnings.filterwarnings(
-                    "ignore", message="Sending large graph", category=UserWarning
-                )
-                return self._run_held(client, fn, tasks)
-        graph = [
-            dask.delayed(fn, pure=False)(t, s, self._before, self._keep_heap)
-            for t, s, _ in tasks
-        ]
-        self._tasks_run += len(graph)
-        with warnings.catch_warnings():
-            # The bands' states and samples travel inside the graph on purpose: the scheduler
-            # then holds them, and a task rerun after its worker was lost still has its
-            # inputs (data scattered to a worker would be lost with it). Dask's advice to
-            # load large data through Dask does not apply; the warning is left out.
-            warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
-            return _compute(graph, client, self._retries)
-
-    def positions(self):
-        """The positions to render next, ``(n, 2)`` (``(0, 2)`` once done)."""
-        return self._core.positions()
-
-    def add(self, xy, values):
-        """Adds the rendered samples of the positions handed out and plans the next round
-        (class docs): committed as one step, or refused with the plan unchanged."""
-        pending, tasks = self._core.begin(xy, values)
-        if pending is None:
-            return
-        outcomes = self._run(_plan_band_task, tasks)
-        self._core.commit(pending, list(outcomes))
-
-    def image(self, residual=True):
-        """The image ``(H, W, C)``: every tile's fit in band tasks, the interiors stitched
-        (``residual=False``: the fit's box pixels alone), as ``rkwave.Plan(tile=).image``."""
-        strips = self._run(_plan_final_task, self._core.final_tasks(residual))
-        return self._core.stitch(list(strips))
-
-    @property
-    def done(self):
-        """Whether the plan has stopped."""
-        return self._core.done
-
-    @property
-    def round(self):
-        """The last round whose positions were handed out (0: the base positions)."""
-        return self._core.round
-
-    @property
-    def report(self):
-        """Where the plan stands (as ``rkwave.Plan.report``), the bands' layout, the tasks
-        run so far (``tasks_run``), the band samples sent to workers (``samples_sent_mb``,
-        MB) and the bands sent whole again after their held samples were lost or a round
-        was run again after a failure (``bands_resent``)."""
-        r = self._core.report
-        r["tasks_run"] = self._tasks_run
-        r["samples_sent_mb"] = self._sent_bytes / 1e6
-        r["bands_resent"] = self._resent
-        return r
-
-    def state_json(self):
-        """The plan's state as ``rkwave plan --tile --state`` writes it."""
-        return self._core.state_json()
+        return TiledPlan
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,27 +1,32 @@
 //! The tiled plan's rounds as tasks, one per band of tile rows (`rkwave.dask.TiledPlan`; the
-//! library's seam `rkwave::image::job::tiled_plan::{BandTask, BandedRound}`).
+//! library's seam `rkwave::image::job::tiled_plan::{HeldBandTask, BandedRound}`).
 //!
-//! The client holds a `_rkwave.TiledPlanRounds`: every sample so far and the plan's state. A
-//! round is `begin(xy, values)` (the samples checked as `Plan(tile=).add` checks them, the
-//! shares computed, nothing changed: a refused round leaves the plan as it was), which gives
-//! a pending round and its band tasks `(task, samples, rows)`: the task as JSON bytes (the
-//! band's tiles' states with PCG's starts as bits, so every number reads back the same), the
-//! band's samples as a planar `(2 + C, m)` float64 array and its tile rows (the band's name
-//! from round to round: its samples grow only at their end, so a worker may keep them and be
-//! sent only the new columns); any process runs a task with
-//! `tiled_plan_band(task, samples)`, which gives the band's outcome as JSON bytes; then
-//! `commit(pending, outcomes)` takes the round as one step, or refuses it whole. The final
-//! image is `final_tasks()`, `tiled_plan_final_band(task, samples)` per band and
-//! `stitch(strips)`.
+//! The client holds a `_rkwave.TiledPlanRounds`: every sample so far, the plan's state with
+//! each tile's record (its state without the refinement history and PCG's start) and the
+//! digest of every band's states held elsewhere. A round is `begin(xy, values)` (the samples
+//! checked as `Plan(tile=).add` checks them, the shares computed, nothing changed: a refused
+//! round leaves the plan as it was), which gives a pending round and its band tasks
+//! `(task, samples, rows)`: the task as JSON bytes (the band's stepped tiles' records, their
+//! shares and the digest of the band's held states it steps), the band's samples as a planar
+//! `(2 + C, m)` float64 array and its tile rows (the band's name from round to round: its
+//! samples grow only at their end, so a worker may keep them and be sent only the new
+//! columns). Any process runs a task with `tiled_plan_band(task, held, samples)`, `held` the
+//! band's `HeldBand` (its tiles' whole states: the previous round's output for the band, or
+//! `held_band(rows)` from the client for a band never stepped, or `initial_band(rows)`
+//! replayed through the band's earlier tasks), which gives the band's outcome as JSON bytes
+//! and the band's new `HeldBand`; then `commit(pending, outcomes)` takes the round as one
+//! step, or refuses it whole. The final image is `final_tasks()`,
+//! `tiled_plan_final_band(task, held, samples)` per band and `stitch(strips)`;
+//! `state_json(held)` writes the whole state from the held bands.
 
 use numpy::{IntoPyArray, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
+use pyo3::types::{PyBytes, PyTuple};
 
 use rkwave::image::adaptive::{PixelEstimate, SamplePositions};
 use rkwave::image::job::tiled_plan::{
-    BandOutcome, BandStrip, BandTask, BandedRound, FinalBandTask, RoundPlan, TiledPlanOptions,
-    TiledPlanStart, TiledPlanState, TiledStep,
+    BandStrip, BandedRound, HeldBand, HeldBandOutcome, HeldBandTask, HeldBands, HeldFinalBandTask,
+    RoundPlan, TiledPlanOptions, TiledPlanStart, TiledPlanState, TiledStep,
 };
 use rkwave::image::{ImagePlane, ImageSamples, NonFinitePolicy};
 use serde::Serialize;
@@ -77,33 +82,88 @@ fn from_json<T: serde::de::DeserializeOwned>(bytes: &[u8], what: &str) -> PyResu
     })
 }
 
-/// Runs one band's step of a round (module docs): `task` as `begin` made it, `samples` its
-/// planar `(2 + C, m)` samples; returns the band's outcome as JSON bytes. A pure function of
-/// its inputs: run again, it gives the same bytes.
+/// A band's tiles' whole states, held by the worker that steps the band (module docs;
+/// `rkwave::image::job::tiled_plan::HeldBand`). Pickles as its JSON bytes.
+#[pyclass(name = "HeldBand", module = "rkwave", frozen)]
+pub struct PyHeldBand {
+    band: HeldBand,
+}
+
+#[pymethods]
+impl PyHeldBand {
+    /// The band's tile rows `(r0, r1)`.
+    #[getter]
+    fn rows(&self) -> (usize, usize) {
+        (self.band.rows().start, self.band.rows().end)
+    }
+
+    /// The states' digest (16 hex digits).
+    #[getter]
+    fn digest(&self) -> String {
+        format!("{:016x}", self.band.digest())
+    }
+
+    /// Pickling: the JSON bytes, rebuilt by `rkwave._rkwave._held_band_from_bytes`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let rebuild = py
+            .import("rkwave._rkwave")?
+            .getattr("_held_band_from_bytes")?;
+        let state = (json_bytes(py, &self.band),);
+        PyTuple::new(py, [rebuild, state.into_pyobject(py)?.into_any()])
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "rkwave.HeldBand(rows={:?}, tiles={}, digest={:016x})",
+            self.band.rows(),
+            self.band.tiles().len(),
+            self.band.digest()
+        )
+    }
+}
+
+/// Rebuilds a pickled `HeldBand` (`HeldBand.__reduce__`).
+#[pyfunction]
+pub fn _held_band_from_bytes(bytes: &[u8]) -> PyResult<PyHeldBand> {
+    Ok(PyHeldBand {
+        band: from_json(bytes, "a band's held states")?,
+    })
+}
+
+/// Runs one band's step of a round (module docs): `task` as `begin` made it, `held` the
+/// band's `HeldBand` of the digest the task names, `samples` its planar `(2 + C, m)`
+/// samples; returns the band's outcome as JSON bytes and its new `HeldBand`. A pure function
+/// of its inputs: run again, it gives the same bytes and states.
 #[pyfunction]
 pub fn tiled_plan_band<'py>(
     py: Python<'py>,
     task: &[u8],
+    held: &PyHeldBand,
     samples: PyReadonlyArray2<'py, f64>,
-) -> PyResult<Bound<'py, PyBytes>> {
-    let task: BandTask = from_json(task, "the band task")?;
-    let samples = from_planar(task.plane, &samples)?;
-    let outcome = py.detach(|| task.run(&samples)).map_err(to_py)?;
-    Ok(json_bytes(py, &outcome))
+) -> PyResult<(Bound<'py, PyBytes>, PyHeldBand)> {
+    let task: HeldBandTask = from_json(task, "the band task")?;
+    let samples = from_planar(task.band.plane, &samples)?;
+    let (outcome, band) = py
+        .detach(|| task.run(&held.band, &samples))
+        .map_err(to_py)?;
+    Ok((json_bytes(py, &outcome), PyHeldBand { band }))
 }
 
-/// Runs one band's part of the final image: `(r0, r1, y0, y1, pixels)`, the band's tile
-/// rows, its image rows and their pixels `(y1 - y0, W, C)`.
+/// Runs one band's part of the final image from its `HeldBand`: `(r0, r1, y0, y1, pixels)`,
+/// the band's tile rows, its image rows and their pixels `(y1 - y0, W, C)`.
 #[pyfunction]
 pub fn tiled_plan_final_band<'py>(
     py: Python<'py>,
     task: &[u8],
+    held: &PyHeldBand,
     samples: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(usize, usize, usize, usize, Bound<'py, PyAny>)> {
-    let task: FinalBandTask = from_json(task, "the final band task")?;
-    let samples = from_planar(task.band.plane, &samples)?;
-    let strip = py.detach(|| task.run(&samples)).map_err(to_py)?;
-    let width = task.band.plane.width();
+    let task: HeldFinalBandTask = from_json(task, "the final band task")?;
+    let samples = from_planar(task.task.band.plane, &samples)?;
+    let strip = py
+        .detach(|| task.run(&held.band, &samples))
+        .map_err(to_py)?;
+    let width = task.task.band.plane.width();
     let pixels = image_out(py, &strip.channels, width, strip.y.len());
     Ok((
         strip.rows.start,
@@ -135,6 +195,7 @@ pub struct PyTiledPlanRounds {
     steps: Vec<TiledStep>,
     rows_per_task: usize,
     threads: usize,
+    held: HeldBands,
 }
 
 #[derive(Serialize)]
@@ -150,6 +211,7 @@ struct RoundsReport<'a> {
     samples: usize,
     done: bool,
     stop: Option<rkwave::refine::StopReason>,
+    bands_held: usize,
     steps: &'a [TiledStep],
 }
 
@@ -213,6 +275,7 @@ impl PyTiledPlanRounds {
             steps: Vec::new(),
             rows_per_task,
             threads,
+            held: HeldBands::default(),
         })
     }
 
@@ -258,10 +321,12 @@ impl PyTiledPlanRounds {
                 Ok((None, Vec::new()))
             }
             BandedRound::Steps(mut plan) => {
-                let tasks = std::mem::take(&mut plan.tasks)
+                let tasks = self
+                    .state
+                    .held_tasks(&mut plan, &self.held)
                     .into_iter()
                     .map(|(t, s)| {
-                        let rows = (t.rows.start, t.rows.end);
+                        let rows = (t.band.rows.start, t.band.rows.end);
                         (json_bytes(py, &t), planar(py, &s), rows)
                     })
                     .collect();
@@ -272,16 +337,18 @@ impl PyTiledPlanRounds {
     }
 
     /// Commits a pending round from its bands' outcomes (JSON bytes of `tiled_plan_band`),
-    /// as one step: refused whole, the plan unchanged, when an outcome is missing, repeated
-    /// or of another round, or the plan moved on since `begin`.
+    /// as one step: refused whole, the plan unchanged, when an outcome is missing, repeated,
+    /// of another round or stepped from other held states than the band's, or the plan moved
+    /// on since `begin`. The bands' new states' digests are recorded (their states stay
+    /// where the tasks ran).
     fn commit(&mut self, pending: &PyPendingRound, outcomes: Vec<Vec<u8>>) -> PyResult<()> {
         let outcomes = outcomes
             .iter()
-            .map(|b| from_json::<BandOutcome>(b, "a band's outcome"))
+            .map(|b| from_json::<HeldBandOutcome>(b, "a band's outcome"))
             .collect::<PyResult<Vec<_>>>()?;
         let step = self
             .state
-            .commit_round(&pending.plan, outcomes)
+            .commit_held_round(&pending.plan, &mut self.held, outcomes)
             .map_err(to_py)?;
         self.next = step.next.clone();
         self.samples = Some(pending.samples.clone());
@@ -304,12 +371,43 @@ impl PyTiledPlanRounds {
             .detach(|| self.state.final_bands(samples, estimate, rows, threads))
             .map_err(to_py)?;
         Ok(tasks
-            .iter()
+            .into_iter()
             .map(|(t, s)| {
                 let rows = (t.band.rows.start, t.band.rows.end);
-                (json_bytes(py, t), planar(py, s), rows)
+                let d = self.state.band_digest(&self.held, &t.band.rows);
+                let t = HeldFinalBandTask::new(t, d);
+                (json_bytes(py, &t), planar(py, &s), rows)
             })
             .collect())
+    }
+
+    /// The band `(r0, r1)`'s whole states from the client, for a band whose states are not
+    /// held elsewhere (never stepped); refused for a held band (use its held states, or
+    /// `initial_band` and a replay).
+    fn held_band(&self, rows: (usize, usize)) -> PyResult<PyHeldBand> {
+        let rows = self.band_rows(rows)?;
+        if let Some(d) = self.held.get(&rows) {
+            return Err(invalid(format!(
+                "tile rows {rows:?}' states are held by a worker (digest {d:016x}), not the                  client: use the band's held states, or replay it from initial_band"
+            )));
+        }
+        Ok(PyHeldBand {
+            band: self.state.held_band(rows),
+        })
+    }
+
+    /// The band `(r0, r1)`'s states at the plan's start (a replay's first input).
+    fn initial_band(&self, rows: (usize, usize)) -> PyResult<PyHeldBand> {
+        let rows = self.band_rows(rows)?;
+        Ok(PyHeldBand {
+            band: self.state.initial_band(rows),
+        })
+    }
+
+    /// The tile rows `(r0, r1)` of the bands whose states are held elsewhere.
+    #[getter]
+    fn held_bands(&self) -> Vec<(usize, usize)> {
+        self.held.iter().map(|(r, _)| (r.start, r.end)).collect()
     }
 
     /// The image `(H, W, C)` from every band's strip `(r0, r1, y0, y1, pixels)` (as
@@ -388,13 +486,35 @@ impl PyTiledPlanRounds {
             samples: self.samples.as_ref().map_or(0, ImageSamples::len),
             done: self.done(),
             stop: self.state.stop,
+            bands_held: self.held.len(),
             steps: &self.steps,
         };
         to_dict(py, &serde_json::to_string(&report).expect("plain data"))
     }
 
-    /// The plan's state as the JSON of `rkwave plan --tile --state` (`tiled-state.json`).
-    fn state_json(&self) -> String {
-        self.state.to_json()
+    /// The plan's state as the JSON of `rkwave plan --tile --state` (`tiled-state.json`),
+    /// the held bands' whole states spliced in (`held`: every band of `held_bands` with its
+    /// recorded digest, else refused).
+    #[pyo3(signature = (held=Vec::new()))]
+    fn state_json(&self, held: Vec<PyRef<'_, PyHeldBand>>) -> PyResult<String> {
+        let bands: Vec<HeldBand> = held.iter().map(|b| b.band.clone()).collect();
+        let whole = self.state.with_held(&self.held, &bands).map_err(to_py)?;
+        Ok(whole.to_json())
+    }
+}
+
+impl PyTiledPlanRounds {
+    /// `(r0, r1)` checked to be one of the plan's bands.
+    fn band_rows(&self, rows: (usize, usize)) -> PyResult<std::ops::Range<usize>> {
+        let grid_rows = self.state.geometry().grid().1;
+        let bands = rkwave::image::job::tiled_plan::tile_row_bands(grid_rows, self.rows_per_task);
+        let rows = rows.0..rows.1;
+        if !bands.contains(&rows) {
+            return Err(invalid(format!(
+                "tile rows {rows:?} are not a band of this plan ({} tile rows, {} a band): give                  the rows of a task",
+                grid_rows, self.rows_per_task
+            )));
+        }
+        Ok(rows)
     }
 }

@@ -12,7 +12,7 @@
 //! | `adapt(f, domain, ...)` | `refine::refine` | `rkwave adapt` |
 //! | `partial(...)` → `PartialFits` (`merge`, `finish`), `auto_levels` | `reconstruct::stream::SingleScaleAccumulator` | `rkwave reconstruct --stream` |
 //! | `TileGeometry(...)`, `fit_tile(...)` | `image::tiles::fit_tile` | `rkwave reconstruct --dim 2 --tile` |
-//! | `TiledPlanRounds(...)`, `tiled_plan_band(...)` (`rkwave.dask.TiledPlan`) | `image::job::tiled_plan::{BandTask, BandedRound}` | `rkwave plan --tile` |
+//! | `TiledPlanRounds(...)`, `tiled_plan_band(...)`, `HeldBand` (`rkwave.dask.TiledPlan`) | `image::job::tiled_plan::{HeldBandTask, BandedRound}` | `rkwave plan --tile` |
 //!
 //! The GIL is released during every computation (`Python::detach`). Errors map by kind
 //! ([`errors`]); conversions of arrays are in [`arrays`]; every parameter struct is built in
@@ -79,6 +79,8 @@ fn _rkwave(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<plan::PyPlan>()?;
     m.add_class::<dask_plan::PyTiledPlanRounds>()?;
     m.add_class::<dask_plan::PyPendingRound>()?;
+    m.add_class::<dask_plan::PyHeldBand>()?;
+    m.add_function(wrap_pyfunction!(dask_plan::_held_band_from_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(dask_plan::tiled_plan_band, m)?)?;
     m.add_function(wrap_pyfunction!(dask_plan::tiled_plan_final_band, m)?)?;
     m.add("RkwaveError", py.get_type::<errors::RkwaveError>())?;

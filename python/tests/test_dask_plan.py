@@ -2,8 +2,13 @@
 tiled plan's rounds as one task per band of tile rows give the positions and the final image
 of the local `rkwave.Plan(tile=)` bit for bit; a band's task that fails once (injected) or
 whose worker is killed is rerun with the identical result; a worker lost between rounds
-costs a resend of the bands' samples it held, not the bits; a round with a bad value count,
-or whose tasks fail for good, is refused with the plan unchanged. Skipped without Dask."""
+costs a resend of the bands' samples and a replay of the bands' states it held, not the
+bits; the tiles' whole states held on the workers are the local plan's; a band's task
+refuses held states of another band or round, and the commit an outcome missing, repeated
+or stepped from other states; a round with a bad value count, or whose tasks fail for good,
+is refused with the plan unchanged. Skipped without Dask."""
+
+import json
 
 import os
 import sys
@@ -120,26 +125,108 @@ def test_a_failed_band_task_is_rerun_with_the_identical_result(
     assert_same_run(local, got)
 
 
-def test_a_worker_lost_between_rounds_costs_a_resend_not_the_bits(rd, client, local):
-    """Each band's samples stay on a worker between rounds; a worker restarted between two
-    rounds loses the bands it held, which come back with the same bits."""
-    plan = rd.TiledPlan((W, H), spp=SPP, tile=TILE, halo=4, client=client)
+def two_rounds(plan):
+    """The plan's first two rounds rendered with disc_scene; their positions."""
     rounds = []
     for _ in range(2):
         xy = plan.positions()
         rounds.append(xy)
         plan.add(xy, disc_scene(xy))
-    assert not plan.done, "the plan stopped before a worker could be lost between rounds"
-    sent = plan.report["samples_sent_mb"]
-    held = [f for f, _, _ in plan._held.values()]
+    assert not plan.done, "the plan stopped before its held data could be lost"
+    return rounds
+
+
+def test_a_worker_lost_between_rounds_costs_a_resend_not_the_bits(rd, client, local):
+    """Each band's samples and tiles' states stay on a worker between rounds; a worker
+    restarted between two rounds loses the bands it held, which come back with the same
+    bits."""
+    plan = rd.TiledPlan((W, H), spp=SPP, tile=TILE, halo=4, client=client)
+    rounds = two_rounds(plan)
+    held = [f for f, _, _ in plan._held.values()] + list(plan._states.values())
     holders = {w for ws in client.who_has(held).values() for w in ws}
-    assert holders, "no band's samples are held on a worker"
+    assert holders, "no band's samples or states are held on a worker"
     client.restart_workers([sorted(holders)[0]])
     more, image = run(plan)
     assert_same_run(local, (rounds + more, image))
-    # the lost bands came back either recomputed by the scheduler from what it was sent
-    # (their tasks' inputs) or sent whole again (`bands_resent`): the same bits either way
-    assert plan.report["samples_sent_mb"] > sent
+    # the lost bands came back recomputed by the scheduler from the tasks that made them,
+    # or sent whole again (`bands_resent`) and replayed (`bands_replayed`): the same bits
+    assert plan.report["bands_held"] == -(-H // TILE)
+
+
+def test_lost_held_states_are_replayed_from_the_clients_records(rd, client, local):
+    """Every band's held states dropped between rounds (their futures cancelled): each band is
+    replayed from its initial states through its recorded tasks, and the run is the local
+    plan's bit for bit."""
+    plan = rd.TiledPlan((W, H), spp=SPP, tile=TILE, halo=4, client=client)
+    rounds = two_rounds(plan)
+    bands = len(plan._states)
+    client.cancel(list(plan._states.values()))
+    more, image = run(plan)
+    assert_same_run(local, (rounds + more, image))
+    report = plan.report
+    assert report["bands_replayed"] == bands
+    # the records a replay needs: one task's bytes a band and round, small beside a state
+    assert 0 < report["replay_kb"] < 64 * len(rounds + more) * bands
+
+
+def test_the_held_states_are_the_local_plans_whole_states(rd, client, tmp_path):
+    """After the same rounds the Dask plan's state, its held bands gathered and spliced into
+    the client's records, is the local tiled plan's state file: every tile's history, PCG's
+    start (as bits) and indicator."""
+    local = rkwave.Plan(resolution=(W, H), spp=SPP, tile=TILE, halo=4)
+    plan = rd.TiledPlan((W, H), spp=SPP, tile=TILE, halo=4, client=client)
+    for _ in range(2):
+        xy = plan.positions()
+        np.testing.assert_array_equal(xy, local.positions())
+        plan.add(xy, disc_scene(xy))
+        local.add(xy, disc_scene(xy))
+    local.save(tmp_path / "local")
+    want = json.loads((tmp_path / "local" / "tiled-state.json").read_text())
+    got = json.loads(plan.state_json())
+    assert any(t["start"] is not None for t in got["tiles"]), "no tile carries a start yet"
+    assert got["tiles"] == want["tiles"]
+    assert got["issued"] == want["issued"]
+    # the client alone holds the records: the whole state needs the held bands
+    with pytest.raises(rkwave.RkwaveError, match="held"):
+        plan._core.state_json([])
+
+
+def test_held_states_of_another_band_or_round_and_foreign_outcomes_are_refused(rd):
+    """The band tasks and the commit on the client's core, in this process: a task given
+    another band's or an earlier round's held states is refused; the commit refuses an
+    outcome missing, repeated or of another round, and leaves the plan unchanged."""
+    from rkwave import _rkwave
+
+    core = _rkwave.TiledPlanRounds((W, H), SPP, tile=TILE, halo=4, rows_per_task=1)
+    xy = core.positions()
+    pending, tasks = core.begin(xy, disc_scene(xy))
+    first = {rows: core.held_band(rows) for _, _, rows in tasks}
+    results = [
+        _rkwave.tiled_plan_band(t, first[rows], s) for t, s, rows in tasks
+    ]
+    old = [out for out, _ in results]
+    core.commit(pending, old)
+    held = {rows: band for (_, _, rows), (_, band) in zip(tasks, results)}
+    assert sorted(core.held_bands) == sorted(held)
+    with pytest.raises(rkwave.RkwaveError, match="held by a worker"):
+        core.held_band(tasks[0][2])
+    nxt = core.positions()
+    before = (core.round, core.state_json(list(held.values())))
+    pending, tasks = core.begin(nxt, disc_scene(nxt))
+    (t0, s0, r0), (t1, s1, r1) = tasks[0], tasks[1]
+    # the first round's states of the band (an earlier round), another band's states
+    for wrong in (first[r0], held[r1]):
+        with pytest.raises(rkwave.RkwaveError, match="held states"):
+            _rkwave.tiled_plan_band(t0, wrong, s0)
+    outs = [_rkwave.tiled_plan_band(t, held[rows], s)[0] for t, s, rows in tasks]
+    for bad in ([], outs[:-1], outs + outs[:1], old, [old[0]] + outs[1:]):
+        with pytest.raises(rkwave.RkwaveError):
+            core.commit(pending, bad)
+        assert (core.round, core.state_json(list(held.values()))) == before
+    # the same outcomes, run again from the same held states, are the same bytes
+    assert _rkwave.tiled_plan_band(t0, held[r0], s0)[0] == outs[0]
+    core.commit(pending, outs)
+    assert core.round == before[0] + 1
 
 
 class AlwaysFail:

@@ -68,6 +68,7 @@
 
 mod band;
 mod error;
+mod held;
 mod kept;
 mod memory;
 mod round;
@@ -90,6 +91,9 @@ pub use band::{
     FinalBandTask, RoundPlan,
 };
 pub use error::TiledPlanError;
+pub use held::{
+    tile_record, HeldBand, HeldBandOutcome, HeldBandTask, HeldBands, HeldFinalBandTask,
+};
 pub use round::{TiledFinal, TiledStep};
 pub use state::{
     SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
