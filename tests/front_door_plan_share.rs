@@ -78,10 +78,13 @@ fn the_tiled_plan_refuses_a_pixel_share_at_both_entries() {
     let (state, _) = start.run(1).unwrap();
     assert!(state.check_options(None, &options(4, None)).is_ok());
     let later = state
-        .check_options(None, &PlanOptions {
-            pixel_share: Some(0.5),
-            ..PlanOptions::default()
-        })
+        .check_options(
+            None,
+            &PlanOptions {
+                pixel_share: Some(0.5),
+                ..PlanOptions::default()
+            },
+        )
         .expect_err("a later call with a share is refused");
     assert_eq!(later.to_string(), message);
     // the untiled plan takes the same options
@@ -100,7 +103,12 @@ fn plan_tile_with_pixel_share_is_refused_by_the_command_line() {
         args.extend(extra.iter().map(|s| s.to_string()));
         args
     };
-    let e = error_line(&user_error(&start(&["--tile", "16", "--pixel-share", "0.5"])));
+    let e = error_line(&user_error(&start(&[
+        "--tile",
+        "16",
+        "--pixel-share",
+        "0.5",
+    ])));
     assert_eq!(
         e,
         "--pixel-share is not available with the tiled plan (its tiles would give the pixels a \
@@ -110,8 +118,10 @@ fn plan_tile_with_pixel_share_is_refused_by_the_command_line() {
     assert!(!dir.join("n0.npy").exists() && !state.exists());
     succeeds(&start(&["--tile", "16", "--pixel-share", "0"]));
     let base = rkwave::io::read_npy(dir.join("n0.npy")).unwrap();
-    let mut set = rkwave::io::SampleSet::new(base.positions.clone(), base.values.clone()).unwrap();
-    set.values.push(vec![0.5; set.positions.len()]);
+    let value = vec![0.5; base.positions.len()];
+    let set =
+        rkwave::io::SampleSet::new(base.positions.clone(), vec![base.values[0].clone(), value])
+            .unwrap();
     rkwave::io::write_npy(dir.join("s0.npy"), &set).unwrap();
     let later = error_line(&user_error(&[
         "plan",

@@ -4,8 +4,8 @@
 //! line refuses for the same parameter, naming the keyword.
 
 use pyo3::prelude::*;
-use rkwave::basis::FilterFamily;
 use rkwave::adaptive::marking::SpreadRule;
+use rkwave::basis::FilterFamily;
 use rkwave::image::adaptive::{PixelEstimate, PositionPattern};
 use rkwave::image::job::{PlanBudget, PlanOptions, PlanSolver};
 use rkwave::kernel::LevelParams;

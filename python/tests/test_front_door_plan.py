@@ -17,10 +17,10 @@ from conftest import cli_error, disc_scene
 W, H, SPP = 32, 32, 4
 STUBS = pathlib.Path(rkwave.__file__).with_name("_rkwave.pyi")
 
-# Flags of `rkwave plan` that are the command line's way of driving the plan through files,
-# each with what stands for it in Python (the test fails if a flag is neither here nor a
-# keyword of `rkwave.Plan`).
-FILE_FLAGS = {
+# Flags of `rkwave plan` that are the command line's way of driving the plan through files
+# (and its global ones), each with what stands for it in Python (the test fails if a flag is
+# neither here nor a keyword of `rkwave.Plan`).
+CLI_FLAGS = {
     "samples": "Plan.add(xy, values)",
     "state": "Plan.save(dir) / Plan.load(dir)",
     "out": "Plan.positions()",
@@ -29,6 +29,7 @@ FILE_FLAGS = {
     "drop_nonfinite": "Plan.add(..., drop_nonfinite=True)",
     "json": "Plan.report",
     "help": "help(rkwave.Plan)",
+    "memory_limit": "rkwave.set_memory_limit()",
 }
 
 
@@ -61,8 +62,8 @@ def test_every_plan_flag_is_a_keyword_of_the_same_name(cli):
     flags = plan_flags(cli)
     assert {"pixel_share", "min_growth", "pattern", "spread", "tile"} <= flags, flags
     plan = keywords(rkwave.Plan)
-    # each flag is a keyword of Plan, or a file of the command line's loop (FILE_FLAGS)
-    assert flags - plan == set(FILE_FLAGS), (flags - plan) ^ set(FILE_FLAGS)
+    # each flag is a keyword of Plan, or a file of the command line's loop (CLI_FLAGS)
+    assert flags - plan == set(CLI_FLAGS), (flags - plan) ^ set(CLI_FLAGS)
     # and each keyword of Plan is a flag
     assert plan <= flags, plan - flags
     # the stubs say what the module takes
