@@ -22,10 +22,10 @@ use std::time::Instant;
 use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
-use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
+use rkwave::image::job::{check_tiled_samples, PlanFinal, PlanOptions, PlanRound, PlanStart};
 use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
-use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
+use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use rkwave::io::output::write_new;
 use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
@@ -331,18 +331,15 @@ impl PyPlan {
                 "the plan has stopped: no positions are pending; take the result with image()",
             ));
         }
-        if drop_nonfinite && self.state.tiles().is_some() {
-            return Err(invalid(
-                "drop_nonfinite=True: the tiled plan refuses non-finite samples; remove them, \
-                 or plan untiled (no tile=)",
-            ));
+        if self.state.tiles().is_some() {
+            check_tiled_samples(NonFinitePolicy::dropping(drop_nonfinite)).map_err(to_py)?;
         }
         let t = Instant::now();
         let (new, dropped) = samples_of(
             self.state.plane(),
             xy,
             values,
-            rkwave::image::NonFinitePolicy::dropping(drop_nonfinite),
+            NonFinitePolicy::dropping(drop_nonfinite),
         )?;
         let rows = self.samples.as_ref().map_or(0, ImageSamples::len) + self.dropped.count;
         let all = appended(self.samples.as_ref(), new)?;

@@ -43,19 +43,17 @@ def keywords(obj):
     return set(inspect.signature(obj).parameters) - {"self"}
 
 
-def stub_keywords(cls, method="__init__"):
-    """The parameters of `cls.method` in the type stubs."""
+def stubs():
+    """The functions and classes of the type stubs: name -> ast node."""
     import ast
 
     tree = ast.parse(STUBS.read_text())
-    for node in tree.body:
-        if isinstance(node, ast.ClassDef) and node.name == cls:
-            for f in node.body:
-                if isinstance(f, ast.FunctionDef) and f.name == method:
-                    a = f.args
-                    names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
-                    return set(names) - {"self"}
-    raise AssertionError(f"{cls}.{method} is not in {STUBS}")
+    return {n.name: n for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+
+
+def stub_parameters(function):
+    a = function.args
+    return [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs if x.arg != "self"]
 
 
 def test_every_plan_flag_is_a_keyword_of_the_same_name(cli):
@@ -66,14 +64,34 @@ def test_every_plan_flag_is_a_keyword_of_the_same_name(cli):
     assert flags - plan == set(CLI_FLAGS), (flags - plan) ^ set(CLI_FLAGS)
     # and each keyword of Plan is a flag
     assert plan <= flags, plan - flags
-    # the stubs say what the module takes
-    assert stub_keywords("Plan") == plan
-    assert stub_keywords("Plan", "add") == keywords(rkwave.Plan.add)
     # the tasks' side of rkwave.dask.TiledPlan takes Plan's keywords (tile required) and its
     # own two
-    rounds = keywords(rkwave._rkwave.TiledPlanRounds)
-    assert rounds == plan | {"rows_per_task", "threads"}
-    assert stub_keywords("TiledPlanRounds") == rounds
+    assert keywords(rkwave._rkwave.TiledPlanRounds) == plan | {"rows_per_task", "threads"}
+
+
+def test_the_stubs_are_the_modules_signatures():
+    """Every public name of the compiled module is in `_rkwave.pyi`, and every function and
+    method there has the module's parameters, in order (the stubs are what an editor shows)."""
+    import ast
+
+    module = rkwave._rkwave
+    stubbed = stubs()
+    public = {n for n in dir(module) if not n.startswith("_")}
+    assert public == set(stubbed), public ^ set(stubbed)
+    checked = 0
+    for name, node in stubbed.items():
+        runtime = getattr(module, name)
+        members = [(runtime, node)] if isinstance(node, ast.FunctionDef) else [
+            (runtime if f.name == "__init__" else getattr(runtime, f.name), f)
+            for f in node.body
+            if isinstance(f, ast.FunctionDef) and f.name != "__call__"  # a slot: (*args)
+            and not any(getattr(d, "id", None) == "property" for d in f.decorator_list)
+        ]
+        for obj, f in members:
+            ours = [p for p in inspect.signature(obj).parameters if p != "self"]
+            assert ours == stub_parameters(f), (name, f.name, ours, stub_parameters(f))
+            checked += 1
+    assert checked >= 30, checked
 
 
 def cli_plan(cli, run, flags):
@@ -198,3 +216,21 @@ def test_the_dask_tiled_plan_refuses_pixel_share_alike(tmp_path, cli):
         rkwave.dask.TiledPlan((W, H), spp=SPP, tile=16, pixel_share=0.5)
     assert py_err.value.kind == "InvalidInput"
     assert str(py_err.value) == cli_tiled_refusal(cli, tmp_path)
+
+
+def test_a_tiled_plan_refuses_drop_nonfinite_as_the_command_line(tmp_path, cli):
+    """`add(..., drop_nonfinite=True)` on a tiled plan is refused by the library's one check,
+    the words of `rkwave plan --tile ... --drop-nonfinite`; the plan is unchanged."""
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP, tile=16)
+    xy = plan.positions()
+    with pytest.raises(rkwave.RkwaveError) as py_err:
+        plan.add(xy, disc_scene(xy), drop_nonfinite=True)
+    assert py_err.value.kind == "InvalidInput" and plan.round == 0
+    code, _, err = cli("plan", "--resolution", f"{W}x{H}", "--spp", SPP, "--state",
+                       tmp_path / "state", "--out", tmp_path / "n0.npy", "--tile", 16,
+                       "--drop-nonfinite", check=False)
+    assert code == 2, err
+    theirs = cli_error(err).replace("--drop-nonfinite", "drop_nonfinite=True")
+    assert theirs.replace("--tile", "tile=") == str(py_err.value)
+    plan.add(xy, disc_scene(xy))
+    assert plan.round == 1

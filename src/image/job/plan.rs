@@ -26,7 +26,7 @@ use crate::image::adaptive::{
     TreeSolver,
 };
 use crate::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
-use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
+use crate::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use crate::resources::{memory_limit, ImageRequest, ImageSolve};
 
 use super::{check_p, ImageParams, JobError};
@@ -201,6 +201,17 @@ impl PlanOptions {
             },
             ..*base
         })
+    }
+}
+
+/// Refuses a round of a plan on tiles ([`super::tiled_plan`]) under `policy` unless it
+/// refuses non-finite samples ([`NonFinitePolicy::Refuse`]): the tiled plan's rounds do not
+/// count dropped samples, so it takes no [`NonFinitePolicy::Drop`]. Every front end asks this
+/// before it reads a tiled plan's samples.
+pub fn check_tiled_samples(policy: NonFinitePolicy) -> Result<(), JobError> {
+    match policy {
+        NonFinitePolicy::Refuse => Ok(()),
+        NonFinitePolicy::Drop => Err(JobError::TiledPlanKeepsNonFinite),
     }
 }
 
