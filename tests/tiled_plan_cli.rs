@@ -63,7 +63,8 @@ fn tiled_plan_through_files_to_its_stop() {
 }
 
 /// The command line's refusals of the tile grid name the flag at fault (the library's
-/// parameter spelled as the flag), before anything is written.
+/// parameter spelled as the flag), before anything is written; a halo without tiles is
+/// refused by the library's check (`check_halo`), as Python's `Plan(halo=...)` is.
 #[test]
 fn bad_tiles_are_refused_naming_the_flag() {
     let dir = common::scratch("tiledplan", "refusals");
@@ -79,6 +80,11 @@ fn bad_tiles_are_refused_naming_the_flag() {
         common::rkwave(&args)
     };
     for (extra, flag) in [
+        (
+            &["--halo", "4"][..],
+            "error: a halo is the halo of the tiles of a tiled plan: set --tile with it, or \
+             leave the halo out",
+        ),
         (&["--tile", "0"][..], "--tile"),
         (&["--tile", "49"][..], "--tile"),
         (&["--tile", "16", "--halo", "17"][..], "--halo"),

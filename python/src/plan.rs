@@ -22,7 +22,9 @@ use std::time::Instant;
 use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
-use rkwave::image::job::{check_tiled_samples, PlanFinal, PlanOptions, PlanRound, PlanStart};
+use rkwave::image::job::{
+    check_halo, check_tiled_samples, PlanFinal, PlanOptions, PlanRound, PlanStart,
+};
 use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
@@ -266,12 +268,8 @@ impl PyPlan {
                 warn_all(py, &notes)?;
                 (core, next)
             }
-            None if halo.is_some() => {
-                return Err(invalid(
-                    "halo= is the tiles' halo: give it with tile=, or leave it out",
-                ))
-            }
             None => {
+                check_halo(tile, halo, false).map_err(to_py)?;
                 let start = PlanStart::new(plane, &options).map_err(to_py)?;
                 let (state, next) = py.detach(|| start.run()).map_err(to_py)?;
                 (PlanCore::Untiled(state), next)

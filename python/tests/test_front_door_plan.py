@@ -234,3 +234,15 @@ def test_a_tiled_plan_refuses_drop_nonfinite_as_the_command_line(tmp_path, cli):
     assert theirs.replace("--tile", "tile=") == str(py_err.value)
     plan.add(xy, disc_scene(xy))
     assert plan.round == 1
+
+
+def test_a_halo_without_tiles_is_refused_as_the_command_line(tmp_path, cli):
+    with pytest.raises(rkwave.RkwaveError) as py_err:
+        rkwave.Plan(resolution=(W, H), spp=SPP, halo=4)
+    assert py_err.value.kind == "InvalidInput"
+    code, _, err = cli("plan", "--resolution", f"{W}x{H}", "--spp", SPP, "--state",
+                       tmp_path / "state", "--out", tmp_path / "n0.npy", "--halo", 4,
+                       check=False)
+    assert code == 2, err
+    assert cli_error(err).replace("--tile", "tile=") == str(py_err.value)
+    assert str(py_err.value).startswith("a halo is the halo of the tiles of a tiled plan: set tile=")

@@ -12,7 +12,9 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::{PixelEstimate, PositionPattern, SamplePositions};
-use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
+use rkwave::image::job::{
+    check_halo, PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart,
+};
 use rkwave::image::plan::PlanState;
 use rkwave::image::report::PlanCallReport;
 use rkwave::image::NonFinitePolicy;
@@ -123,7 +125,7 @@ pub struct PlanArgs {
     pub tile: Option<usize>,
     /// Halo of each tile in pixels, at most the tile (default 0: a power-of-two tile is its
     /// own window); with --tile.
-    #[arg(long, requires = "tile")]
+    #[arg(long)]
     pub halo: Option<usize>,
     /// Print one JSON object.
     #[arg(long)]
@@ -187,7 +189,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         rkwave::io::output::check_output(image, args.force, &inputs)?;
     }
     let options = options(args);
-    if args.tile.is_some() || tiled::path(&args.state).exists() {
+    let tiled = tiled::path(&args.state).exists();
+    check_halo(args.tile, args.halo, tiled)?;
+    if args.tile.is_some() || tiled {
         return tiled::run(args, &options);
     }
     let (state, next, step, final_image) = match &args.samples {

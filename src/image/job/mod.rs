@@ -35,7 +35,8 @@ pub mod tiled_plan;
 mod uniform;
 
 pub use plan::{
-    check_tiled_samples, PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart,
+    check_halo, check_tiled_samples, PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver,
+    PlanStart,
 };
 pub use tiled::{TileOptions, TiledJob, TiledRun};
 pub use uniform::{PixelChoice, UniformJob, UniformOutput};

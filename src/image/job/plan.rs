@@ -215,6 +215,19 @@ pub fn check_tiled_samples(policy: NonFinitePolicy) -> Result<(), JobError> {
     }
 }
 
+/// Refuses a `halo` without tiles: the halo is the tiles' ([`super::tiled_plan`]), so a call
+/// that gives one needs a `tile` size, or a plan on tiles to continue (`tiled`).
+pub fn check_halo(tile: Option<usize>, halo: Option<usize>, tiled: bool) -> Result<(), JobError> {
+    if halo.is_some() && tile.is_none() && !tiled {
+        return Err(JobError::Missing {
+            param: Param::Tile,
+            what: "a halo is the halo of the tiles of a tiled plan",
+            how: "with it, or leave the halo out",
+        });
+    }
+    Ok(())
+}
+
 /// Bytes a plan holds per function of its basis at the depth limit, whatever its tree: the
 /// tree's active flag, the exact diagonal's mask and sum, and PCG's carried start of one
 /// channel and its noise probe (full layout, 8 bytes each). A lower bound: more channels
