@@ -82,8 +82,8 @@ fn bad_tiles_are_refused_naming_the_flag() {
     for (extra, flag) in [
         (
             &["--halo", "4"][..],
-            "error: a halo is the halo of the tiles of a tiled plan: set --tile with it, or \
-             leave the halo out",
+            "error: --halo is the halo of the tiles of a tiled plan: set --tile with it, or \
+             drop --halo",
         ),
         (&["--tile", "0"][..], "--tile"),
         (&["--tile", "49"][..], "--tile"),

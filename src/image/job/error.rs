@@ -107,6 +107,14 @@ pub enum JobError {
     /// A tiled fit asked to drop non-finite samples.
     #[error("{}", keeps_nonfinite())]
     TilesKeepNonFinite,
+    /// A halo given without tiles.
+    #[error(
+        "{} is the halo of the tiles of a tiled plan: set {} with it, or drop {}",
+        Fix::Set(Param::Halo),
+        Fix::Set(Param::Tile),
+        Fix::Set(Param::Halo)
+    )]
+    HaloWithoutTiles,
     /// A round of a tiled plan asked to drop non-finite samples.
     #[error("{}", plan_keeps_nonfinite())]
     TiledPlanKeepsNonFinite,
@@ -141,6 +149,7 @@ impl JobError {
             | JobError::Missing { .. }
             | JobError::OtherPlane { .. }
             | JobError::TilesKeepNonFinite
+            | JobError::HaloWithoutTiles
             | JobError::TiledPlanKeepsNonFinite => ErrorKind::InvalidInput,
             JobError::TileGrid { source, .. } | JobError::Tiled(source) => source.kind(),
             JobError::TooLarge { .. } | JobError::PlanTooLarge { .. } => ErrorKind::ResourceLimit,

@@ -219,11 +219,7 @@ pub fn check_tiled_samples(policy: NonFinitePolicy) -> Result<(), JobError> {
 /// that gives one needs a `tile` size, or a plan on tiles to continue (`tiled`).
 pub fn check_halo(tile: Option<usize>, halo: Option<usize>, tiled: bool) -> Result<(), JobError> {
     if halo.is_some() && tile.is_none() && !tiled {
-        return Err(JobError::Missing {
-            param: Param::Tile,
-            what: "a halo is the halo of the tiles of a tiled plan",
-            how: "with it, or leave the halo out",
-        });
+        return Err(JobError::HaloWithoutTiles);
     }
     Ok(())
 }
