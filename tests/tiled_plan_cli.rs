@@ -64,7 +64,7 @@ fn tiled_plan_through_files_to_its_stop() {
 
 /// The command line's refusals of the tile grid name the flag at fault (the library's
 /// parameter spelled as the flag), before anything is written; a halo without tiles is
-/// refused by the library's check (`check_halo`), as Python's `Plan(halo=...)` is.
+/// refused by the library's check (`PlanStart::check_halo`), as Python's `Plan(halo=...)` is.
 #[test]
 fn bad_tiles_are_refused_naming_the_flag() {
     let dir = common::scratch("tiledplan", "refusals");
@@ -98,8 +98,8 @@ fn bad_tiles_are_refused_naming_the_flag() {
 }
 
 /// `--drop-nonfinite` on a tiled plan is refused (exit 2) by the library's one check
-/// (`check_tiled_samples`), naming the flag and `--tile`, on a new plan and on a later call,
-/// before anything is read or written.
+/// (`PlanRound::check_tiled_samples`), naming the flag and `--tile`, on a new plan and on a
+/// later call, before anything is read or written.
 #[test]
 fn drop_nonfinite_is_refused_on_tiles_naming_the_flags() {
     let dir = common::scratch("tiledplan", "nonfinite");

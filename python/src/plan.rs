@@ -22,9 +22,7 @@ use std::time::Instant;
 use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
-use rkwave::image::job::{
-    check_halo, check_tiled_samples, PlanFinal, PlanOptions, PlanRound, PlanStart,
-};
+use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
 use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
@@ -269,7 +267,7 @@ impl PyPlan {
                 (core, next)
             }
             None => {
-                check_halo(tile, halo, false).map_err(to_py)?;
+                PlanStart::check_halo(tile, halo, false).map_err(to_py)?;
                 let start = PlanStart::new(plane, &options).map_err(to_py)?;
                 let (state, next) = py.detach(|| start.run()).map_err(to_py)?;
                 (PlanCore::Untiled(state), next)
@@ -330,7 +328,8 @@ impl PyPlan {
             ));
         }
         if self.state.tiles().is_some() {
-            check_tiled_samples(NonFinitePolicy::dropping(drop_nonfinite)).map_err(to_py)?;
+            PlanRound::check_tiled_samples(NonFinitePolicy::dropping(drop_nonfinite))
+                .map_err(to_py)?;
         }
         let t = Instant::now();
         let (new, dropped) = samples_of(

@@ -12,9 +12,7 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::{PixelEstimate, PositionPattern, SamplePositions};
-use rkwave::image::job::{
-    check_halo, PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart,
-};
+use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
 use rkwave::image::plan::PlanState;
 use rkwave::image::report::PlanCallReport;
 use rkwave::image::NonFinitePolicy;
@@ -190,7 +188,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     }
     let options = options(args);
     let tiled = tiled::path(&args.state).exists();
-    check_halo(args.tile, args.halo, tiled)?;
+    PlanStart::check_halo(args.tile, args.halo, tiled)?;
     if args.tile.is_some() || tiled {
         return tiled::run(args, &options);
     }

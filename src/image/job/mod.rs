@@ -34,10 +34,7 @@ mod tiled;
 pub mod tiled_plan;
 mod uniform;
 
-pub use plan::{
-    check_halo, check_tiled_samples, PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver,
-    PlanStart,
-};
+pub use plan::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
 pub use tiled::{TileOptions, TiledJob, TiledRun};
 pub use uniform::{PixelChoice, UniformJob, UniformOutput};
 

@@ -204,26 +204,6 @@ impl PlanOptions {
     }
 }
 
-/// Refuses a round of a plan on tiles ([`super::tiled_plan`]) under `policy` unless it
-/// refuses non-finite samples ([`NonFinitePolicy::Refuse`]): the tiled plan's rounds do not
-/// count dropped samples, so it takes no [`NonFinitePolicy::Drop`]. Every front end asks this
-/// before it reads a tiled plan's samples.
-pub fn check_tiled_samples(policy: NonFinitePolicy) -> Result<(), JobError> {
-    match policy {
-        NonFinitePolicy::Refuse => Ok(()),
-        NonFinitePolicy::Drop => Err(JobError::TiledPlanKeepsNonFinite),
-    }
-}
-
-/// Refuses a `halo` without tiles: the halo is the tiles' ([`super::tiled_plan`]), so a call
-/// that gives one needs a `tile` size, or a plan on tiles to continue (`tiled`).
-pub fn check_halo(tile: Option<usize>, halo: Option<usize>, tiled: bool) -> Result<(), JobError> {
-    if halo.is_some() && tile.is_none() && !tiled {
-        return Err(JobError::HaloWithoutTiles);
-    }
-    Ok(())
-}
-
 /// Bytes a plan holds per function of its basis at the depth limit, whatever its tree: the
 /// tree's active flag, the exact diagonal's mask and sum, and PCG's carried start of one
 /// channel and its noise probe (full layout, 8 bytes each). A lower bound: more channels
@@ -238,6 +218,19 @@ pub struct PlanStart {
 }
 
 impl PlanStart {
+    /// Refuses a `halo` without tiles: the halo is the tiles' ([`super::tiled_plan`]), so a call
+    /// that gives one needs a `tile` size, or a plan on tiles to continue (`tiled`).
+    pub fn check_halo(
+        tile: Option<usize>,
+        halo: Option<usize>,
+        tiled: bool,
+    ) -> Result<(), JobError> {
+        if halo.is_some() && tile.is_none() && !tiled {
+            return Err(JobError::HaloWithoutTiles);
+        }
+        Ok(())
+    }
+
     /// Validates `options` for a new plan on `plane`: a budget is required; every range of
     /// the refiner's parameters ([`AdaptiveParams::validate`]). Allocates nothing.
     pub fn new(plane: ImagePlane, options: &PlanOptions) -> Result<PlanStart, JobError> {
@@ -326,6 +319,17 @@ pub struct PlanRound<'a> {
 }
 
 impl<'a> PlanRound<'a> {
+    /// Refuses a round of a plan on tiles ([`super::tiled_plan`]) under `policy` unless it
+    /// refuses non-finite samples ([`NonFinitePolicy::Refuse`]): the tiled plan's rounds do not
+    /// count dropped samples, so it takes no [`NonFinitePolicy::Drop`]. Every front end asks this
+    /// before it reads a tiled plan's samples.
+    pub fn check_tiled_samples(policy: NonFinitePolicy) -> Result<(), JobError> {
+        match policy {
+            NonFinitePolicy::Refuse => Ok(()),
+            NonFinitePolicy::Drop => Err(JobError::TiledPlanKeepsNonFinite),
+        }
+    }
+
     /// Validates a later call's `options` (and the image `plane`, if given) against the plan
     /// in `state`: each option given must be the plan's own ([`PlanState::check_params`]
     /// names the first that differs). Reads no samples.
