@@ -63,7 +63,8 @@ fn tiled_plan_through_files_to_its_stop() {
 }
 
 /// The command line's refusals of the tile grid name the flag at fault (the library's
-/// parameter spelled as the flag), before anything is written.
+/// parameter spelled as the flag), before anything is written; a halo without tiles is
+/// refused by the library's check (`PlanStart::check_halo`), as Python's `Plan(halo=...)` is.
 #[test]
 fn bad_tiles_are_refused_naming_the_flag() {
     let dir = common::scratch("tiledplan", "refusals");
@@ -79,6 +80,11 @@ fn bad_tiles_are_refused_naming_the_flag() {
         common::rkwave(&args)
     };
     for (extra, flag) in [
+        (
+            &["--halo", "4"][..],
+            "error: --halo is the halo of the tiles of a tiled plan: set --tile with it, or \
+             drop --halo",
+        ),
         (&["--tile", "0"][..], "--tile"),
         (&["--tile", "49"][..], "--tile"),
         (&["--tile", "16", "--halo", "17"][..], "--halo"),
@@ -89,4 +95,45 @@ fn bad_tiles_are_refused_naming_the_flag() {
         assert!(text.contains(flag), "{extra:?}: {text}");
         assert!(!out_file.exists(), "{extra:?}: positions written");
     }
+}
+
+/// `--drop-nonfinite` on a tiled plan is refused (exit 2) by the library's one check
+/// (`PlanRound::check_tiled_samples`), naming the flag and `--tile`, on a new plan and on a
+/// later call, before anything is read or written.
+#[test]
+fn drop_nonfinite_is_refused_on_tiles_naming_the_flags() {
+    let dir = common::scratch("tiledplan", "nonfinite");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let state = dir.join("state");
+    let start = |extra: &[&str]| {
+        let mut args: Vec<String> = ["plan", "--resolution", "32x32", "--spp", "4", "--tile"]
+            .map(String::from)
+            .to_vec();
+        args.extend(["16".into(), "--state".into(), s(&state), "--out".into()]);
+        args.push(s(&dir.join("n0.npy")));
+        args.extend(extra.iter().map(|e| e.to_string()));
+        args
+    };
+    let said = "the tiled plan refuses non-finite samples (its rounds do not count dropped \
+                samples): do not ask for --drop-nonfinite with a plan on tiles (--tile); remove \
+                them from the samples, or plan untiled";
+    let first = common::user_error(&start(&["--drop-nonfinite"]));
+    assert!(first.contains(&format!("error: {said}\n")), "{first}");
+    assert!(!dir.join("n0.npy").exists());
+    common::succeeds(&start(&[]));
+    let mut set = SampleSet::default();
+    common::image_cli::append_rendered(&mut set, &dir.join("n0.npy"), straight_edge);
+    write_npy(dir.join("s0.npy"), &set).unwrap();
+    let later = common::user_error(&[
+        "plan".to_string(),
+        "--state".into(),
+        s(&state),
+        "--samples".into(),
+        s(&dir.join("s0.npy")),
+        "--out".into(),
+        s(&dir.join("n1.npy")),
+        "--drop-nonfinite".into(),
+    ]);
+    assert!(later.contains(&format!("error: {said}\n")), "{later}");
+    assert!(!dir.join("n1.npy").exists());
 }

@@ -122,13 +122,19 @@ class Plan:
         below_pixel: Optional[int] = None,
         seed: Optional[int] = None,
         false_alarm: Optional[float] = None,
-        solver: Optional[str] = None,
+        min_growth: Optional[float] = None,
+        pixel_share: Optional[float] = None,
+        pattern: Optional[Literal["sobol", "stratified"]] = None,
+        spread: Optional[Literal["indicator", "uncertainty", "uniform"]] = None,
+        solver: Optional[Literal["pcg", "direct", "schwarz"]] = None,
         output_pixels: Optional[str] = None,
         tile: Optional[int] = None,
         halo: Optional[int] = None,
     ) -> None: ...
     def positions(self) -> FloatArray: ...
-    def add(self, xy: ArrayLike, values: ArrayLike) -> None: ...
+    def add(
+        self, xy: ArrayLike, values: ArrayLike, *, drop_nonfinite: bool = False
+    ) -> None: ...
     @property
     def done(self) -> bool: ...
     @property
@@ -229,7 +235,11 @@ class TiledPlanRounds:
         below_pixel: Optional[int] = None,
         seed: Optional[int] = None,
         false_alarm: Optional[float] = None,
-        solver: Optional[str] = None,
+        min_growth: Optional[float] = None,
+        pixel_share: Optional[float] = None,
+        pattern: Optional[Literal["sobol", "stratified"]] = None,
+        spread: Optional[Literal["indicator", "uncertainty", "uniform"]] = None,
+        solver: Optional[Literal["pcg", "direct", "schwarz"]] = None,
         output_pixels: Optional[str] = None,
         rows_per_task: int = 1,
         threads: int = 1,

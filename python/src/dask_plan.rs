@@ -222,8 +222,9 @@ impl PyTiledPlanRounds {
     /// check counts that many tile fits at once).
     #[new]
     #[pyo3(signature = (resolution, spp=None, budget=None, *, tile, halo=None, p=None,
-        rho=None, below_pixel=None, seed=None, false_alarm=None, solver=None,
-        output_pixels=None, rows_per_task=1, threads=1))]
+        rho=None, below_pixel=None, seed=None, false_alarm=None, min_growth=None,
+        pixel_share=None, pattern=None, spread=None, solver=None, output_pixels=None,
+        rows_per_task=1, threads=1))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -237,6 +238,10 @@ impl PyTiledPlanRounds {
         below_pixel: Option<u32>,
         seed: Option<u64>,
         false_alarm: Option<f64>,
+        min_growth: Option<f64>,
+        pixel_share: Option<f64>,
+        pattern: Option<&str>,
+        spread: Option<&str>,
         solver: Option<&str>,
         output_pixels: Option<&str>,
         rows_per_task: usize,
@@ -257,6 +262,10 @@ impl PyTiledPlanRounds {
             below_pixel,
             seed,
             false_alarm,
+            min_growth,
+            pixel_share,
+            pattern,
+            spread,
             solver,
             output_pixels,
         })?;

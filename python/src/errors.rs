@@ -80,6 +80,7 @@ pub fn keyword(fix: Fix) -> &'static str {
             Param::BelowPixel => "below_pixel=",
             Param::MemoryLimit => "rkwave.set_memory_limit()",
             Param::Scratch => "scratch=",
+            Param::PixelShare => "pixel_share=",
             _ => param.in_library(),
         },
         _ => fix.in_library(),

@@ -4,8 +4,9 @@
 //! line refuses for the same parameter, naming the keyword.
 
 use pyo3::prelude::*;
+use rkwave::adaptive::marking::SpreadRule;
 use rkwave::basis::FilterFamily;
-use rkwave::image::adaptive::PixelEstimate;
+use rkwave::image::adaptive::{PixelEstimate, PositionPattern};
 use rkwave::image::job::{PlanBudget, PlanOptions, PlanSolver};
 use rkwave::kernel::LevelParams;
 use rkwave::reconstruct::{FitParams, Levels, Method, SingleScaleSolver};
@@ -234,6 +235,14 @@ pub struct PlanArgs<'a> {
     pub seed: Option<u64>,
     /// False-alarm rate of the noise test.
     pub false_alarm: Option<f64>,
+    /// Least growth per round, as a share of the samples so far.
+    pub min_growth: Option<f64>,
+    /// Share of each round's new samples given to the pixels by their spread.
+    pub pixel_share: Option<f64>,
+    /// Where a slot's positions go: `"sobol"` or `"stratified"`.
+    pub pattern: Option<&'a str>,
+    /// Where a round's spare samples go: `"indicator"`, `"uncertainty"` or `"uniform"`.
+    pub spread: Option<&'a str>,
     /// The rounds' solver: `"pcg"`, `"direct"` or `"schwarz"`.
     pub solver: Option<&'a str>,
     /// The final image's pixels, by [`PixelEstimate`]'s name.
@@ -241,9 +250,11 @@ pub struct PlanArgs<'a> {
 }
 
 /// The plan's options from `rkwave.Plan`'s keywords, as `rkwave plan` takes its flags:
-/// parsing only (one of `budget=` and `spp=`; the names of `solver=` and `output_pixels=`);
-/// the library's plan jobs ([`rkwave::image::job::PlanStart`]) validate them and decide the
-/// defaults for both front ends.
+/// parsing only (one of `budget=` and `spp=`; the names of `pattern=`, `spread=`, `solver=`
+/// and `output_pixels=`); the library's plan jobs ([`rkwave::image::job::PlanStart`])
+/// validate them and decide the defaults for both front ends. Every field of
+/// [`PlanOptions`] is set here by name (no `..Default`), so an option the library adds does
+/// not compile until it has its keyword.
 pub fn plan_options(a: &PlanArgs<'_>) -> PyResult<PlanOptions> {
     let budget = match (a.budget, a.spp) {
         (Some(_), Some(_)) => {
@@ -263,6 +274,22 @@ pub fn plan_options(a: &PlanArgs<'_>) -> PyResult<PlanOptions> {
         below_pixel: a.below_pixel,
         seed: a.seed,
         false_alarm: a.false_alarm,
+        min_growth: a.min_growth,
+        pixel_share: a.pixel_share,
+        pattern: a
+            .pattern
+            .map(|name| {
+                name.parse::<PositionPattern>()
+                    .map_err(|e| named("pattern", name, e.to_string()))
+            })
+            .transpose()?,
+        spread: a
+            .spread
+            .map(|name| {
+                name.parse::<SpreadRule>()
+                    .map_err(|e| named("spread", name, e))
+            })
+            .transpose()?,
         output_pixels: a
             .output_pixels
             .map(|name| {
@@ -277,7 +304,6 @@ pub fn plan_options(a: &PlanArgs<'_>) -> PyResult<PlanOptions> {
                     .map_err(|e| named("solver", name, e))
             })
             .transpose()?,
-        ..PlanOptions::default()
     })
 }
 

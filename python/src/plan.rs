@@ -25,7 +25,7 @@ use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
 use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use rkwave::image::report::plan_fit_notes;
-use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples};
+use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use rkwave::io::output::write_new;
 use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
@@ -195,7 +195,12 @@ impl PyPlan {
     /// of the normal matrix carried between rounds, `rkwave plan --solver`) and
     /// `output_pixels="blend"` (the final image's pixels, `rkwave plan --output-pixels`:
     /// also `"shrunk"`, `"auto"`, `"residual_clamped"`, `"residual_corrected"`,
-    /// `"fit_only"`, `"box_shrunk"`).
+    /// `"fit_only"`, `"box_shrunk"`). Each other keyword is the flag of `rkwave plan` of the
+    /// same name (`_` for `-`), with its default: `p`, `rho`, `below_pixel`, `seed`,
+    /// `false_alarm`, `min_growth`, `pixel_share` (the share of each round's new samples given
+    /// to the pixels by the spread of their own samples; default 0, off; each round's count is
+    /// `report["steps"][k]["log"]["pixel_spread"]`), `pattern` (`"sobol"` or `"stratified"`)
+    /// and `spread` (`"indicator"`, `"uncertainty"` or `"uniform"`).
     ///
     /// >>> import rkwave
     /// >>> plan = rkwave.Plan(resolution=(32, 32), spp=4)
@@ -206,15 +211,16 @@ impl PyPlan {
     /// tile of `T` pixels over a window that holds the tile and its `halo=` (default 0)
     /// grown to a power of two, one global budget shared by the tiles' indicators, memory
     /// bounded by the tile; the final image stitched from the tiles' interiors. A tiled
-    /// plan refuses non-finite samples (no `drop_nonfinite`) and gives its image once done.
+    /// plan refuses non-finite samples (no `drop_nonfinite`) and a `pixel_share` (its tiles
+    /// would place a share the rounds do not report), and gives its image once done.
     ///
     /// >>> plan = rkwave.Plan(resolution=(64, 64), spp=4, tile=32)
     /// >>> plan.report["tiles"]
     /// [32, 0]
     #[new]
     #[pyo3(signature = (resolution, spp=None, budget=None, *, p=None, rho=None,
-        below_pixel=None, seed=None, false_alarm=None, solver=None, output_pixels=None,
-        tile=None, halo=None))]
+        below_pixel=None, seed=None, false_alarm=None, min_growth=None, pixel_share=None,
+        pattern=None, spread=None, solver=None, output_pixels=None, tile=None, halo=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -226,6 +232,10 @@ impl PyPlan {
         below_pixel: Option<u32>,
         seed: Option<u64>,
         false_alarm: Option<f64>,
+        min_growth: Option<f64>,
+        pixel_share: Option<f64>,
+        pattern: Option<&str>,
+        spread: Option<&str>,
         solver: Option<&str>,
         output_pixels: Option<&str>,
         tile: Option<usize>,
@@ -240,6 +250,10 @@ impl PyPlan {
             below_pixel,
             seed,
             false_alarm,
+            min_growth,
+            pixel_share,
+            pattern,
+            spread,
             solver,
             output_pixels,
         })?;
@@ -252,12 +266,8 @@ impl PyPlan {
                 warn_all(py, &notes)?;
                 (core, next)
             }
-            None if halo.is_some() => {
-                return Err(invalid(
-                    "halo= is the tiles' halo: give it with tile=, or leave it out",
-                ))
-            }
             None => {
+                PlanStart::check_halo(tile, halo, false).map_err(to_py)?;
                 let start = PlanStart::new(plane, &options).map_err(to_py)?;
                 let (state, next) = py.detach(|| start.run()).map_err(to_py)?;
                 (PlanCore::Untiled(state), next)
@@ -317,18 +327,16 @@ impl PyPlan {
                 "the plan has stopped: no positions are pending; take the result with image()",
             ));
         }
-        if drop_nonfinite && self.state.tiles().is_some() {
-            return Err(invalid(
-                "drop_nonfinite=True: the tiled plan refuses non-finite samples; remove them, \
-                 or plan untiled (no tile=)",
-            ));
+        if self.state.tiles().is_some() {
+            PlanRound::check_tiled_samples(NonFinitePolicy::dropping(drop_nonfinite))
+                .map_err(to_py)?;
         }
         let t = Instant::now();
         let (new, dropped) = samples_of(
             self.state.plane(),
             xy,
             values,
-            rkwave::image::NonFinitePolicy::dropping(drop_nonfinite),
+            NonFinitePolicy::dropping(drop_nonfinite),
         )?;
         let rows = self.samples.as_ref().map_or(0, ImageSamples::len) + self.dropped.count;
         let all = appended(self.samples.as_ref(), new)?;
@@ -355,15 +363,7 @@ impl PyPlan {
             .map_err(to_py)?;
         self.made = None;
         self.dropped = all_dropped;
-        let notes: Vec<String> = step
-            .dropped
-            .note()
-            .into_iter()
-            .chain(step.solver_note.clone())
-            .chain(step.gram_note.clone())
-            .chain(step.pcg_note.clone())
-            .collect();
-        warn_all(py, &notes)?;
+        warn_all(py, &PlanRound::notes(&state.params, &step))?;
         let library = t_lib.elapsed().as_secs_f64();
         self.next = step.next.clone();
         self.samples = Some(all);

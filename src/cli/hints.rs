@@ -50,6 +50,7 @@ pub fn flag(fix: Fix) -> &'static str {
             Param::Spp => "--spp",
             Param::Methods => "--methods",
             Param::Fine => "--fine",
+            Param::PixelShare => "--pixel-share",
             _ => param.in_library(),
         },
         _ => fix.in_library(),

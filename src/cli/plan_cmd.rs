@@ -73,7 +73,9 @@ pub struct PlanArgs {
     #[arg(long)]
     pub min_growth: Option<f64>,
     /// Share of each round's new samples given to the pixels by the spread of their own
-    /// samples (pooled over 3 x 3 pixels), beside the tree's marking (0 to 1; 0: the tree alone).
+    /// samples (pooled over 3 x 3 pixels), beside the tree's marking (0 to 1; default 0: the
+    /// tree alone). Each round says how many it gave (none where the base slots are not the
+    /// pixels). Not available with --tile.
     #[arg(long)]
     pub pixel_share: Option<f64>,
     /// Where a slot's positions go (recorded in the state, continued by later calls):
@@ -115,12 +117,13 @@ pub struct PlanArgs {
     /// Tile side in pixels: the plan on tiles (a quadtree and its fits per tile over the
     /// tile plus its halo grown to a power of two, one global budget shared by the tiles' indicators, memory bounded
     /// by the tile; the final image stitched as `reconstruct --dim 2 --tile` does). Recorded
-    /// in the state (`tiled-state.json`); later calls continue it without the flag.
+    /// in the state (`tiled-state.json`); later calls continue it without the flag. Refuses
+    /// --pixel-share and --drop-nonfinite.
     #[arg(long)]
     pub tile: Option<usize>,
     /// Halo of each tile in pixels, at most the tile (default 0: a power-of-two tile is its
     /// own window); with --tile.
-    #[arg(long, requires = "tile")]
+    #[arg(long)]
     pub halo: Option<usize>,
     /// Print one JSON object.
     #[arg(long)]
@@ -184,7 +187,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         rkwave::io::output::check_output(image, args.force, &inputs)?;
     }
     let options = options(args);
-    if args.tile.is_some() || tiled::path(&args.state).exists() {
+    let tiled = tiled::path(&args.state).exists();
+    PlanStart::check_halo(args.tile, args.halo, tiled)?;
+    if args.tile.is_some() || tiled {
         return tiled::run(args, &options);
     }
     let (state, next, step, final_image) = match &args.samples {
@@ -288,24 +293,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         println!("wrote the final image to {}", path.display());
     }
     if let Some(s) = &step {
-        if let Some(note) = &s.log.coverage {
-            super::print_note(note);
-        }
-        if let Some(note) = s.dropped.note() {
+        for note in PlanRound::notes(&state.params, s) {
             super::print_note(&note);
-        }
-        for note in [&s.solver_note, &s.gram_note, &s.pcg_note]
-            .into_iter()
-            .flatten()
-        {
-            super::print_note(note);
-        }
-        if s.log.fit.ridge > 0.0 {
-            println!(
-                "note: the normal matrix was numerically singular: a relative ridge {:.0e} was \
-                 added",
-                s.log.fit.ridge
-            );
         }
     }
     Ok(())

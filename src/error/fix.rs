@@ -98,11 +98,13 @@ pub enum Param {
     Methods,
     /// The fine level `N` of a 1D basis `Psi(n, N)`.
     Fine,
+    /// The share of a plan's round given to the pixels by their spread.
+    PixelShare,
 }
 
 impl Param {
     /// Every parameter, so a front end can check that it spells each one.
-    pub const ALL: [Param; 23] = [
+    pub const ALL: [Param; 24] = [
         Param::P,
         Param::Rho,
         Param::Ridge,
@@ -126,6 +128,7 @@ impl Param {
         Param::Spp,
         Param::Methods,
         Param::Fine,
+        Param::PixelShare,
     ];
 
     /// The parameter in the library's terms (the field of `image::job::ImageParams`
@@ -155,13 +158,14 @@ impl Param {
             Param::Spp => "SamplingParams::spp",
             Param::Methods => "the methods compared",
             Param::Fine => "the basis's fine level N",
+            Param::PixelShare => "GrowthParams::pixel_share",
         }
     }
 }
 
 impl Fix {
     /// Every fix, so a front end can check that it spells each one.
-    pub const ALL: [Fix; 38] = [
+    pub const ALL: [Fix; 39] = [
         Fix::RegularizedAnswer,
         Fix::RegularizeOrLocal,
         Fix::Cutoff,
@@ -199,6 +203,7 @@ impl Fix {
         Fix::Set(Param::ALL[20]),
         Fix::Set(Param::ALL[21]),
         Fix::Set(Param::ALL[22]),
+        Fix::Set(Param::ALL[23]),
         Fix::SolverPcg,
     ];
 

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use rkwave::image::job::tiled_plan::{TiledPlanOptions, TiledPlanStart, TiledPlanState, TiledStep};
-use rkwave::image::job::PlanOptions;
+use rkwave::image::job::{PlanOptions, PlanRound};
 use rkwave::image::NonFinitePolicy;
 use rkwave::io::output::persist;
 use rkwave::io::read_image_samples_with;
@@ -90,13 +90,7 @@ fn commit(
 
 /// Runs `rkwave plan --tile` (the checks of the output paths done by the caller).
 pub fn run(args: &PlanArgs, options: &PlanOptions) -> Result<(), CliError> {
-    if args.drop_nonfinite {
-        return Err(CliError::Invalid(
-            "--drop-nonfinite: the tiled plan refuses non-finite samples; remove them from the \
-             file, or plan untiled (no --tile)"
-                .into(),
-        ));
-    }
+    PlanRound::check_tiled_samples(NonFinitePolicy::dropping(args.drop_nonfinite))?;
     let untiled = rkwave::image::plan::PlanState::path(&args.state);
     let (state, next, step, notes) = match &args.samples {
         None => {

@@ -107,6 +107,17 @@ pub enum JobError {
     /// A tiled fit asked to drop non-finite samples.
     #[error("{}", keeps_nonfinite())]
     TilesKeepNonFinite,
+    /// A halo given without tiles.
+    #[error(
+        "{} is the halo of the tiles of a tiled plan: set {} with it, or drop {}",
+        Fix::Set(Param::Halo),
+        Fix::Set(Param::Tile),
+        Fix::Set(Param::Halo)
+    )]
+    HaloWithoutTiles,
+    /// A round of a tiled plan asked to drop non-finite samples.
+    #[error("{}", plan_keeps_nonfinite())]
+    TiledPlanKeepsNonFinite,
     /// A tile grid refused (its size, its halo).
     #[error("{}: {source}", Fix::Set(*param))]
     TileGrid {
@@ -137,7 +148,9 @@ impl JobError {
             | JobError::Conflict { .. }
             | JobError::Missing { .. }
             | JobError::OtherPlane { .. }
-            | JobError::TilesKeepNonFinite => ErrorKind::InvalidInput,
+            | JobError::TilesKeepNonFinite
+            | JobError::HaloWithoutTiles
+            | JobError::TiledPlanKeepsNonFinite => ErrorKind::InvalidInput,
             JobError::TileGrid { source, .. } | JobError::Tiled(source) => source.kind(),
             JobError::TooLarge { .. } | JobError::PlanTooLarge { .. } => ErrorKind::ResourceLimit,
             JobError::Plan(e) => e.kind(),
@@ -234,6 +247,17 @@ fn keeps_nonfinite() -> String {
     format!(
         "the tiled fit reads the samples in chunks and refuses non-finite values: do not ask \
          for {} with {} (remove them from the file instead)",
+        Fix::DropNonfinite,
+        Fix::Set(Param::Tile)
+    )
+}
+
+/// The message of [`JobError::TiledPlanKeepsNonFinite`].
+fn plan_keeps_nonfinite() -> String {
+    format!(
+        "the tiled plan refuses non-finite samples (its rounds do not count dropped samples): \
+         do not ask for {} with a plan on tiles ({}); remove them from the samples, or plan \
+         untiled",
         Fix::DropNonfinite,
         Fix::Set(Param::Tile)
     )

@@ -26,7 +26,7 @@ use crate::image::adaptive::{
     TreeSolver,
 };
 use crate::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
-use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
+use crate::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use crate::resources::{memory_limit, ImageRequest, ImageSolve};
 
 use super::{check_p, ImageParams, JobError};
@@ -139,6 +139,23 @@ pub struct PlanOptions {
 }
 
 impl PlanOptions {
+    /// The options of a plan on tiles ([`super::tiled_plan`]), checked at its entries (a new
+    /// tiled plan, a later call): a pixel share `q != 0` is refused. The tiles' windows would
+    /// place a share of their own, unreported by the tiled plan's rounds, and the tiled plan
+    /// would no longer follow the untiled one; `q = 0` (the default) is the plan without it.
+    pub fn check_tiled(&self) -> Result<(), JobError> {
+        match self.pixel_share {
+            Some(q) if q != 0.0 => Err(JobError::Conflict {
+                first: Param::PixelShare,
+                second: Param::Tile,
+                reason: "is not available with the tiled plan (its tiles would give the \
+                         pixels a share the rounds do not report, and the tiled plan would no \
+                         longer follow the untiled one)",
+            }),
+            _ => Ok(()),
+        }
+    }
+
     /// The refiner's parameters: the options given, the rest from `base` (the state's on a
     /// later call, [`AdaptiveParams::renderer_plan`] for a new plan); `p` checked (1 to 4).
     pub fn params(
@@ -201,6 +218,19 @@ pub struct PlanStart {
 }
 
 impl PlanStart {
+    /// Refuses a `halo` without tiles: the halo is the tiles' ([`super::tiled_plan`]), so a call
+    /// that gives one needs a `tile` size, or a plan on tiles to continue (`tiled`).
+    pub fn check_halo(
+        tile: Option<usize>,
+        halo: Option<usize>,
+        tiled: bool,
+    ) -> Result<(), JobError> {
+        if halo.is_some() && tile.is_none() && !tiled {
+            return Err(JobError::HaloWithoutTiles);
+        }
+        Ok(())
+    }
+
     /// Validates `options` for a new plan on `plane`: a budget is required; every range of
     /// the refiner's parameters ([`AdaptiveParams::validate`]). Allocates nothing.
     pub fn new(plane: ImagePlane, options: &PlanOptions) -> Result<PlanStart, JobError> {
@@ -289,6 +319,17 @@ pub struct PlanRound<'a> {
 }
 
 impl<'a> PlanRound<'a> {
+    /// Refuses a round of a plan on tiles ([`super::tiled_plan`]) under `policy` unless it
+    /// refuses non-finite samples ([`NonFinitePolicy::Refuse`]): the tiled plan's rounds do not
+    /// count dropped samples, so it takes no [`NonFinitePolicy::Drop`]. Every front end asks this
+    /// before it reads a tiled plan's samples.
+    pub fn check_tiled_samples(policy: NonFinitePolicy) -> Result<(), JobError> {
+        match policy {
+            NonFinitePolicy::Refuse => Ok(()),
+            NonFinitePolicy::Drop => Err(JobError::TiledPlanKeepsNonFinite),
+        }
+    }
+
     /// Validates a later call's `options` (and the image `plane`, if given) against the plan
     /// in `state`: each option given must be the plan's own ([`PlanState::check_params`]
     /// names the first that differs). Reads no samples.
@@ -317,6 +358,46 @@ impl<'a> PlanRound<'a> {
         dropped: DroppedSamples,
     ) -> Result<PlanStep, JobError> {
         Ok(self.state.advance_dropped(samples, dropped)?)
+    }
+
+    /// What a round's `step` decided for the caller of a plan with parameters `params`, in
+    /// words, for every front end to print (the command line) or warn (Python): the coverage
+    /// rule's fill, the samples dropped, a solver other than the plan's, a carried solver
+    /// state not continued, a ridge added to a singular normal matrix, and with a pixel share
+    /// `q > 0` how many of the next positions it gave to the pixels (none where the base slots
+    /// are not the pixels or no pixel's samples spread: [`GrowthParams::pixel_share`]).
+    pub fn notes(params: &AdaptiveParams, step: &PlanStep) -> Vec<String> {
+        let mut notes: Vec<String> = step.log.coverage.iter().cloned().collect();
+        notes.extend(step.dropped.note());
+        notes.extend(
+            [&step.solver_note, &step.gram_note, &step.pcg_note]
+                .into_iter()
+                .flatten()
+                .cloned(),
+        );
+        if step.log.fit.ridge > 0.0 {
+            notes.push(format!(
+                "the normal matrix was numerically singular: a relative ridge {:.0e} was added",
+                step.log.fit.ridge
+            ));
+        }
+        let share = params.growth.pixel_share;
+        if share > 0.0 && step.next_positions > 0 {
+            notes.push(match step.log.pixel_spread {
+                0 => format!(
+                    "pixel share {share}: none of the {} next positions went to the pixels by \
+                     their spread (the share applies where the base slots are the pixels and \
+                     some pixel's samples spread): the tree alone placed them",
+                    step.next_positions
+                ),
+                n => format!(
+                    "pixel share {share}: {n} of the {} next positions went to the pixels by \
+                     the spread of their own samples, the rest by the tree's marking",
+                    step.next_positions
+                ),
+            });
+        }
+        notes
     }
 }
 

@@ -131,14 +131,16 @@ pub struct TiledPlanStart {
 }
 
 impl TiledPlanStart {
-    /// Validates a tiled plan on `plane`: the plan's options as [`PlanStart::new`], the grid
-    /// ([`TileGeometry::new`]), the workers. Allocates nothing.
+    /// Validates a tiled plan on `plane`: the plan's options as [`PlanStart::new`] and those
+    /// the tiles refuse ([`PlanOptions::check_tiled`]), the grid ([`TileGeometry::new`]), the
+    /// workers. Allocates nothing.
     pub fn new(
         plane: ImagePlane,
         options: &PlanOptions,
         tiles: &TiledPlanOptions,
     ) -> Result<TiledPlanStart, TiledPlanError> {
         let start = PlanStart::new(plane, options)?;
+        options.check_tiled()?;
         let halo = tiles.halo.unwrap_or(PLAN_DEFAULT_HALO);
         let geometry = TileGeometry::new(plane, tiles.tile, halo).map_err(|source| {
             let param = match source {

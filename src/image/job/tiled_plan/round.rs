@@ -732,12 +732,13 @@ impl TiledPlanState {
 impl TiledPlanState {
     /// Checks a later call's `options` (and the image `plane`, if given) against the plan:
     /// each option given must be the plan's own (the untiled plan's rule), naming the first
-    /// that differs.
+    /// that differs; first those the tiles refuse (`PlanOptions::check_tiled`).
     pub fn check_options(
         &self,
         plane: Option<crate::image::ImagePlane>,
         options: &super::super::PlanOptions,
     ) -> Result<(), TiledPlanError> {
+        options.check_tiled()?;
         if let Some(given) = plane.filter(|&p| p != self.plane) {
             return Err(ProtocolError::Plane {
                 state: self.plane,
