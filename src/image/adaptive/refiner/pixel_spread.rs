@@ -64,6 +64,11 @@ impl ImagePlan {
         self.params.stop.budget as f64 <= SHARE_MAX_SPP * self.plane.pixels() as f64
     }
 
+    /// [`SHARE_MAX_SPP`]: the largest budget, in samples a pixel, that takes the share.
+    pub(super) fn share_max_spp(&self) -> f64 {
+        SHARE_MAX_SPP
+    }
+
     /// Whether the base slots are the pixels (the pixel share's condition).
     pub(super) fn base_slots_are_pixels(&self) -> bool {
         self.tree.cell_dims(self.base_steps) == (self.plane.width(), self.plane.height())

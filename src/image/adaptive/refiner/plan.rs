@@ -8,7 +8,6 @@ use super::super::fit::{fit_tree_updating, FitState, TreeFit};
 use super::super::pcg::{SingleScaleRows, TreeSolver};
 use super::super::significance::{probe_values, Significance};
 use super::super::AdaptiveError;
-use super::pixel_spread::SHARE_MAX_SPP;
 use super::positions::{round_rng, Placer};
 use super::report::{fit_notes, noise_notes};
 use super::top_up::top_up;
@@ -475,9 +474,10 @@ impl ImagePlan {
             ));
         } else if share > 0.0 && !self.budget_takes_share() {
             notes.push(format!(
-                "pixel_share: {share} asked for, but the budget is above {SHARE_MAX_SPP} samples a \
+                "pixel_share: {share} asked for, but the budget is above {} samples a \
                  pixel, where the share lost to the tree's own spare samples: the tree alone \
-                 places the samples (no pixel share)"
+                 places the samples (no pixel share)",
+                self.share_max_spp()
             ));
         } else if share > 0.0 {
             let by_pixel: Vec<String> = rounds
