@@ -1,7 +1,8 @@
 //! The pixel share of the plan's rounds (`GrowthParams::pixel_share`, the hybrid of the tree
 //! and the pixels' own spread): the budget is spent exactly, the share goes to noisy pixels
 //! and not to noise-free ones, and a pixel the tree never deepened holds a prefix of its own
-//! (0, 2)-sequence however many rounds added to it.
+//! (0, 2)-sequence however many rounds added to it; above 4 samples a pixel (the share's
+//! budgets) the plan is the tree's alone, sample for sample, and a note says so.
 
 use rkwave::adaptive::Cell;
 use rkwave::image::adaptive::{
@@ -46,7 +47,7 @@ fn sorted(mut v: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
     v
 }
 
-/// On a 32 x 32 plane at 8 and 16 samples a pixel with the pixel share at 1: the budget is
+/// On a 32 x 32 plane at 3 and 4 samples a pixel (the share's budgets) with the pixel share at 1: the budget is
 /// spent exactly; the rounds give samples to the pixels (the report counts them, a note says
 /// so); the noise-free band `x >= 20` (pooled spreads of exactly 0: its samples are all 0.5,
 /// and its 3 x 3 pools stay right of `x = 19`) holds no more samples than the same run
@@ -56,7 +57,7 @@ fn sorted(mut v: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
 #[test]
 fn the_pixel_share_follows_the_noise_and_continues_each_pixels_sequence() {
     let plane = ImagePlane::new(32, 32).unwrap();
-    for spp in [8usize, 16] {
+    for spp in [3usize, 4] {
         let budget = spp * plane.pixels();
         let hybrid = run(&HALF_NOISY, plane, budget, 1.0);
         let tree_only = run(&HALF_NOISY, plane, budget, 0.0);
@@ -128,4 +129,42 @@ fn a_flat_noise_free_image_gives_the_pixels_nothing() {
     assert_eq!(by_pixel, 0);
     assert_eq!(hybrid.xs, tree_only.xs);
     assert_eq!(hybrid.ys, tree_only.ys);
+}
+
+/// Above 4 samples a pixel the share does not apply: with the share at 1 the run is the tree's
+/// alone, position for position, no round gives the pixels a sample, and a note says why; at 4
+/// samples a pixel the same scene's rounds do give the pixels samples (so the cut is where the
+/// notes say). On the half-noisy plane, whose noisy half draws the share whenever it applies.
+#[test]
+fn above_four_samples_a_pixel_the_plan_is_the_trees_alone() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let at = |spp: usize| spp * plane.pixels();
+    let by_pixel = |r: &AdaptiveImage| {
+        r.report
+            .rounds
+            .iter()
+            .map(|r| r.pixel_spread)
+            .sum::<usize>()
+    };
+    let four = run(&HALF_NOISY, plane, at(4), 1.0);
+    assert!(
+        by_pixel(&four) > 0,
+        "4 spp: the share gave the pixels nothing"
+    );
+    for budget in [at(4) + 1, at(8), at(16)] {
+        let hybrid = run(&HALF_NOISY, plane, budget, 1.0);
+        let tree_only = run(&HALF_NOISY, plane, budget, 0.0);
+        assert_eq!(by_pixel(&hybrid), 0, "budget {budget}");
+        assert_eq!(hybrid.xs, tree_only.xs, "budget {budget}");
+        assert_eq!(hybrid.ys, tree_only.ys, "budget {budget}");
+        assert!(
+            hybrid
+                .report
+                .notes
+                .iter()
+                .any(|n| n.contains("above 4 samples a pixel")),
+            "budget {budget}: no note says the share is off: {:?}",
+            hybrid.report.notes
+        );
+    }
 }

@@ -20,6 +20,14 @@
 //! get nothing; pooled over nine pixels it has nine (docs/measurements/plan-quality.md, the
 //! prototype of the sixteenth session: without pooling grid 4 lost 5.7 dB).
 //!
+//! When: only at a budget of at most [`SHARE_MAX_SPP`] samples a pixel. There the floor's
+//! two samples a pixel are what the texture rows lose on, and the share lifted them without
+//! a loss on the tuning half at two seeds; at 8 and 16 samples a pixel it lost 1-5 dB on
+//! glossy, caustic and thin-geometry scenes (the tree's fit is the gain there), and a share
+//! only to pixels whose detail the noise test found significant lost `fog` 8 and `rough` 8
+//! instead (docs/measurements/plan-quality.md, "When the share may apply"). Above it the
+//! round is the tree's alone, sample for sample, and a note says so.
+//!
 //! Placement: the share goes only where the base slots are the pixels (the uniform floor's
 //! condition, module `coverage`). A pixel that is still a slot takes the next points of its
 //! own (0, 2)-sequence (as the floor's top-up does), so its samples stay a prefix of that
@@ -36,10 +44,29 @@ use crate::adaptive::marking::spread;
 use crate::adaptive::{Cell, QuadTree};
 use crate::image::ImagePlane;
 
+/// The largest budget (samples a pixel) at which the pixel share applies; above it the
+/// tree alone places the samples. Chosen on the issue-38 suite's tuning half against the share
+/// at every budget and against a share only to pixels with significant detail above it
+/// (docs/measurements/plan-quality.md, "When the share may apply").
+pub const SHARE_MAX_SPP: f64 = 4.0;
+
 impl ImagePlan {
-    /// Whether the pixel share is on: a share above 0 and base slots that are the pixels.
+    /// Whether the pixel share is on: a share above 0, base slots that are the pixels and a
+    /// budget of at most [`SHARE_MAX_SPP`] samples a pixel.
     pub(super) fn pixel_share_on(&self) -> bool {
-        self.params.growth.pixel_share > 0.0 && self.base_slots_are_pixels()
+        self.params.growth.pixel_share > 0.0
+            && self.base_slots_are_pixels()
+            && self.budget_takes_share()
+    }
+
+    /// Whether the budget is at most [`SHARE_MAX_SPP`] samples a pixel (the share's budgets).
+    pub(super) fn budget_takes_share(&self) -> bool {
+        self.params.stop.budget as f64 <= SHARE_MAX_SPP * self.plane.pixels() as f64
+    }
+
+    /// [`SHARE_MAX_SPP`]: the largest budget, in samples a pixel, that takes the share.
+    pub(super) fn share_max_spp(&self) -> f64 {
+        SHARE_MAX_SPP
     }
 
     /// Whether the base slots are the pixels (the pixel share's condition).

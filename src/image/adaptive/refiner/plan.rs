@@ -472,6 +472,13 @@ impl ImagePlan {
                 "pixel_share: {share} asked for, but the base slots are not the pixels: the tree \
                  alone places the samples (no pixel share)"
             ));
+        } else if share > 0.0 && !self.budget_takes_share() {
+            notes.push(format!(
+                "pixel_share: {share} asked for, but the budget is above {} samples a \
+                 pixel, where the share lost to the tree's own spare samples: the tree alone \
+                 places the samples (no pixel share)",
+                self.share_max_spp()
+            ));
         } else if share > 0.0 {
             let by_pixel: Vec<String> = rounds
                 .iter()

@@ -118,7 +118,9 @@ pub struct GrowthParams {
     /// water-filled so that each pixel's count rises towards `lambda s_P` (Neyman's
     /// allocation `n_P ~ s_P`, `s_P` the spread of the pixel's samples, channels clipped to
     /// `[0, 1]` and summed, pooled over its 3 x 3 neighbourhood); each pixel continues its
-    /// own sequence. Only where the base slots are the pixels (0: off, the tree alone).
+    /// own sequence. Only at a budget of at most 4 samples a pixel (above it the tree's own
+    /// spare samples did better on glossy, caustic and thin-geometry scenes) and where the
+    /// base slots are the pixels (0: off, the tree alone).
     pub pixel_share: f64,
 }
 
@@ -227,8 +229,10 @@ pub const RENDERER_PIXEL_FLOOR: f64 = 0.5;
 /// The pixel share of a plan a renderer drives ([`AdaptiveParams::renderer_plan`],
 /// [`GrowthParams::pixel_share`]): off. The issue-38 suite's tuning half chose 0.5 (0.25, 0.5
 /// and 1 on stripes, grid, direct and rough at 4 and 8 spp, then 0.5 on the whole half: +4.31
-/// and +4.03 dB over the best film at two seeds against +3.85), but the validation half loses
-/// 4-5 dB on glass and 1-4 dB on envmap and wires at 8/16 spp, and the tiled plan (whose
+/// and +4.03 dB over the best film at two seeds against +3.85), but the validation half lost
+/// 4-5 dB on glass and 1-4 dB on envmap and wires at 8/16 spp; with the share only at budgets
+/// of at most 4 samples a pixel (module `pixel_spread`) it still loses glass 4 by 3.96 dB
+/// (docs/measurements/plan-quality.md, "When the share may apply"); and the tiled plan (whose
 /// windows' base slots are not the pixels) has no share, so with it the untiled plan moved
 /// 3.8 dB ahead of the tiled one on `tests/tiled_plan.rs`'s slanted edge:
 /// docs/measurements/plan-quality.md, "The hybrid". `rkwave plan --pixel-share 0.5` asks for it.
