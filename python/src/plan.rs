@@ -198,7 +198,8 @@ impl PyPlan {
     /// `"fit_only"`, `"box_shrunk"`). Each other keyword is the flag of `rkwave plan` of the
     /// same name (`_` for `-`), with its default: `p`, `rho`, `below_pixel`, `seed`,
     /// `false_alarm`, `min_growth`, `pixel_share` (the share of each round's new samples given
-    /// to the pixels by the spread of their own samples; default 0, off; each round's count is
+    /// to the pixels by the spread of their own samples, at budgets of at most 4 a pixel; default
+    /// 0, off; each round's count is
     /// `report["steps"][k]["log"]["pixel_spread"]`), `pattern` (`"sobol"` or `"stratified"`)
     /// and `spread` (`"indicator"`, `"uncertainty"` or `"uniform"`).
     ///

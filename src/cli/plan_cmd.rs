@@ -74,8 +74,10 @@ pub struct PlanArgs {
     pub min_growth: Option<f64>,
     /// Share of each round's new samples given to the pixels by the spread of their own
     /// samples (pooled over 3 x 3 pixels), beside the tree's marking (0 to 1; default 0: the
-    /// tree alone). Each round says how many it gave (none where the base slots are not the
-    /// pixels). Not available with --tile.
+    /// tree alone). Applies only at budgets of at most 4 samples a pixel (above it the plan is
+    /// the tree's alone: the share lost on glossy and caustic scenes there). Each round says
+    /// how many it gave (none where the base slots are not the pixels or the budget is above
+    /// the cut). Not available with --tile.
     #[arg(long)]
     pub pixel_share: Option<f64>,
     /// Where a slot's positions go (recorded in the state, continued by later calls):
