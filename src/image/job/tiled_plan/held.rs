@@ -46,8 +46,8 @@ use std::ops::Range;
 use serde::{Deserialize, Serialize};
 
 use super::band::{BandError, BandOutcome, BandStrip, BandTask, FinalBandTask, RoundPlan};
-use super::round::TiledStep;
 use super::state::{TilePlanState, TiledPlanState};
+use super::stops::TiledStep;
 use crate::image::adaptive::{mix64, PlanProgress};
 use crate::image::ImageSamples;
 

@@ -94,11 +94,12 @@ pub use error::TiledPlanError;
 pub use held::{
     tile_record, HeldBand, HeldBandOutcome, HeldBandTask, HeldBands, HeldFinalBandTask,
 };
-pub use round::{TiledFinal, TiledStep};
+pub use round::TiledFinal;
 pub use state::{
     SparseStart, TilePlanState, TiledPlanState, TILED_STATE_FILE, TILED_STATE_FORMAT,
     TILED_STATE_VERSION,
 };
+pub use stops::TiledStep;
 pub use times::TiledTimes;
 use window::{keep_owned, mix_index, sizes, window_plane, windows_not_dyadic};
 pub use window::{plan_window, tile_bytes, CONCENTRATION};

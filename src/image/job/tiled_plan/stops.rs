@@ -3,12 +3,52 @@
 //! the round limit, every tile stopped), the stop or the next round after the tiles stepped,
 //! and the round's report ([`TiledStep`], built here alone).
 
-use super::round::TiledStep;
+use serde::Serialize;
+
 use super::state::{all_stopped, TiledPlanState};
 use super::times::TiledTimes;
 use crate::adaptive::StopReason;
 use crate::image::adaptive::SamplePositions;
 use crate::image::ImageSamples;
+
+/// What one round of a tiled plan did.
+#[derive(Clone, Debug, Serialize)]
+pub struct TiledStep {
+    /// Positions to render next (empty when the plan stopped).
+    #[serde(skip)]
+    pub next: SamplePositions,
+    /// Number of positions to render next.
+    pub next_positions: usize,
+    /// The round those positions belong to (`None` when the plan stopped).
+    pub next_round: Option<usize>,
+    /// Why the plan stopped (`None`: render the next positions and call again).
+    pub stop: Option<StopReason>,
+    /// Positions handed out in all, including the next ones.
+    pub total_positions: usize,
+    /// The budget.
+    pub budget: usize,
+    /// The round's growth `G` split over the tiles.
+    pub growth: usize,
+    /// Tiles stepped this round.
+    pub tiles_stepped: usize,
+    /// Tiles stopped (the tolerance or the depth limit) after this round.
+    pub tiles_stopped: usize,
+    /// Positions the tiles drew in their halos (kept: the neighbour that owns the pixels
+    /// sees them in its window and tops its slots up only where they lack samples).
+    pub halo_drawn: usize,
+    /// Positions a tile drew beyond its share, cut (its refiner tops up the children of
+    /// marked slots whole; the share is the budget's).
+    pub cut: usize,
+    /// The largest samples in one tile's window this round.
+    pub largest_window: usize,
+    /// Tiles whose PCG diagonal is kept for the next round
+    /// ([`TiledPlanState::keep_diagonals`]; 0 when off).
+    pub diagonals_kept: usize,
+    /// Tiles whose diagonal did not fit the bound and is rebuilt next round.
+    pub diagonals_over: usize,
+    /// Where the round's time went ([`TiledTimes`]).
+    pub times: TiledTimes,
+}
 
 /// What a round counted besides its positions: the fields of [`TiledStep`] the round fills
 /// (all zero for a round that stops before any tile steps).
