@@ -140,14 +140,23 @@ fn plan_tile_with_pixel_share_is_refused_by_the_command_line() {
 
 /// Each round of an untiled plan with a pixel share says how many of its next positions the
 /// share placed, that count being the round's log (`pixel_spread`, also in `--json` and
-/// Python's report); on a power-of-two plane whose left half is noisy it places some. On a
-/// plane whose base slots are not the pixels (24 x 20) the share places none and the note
-/// says so; without a share no note speaks of one.
+/// Python's report); on a power-of-two plane whose left half is noisy it places some at 4
+/// samples a pixel. On a plane whose base slots are not the pixels (24 x 20), or above the
+/// share's budget cut (8 samples a pixel), the share places none and the note says so; without
+/// a share no note speaks of one.
 #[test]
 fn each_round_says_what_the_pixel_share_placed() {
-    for (w, h, share) in [(32, 32, Some(0.5)), (24, 20, Some(0.5)), (32, 32, None)] {
+    // The share applies at budgets of at most `SHARE_MAX_SPP` (4) samples a pixel: at 8 it
+    // places none on the plane where it places some at 4.
+    let cases = [
+        (32, 32, 4, Some(0.5)),
+        (24, 20, 4, Some(0.5)),
+        (32, 32, 4, None),
+        (32, 32, 8, Some(0.5)),
+    ];
+    for (w, h, spp, share) in cases {
         let plane = ImagePlane::new(w, h).unwrap();
-        let start = PlanStart::new(plane, &options(8, share)).unwrap();
+        let start = PlanStart::new(plane, &options(spp, share)).unwrap();
         let params: AdaptiveParams = *start.params();
         let (mut state, base) = start.run().unwrap();
         let mut r = Rendered::default();
@@ -183,9 +192,9 @@ fn each_round_says_what_the_pixel_share_placed() {
             assert!(rounds < 100, "the plan did not stop");
         }
         assert!(rounds > 1, "{w}x{h}: {rounds} rounds");
-        match (w, share) {
-            (32, Some(_)) => assert!(placed > 0, "the share placed nothing on 32x32"),
-            _ => assert_eq!(placed, 0, "{w}x{h} {share:?}"),
+        match (w, spp, share) {
+            (32, 4, Some(_)) => assert!(placed > 0, "the share placed nothing on 32x32"),
+            _ => assert_eq!(placed, 0, "{w}x{h} {spp} spp {share:?}"),
         }
     }
 }

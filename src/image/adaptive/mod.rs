@@ -51,5 +51,6 @@ pub use refiner::{
     AdaptiveReport, AdaptiveTimes, Decision, FitParams, GrowthParams, ImagePlan, ImageRound,
     ImageSampling, IndicatorParams, NoiseParams, OutputParams, ParsePatternError, PlanProgress,
     PositionPattern, QuadTreeParams, RebuildCost, Round, RoundTimes, SamplePositions,
+    SHARE_MAX_SPP,
 };
 pub use significance::{NoiseLevel, Significance};

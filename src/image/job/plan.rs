@@ -364,8 +364,9 @@ impl<'a> PlanRound<'a> {
     /// words, for every front end to print (the command line) or warn (Python): the coverage
     /// rule's fill, the samples dropped, a solver other than the plan's, a carried solver
     /// state not continued, a ridge added to a singular normal matrix, and with a pixel share
-    /// `q > 0` how many of the next positions it gave to the pixels (none where the base slots
-    /// are not the pixels or no pixel's samples spread: [`GrowthParams::pixel_share`]).
+    /// `q > 0` how many of the next positions it gave to the pixels (none above a budget of
+    /// [`crate::image::adaptive::SHARE_MAX_SPP`] samples a pixel, where the base slots are not
+    /// the pixels or where no pixel's samples spread: [`GrowthParams::pixel_share`]).
     pub fn notes(params: &AdaptiveParams, step: &PlanStep) -> Vec<String> {
         let mut notes: Vec<String> = step.log.coverage.iter().cloned().collect();
         notes.extend(step.dropped.note());
@@ -386,9 +387,11 @@ impl<'a> PlanRound<'a> {
             notes.push(match step.log.pixel_spread {
                 0 => format!(
                     "pixel share {share}: none of the {} next positions went to the pixels by \
-                     their spread (the share applies where the base slots are the pixels and \
-                     some pixel's samples spread): the tree alone placed them",
-                    step.next_positions
+                     their spread (the share applies at budgets of at most {} samples a pixel, \
+                     where the base slots are the pixels and some pixel's samples spread): the \
+                     tree alone placed them",
+                    step.next_positions,
+                    crate::image::adaptive::SHARE_MAX_SPP
                 ),
                 n => format!(
                     "pixel share {share}: {n} of the {} next positions went to the pixels by \

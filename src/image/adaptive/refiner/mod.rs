@@ -75,6 +75,7 @@ pub use params::{
     OutputParams, QuadTreeParams,
 };
 pub use pixel_counts::{empty_pixels, pixel_shortfall};
+pub use pixel_spread::SHARE_MAX_SPP;
 pub use plan::{Decision, ImagePlan, PlanProgress, Round};
 pub use positions::{slot_sobol, ParsePatternError, PositionPattern, SamplePositions};
 pub use report::{
