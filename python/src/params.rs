@@ -4,10 +4,8 @@
 //! line refuses for the same parameter, naming the keyword.
 
 use pyo3::prelude::*;
-use rkwave::adaptive::marking::SpreadRule;
 use rkwave::basis::FilterFamily;
-use rkwave::image::adaptive::{PixelEstimate, PositionPattern};
-use rkwave::image::job::{PlanBudget, PlanOptions, PlanSolver};
+use rkwave::image::job::{PlanBudget, PlanOptions};
 use rkwave::kernel::LevelParams;
 use rkwave::reconstruct::{FitParams, Levels, Method, SingleScaleSolver};
 use rkwave::refine::{
@@ -266,7 +264,6 @@ pub fn plan_options(a: &PlanArgs<'_>) -> PyResult<PlanOptions> {
             .map(PlanBudget::Samples)
             .or(spp.map(PlanBudget::PerPixel)),
     };
-    let named = |keyword: &str, name: &str, e: String| invalid(format!("{keyword}={name:?}: {e}"));
     Ok(PlanOptions {
         budget,
         p: a.p,
@@ -276,35 +273,25 @@ pub fn plan_options(a: &PlanArgs<'_>) -> PyResult<PlanOptions> {
         false_alarm: a.false_alarm,
         min_growth: a.min_growth,
         pixel_share: a.pixel_share,
-        pattern: a
-            .pattern
-            .map(|name| {
-                name.parse::<PositionPattern>()
-                    .map_err(|e| named("pattern", name, e.to_string()))
-            })
-            .transpose()?,
-        spread: a
-            .spread
-            .map(|name| {
-                name.parse::<SpreadRule>()
-                    .map_err(|e| named("spread", name, e))
-            })
-            .transpose()?,
-        output_pixels: a
-            .output_pixels
-            .map(|name| {
-                name.parse::<PixelEstimate>()
-                    .map_err(|e| named("output_pixels", name, e.to_string()))
-            })
-            .transpose()?,
-        solver: a
-            .solver
-            .map(|name| {
-                name.parse::<PlanSolver>()
-                    .map_err(|e| named("solver", name, e))
-            })
-            .transpose()?,
+        pattern: parse_named("pattern", a.pattern)?,
+        spread: parse_named("spread", a.spread)?,
+        output_pixels: parse_named("output_pixels", a.output_pixels)?,
+        solver: parse_named("solver", a.solver)?,
     })
+}
+
+/// A keyword's name parsed as its library type (`None` when not given); a name it does not
+/// know is refused as `keyword="name": <the library's words>`.
+fn parse_named<T>(keyword: &str, name: Option<&str>) -> PyResult<Option<T>>
+where
+    T: std::str::FromStr,
+    T::Err: std::fmt::Display,
+{
+    name.map(|name| {
+        name.parse::<T>()
+            .map_err(|e| invalid(format!("{keyword}={name:?}: {e}")))
+    })
+    .transpose()
 }
 
 /// The keyword arguments of `rkwave.adapt`, as the flags of `rkwave adapt` (same defaults).
