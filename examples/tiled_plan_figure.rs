@@ -1,8 +1,9 @@
 //! The tiled plan's figures (docs/measurements/scale-out.md): the plan on tiles, or the
 //! untiled plan, at `SIZE` (WxH), 8 spp, on a built-in scene with Gaussian noise 0.05 (a
-//! renderer's Monte Carlo noise in miniature), to its stop. Prints the seconds spent in
-//! rkwave (rendering the scene excluded), the samples taken and PSNR / relMSE against the
-//! scene's box truth (4² strata a pixel), and the peak resident set over the phases.
+//! renderer's Monte Carlo noise in miniature), to its stop. Prints the wall and CPU seconds
+//! (user + system, every thread) spent in rkwave (rendering the scene excluded), the samples
+//! taken, CPU µs a sample and PSNR / relMSE against the scene's box truth (4² strata a
+//! pixel), and the peak resident set over the phases.
 //!
 //! `cargo run --release --example tiled_plan_figure -- [SIZE] [TILE] [SCENE] [untiled|rebuild]`
 //! (defaults `512x512`, 128, `shapes`; `untiled` runs the untiled plan instead; the tiled plan
@@ -138,6 +139,47 @@ fn heap_phase(phase: &str) {
     );
 }
 
+/// This process's CPU seconds so far, user and system, every thread (`getrusage`; zeros
+/// where it is not available). The figure's "rkwave CPU" is its growth over the plan's calls
+/// only (rendering the scene excluded), so idle pool threads spinning count as rkwave's.
+#[cfg(unix)]
+fn cpu_seconds() -> (f64, f64) {
+    // SAFETY: `getrusage` only writes the struct handed to it.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } != 0 {
+        return (0.0, 0.0);
+    }
+    let s = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    (s(u.ru_utime), s(u.ru_stime))
+}
+
+#[cfg(not(unix))]
+fn cpu_seconds() -> (f64, f64) {
+    (0.0, 0.0)
+}
+
+/// Wall and CPU (user, system) seconds spent in rkwave's calls, summed.
+#[derive(Default)]
+struct Spent {
+    wall: f64,
+    user: f64,
+    system: f64,
+}
+
+impl Spent {
+    /// Runs `f`, adding its wall and CPU seconds.
+    fn time<T>(&mut self, f: impl FnOnce() -> T) -> T {
+        let (u0, s0) = cpu_seconds();
+        let t = Instant::now();
+        let out = f();
+        self.wall += t.elapsed().as_secs_f64();
+        let (u1, s1) = cpu_seconds();
+        self.user += u1 - u0;
+        self.system += s1 - s0;
+        out
+    }
+}
+
 /// FNV-1a over the bits of `values` in order: equal digests for the same numbers in the same
 /// order, so two builds' positions and images are compared bit for bit.
 fn bits_digest<'a>(values: impl Iterator<Item = &'a f64>) -> u64 {
@@ -216,18 +258,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ys: vec![],
         values: vec![vec![]; oracle.channels()],
     };
-    let mut spent = 0.0;
+    let mut spent = Spent::default();
     let image = if untiled {
-        let t = Instant::now();
-        let (mut state, base) = PlanStart::new(plane, &options)?.run()?;
-        spent += t.elapsed().as_secs_f64();
+        let (mut state, base) = spent.time(|| PlanStart::new(plane, &options)?.run())?;
         r.render(&oracle, &base);
         drop(base);
         loop {
             let samples = r.take(plane)?;
-            let t = Instant::now();
-            let step = state.advance_imaging(&samples, DroppedSamples::default(), false)?;
-            spent += t.elapsed().as_secs_f64();
+            let step =
+                spent.time(|| state.advance_imaging(&samples, DroppedSamples::default(), false))?;
             r.restore(samples);
             if step.stop.is_some() {
                 break;
@@ -235,11 +274,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.render(&oracle, &step.next);
         }
         let samples = r.take(plane)?;
-        let t = Instant::now();
-        let image = PlanFinal::of(&state, false)
-            .run(&samples, DroppedSamples::default(), None)?
+        let image = spent
+            .time(|| PlanFinal::of(&state, false).run(&samples, DroppedSamples::default(), None))?
             .image;
-        spent += t.elapsed().as_secs_f64();
         r.restore(samples);
         image
     } else {
@@ -248,22 +285,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             halo: None,
             workers: None,
         };
-        let t = Instant::now();
         let (mut state, base) =
-            TiledPlanStart::new(plane, &options, &tiles)?.run(oracle.channels())?;
+            spent.time(|| TiledPlanStart::new(plane, &options, &tiles)?.run(oracle.channels()))?;
         if !rebuild {
             state.keep_diagonals(Some(KEPT_DIAGONALS));
         }
-        spent += t.elapsed().as_secs_f64();
         heap_phase("start");
         r.render(&oracle, &base);
         drop(base);
         heap_phase("render base");
         loop {
             let samples = r.take(plane)?;
-            let t = Instant::now();
-            let step = state.advance(&samples)?;
-            spent += t.elapsed().as_secs_f64();
+            let step = spent.time(|| state.advance(&samples))?;
             eprintln!("{}", serde_json::to_string(&step)?);
             r.restore(samples);
             heap_phase(&format!("round {}", state.round()));
@@ -282,9 +315,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .sum();
         eprintln!("tiles' carried starts: {starts} entries");
         let samples = r.take(plane)?;
-        let t = Instant::now();
-        let last = state.final_image(&samples, None)?;
-        spent += t.elapsed().as_secs_f64();
+        let last = spent.time(|| state.final_image(&samples, None))?;
         heap_phase("final image");
         eprintln!("final {}", serde_json::to_string(&last.times)?);
         r.restore(samples);
@@ -292,8 +323,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let m = compare(&image, &box_truth(&scene, plane, 4));
     heap_phase("truth and metrics");
+    let samples = r.xs.len();
+    let cpu = spent.user + spent.system;
     println!(
-        "{size} {} {scene_name}: rkwave {spent:.2} s, {} samples, PSNR {:.3} dB, relMSE {:.4e}, \
+        "{size} {} {scene_name}: rkwave {:.2} s wall, CPU {cpu:.2} s (user {:.2}, system {:.2}), \
+         {samples} samples, {:.2} µs CPU a sample, PSNR {:.3} dB, relMSE {:.4e}, \
          positions {:016x}, image {:016x}",
         if untiled {
             "untiled".to_string()
@@ -302,7 +336,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         } else {
             format!("tile {tile}, diagonals kept")
         },
-        r.xs.len(),
+        spent.wall,
+        spent.user,
+        spent.system,
+        cpu * 1e6 / samples.max(1) as f64,
         m.psnr,
         m.rel_mse,
         bits_digest(r.xs.iter().chain(&r.ys)),
