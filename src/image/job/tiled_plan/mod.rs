@@ -71,6 +71,7 @@ mod error;
 mod held;
 mod kept;
 mod memory;
+mod picks;
 mod round;
 mod state;
 mod stops;

@@ -12,9 +12,7 @@ use super::memory::release_freed_memory;
 use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
 use super::stops::{RoundTally, TiledStep};
 use super::times::TiledTimes;
-use super::window::{
-    keep_owned, plan_window, reach, stitch, tile_bytes, tile_output, window_plane,
-};
+use super::window::{keep_owned, plan_window, stitch, tile_bytes, tile_output, window_plane};
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{
     mix64, AdaptiveError, AdaptiveParams, Decision, FitState, ImagePlan, PixelEstimate,
@@ -164,61 +162,6 @@ impl TiledPlanState {
                 workers: self.workers,
                 reason: e.to_string(),
             })
-    }
-
-    /// The indices of the samples in each tile's window ([`plan_window`]; one pass over the
-    /// samples, each checked against the windows of the tiles within [`reach`] of its own).
-    ///
-    /// Indices are `u32` (4 bytes a sample and window, sized exactly by a counting pass:
-    /// at 3840x2160 and 8 spp, 66M samples, `usize` lists grown by doubling held up to
-    /// 1 GB); more samples than `u32` holds are refused.
-    pub(super) fn buckets(&self, samples: &ImageSamples) -> Result<Vec<Vec<u32>>, TiledPlanError> {
-        if u32::try_from(samples.len()).is_err() {
-            let held = self.held_bytes(samples);
-            return Err(TiledPlanError::TooLarge {
-                what: format!(
-                    "{} samples (the tiles index at most {} samples)",
-                    samples.len(),
-                    u32::MAX
-                ),
-                per_tile: 0.0,
-                workers: self.workers,
-                held,
-                needed: held,
-                limit: memory_limit(),
-                fix: format!(
-                    "a smaller {}",
-                    crate::error::Fix::Set(crate::error::Param::Budget)
-                ),
-            });
-        }
-        let g = self.geometry();
-        let (nx, ny) = g.grid();
-        let (kx, ky) = reach(&g);
-        let windows: Vec<PixelRect> = (0..g.count()).map(|t| plan_window(&g, t)).collect();
-        let span = |v: f64, k: usize, n: usize| {
-            let own = ((v / g.tile as f64) as usize).min(n - 1);
-            (own.saturating_sub(k + 1), (own + k + 1).min(n - 1))
-        };
-        let each = |visit: &mut dyn FnMut(usize, usize)| {
-            for (i, (&x, &y)) in samples.xs().iter().zip(samples.ys()).enumerate() {
-                let (r0, r1) = span(y, ky, ny);
-                let (c0, c1) = span(x, kx, nx);
-                for ty in r0..=r1 {
-                    for tx in c0..=c1 {
-                        let t = ty * nx + tx;
-                        if windows[t].contains(x, y) {
-                            visit(t, i);
-                        }
-                    }
-                }
-            }
-        };
-        let mut counts = vec![0usize; g.count()];
-        each(&mut |t, _| counts[t] += 1);
-        let mut buckets: Vec<Vec<u32>> = counts.iter().map(|&c| Vec::with_capacity(c)).collect();
-        each(&mut |t, i| buckets[t].push(i as u32));
-        Ok(buckets)
     }
 
     /// Memory held beside the tile fits: the samples and two images.
@@ -606,71 +549,34 @@ impl TiledPlanState {
         let wall = Instant::now();
         let estimate = estimate.unwrap_or(self.params.output.pixels);
         let mut times = TiledTimes::default();
-        let buckets = self.buckets(samples)?;
+        let counts = self.window_counts(samples)?;
         times.buckets_s = wall.elapsed().as_secs_f64();
         let held = self.held_bytes(samples) + 4.0 * samples.len() as f64;
-        for (t, picks) in buckets.iter().enumerate() {
-            self.check_tile(t, picks.len(), held, samples.channels())?;
+        for (t, &n) in counts.iter().enumerate() {
+            self.check_tile(t, n, held, samples.channels())?;
         }
+        drop(counts);
         let pool = self.pool()?;
         let g = self.geometry();
+        let (nx, _) = g.grid();
         // each tile's interior stitched as soon as its fit is done (interiors are disjoint, so
         // the order does not matter): every tile's window image held to the end was a second
         // image and more (0.2 GB at 3840x2160)
         let image = Mutex::new(PixelImage::zeros(self.plane, samples.channels()));
-        let tiles: Vec<Result<TiledTimes, ProtocolError>> = pool.install(|| {
-            self.tiles
-                .par_iter()
-                // each window's indices dropped once its samples are copied
-                .zip(buckets)
-                .map(|(tile, picks)| {
-                    // the kept diagonal continued (a copy: the image may be asked again)
-                    let mut fit_state = self
-                        .kept
-                        .states
-                        .get(tile.index)
-                        .cloned()
-                        .flatten()
-                        .unwrap_or_default();
-                    let mut times = TiledTimes::default();
-                    let t = Instant::now();
-                    let local = self.local(samples, tile.index, &picks);
-                    drop(picks);
-                    times.local_s = t.elapsed().as_secs_f64();
-                    let t = Instant::now();
-                    let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
-                    let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
-                    let start = tile.start_f64();
-                    times.rebuild_s = t.elapsed().as_secs_f64();
-                    let t = Instant::now();
-                    let (fit, significance) = plan.fit_updating(
-                        local.xs(),
-                        local.ys(),
-                        &values,
-                        plan.params().fit.solver,
-                        start.as_deref(),
-                        &mut fit_state,
-                    )?;
-                    times.fit_s = t.elapsed().as_secs_f64();
-                    times.kernel_s = fit.report.kernel_s;
-                    times.solve_s = fit.report.solve_s;
-                    let t = Instant::now();
-                    let sigma = significance.map_or(0.0, |s| s.level.sigma);
-                    let pixels = tile_output(&plan, &fit, &local, sigma, estimate)?;
-                    drop((plan, fit, local));
-                    times.output_s = t.elapsed().as_secs_f64();
-                    let t = Instant::now();
-                    // poisoned only by a panic in another tile's `stitch`, which rayon passes on
-                    let mut image = image.lock().unwrap_or_else(PoisonError::into_inner);
-                    stitch(&mut image, &g, tile.index, &pixels);
-                    drop(image);
-                    drop(pixels);
-                    release_freed_memory();
-                    times.commit_s = t.elapsed().as_secs_f64();
-                    Ok(times)
-                })
-                .collect()
-        });
+        // one band of tile rows at a time: every tile's window indices built first were
+        // 0.27 GB at 3840x2160 (`picks`); a band's are the same lists
+        let mut tiles: Vec<Result<TiledTimes, ProtocolError>> = Vec::new();
+        for rows in self.image_row_bands() {
+            let t = Instant::now();
+            let buckets = self.band_buckets(samples, rows.clone());
+            times.buckets_s += t.elapsed().as_secs_f64();
+            let band = &self.tiles[rows.start * nx..rows.end * nx];
+            tiles
+                .extend(pool.install(|| self.final_band(samples, estimate, band, buckets, &image)));
+            if tiles.iter().any(Result::is_err) {
+                break;
+            }
+        }
         for tile_times in tiles {
             let tile_times = tile_times?;
             times.add_tile(&tile_times);
@@ -686,6 +592,70 @@ impl TiledPlanState {
             complete: self.stop.is_some(),
             times,
         })
+    }
+
+    /// The final fits of one band's tiles (`band`, with their window indices `buckets`), in
+    /// parallel on the current pool, each tile's interior stitched into `image` as soon as
+    /// its fit is done; the tiles' times (tile order).
+    fn final_band(
+        &self,
+        samples: &ImageSamples,
+        estimate: PixelEstimate,
+        band: &[TilePlanState],
+        buckets: Vec<Vec<u32>>,
+        image: &Mutex<PixelImage>,
+    ) -> Vec<Result<TiledTimes, ProtocolError>> {
+        let g = self.geometry();
+        band.par_iter()
+            // each window's indices dropped once its samples are copied
+            .zip(buckets)
+            .map(|(tile, picks)| {
+                // the kept diagonal continued (a copy: the image may be asked again)
+                let mut fit_state = self
+                    .kept
+                    .states
+                    .get(tile.index)
+                    .cloned()
+                    .flatten()
+                    .unwrap_or_default();
+                let mut times = TiledTimes::default();
+                let t = Instant::now();
+                let local = self.local(samples, tile.index, &picks);
+                drop(picks);
+                times.local_s = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
+                let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
+                let start = tile.start_f64();
+                times.rebuild_s = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let (fit, significance) = plan.fit_updating(
+                    local.xs(),
+                    local.ys(),
+                    &values,
+                    plan.params().fit.solver,
+                    start.as_deref(),
+                    &mut fit_state,
+                )?;
+                times.fit_s = t.elapsed().as_secs_f64();
+                times.kernel_s = fit.report.kernel_s;
+                times.solve_s = fit.report.solve_s;
+                let t = Instant::now();
+                let sigma = significance.map_or(0.0, |s| s.level.sigma);
+                let pixels = tile_output(&plan, &fit, &local, sigma, estimate)?;
+                drop((plan, fit, local));
+                times.output_s = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                // poisoned only by a panic in another tile's `stitch`, which rayon passes on
+                let mut image = image.lock().unwrap_or_else(PoisonError::into_inner);
+                stitch(&mut image, &g, tile.index, &pixels);
+                drop(image);
+                drop(pixels);
+                release_freed_memory();
+                times.commit_s = t.elapsed().as_secs_f64();
+                Ok(times)
+            })
+            .collect()
     }
 }
 
