@@ -190,7 +190,7 @@ pub fn gate(
 /// `sum_Q values_Q` over the pixels `Q` of the `(2 half + 1)²` square around each pixel `P`
 /// (clipped at the borders) at `P`'s level: `|ln((L_Q + eps) / (L_P + eps))| <= ln r`, `eps`
 /// = [`LEVEL_EPS`], `r` = [`LEVEL_RATIO`]. With every level equal it is
-/// [`window_sum`](super::sure::window_sum).
+/// [`window_sum`].
 pub fn level_window_sum(
     values: &[f64],
     level: &[f64],
