@@ -15,15 +15,19 @@
 //! 3. **SureShrink of the box pixels**: cycle-spun Haar, heteroscedastic coefficient variances
 //!    propagated exactly from `v_P`, a SURE-chosen threshold per level with "no shrinkage"
 //!    among the candidates ([`super::sureshrink`]).
-//! 4. **Gate**: candidates box, films, SureShrink and the convex combinations
-//!    `alpha F + (1 - alpha) S` (`alpha` in `1/4, 1/2, 3/4`), each with its exact per-pixel
-//!    divergence, and each of those projected onto the range of the pixel's own samples
-//!    `[min_i v_i, max_i v_i]` (a clamped value moves with the pixel's samples: divergence 1);
-//!    each pixel takes the one of least SURE over its 9 x 9 window ([`super::gate`]), the
-//!    window's pixels weighted by `1 / (x² + 0.01)` (`x` the half-and-half candidate), the
-//!    relative error that relMSE measures, so that the bright pixels of an HDR window (an
-//!    emitter, a firefly) do not decide for the dark ones. The weights depend on the data
-//!    only through a smooth candidate; the per-pixel estimates stay unbiased.
+//! 4. **Gate**: candidates box, films, SureShrink, the convex combinations
+//!    `alpha F + (1 - alpha) S` (`alpha` in `1/4, 1/2, 3/4`) and the robust candidate, each
+//!    with its exact per-pixel divergence; each pixel takes the one of least SURE over its
+//!    9 x 9 window ([`super::gate`]), the window's pixels weighted by `1 / (x² + 0.01)` (`x`
+//!    the half-and-half candidate), the relative error that relMSE measures, so that the
+//!    bright pixels of an HDR window (an emitter, a firefly) do not decide for the dark ones,
+//!    and only the window's pixels at the pixel's level counted (within a factor 2 of its
+//!    level `L = (1/C) sum_c |x_c|`, [`super::gate::LEVEL_RATIO`]), so that a dark pixel is
+//!    not carried by a decision its brighter neighbours made. The weights and the levels
+//!    depend on the data only through a smooth candidate; the per-pixel estimates stay
+//!    unbiased. (Candidates projected onto each pixel's own sample range were candidates
+//!    before: with them the gate's window choice carried the unclamped pixels of texture,
+//!    `docs/measurements/estimators.md`; the range step 5 stays.)
 //! 5. **Range**: each pixel is projected onto the range of the samples in it and its eight
 //!    neighbours (the samples that shaped it at the finest scale): no negative radiance, no
 //!    overshoot beside an emitter (a film with negative lobes, or a shrunk coefficient).
@@ -37,7 +41,7 @@
 use serde::Serialize;
 
 use super::clamp::clamp_to_local_range;
-use super::gate::{gate, GateCandidate, GateCount, GATE_HALF};
+use super::gate::{gate, GateCandidate, GateCount, GATE_HALF, LEVEL_EPS, LEVEL_RATIO};
 use super::noise::{DifferenceCount, PixelNoise};
 use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
@@ -113,6 +117,9 @@ pub struct AutoReport {
     /// `v_{P,c}`, the noise of each pixel's mean every step used (per channel and pixel,
     /// after the check against the box pixels' differences across pixels).
     pub pixel_variance: Vec<Vec<f64>>,
+    /// The gate's level ratio: a window's pixels within this factor of the centre's level
+    /// count ([`LEVEL_RATIO`]).
+    pub level_ratio: f64,
 }
 
 impl AutoReport {
@@ -158,7 +165,8 @@ impl AutoReport {
         };
         format!(
             "pixels: auto, per pixel the candidate of least SURE against the box over the \
-             {gside} x {gside} window, each pixel weighted by 1 / (x² + {RELATIVE_EPS}) (pixels \
+             pixels of the {gside} x {gside} window within a factor {ratio} of its level (eps \
+             {LEVEL_EPS}), each pixel weighted by 1 / (x² + {RELATIVE_EPS}) (pixels \
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
              coefficients killed); noise of each pixel's mean from the least of three difference \
@@ -181,6 +189,7 @@ impl AutoReport {
             self.largest_clamp,
             self.robust.describe(),
             gside = 2 * GATE_HALF + 1,
+            ratio = self.level_ratio,
         )
     }
 }
@@ -299,13 +308,8 @@ pub fn estimate(
         image: robust_image,
         divergence: robust_divergence,
     });
-    let stats = super::PixelStatistics::new(samples);
-    let in_range: Vec<GateCandidate> = candidates[1..]
-        .iter()
-        .map(|c| own_range_candidate(c, &stats))
-        .collect();
-    // relative weights 1 / (x² + eps) from the half-and-half candidate (module docs, 4.): the
-    // mixtures follow the box, the films and SureShrink
+    // relative weights 1 / (x² + eps) and levels from the half-and-half candidate (module
+    // docs, 4.): the mixtures follow the box, the films and SureShrink
     let half_and_half = 3 + MIX_WEIGHTS
         .iter()
         .position(|&a| a == 0.5)
@@ -316,9 +320,25 @@ pub fn estimate(
         .iter()
         .map(|ch| ch.iter().map(|x| 1.0 / (x * x + RELATIVE_EPS)).collect())
         .collect();
-    candidates.extend(in_range);
-    let gated = gate(&candidates, &mean, &variance, Some(&weight), GATE_HALF);
-    // the robust candidate and its own-range projection
+    let level: Vec<f64> = (0..pixels)
+        .map(|p| {
+            candidates[half_and_half]
+                .image
+                .channels
+                .iter()
+                .map(|ch| ch[p].abs())
+                .sum::<f64>()
+                / channels as f64
+        })
+        .collect();
+    let gated = gate(
+        &candidates,
+        &mean,
+        &variance,
+        Some(&weight),
+        Some(&level),
+        GATE_HALF,
+    );
     robust.gated_pixels = gated
         .choice
         .iter()
@@ -366,30 +386,7 @@ pub fn estimate(
             largest_clamp,
             shrink: *shrink,
             pixel_variance: variance,
+            level_ratio: LEVEL_RATIO,
         },
     ))
-}
-
-/// `candidate` projected onto the range of each pixel's own samples: a clamped value moves
-/// with the pixel's samples (shifting every sample of the pixel by `delta` shifts its range by
-/// `delta`), so its divergence is 1; an unclamped one keeps its own.
-fn own_range_candidate(candidate: &GateCandidate, stats: &super::PixelStatistics) -> GateCandidate {
-    let mut out = candidate.clone();
-    out.name = format!("{} in range", candidate.name);
-    for (c, (channel, div)) in out
-        .image
-        .channels
-        .iter_mut()
-        .zip(&mut out.divergence)
-        .enumerate()
-    {
-        for (p, (x, d)) in channel.iter_mut().zip(div.iter_mut()).enumerate() {
-            let y = x.clamp(stats.min[c][p], stats.max[c][p]);
-            if y != *x {
-                *x = y;
-                *d = 1.0;
-            }
-        }
-    }
-    out
 }

@@ -11,8 +11,9 @@ use thiserror::Error;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(into = "String")]
 pub enum UniformEstimate {
-    /// Per pixel the candidate of least SURE against the box (films, SureShrink, mixtures,
-    /// their own-range projections, the box), projected onto the local sample range.
+    /// Per pixel the candidate of least SURE against the box over the window's pixels at its
+    /// level (films, SureShrink, mixtures, a robust candidate, the box), projected onto the
+    /// local sample range.
     #[default]
     Auto,
     /// The least-squares fit's box pixels (the reconstruction method's output, unchanged).

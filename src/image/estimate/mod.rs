@@ -3,9 +3,9 @@
 //!
 //! * [`UniformEstimate::Auto`] (the default): per pixel, the candidate of least estimated
 //!   risk against the box pixels (the per-pixel mean, itself a candidate) by SURE over the
-//!   9 x 9 window ([`gate`]): the film filters chosen by SURE ([`sure`]), heteroscedastic
-//!   SureShrink of the box pixels ([`sureshrink`]), their mixtures and their projections onto
-//!   each pixel's own sample range, with the noise of each pixel's mean from second
+//!   9 x 9 window's pixels at its level ([`gate`]): the film filters chosen by SURE
+//!   ([`sure`]), heteroscedastic SureShrink of the box pixels ([`sureshrink`]), their mixtures
+//!   and a robust candidate, with the noise of each pixel's mean from second
 //!   differences of its stratified samples ([`noise`]); then every pixel projected onto the
 //!   range of the samples in its 3 x 3 neighbourhood ([`auto`] states the steps). Where the
 //!   samples do not permit it (a pixel without samples, or fewer than half the pixels with
@@ -138,6 +138,7 @@ pub fn reconstruct_estimated(
         window: None,
         risk: None,
         gate: None,
+        gate_level_ratio: None,
         estimated_risk: None,
         box_risk: None,
         robust: None,

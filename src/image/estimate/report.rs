@@ -29,6 +29,9 @@ pub struct EstimateReport {
     /// Pixels per candidate of the risk gate (`auto` only: box, films, SureShrink, their
     /// mixtures).
     pub gate: Option<Vec<GateCount>>,
+    /// The gate's level ratio: only the pixels of a pixel's window within this factor of its
+    /// level count in its window sums (`auto` only; [`LEVEL_RATIO`](super::gate::LEVEL_RATIO)).
+    pub gate_level_ratio: Option<f64>,
     /// The output's estimated risk per pixel (SURE against the box, summed over channels,
     /// averaged over pixels; `auto` only).
     pub estimated_risk: Option<f64>,
@@ -86,6 +89,7 @@ impl AutoReport {
         report.pure_noise_ratio = self.pure_noise_ratio;
         report.spatial_check = Some(self.spatial);
         report.gate = Some(self.gate);
+        report.gate_level_ratio = Some(self.level_ratio);
         report.estimated_risk = Some(self.estimated_risk);
         report.box_risk = Some(self.box_risk);
         report.lambda = Some(self.lambda);
