@@ -23,7 +23,7 @@ use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
-use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
+use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use rkwave::io::output::write_new;
@@ -158,27 +158,10 @@ fn positions_from(obj: &Bound<'_, PyAny>) -> PyResult<SamplePositions> {
     })
 }
 
-/// `samples` with the samples of `new` appended (the channels must agree).
+/// `samples` with the samples of `new` appended (the library's join: the same plane and
+/// channels, else refused).
 pub(crate) fn appended(old: Option<&ImageSamples>, new: ImageSamples) -> PyResult<ImageSamples> {
-    let Some(old) = old else { return Ok(new) };
-    if old.channels() != new.channels() {
-        return Err(to_py(ProtocolError::Channels {
-            state: old.channels(),
-            given: new.channels(),
-        }));
-    }
-    let join = |a: &[f64], b: &[f64]| [a, b].concat();
-    ImageSamples::new(
-        old.plane(),
-        join(old.xs(), new.xs()),
-        join(old.ys(), new.ys()),
-        old.values()
-            .iter()
-            .zip(new.values())
-            .map(|(a, b)| join(a, b))
-            .collect(),
-    )
-    .map_err(to_py)
+    rkwave::image::plan::appended(old, new).map_err(to_py)
 }
 
 /// `.npy` bytes of the columns `first`, then `rest`.
@@ -304,8 +287,11 @@ impl PyPlan {
     }
 
     /// Adds the rendered samples of the positions handed out (`xy` `(n, 2)` as returned by
-    /// `positions()`, `values` `(n,)` or `(n, channels)`) and plans the next round: the fit
-    /// on every sample so far, then new positions or the stop (`done`). A value that is NaN
+    /// `positions()`, in any order, `values` `(n,)` or `(n, channels)`) and plans the next
+    /// round: the fit on every sample so far (the earlier ones kept in memory, as `rkwave plan
+    /// --new-samples` keeps them in its folder), then new positions or the stop (`done`).
+    /// Samples of another round, another count or positions not those handed out are
+    /// refused, naming the round expected. A value that is NaN
     /// or infinite is refused (the error names the count and the first sample; the plan is
     /// unchanged and the round can be added again); `drop_nonfinite=True` drops those
     /// samples, counts them in the round's report and fits the rest.
@@ -340,6 +326,11 @@ impl PyPlan {
             NonFinitePolicy::dropping(drop_nonfinite),
         )?;
         let rows = self.samples.as_ref().map_or(0, ImageSamples::len) + self.dropped.count;
+        if let PlanCore::Untiled(state) = &self.state {
+            // the new samples must be the round handed out, alone (the command line's
+            // `--new-samples` refusals, with the same words)
+            state.check_new_round(rows, &new, &dropped).map_err(to_py)?;
+        }
         let all = appended(self.samples.as_ref(), new)?;
         let mut all_dropped = self.dropped.clone();
         all_dropped.extend(dropped, rows);

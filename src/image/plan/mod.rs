@@ -73,6 +73,7 @@
 //! (`io::plan_files`) sit on top of it, and nothing below calls back into it.
 
 mod final_fit;
+mod new_round;
 mod state;
 
 use std::path::PathBuf;
@@ -96,6 +97,7 @@ pub const STATE_VERSION: u32 = 1;
 pub use crate::image::adaptive::gram::{CarriedGram, TreeGram};
 pub use crate::image::adaptive::pcg::CarriedPcg;
 pub use final_fit::{samples_fingerprint, CarriedFinal, FinalFit};
+pub use new_round::{appended, ReadSamples};
 
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
@@ -145,6 +147,79 @@ pub enum ProtocolError {
         round: usize,
         /// Positions handed out so far.
         expected: usize,
+    },
+    /// A round given only its new samples, but the samples read before it are not those of
+    /// every earlier round.
+    #[error(
+        "the plan handed out round {round} and holds {held} samples of the earlier rounds, \
+         which have {expected}: a round given only its new samples needs every earlier \
+         round's; pass every sample so far"
+    )]
+    EarlierUnknown {
+        /// Rows held.
+        held: usize,
+        /// Rows of the rounds before the last handed out.
+        expected: usize,
+        /// The last round handed out.
+        round: usize,
+    },
+    /// A round given only its new samples: they are the positions of an earlier round.
+    #[error(
+        "the {given} samples given as the new round are the positions of round {matched}, \
+         which this plan has read already (a round repeated, or the last one lost): it \
+         expects the {expected} positions it handed out for round {round}"
+    )]
+    NewRoundRepeated {
+        /// Samples given.
+        given: usize,
+        /// The round whose positions they are.
+        matched: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Its positions.
+        expected: usize,
+    },
+    /// A round given only its new samples: they are every sample of rounds `0..=matched`.
+    #[error(
+        "the {given} samples given as the new round are every sample of rounds 0..={matched}: \
+         give only the {expected} samples of the positions handed out for round {round}, or \
+         pass these as every sample so far"
+    )]
+    NewRoundCumulative {
+        /// Samples given.
+        given: usize,
+        /// The last round they complete.
+        matched: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Its positions.
+        expected: usize,
+    },
+    /// A round given only its new samples: another count than the round's.
+    #[error(
+        "{given} samples given as the new round, but this plan handed out {expected} positions \
+         for round {round}: give exactly the samples of those positions (none lost, none added)"
+    )]
+    NewRoundCount {
+        /// Samples given.
+        given: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Its positions.
+        expected: usize,
+    },
+    /// A round given only its new samples: the round's count, other positions.
+    #[error(
+        "the {given} samples given as the new round are not the positions this plan handed \
+         out for round {round} (the same count, other positions: another run, moved, or \
+         rounded on the way, e.g. to float32): give the positions of round {round} as written, \
+         in float64"
+    )]
+    NewRoundMoved {
+        /// Samples given.
+        given: usize,
+        /// The last round handed out.
+        round: usize,
     },
     /// The samples' channels differ from earlier calls.
     #[error(
@@ -269,6 +344,9 @@ pub struct PlanStep {
     /// Why this round was fitted by another solver than the plan's (the direct solve would
     /// not fit in memory; `None`: the plan's solver).
     pub solver_note: Option<String>,
+    /// Why the samples read could not be kept in the plan's folder for a later round given
+    /// only its new samples (`io::plan_files`; `None`: kept, or a plan in memory).
+    pub samples_note: Option<String>,
     /// Seconds (wall clock) of the whole call on the state: matching the samples to the
     /// rounds, the round ([`ImageRound::times`]) and, at the stop, the final image.
     pub round_s: f64,
@@ -334,8 +412,14 @@ impl ProtocolError {
             | ProtocolError::Channels { .. }
             | ProtocolError::OtherParameters { .. }
             | ProtocolError::HoldsPlan { .. }
-            | ProtocolError::State { .. } => crate::error::ErrorKind::InvalidInput,
-            ProtocolError::AlreadyPlanned { .. } => crate::error::ErrorKind::OutputRefused,
+            | ProtocolError::State { .. }
+            | ProtocolError::EarlierUnknown { .. }
+            | ProtocolError::NewRoundCumulative { .. }
+            | ProtocolError::NewRoundCount { .. }
+            | ProtocolError::NewRoundMoved { .. } => crate::error::ErrorKind::InvalidInput,
+            ProtocolError::AlreadyPlanned { .. } | ProtocolError::NewRoundRepeated { .. } => {
+                crate::error::ErrorKind::OutputRefused
+            }
         }
     }
 }
