@@ -23,10 +23,11 @@ use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
-use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep};
+use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ReadSamples};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use rkwave::io::output::write_new;
+use rkwave::io::plan_files::SAMPLES_FILE;
 use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
 
@@ -482,7 +483,9 @@ impl PyPlan {
     }
 
     /// Writes the plan into `dir` (module docs): `state.json` as `rkwave plan --state DIR`,
-    /// `samples.npy` (every sample so far) and `next.npy` (the pending positions). A folder
+    /// `samples.npy` (every sample so far), `samples.bin` (the same samples as `rkwave plan`
+    /// keeps them, so the command line can go on with `--new-samples`) and `next.npy` (the
+    /// pending positions). A folder
     /// that holds another plan (one this object was neither loaded from nor saved to) is
     /// refused unless `overwrite=True`, as `rkwave plan` refuses one without `--force`.
     ///
@@ -500,8 +503,22 @@ impl PyPlan {
         let state = &self.state;
         let samples = self.samples.as_ref();
         let next = &self.next;
-        py.detach(|| -> PyResult<()> {
+        let dropped = &self.dropped;
+        let note = py.detach(|| -> PyResult<Option<String>> {
             state.save(&dir).map_err(to_py)?;
+            // the samples read, as `rkwave plan` keeps them for `--new-samples`
+            let kept = match (state, samples) {
+                (PlanCore::Untiled(s), Some(read)) => s.keep_samples(
+                    &dir,
+                    &ReadSamples {
+                        through: Some(s.round() - usize::from(s.stop.is_none())),
+                        samples: Some(read.clone()),
+                        dropped: dropped.clone(),
+                    },
+                    None,
+                ),
+                _ => None,
+            };
             let file = dir.join("samples.npy");
             match samples {
                 Some(s) => {
@@ -518,8 +535,10 @@ impl PyPlan {
                 None => {}
             }
             let bytes = npy_of(&next.xs, vec![next.ys.clone()])?;
-            write_new(&dir.join("next.npy"), &bytes, true).map_err(to_py)
+            write_new(&dir.join("next.npy"), &bytes, true).map_err(to_py)?;
+            Ok(kept)
         })?;
+        warn_all(py, note.as_slice())?;
         self.home = Some(canonical(&dir));
         Ok(())
     }
@@ -527,7 +546,7 @@ impl PyPlan {
     /// A plan from `dir`: a state written by `save` or by `rkwave plan --state DIR` (with
     /// `--tile`: `tiled-state.json`, a tiled plan). The
     /// samples so far come from `samples` (an `(m, 2 + channels)` array or a sample file) or
-    /// else `DIR/samples.npy`; the pending positions from `positions` (an `(n, 2)` array or
+    /// else `DIR/samples.npy`, or else the samples `rkwave plan` kept (`DIR/samples.bin`); the pending positions from `positions` (an `(n, 2)` array or
     /// the `.npy` that `rkwave plan --out` wrote) or else `DIR/next.npy` (a plan at its base
     /// round regenerates them).
     ///
@@ -544,14 +563,20 @@ impl PyPlan {
     ) -> PyResult<Self> {
         let state = PlanCore::load(&dir).map_err(|e| e.into_py())?;
         let plane = state.plane();
+        let mut dropped = DroppedSamples::default();
         let samples = match samples {
             Some(obj) => Some(samples_from(plane, obj)?),
             None => {
                 let file = dir.join("samples.npy");
-                if file.exists() {
-                    Some(read_image_samples(&file, plane).map_err(to_py)?)
-                } else {
-                    None
+                match &state {
+                    _ if file.exists() => Some(read_image_samples(&file, plane).map_err(to_py)?),
+                    // a plan the command line drove with `--new-samples`: the samples it kept
+                    PlanCore::Untiled(s) if dir.join(SAMPLES_FILE).exists() => {
+                        let (read, _) = s.read_samples(&dir).map_err(to_py)?;
+                        dropped = read.dropped;
+                        read.samples
+                    }
+                    _ => None,
                 }
             }
         };
@@ -578,7 +603,7 @@ impl PyPlan {
             state,
             next,
             samples,
-            dropped: DroppedSamples::default(),
+            dropped,
             steps: Vec::new(),
             time_s: PlanSeconds::default(),
             home: Some(canonical(&dir)),

@@ -246,9 +246,27 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 round.plane(),
                 NonFinitePolicy::dropping(args.drop_nonfinite),
             )?;
-            let (samples, dropped) = match (&args.new_samples, &earlier) {
-                (Some(_), Some((read, _))) => round.join_new(read, given, given_dropped)?,
-                _ => (given, given_dropped),
+            // the rows kept in the plan's folder that these samples continue: (finite,
+            // dropped, bytes of the file)
+            let (samples, dropped, continued) = match (&args.new_samples, earlier) {
+                (Some(_), Some((read, used))) => {
+                    let at = (
+                        read.samples.as_ref().map_or(0, |s| s.len()),
+                        read.dropped.xs.len(),
+                    );
+                    let continues = read.rows() > 0;
+                    let (s, d) = round.join_new(read, given, given_dropped)?;
+                    (s, d, continues.then_some((at.0, at.1, used)))
+                }
+                (_, earlier) => {
+                    let at = earlier
+                        .filter(|(read, _)| read.rows() > 0 && read.starts(&given, &given_dropped))
+                        .map(|(read, used)| {
+                            let kept = read.samples.as_ref().map_or(0, |s| s.len());
+                            (kept, read.dropped.xs.len(), used)
+                        });
+                    (given, given_dropped, at)
+                }
             };
             let step = round.run(&samples, dropped.clone())?;
             // The stopping round's call makes the final image, as `reconstruct --dim 2
@@ -272,9 +290,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             state
                 .commit(&args.state, &args.out, &positions_npy(&next), args.force)
                 .map_err(plan_file)?;
-            let earlier = earlier.as_ref().map(|(r, used)| (r, *used));
             let mut step = step;
-            step.samples_note = state.keep_samples(&args.state, &read, earlier);
+            step.samples_note = state.keep_samples(&args.state, &read, continued);
             (state, next, Some(step), final_image)
         }
     };

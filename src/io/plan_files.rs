@@ -232,12 +232,16 @@ impl PlanState {
         Ok(())
     }
 
-    /// The samples of every round before the last handed out, from [`SAMPLES_FILE`] in `dir`
-    /// (module docs), and the length of the file's bytes they fill; refused when the file is
-    /// missing, damaged or not those rounds' samples. Nothing is read at round 0 (no earlier
-    /// round).
+    /// The samples the plan has read, from [`SAMPLES_FILE`] in `dir` (module docs): those of
+    /// every round before the last handed out (of every round, once the plan has stopped),
+    /// and the length of the file's bytes they fill; refused when the file is missing,
+    /// damaged or not those rounds' samples. Nothing is read at round 0 (no earlier round).
     pub fn read_samples(&self, dir: &Path) -> Result<(ReadSamples, u64), PlanFileError> {
-        let Some(through) = self.round().checked_sub(1) else {
+        let read = match self.stop {
+            Some(_) => Some(self.round()),
+            None => self.round().checked_sub(1),
+        };
+        let Some(through) = read else {
             return Ok((ReadSamples::default(), 0));
         };
         let file = dir.join(SAMPLES_FILE);
@@ -257,32 +261,26 @@ impl PlanState {
     }
 
     /// Keeps `all` (every sample of the round just read, `through`) in [`SAMPLES_FILE`] in
-    /// `dir`: when `earlier` (the samples read before, filling the file's first bytes) are
-    /// the first of `all`, their new rows are appended as one piece; otherwise the file is
-    /// written afresh (through a temporary file). A note when it could not be written (the
-    /// file is then removed: a later call given only its new samples is refused, naming the
-    /// fix); the round itself is committed already.
+    /// `dir`: with `continued` (`(kept, dropped, used)`: `all` starts with the samples kept in
+    /// the file's first `used` bytes, `kept` finite and `dropped` dropped ones), their new
+    /// rows are appended as one piece; otherwise the file is written afresh (through a
+    /// temporary file). A note when it could not be written (the file is then removed: a
+    /// later call given only its new samples is refused, naming the fix); the round itself
+    /// is committed already.
     pub fn keep_samples(
         &self,
         dir: &Path,
         all: &ReadSamples,
-        earlier: Option<(&ReadSamples, u64)>,
+        continued: Option<(usize, usize, u64)>,
     ) -> Option<String> {
         let file = dir.join(SAMPLES_FILE);
-        let Some(through) = all.through else {
-            return None;
-        };
+        let through = all.through?;
         let tag = self.tag();
-        let written = match earlier {
-            Some((old, used))
-                if old.rows() > 0
-                    && old.starts(all.samples.as_ref().expect("a round read"), &all.dropped) =>
-            {
-                let kept = old.samples.as_ref().map_or(0, |s| s.len());
-                let piece = all.piece_bytes(tag, through, (kept, old.dropped.xs.len()));
-                append(&file, used, &piece)
+        let written = match continued {
+            Some((kept, dropped, used)) => {
+                append(&file, used, &all.piece_bytes(tag, through, (kept, dropped)))
             }
-            _ => write_new(&file, &all.piece_bytes(tag, through, (0, 0)), true)
+            None => write_new(&file, &all.piece_bytes(tag, through, (0, 0)), true)
                 .map_err(|e| e.to_string()),
         };
         written.err().map(|why| {

@@ -367,7 +367,7 @@ impl<'a> PlanRound<'a> {
     /// [`PlanRound::run`] fits as it would every sample so far given in that order.
     pub fn join_new(
         &self,
-        earlier: &ReadSamples,
+        earlier: ReadSamples,
         new: ImageSamples,
         new_dropped: DroppedSamples,
     ) -> Result<(ImageSamples, DroppedSamples), JobError> {

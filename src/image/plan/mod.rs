@@ -8,7 +8,10 @@
 //!
 //! 1. *starts* a plan ([`PlanState::start`]): the base positions for the seed;
 //! 2. *advances* it ([`PlanState::advance`]) with every sample so far (positions as handed out,
-//!    values rendered): the round's fit on the tree, then the next positions or the stop;
+//!    values rendered): the round's fit on the tree, then the next positions or the stop; a
+//!    caller that keeps no samples gives only the last round's, joined to the samples the
+//!    plan has read ([`ReadSamples`], [`PlanState::check_new_round`]: the same round bit for
+//!    bit);
 //! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for:
 //!    the fit, and the output pixels ([`crate::image::adaptive::correction`]: by default the fit's box pixels
 //!    plus the significant mean residual, with the noise estimate of the same fit and the
@@ -64,8 +67,9 @@
 //! *Files.* This module knows no paths: the state is JSON text ([`PlanState::to_json`],
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
 //! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
-//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`) and commits a round (the state
-//! and the positions, both or neither).
+//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`, and `samples.bin`, the samples
+//! read, [`ReadSamples::piece_bytes`]) and commits a round (the state and the positions, both
+//! or neither).
 //!
 //! *Why `image::plan`.* The state machine drives the refiner's rounds
 //! ([`crate::image::adaptive`]: the tree, its fits, the output pixels) from outside, so it
@@ -161,6 +165,15 @@ pub enum ProtocolError {
         /// Rows of the rounds before the last handed out.
         expected: usize,
         /// The last round handed out.
+        round: usize,
+    },
+    /// A round given only its new samples, but the plan has stopped: no round is pending.
+    #[error(
+        "the plan stopped at round {round}: no positions are pending, so there is no new \
+         round to give; its final image is made from every sample so far"
+    )]
+    NoRoundPending {
+        /// The round at which the plan stopped.
         round: usize,
     },
     /// A round given only its new samples: they are the positions of an earlier round.
@@ -414,6 +427,7 @@ impl ProtocolError {
             | ProtocolError::HoldsPlan { .. }
             | ProtocolError::State { .. }
             | ProtocolError::EarlierUnknown { .. }
+            | ProtocolError::NoRoundPending { .. }
             | ProtocolError::NewRoundCumulative { .. }
             | ProtocolError::NewRoundCount { .. }
             | ProtocolError::NewRoundMoved { .. } => crate::error::ErrorKind::InvalidInput,

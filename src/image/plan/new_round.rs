@@ -51,15 +51,21 @@ impl ReadSamples {
     }
 
     /// The earlier samples followed by `new` (the rows `new_dropped` dropped from them,
-    /// counted after these rows): the samples of every round so far (module docs).
+    /// counted after these rows): the samples of every round so far (module docs). The
+    /// earlier samples are moved, not copied.
     pub fn joined(
-        &self,
+        self,
         new: ImageSamples,
         new_dropped: DroppedSamples,
     ) -> Result<(ImageSamples, DroppedSamples), ProtocolError> {
-        let mut dropped = self.dropped.clone();
-        dropped.extend(new_dropped, self.rows());
-        Ok((appended(self.samples.as_ref(), new)?, dropped))
+        let rows = self.rows();
+        let mut dropped = self.dropped;
+        dropped.extend(new_dropped, rows);
+        let all = match self.samples {
+            None => new,
+            Some(old) => append_owned(old, &new)?,
+        };
+        Ok((all, dropped))
     }
 
     /// Whether these samples are the first ones of `all` and `all_dropped` in the same
@@ -204,10 +210,10 @@ impl ReadSamples {
         let Some(new) = piece.samples else {
             return Ok(());
         };
-        let (all, _) = self
-            .joined(new, DroppedSamples::default())
-            .map_err(|e| format!("damaged: {e}"))?;
-        self.samples = Some(all);
+        self.samples = Some(match self.samples.take() {
+            None => new,
+            Some(old) => append_owned(old, &new).map_err(|e| format!("damaged: {e}"))?,
+        });
         Ok(())
     }
 }
@@ -218,12 +224,18 @@ pub fn appended(
     old: Option<&ImageSamples>,
     new: ImageSamples,
 ) -> Result<ImageSamples, ProtocolError> {
-    let Some(old) = old else {
-        return Ok(new);
-    };
-    if old.plane() != new.plane() {
+    match old {
+        None => Ok(new),
+        Some(old) => append_owned(old.clone(), &new),
+    }
+}
+
+/// `old` followed by `new` ([`appended`]), `old`'s vectors extended in place.
+fn append_owned(old: ImageSamples, new: &ImageSamples) -> Result<ImageSamples, ProtocolError> {
+    let plane = old.plane();
+    if plane != new.plane() {
         return Err(ProtocolError::Plane {
-            state: old.plane(),
+            state: plane,
             given: new.plane(),
         });
     }
@@ -233,21 +245,15 @@ pub fn appended(
             given: new.channels(),
         });
     }
-    let join = |a: &[f64], b: &[f64]| [a, b].concat();
-    let values = old
-        .values()
-        .iter()
-        .zip(new.values())
-        .map(|(a, b)| join(a, b))
-        .collect();
+    let (mut xs, mut ys, mut values) = old.into_parts();
+    xs.extend_from_slice(new.xs());
+    ys.extend_from_slice(new.ys());
+    for (v, n) in values.iter_mut().zip(new.values()) {
+        v.extend_from_slice(n);
+    }
     // both validated on the same plane with the same channels: nothing to refuse
-    Ok(ImageSamples::new(
-        old.plane(),
-        join(old.xs(), new.xs()),
-        join(old.ys(), new.ys()),
-        values,
-    )
-    .expect("two validated sample sets on one plane join"))
+    Ok(ImageSamples::new(plane, xs, ys, values)
+        .expect("two validated sample sets on one plane join"))
 }
 
 /// One piece's round and rows (the words after the tag of [`ReadSamples::piece_bytes`]).
@@ -327,6 +333,9 @@ impl PlanState {
             });
         }
         let last = self.issued.len() - 1;
+        if self.stop.is_some() {
+            return Err(ProtocolError::NoRoundPending { round: last });
+        }
         let before = last.checked_sub(1).map_or(0, |r| self.issued[r].total);
         if earlier != before {
             return Err(ProtocolError::EarlierUnknown {
