@@ -23,7 +23,8 @@ use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
-use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ReadSamples};
+use rkwave::image::plan::new_round::ReadSamples;
+use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use rkwave::io::output::write_new;
@@ -162,7 +163,7 @@ fn positions_from(obj: &Bound<'_, PyAny>) -> PyResult<SamplePositions> {
 /// `samples` with the samples of `new` appended (the library's join: the same plane and
 /// channels, else refused).
 pub(crate) fn appended(old: Option<&ImageSamples>, new: ImageSamples) -> PyResult<ImageSamples> {
-    rkwave::image::plan::appended(old, new).map_err(to_py)
+    rkwave::image::plan::new_round::appended(old, new).map_err(to_py)
 }
 
 /// `.npy` bytes of the columns `first`, then `rest`.

@@ -2,7 +2,7 @@
 //! call (no `--samples`) writes the base positions ([`rkwave::image::job::PlanStart`]); each
 //! later call takes every sample so far (`--samples`), or only the samples of the round just
 //! handed out (`--new-samples`, joined to the samples the plan keeps in its folder,
-//! [`rkwave::image::plan::ReadSamples`]), and writes the next round's positions, none once the
+//! [`rkwave::image::plan::new_round::ReadSamples`]), and writes the next round's positions, none once the
 //! plan stops ([`rkwave::image::job::PlanRound`]; the stopping call writes `--final-image` by
 //! [`rkwave::image::job::PlanFinal`]); the plan's files are [`rkwave::io::plan_files`]'s.
 //! This file parses the flags and prints: the decisions are the library's.
@@ -15,7 +15,8 @@ use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::{PixelEstimate, PositionPattern, SamplePositions};
 use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
-use rkwave::image::plan::{PlanState, ReadSamples};
+use rkwave::image::plan::new_round::ReadSamples;
+use rkwave::image::plan::PlanState;
 use rkwave::image::report::PlanCallReport;
 use rkwave::image::NonFinitePolicy;
 use rkwave::io::output::{same_file, OutputError};

@@ -25,9 +25,9 @@ use thiserror::Error;
 use super::output::{persist, temporary, write_new, OutputError};
 use crate::image::adaptive::gram::GramBytesError;
 use crate::image::adaptive::TreeSolver;
+use crate::image::plan::new_round::ReadSamples;
 use crate::image::plan::{
-    CarriedFinal, CarriedGram, CarriedPcg, FinalFit, PlanState, ProtocolError, ReadSamples,
-    TreeGram,
+    CarriedFinal, CarriedGram, CarriedPcg, FinalFit, PlanState, ProtocolError, TreeGram,
 };
 
 /// The state's file name inside the plan's folder.

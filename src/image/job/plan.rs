@@ -25,7 +25,8 @@ use crate::image::adaptive::{
     PixelEstimate, PositionPattern, QuadTreeParams, SamplePositions, StopParams, TreeParams,
     TreeSolver,
 };
-use crate::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError, ReadSamples};
+use crate::image::plan::new_round::ReadSamples;
+use crate::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use crate::resources::{memory_limit, ImageRequest, ImageSolve};
 

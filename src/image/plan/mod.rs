@@ -10,7 +10,7 @@
 //! 2. *advances* it ([`PlanState::advance`]) with every sample so far (positions as handed out,
 //!    values rendered): the round's fit on the tree, then the next positions or the stop; a
 //!    caller that keeps no samples gives only the last round's, joined to the samples the
-//!    plan has read ([`ReadSamples`], [`PlanState::check_new_round`]: the same round bit for
+//!    plan has read ([`new_round::ReadSamples`], [`PlanState::check_new_round`]: the same round bit for
 //!    bit);
 //! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for:
 //!    the fit, and the output pixels ([`crate::image::adaptive::correction`]: by default the fit's box pixels
@@ -68,7 +68,7 @@
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
 //! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
 //! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`, and `samples.bin`, the samples
-//! read, [`ReadSamples::piece_bytes`]) and commits a round (the state and the positions, both
+//! read, [`new_round::ReadSamples::piece_bytes`]) and commits a round (the state and the positions, both
 //! or neither).
 //!
 //! *Why `image::plan`.* The state machine drives the refiner's rounds
@@ -77,7 +77,7 @@
 //! (`io::plan_files`) sit on top of it, and nothing below calls back into it.
 
 mod final_fit;
-mod new_round;
+pub mod new_round;
 mod state;
 
 use std::path::PathBuf;
@@ -101,7 +101,6 @@ pub const STATE_VERSION: u32 = 1;
 pub use crate::image::adaptive::gram::{CarriedGram, TreeGram};
 pub use crate::image::adaptive::pcg::CarriedPcg;
 pub use final_fit::{samples_fingerprint, CarriedFinal, FinalFit};
-pub use new_round::{appended, ReadSamples};
 
 /// Why a protocol call was refused.
 #[derive(Debug, Error)]
