@@ -91,7 +91,7 @@ impl ReadSamples {
     }
 
     /// The rows of these samples from the `kept` finite and `dropped` dropped ones on, as one
-    /// piece of the plan's file (module docs; `seal`: [`PIECE_MAGIC`], the plan's `tag`, the
+    /// piece of the plan's file (module docs; `seal`: `RKWSMP01`, the plan's `tag`, the
     /// round `through` they complete, the counts, the channels, the first dropped sample if it
     /// lies in the piece, then the positions, each channel's values and the dropped
     /// positions by their bits; a checksum), preceded by the piece's length in bytes.
