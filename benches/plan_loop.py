@@ -14,10 +14,14 @@ excluded, with the CPU seconds (user + system, system apart) and the peak reside
 the largest call (`wait4` of each call). `--psnr` adds the final image's PSNR against the
 scene's box pixels; `--solver NAME` starts the plan with `--solver NAME`. With several
 `--bin`, the binaries run back to back (alternating over `--repeat`) and the SHA-256 of every
-positions file and of the final image are compared between them.
+positions file and of the final image are compared between them. `--protocol new` drives the
+plan with each round's new samples alone (`--new-samples`, the plan keeping the earlier ones in
+its folder) instead of every sample so far (`--protocol all`, the default); given both, each
+binary runs both (alternating) and the outputs of every variant are compared.
 
     python benches/plan_loop.py --bin target/release/rkwave --size 128 --spp 8 --psnr
     python benches/plan_loop.py --bin /tmp/old/rkwave --bin target/release/rkwave --size 128
+    python benches/plan_loop.py --bin target/release/rkwave --protocol all --protocol new
 """
 
 import argparse
@@ -158,13 +162,15 @@ def psnr(image, reference):
     return 10.0 * np.log10(1.0 / mse)
 
 
-def loop(binary, args, reference, work):
-    """One whole loop; returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
+def loop(binary, args, reference, work, protocol="all"):
+    """One whole loop, each round given every sample so far (`protocol` "all") or its new
+    samples alone ("new"); returns (total wall seconds, CPU seconds, per-call rows, hashes)."""
     cpu0, sys0 = CPU[0], SYS[0]
     PHASES.clear()
     state = os.path.join(work, "state")
     pos = os.path.join(work, "next.npy")
     allp = os.path.join(work, "all.npy")
+    newp = os.path.join(work, "new.npy")
     final = os.path.join(work, "final.npy")
     res = f"{args.size}x{args.size}"
     prefix = ["nice", "-n", str(args.nice)] if args.nice else []
@@ -182,9 +188,14 @@ def loop(binary, args, reference, work):
         round_ += 1
         new = answer(p, round_, args, reference)
         samples = new if samples is None else np.vstack([samples, new])
-        np.save(allp, samples)
-        out, dt = run(prefix + [binary, "plan", "--state", state, "--samples", allp, "--out",
-                                pos, "--final-image", final, "--force", "--json"])
+        if protocol == "new":
+            np.save(newp, new)
+            given = ["--new-samples", newp]
+        else:
+            np.save(allp, samples)
+            given = ["--samples", allp]
+        out, dt = run(prefix + [binary, "plan", "--state", state] + given + [
+            "--out", pos, "--final-image", final, "--force", "--json"])
         if args.keep:
             with open(os.path.join(work, f"call{round_}.json"), "w") as f:
                 f.write(out)
@@ -195,6 +206,7 @@ def loop(binary, args, reference, work):
         last = json.loads(out)
         hashes.append(sha(pos))
     if not os.path.exists(final):
+        np.save(allp, samples)
         # 0 positions handed out without a stop: the final image by reconstruct --state
         out, dt = run(prefix + [binary, "reconstruct", "--dim", "2", "--state", state, "--input",
                                 allp, "--output", final, "--force", "--json"])
@@ -221,10 +233,16 @@ def main():
     ap.add_argument("--phases", action="store_true",
                     help="per loop, the seconds by phase from each call's --json (the round's "
                          "own timers; needs a binary that reports them)")
+    ap.add_argument("--protocol", action="append", choices=["all", "new"],
+                    help="how each round's samples are given: every sample so far (all, the "
+                         "default) or the new ones alone (new, --new-samples); repeatable")
     ap.add_argument("--psnr", action="store_true",
                     help="the final image's PSNR against the scene's box pixels (the analytic "
                          "scene supersampled 8 x 8 a pixel, or the --reference image)")
     args = ap.parse_args()
+    protocols = args.protocol or ["all"]
+    variants = [(b, p) for b in args.bin for p in protocols]
+    label = {v: v[0] if len(protocols) == 1 else f"{v[0]} [{v[1]}]" for v in variants}
     reference = None
     if args.reference:
         reference = np.load(args.reference)
@@ -232,24 +250,26 @@ def main():
     print(f"# {args.size}x{args.size}, {args.spp} spp, load {os.getloadavg()[0]:.2f}")
     if args.mitsuba:
         mitsuba_time(args.size, args.spp, args.repeat)
-    totals = {b: [] for b in args.bin}
-    cpus = {b: [] for b in args.bin}
-    peaks = {b: [] for b in args.bin}
-    psnrs = {b: [] for b in args.bin}
+    totals = {label[v]: [] for v in variants}
+    cpus = {label[v]: [] for v in variants}
+    peaks = {label[v]: [] for v in variants}
+    psnrs = {label[v]: [] for v in variants}
     exact = None
     if args.psnr:
         exact = reference if reference is not None else truth(args.size)
     hashes = {}
     for rep in range(args.repeat):
-        for b in args.bin:
+        for v in variants:
+            binary, protocol = v
+            b = label[v]
             PEAK[0] = 0
             if args.keep:
                 os.makedirs(args.keep, exist_ok=True)
-                total, cpu, rows, h = loop(b, args, reference, args.keep)
+                total, cpu, rows, h = loop(binary, args, reference, args.keep, protocol)
                 final = np.load(os.path.join(args.keep, "final.npy")) if args.psnr else None
             else:
                 with tempfile.TemporaryDirectory() as work:
-                    total, cpu, rows, h = loop(b, args, reference, work)
+                    total, cpu, rows, h = loop(binary, args, reference, work, protocol)
                     final = np.load(os.path.join(work, "final.npy")) if args.psnr else None
             if final is not None:
                 psnrs[b].append(psnr(final, exact))
@@ -279,18 +299,19 @@ def main():
                 for k, v in PHASES.items():
                     print(f"| {k} | {v:.3f} | {100 * v / whole:.0f} % |")
     print(f"# load {os.getloadavg()[0]:.2f}")
-    for b in args.bin:
+    names = [label[v] for v in variants]
+    for b in names:
         ts = totals[b]
         print(f"total {b}: wall " + ", ".join(f"{t:.2f}" for t in ts) + f" s (min {min(ts):.2f}); "
               "CPU " + ", ".join(f"{t:.2f} (sys {u:.2f})" for t, u in cpus[b]) + " s; peak "
               + ", ".join(f"{m / 1e9:.2f}" for m in peaks[b]) + " GB"
               + ("; final PSNR " + ", ".join(f"{v:.2f}" for v in psnrs[b]) + " dB"
                  if psnrs[b] else ""))
-    if len(args.bin) > 1:
-        first = hashes[args.bin[0]]
-        for b in args.bin[1:]:
+    if len(names) > 1:
+        first = hashes[names[0]]
+        for b in names[1:]:
             same = hashes[b] == first
-            print(f"outputs of {b} {'identical to' if same else 'DIFFER from'} {args.bin[0]} "
+            print(f"outputs of {b} {'identical to' if same else 'DIFFER from'} {names[0]} "
                   f"({len(first)} files: positions per call and the final image)")
             if not same:
                 positions = hashes[b][:-1] == first[:-1]

@@ -23,10 +23,12 @@ use pyo3::prelude::*;
 use rkwave::image::adaptive::SamplePositions;
 use rkwave::image::job::tiled_plan::TILED_STATE_FILE;
 use rkwave::image::job::{PlanFinal, PlanOptions, PlanRound, PlanStart};
-use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
+use rkwave::image::plan::new_round::ReadSamples;
+use rkwave::image::plan::{PlanReconstruction, PlanState, PlanStep};
 use rkwave::image::report::plan_fit_notes;
 use rkwave::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use rkwave::io::output::write_new;
+use rkwave::io::plan_files::SAMPLES_FILE;
 use rkwave::io::{npy_bytes, read_image_samples, read_samples, SampleSet};
 use serde::Serialize;
 
@@ -158,27 +160,10 @@ fn positions_from(obj: &Bound<'_, PyAny>) -> PyResult<SamplePositions> {
     })
 }
 
-/// `samples` with the samples of `new` appended (the channels must agree).
+/// `samples` with the samples of `new` appended (the library's join: the same plane and
+/// channels, else refused).
 pub(crate) fn appended(old: Option<&ImageSamples>, new: ImageSamples) -> PyResult<ImageSamples> {
-    let Some(old) = old else { return Ok(new) };
-    if old.channels() != new.channels() {
-        return Err(to_py(ProtocolError::Channels {
-            state: old.channels(),
-            given: new.channels(),
-        }));
-    }
-    let join = |a: &[f64], b: &[f64]| [a, b].concat();
-    ImageSamples::new(
-        old.plane(),
-        join(old.xs(), new.xs()),
-        join(old.ys(), new.ys()),
-        old.values()
-            .iter()
-            .zip(new.values())
-            .map(|(a, b)| join(a, b))
-            .collect(),
-    )
-    .map_err(to_py)
+    rkwave::image::plan::new_round::appended(old, new).map_err(to_py)
 }
 
 /// `.npy` bytes of the columns `first`, then `rest`.
@@ -304,8 +289,11 @@ impl PyPlan {
     }
 
     /// Adds the rendered samples of the positions handed out (`xy` `(n, 2)` as returned by
-    /// `positions()`, `values` `(n,)` or `(n, channels)`) and plans the next round: the fit
-    /// on every sample so far, then new positions or the stop (`done`). A value that is NaN
+    /// `positions()`, in any order, `values` `(n,)` or `(n, channels)`) and plans the next
+    /// round: the fit on every sample so far (the earlier ones kept in memory, as `rkwave plan
+    /// --new-samples` keeps them in its folder), then new positions or the stop (`done`).
+    /// Samples of another round, another count or positions not those handed out are
+    /// refused, naming the round expected. A value that is NaN
     /// or infinite is refused (the error names the count and the first sample; the plan is
     /// unchanged and the round can be added again); `drop_nonfinite=True` drops those
     /// samples, counts them in the round's report and fits the rest.
@@ -340,6 +328,11 @@ impl PyPlan {
             NonFinitePolicy::dropping(drop_nonfinite),
         )?;
         let rows = self.samples.as_ref().map_or(0, ImageSamples::len) + self.dropped.count;
+        if let PlanCore::Untiled(state) = &self.state {
+            // the new samples must be the round handed out, alone (the command line's
+            // `--new-samples` refusals, with the same words)
+            state.check_new_round(rows, &new, &dropped).map_err(to_py)?;
+        }
         let all = appended(self.samples.as_ref(), new)?;
         let mut all_dropped = self.dropped.clone();
         all_dropped.extend(dropped, rows);
@@ -491,7 +484,9 @@ impl PyPlan {
     }
 
     /// Writes the plan into `dir` (module docs): `state.json` as `rkwave plan --state DIR`,
-    /// `samples.npy` (every sample so far) and `next.npy` (the pending positions). A folder
+    /// `samples.npy` (every sample so far), `samples.bin` (the same samples as `rkwave plan`
+    /// keeps them, so the command line can go on with `--new-samples`) and `next.npy` (the
+    /// pending positions). A folder
     /// that holds another plan (one this object was neither loaded from nor saved to) is
     /// refused unless `overwrite=True`, as `rkwave plan` refuses one without `--force`.
     ///
@@ -509,8 +504,22 @@ impl PyPlan {
         let state = &self.state;
         let samples = self.samples.as_ref();
         let next = &self.next;
-        py.detach(|| -> PyResult<()> {
+        let dropped = &self.dropped;
+        let note = py.detach(|| -> PyResult<Option<String>> {
             state.save(&dir).map_err(to_py)?;
+            // the samples read, as `rkwave plan` keeps them for `--new-samples`
+            let kept = match (state, samples) {
+                (PlanCore::Untiled(s), Some(read)) => s.keep_samples(
+                    &dir,
+                    &ReadSamples {
+                        through: Some(s.round() - usize::from(s.stop.is_none())),
+                        samples: Some(read.clone()),
+                        dropped: dropped.clone(),
+                    },
+                    None,
+                ),
+                _ => None,
+            };
             let file = dir.join("samples.npy");
             match samples {
                 Some(s) => {
@@ -527,8 +536,10 @@ impl PyPlan {
                 None => {}
             }
             let bytes = npy_of(&next.xs, vec![next.ys.clone()])?;
-            write_new(&dir.join("next.npy"), &bytes, true).map_err(to_py)
+            write_new(&dir.join("next.npy"), &bytes, true).map_err(to_py)?;
+            Ok(kept)
         })?;
+        warn_all(py, note.as_slice())?;
         self.home = Some(canonical(&dir));
         Ok(())
     }
@@ -536,7 +547,7 @@ impl PyPlan {
     /// A plan from `dir`: a state written by `save` or by `rkwave plan --state DIR` (with
     /// `--tile`: `tiled-state.json`, a tiled plan). The
     /// samples so far come from `samples` (an `(m, 2 + channels)` array or a sample file) or
-    /// else `DIR/samples.npy`; the pending positions from `positions` (an `(n, 2)` array or
+    /// else `DIR/samples.npy`, or else the samples `rkwave plan` kept (`DIR/samples.bin`); the pending positions from `positions` (an `(n, 2)` array or
     /// the `.npy` that `rkwave plan --out` wrote) or else `DIR/next.npy` (a plan at its base
     /// round regenerates them).
     ///
@@ -553,14 +564,20 @@ impl PyPlan {
     ) -> PyResult<Self> {
         let state = PlanCore::load(&dir).map_err(|e| e.into_py())?;
         let plane = state.plane();
+        let mut dropped = DroppedSamples::default();
         let samples = match samples {
             Some(obj) => Some(samples_from(plane, obj)?),
             None => {
                 let file = dir.join("samples.npy");
-                if file.exists() {
-                    Some(read_image_samples(&file, plane).map_err(to_py)?)
-                } else {
-                    None
+                match &state {
+                    _ if file.exists() => Some(read_image_samples(&file, plane).map_err(to_py)?),
+                    // a plan the command line drove with `--new-samples`: the samples it kept
+                    PlanCore::Untiled(s) if dir.join(SAMPLES_FILE).exists() => {
+                        let (read, _) = s.read_samples(&dir).map_err(to_py)?;
+                        dropped = read.dropped;
+                        read.samples
+                    }
+                    _ => None,
                 }
             }
         };
@@ -587,7 +604,7 @@ impl PyPlan {
             state,
             next,
             samples,
-            dropped: DroppedSamples::default(),
+            dropped,
             steps: Vec::new(),
             time_s: PlanSeconds::default(),
             home: Some(canonical(&dir)),

@@ -22,6 +22,9 @@ STUBS = pathlib.Path(rkwave.__file__).with_name("_rkwave.pyi")
 # neither here nor a keyword of `rkwave.Plan`).
 CLI_FLAGS = {
     "samples": "Plan.add(xy, values)",
+    # add takes only the new round's samples already (the earlier ones kept in memory), so
+    # the command line's way of giving only those is add itself
+    "new_samples": "Plan.add(xy, values)",
     "state": "Plan.save(dir) / Plan.load(dir)",
     "out": "Plan.positions()",
     "final_image": "Plan.image()",

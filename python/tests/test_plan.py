@@ -130,7 +130,8 @@ def test_state_moves_between_cli_and_python(tmp_path, cli):
 def test_plan_refuses_what_the_cli_refuses(tmp_path):
     plan = rkwave.Plan(resolution=(W, H), spp=SPP)
     xy = plan.positions()
-    with pytest.raises(rkwave.RkwaveError, match="not the positions this plan handed out"):
+    with pytest.raises(rkwave.RkwaveError, match="samples given as the new round, but this plan "
+                       "handed out"):
         plan.add(xy[1:], disc_scene(xy[1:]))  # a lost sample
     with pytest.raises(rkwave.RkwaveError, match="not the positions this plan handed out"):
         rounded = xy.astype(np.float32).astype(float)
@@ -138,6 +139,11 @@ def test_plan_refuses_what_the_cli_refuses(tmp_path):
     with pytest.raises(rkwave.RkwaveError, match="no samples yet"):
         plan.image()
     plan.add(xy, disc_scene(xy))  # the refusals changed nothing
+    assert plan.round == 1
+    # add takes the new round alone: round 0 again is refused, naming the round expected
+    with pytest.raises(rkwave.RkwaveError, match="positions of round 0, which this plan has "
+                       "read already"):
+        plan.add(xy, disc_scene(xy))
     assert plan.round == 1
     nxt = plan.positions()
     with pytest.raises(rkwave.RkwaveError, match="channels"):
@@ -169,3 +175,40 @@ def test_intermediate_image_warns():
     with pytest.warns(rkwave.RkwaveWarning, match="has not stopped"):
         image = plan.image(residual=False)
     assert image.shape == (H, W, 3)
+
+
+def test_new_samples_move_between_cli_and_python(tmp_path, cli):
+    """`rkwave plan --new-samples` and `Plan.add` are one protocol: a plan saved by Python goes
+    on in the CLI given only each round's new samples (`save` writes `samples.bin`), and a
+    plan the CLI drove that way is loaded with its kept samples; both give the image of the
+    loop run in Python alone, bit for bit."""
+    whole = rkwave.Plan(resolution=(W, H), spp=SPP)
+    python_loop(whole)
+    expected = whole.image()
+    # Python -> CLI with --new-samples
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
+    for _ in range(2):
+        xy = plan.positions()
+        plan.add(xy, disc_scene(xy))
+    plan.save(tmp_path / "a")
+    nxt, k = plan.positions(), 0
+    while len(nxt):
+        np.save(tmp_path / f"new{k}.npy", np.c_[nxt, disc_scene(nxt)])
+        cli("plan", "--state", tmp_path / "a", "--new-samples", tmp_path / f"new{k}.npy",
+            "--out", tmp_path / f"n{k}.npy", "--final-image", tmp_path / "a.npy")
+        nxt, k = np.load(tmp_path / f"n{k}.npy"), k + 1
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), expected)
+    # CLI (--new-samples) -> Python: loaded with the samples the CLI kept
+    run = tmp_path / "b"
+    cli("plan", "--resolution", f"{W}x{H}", "--spp", SPP, "--state", run, "--out",
+        run / "n0.npy")
+    for k in range(2):
+        xy = np.load(run / f"n{k}.npy")
+        np.save(run / f"new{k}.npy", np.c_[xy, disc_scene(xy)])
+        cli("plan", "--state", run, "--new-samples", run / f"new{k}.npy", "--out",
+            run / f"n{k + 1}.npy")
+    loaded = rkwave.Plan.load(run, positions=run / "n2.npy")
+    assert loaded.report["samples"] == len(np.load(run / "new0.npy")) + len(
+        np.load(run / "new1.npy"))
+    python_loop(loaded)
+    np.testing.assert_array_equal(loaded.image(), expected)

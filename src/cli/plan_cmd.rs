@@ -1,6 +1,8 @@
 //! `rkwave plan`: the adaptive image refiner driven by a renderer through files. The first
 //! call (no `--samples`) writes the base positions ([`rkwave::image::job::PlanStart`]); each
-//! later call takes every sample so far and writes the next round's positions, none once the
+//! later call takes every sample so far (`--samples`), or only the samples of the round just
+//! handed out (`--new-samples`, joined to the samples the plan keeps in its folder,
+//! [`rkwave::image::plan::new_round::ReadSamples`]), and writes the next round's positions, none once the
 //! plan stops ([`rkwave::image::job::PlanRound`]; the stopping call writes `--final-image` by
 //! [`rkwave::image::job::PlanFinal`]); the plan's files are [`rkwave::io::plan_files`]'s.
 //! This file parses the flags and prints: the decisions are the library's.
@@ -13,6 +15,7 @@ use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::{PixelEstimate, PositionPattern, SamplePositions};
 use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
+use rkwave::image::plan::new_round::ReadSamples;
 use rkwave::image::plan::PlanState;
 use rkwave::image::report::PlanCallReport;
 use rkwave::image::NonFinitePolicy;
@@ -29,6 +32,14 @@ pub struct PlanArgs {
     /// the plan wrote them); without it, a new plan starts and writes the base positions.
     #[arg(long)]
     pub samples: Option<PathBuf>,
+    /// Only the samples of the round just handed out (the positions of the last `--out`, in
+    /// any order; the same formats as `--samples`): the plan joins them to the samples of the
+    /// earlier rounds it keeps in its folder (`samples.bin`, written by every call), so the
+    /// round is the one `--samples` with every sample so far would give. Samples of another
+    /// round (repeated, or every sample so far), another count, or positions not those
+    /// handed out are refused, naming the round expected. Not available with --tile.
+    #[arg(long, conflicts_with = "samples")]
+    pub new_samples: Option<PathBuf>,
     /// Folder of the plan's state (`state.json`), kept between calls.
     #[arg(long, default_value = "rkwave-plan")]
     pub state: PathBuf,
@@ -173,7 +184,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             args.out.display()
         )));
     }
-    if let Some(samples) = args.samples.as_ref().filter(|s| same_file(&args.out, s)) {
+    let given = args.samples.as_ref().or(args.new_samples.as_ref());
+    if let Some(samples) = given.filter(|s| same_file(&args.out, s)) {
         return Err(OutputError::SameFile {
             output: args.out.clone(),
             input: samples.clone(),
@@ -185,16 +197,23 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         rkwave::io::image_file::ImageFormat::from_path(image)
             .map_err(|e| CliError::flag("--final-image", e))?;
         let mut inputs = vec![args.out.as_path()];
-        inputs.extend(args.samples.as_deref());
+        inputs.extend(given.map(PathBuf::as_path));
         rkwave::io::output::check_output(image, args.force, &inputs)?;
     }
     let options = options(args);
     let tiled = tiled::path(&args.state).exists();
     PlanStart::check_halo(args.tile, args.halo, tiled)?;
     if args.tile.is_some() || tiled {
+        if args.new_samples.is_some() {
+            return Err(CliError::Invalid(
+                "--new-samples is not available with the tiled plan (--tile) yet: give every \
+                 sample so far with --samples"
+                    .into(),
+            ));
+        }
         return tiled::run(args, &options);
     }
-    let (state, next, step, final_image) = match &args.samples {
+    let (state, next, step, final_image) = match given {
         None => {
             PlanState::check_new(&args.state, &[], args.force)?;
             let resolution = args
@@ -207,35 +226,82 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         }
         Some(path) => {
             let mut state = load_plan(&args.state)?;
+            // the last round handed out: the one this call's samples complete
+            let through = state.round();
             let plane = args
                 .resolution
                 .as_deref()
                 .map(parse_resolution)
                 .transpose()?;
+            // a round given only its new samples: the earlier rounds' from the plan's folder
+            // (refused when they are not kept there); with every sample so far, the samples
+            // kept, to append the new rows to when they are the first of these
+            let earlier = match &args.new_samples {
+                Some(_) => Some(state.read_samples(&args.state).map_err(plan_file)?),
+                None => state.read_samples(&args.state).ok(),
+            };
             let round = PlanRound::new(&mut state, plane, &options)?;
             super::check_reading(path)?;
-            let (samples, dropped) = read_image_samples_with(
+            let (given, given_dropped) = read_image_samples_with(
                 path,
                 round.plane(),
                 NonFinitePolicy::dropping(args.drop_nonfinite),
             )?;
+            // the rows kept in the plan's folder that these samples continue: (finite,
+            // dropped, bytes of the file)
+            let (samples, dropped, continued) = match (&args.new_samples, earlier) {
+                (Some(_), Some((read, used))) => {
+                    let at = (
+                        read.samples.as_ref().map_or(0, |s| s.len()),
+                        read.dropped.xs.len(),
+                    );
+                    let continues = read.rows() > 0;
+                    let (s, d) = round.join_new(read, given, given_dropped)?;
+                    (s, d, continues.then_some((at.0, at.1, used)))
+                }
+                (_, earlier) => {
+                    let at = earlier
+                        .filter(|(read, _)| read.rows() > 0 && read.starts(&given, &given_dropped))
+                        .map(|(read, used)| {
+                            let kept = read.samples.as_ref().map_or(0, |s| s.len());
+                            (kept, read.dropped.xs.len(), used)
+                        });
+                    (given, given_dropped, at)
+                }
+            };
             let step = round.run(&samples, dropped.clone())?;
             // The stopping round's call makes the final image, as `reconstruct --dim 2
             // --state` would from these samples (the same library call).
             let final_image = match (&args.final_image, step.stop) {
-                (Some(_), Some(_)) => {
-                    Some(PlanFinal::of(&state, false).run(&samples, dropped, Some(&step))?)
-                }
+                (Some(_), Some(_)) => Some(PlanFinal::of(&state, false).run(
+                    &samples,
+                    dropped.clone(),
+                    Some(&step),
+                )?),
                 _ => None,
             };
             let next = step.next.clone();
+            let read = ReadSamples {
+                through: Some(through),
+                samples: Some(samples),
+                dropped,
+            };
+            // The round is committed as one step: the positions and the state, or neither;
+            // then the samples read (appended when they continue those kept).
+            state
+                .commit(&args.state, &args.out, &positions_npy(&next), args.force)
+                .map_err(plan_file)?;
+            let mut step = step;
+            step.samples_note = state.keep_samples(&args.state, &read, continued);
             (state, next, Some(step), final_image)
         }
     };
-    // The round is committed as one step: the positions and the state, or neither.
-    state
-        .commit(&args.state, &args.out, &positions_npy(&next), args.force)
-        .map_err(plan_file)?;
+    if step.is_none() {
+        // The round is committed as one step: the positions and the state, or neither.
+        state
+            .commit(&args.state, &args.out, &positions_npy(&next), args.force)
+            .map_err(plan_file)?;
+    }
     let final_image = match (&args.final_image, final_image) {
         (Some(path), Some(done)) => {
             rkwave::io::image_file::write_image(path, &done.image, args.force)?;
@@ -299,5 +365,6 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             super::print_note(&note);
         }
     }
+
     Ok(())
 }

@@ -3,6 +3,12 @@
 //! stopping round's fit `final.bin`: caches, tagged with the plan and checksummed), and the
 //! commit of a round (the state and the positions, both or neither).
 //!
+//! Beside them, `samples.bin` holds every sample the plan has read, in the order read
+//! ([`ReadSamples`], a piece appended per call; not a cache): a call given only the new
+//! round's samples joins them to it ([`PlanState::read_samples`]); without it, or with one
+//! that is damaged or of another state, that call is refused, naming the fix (give every
+//! sample so far, which writes it again: [`PlanState::keep_samples`]).
+//!
 //! The plan's state machine ([`crate::image::plan`]) knows no paths: it gives and takes the
 //! state as JSON text and the carried solver state as bytes; this module puts them in files
 //! and reads them back ([`PlanState::load`], [`PlanState::save`], [`PlanState::commit`]).
@@ -19,6 +25,7 @@ use thiserror::Error;
 use super::output::{persist, temporary, write_new, OutputError};
 use crate::image::adaptive::gram::GramBytesError;
 use crate::image::adaptive::TreeSolver;
+use crate::image::plan::new_round::ReadSamples;
 use crate::image::plan::{
     CarriedFinal, CarriedGram, CarriedPcg, FinalFit, PlanState, ProtocolError, TreeGram,
 };
@@ -31,6 +38,8 @@ pub const GRAM_FILE: &str = "gram.bin";
 pub const PCG_FILE: &str = "pcg.bin";
 /// The stopping round's carried fit's file name inside the plan's folder.
 pub const FINAL_FILE: &str = "final.bin";
+/// The file of every sample the plan has read, inside the plan's folder.
+pub const SAMPLES_FILE: &str = "samples.bin";
 
 /// Why a plan's files could not be read or written.
 #[derive(Debug, Error)]
@@ -59,6 +68,20 @@ pub enum PlanFileError {
     /// The state or the positions could not be written.
     #[error(transparent)]
     Write(#[from] OutputError),
+    /// A call given only the new round's samples, but the plan's file of the samples it has
+    /// read is missing, damaged or of another state of the plan.
+    #[error(
+        "{}: {problem}; a round given only its new samples is joined to the samples the plan \
+         has read, kept there: give every sample so far instead ({}), which writes it again",
+        .file.display(),
+        crate::error::Fix::Set(crate::error::Param::Samples)
+    )]
+    SamplesNotKept {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
     /// The state read is not a plan state this build reads, or its plan refuses.
     #[error(transparent)]
     Plan(#[from] ProtocolError),
@@ -68,7 +91,9 @@ impl PlanFileError {
     /// The kind of this error ([`crate::error`]).
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
-            PlanFileError::NoPlan { .. } => crate::error::ErrorKind::InvalidInput,
+            PlanFileError::NoPlan { .. } | PlanFileError::SamplesNotKept { .. } => {
+                crate::error::ErrorKind::InvalidInput
+            }
             PlanFileError::Read { .. } => crate::error::ErrorKind::Unreadable,
             PlanFileError::Write(e) => e.kind(),
             PlanFileError::Plan(e) => e.kind(),
@@ -207,6 +232,67 @@ impl PlanState {
         Ok(())
     }
 
+    /// The samples the plan has read, from [`SAMPLES_FILE`] in `dir` (module docs): those of
+    /// every round before the last handed out (of every round, once the plan has stopped),
+    /// and the length of the file's bytes they fill; refused when the file is missing,
+    /// damaged or not those rounds' samples. Nothing is read at round 0 (no earlier round).
+    pub fn read_samples(&self, dir: &Path) -> Result<(ReadSamples, u64), PlanFileError> {
+        let read = match self.stop {
+            Some(_) => Some(self.round()),
+            None => self.round().checked_sub(1),
+        };
+        let Some(through) = read else {
+            return Ok((ReadSamples::default(), 0));
+        };
+        let file = dir.join(SAMPLES_FILE);
+        let refused = |problem: String| PlanFileError::SamplesNotKept {
+            file: file.clone(),
+            problem,
+        };
+        let bytes = std::fs::read(&file).map_err(|e| {
+            refused(match e.kind() {
+                std::io::ErrorKind::NotFound => "not found".into(),
+                _ => format!("cannot be read ({e})"),
+            })
+        })?;
+        let (read, used) = ReadSamples::from_bytes(&bytes, self.tag(), self.plane, self, through)
+            .map_err(refused)?;
+        Ok((read, used as u64))
+    }
+
+    /// Keeps `all` (every sample of the round just read, `through`) in [`SAMPLES_FILE`] in
+    /// `dir`: with `continued` (`(kept, dropped, used)`: `all` starts with the samples kept in
+    /// the file's first `used` bytes, `kept` finite and `dropped` dropped ones), their new
+    /// rows are appended as one piece; otherwise the file is written afresh (through a
+    /// temporary file). A note when it could not be written (the file is then removed: a
+    /// later call given only its new samples is refused, naming the fix); the round itself
+    /// is committed already.
+    pub fn keep_samples(
+        &self,
+        dir: &Path,
+        all: &ReadSamples,
+        continued: Option<(usize, usize, u64)>,
+    ) -> Option<String> {
+        let file = dir.join(SAMPLES_FILE);
+        let through = all.through?;
+        let tag = self.tag();
+        let written = match continued {
+            Some((kept, dropped, used)) => {
+                append(&file, used, &all.piece_bytes(tag, through, (kept, dropped)))
+            }
+            None => write_new(&file, &all.piece_bytes(tag, through, (0, 0)), true)
+                .map_err(|e| e.to_string()),
+        };
+        written.err().map(|why| {
+            let _ = std::fs::remove_file(&file);
+            format!(
+                "{}: the samples read could not be kept ({why}); removed: a call given only \
+                 its new samples will be refused until one gives every sample so far",
+                file.display()
+            )
+        })
+    }
+
     /// The carried normal matrix and PCG start into `dir` (module docs: caches).
     fn write_carried(&self, dir: &Path) {
         let tag = self.tag();
@@ -253,6 +339,19 @@ fn write_cache(file: &Path, bytes: Option<Vec<u8>>) {
     if !written {
         let _ = std::fs::remove_file(file);
     }
+}
+
+/// Appends `bytes` to `file` after its first `used` bytes (a longer file's rest, a later
+/// call's piece of a state since replaced, is cut first).
+fn append(file: &Path, used: u64, bytes: &[u8]) -> Result<(), String> {
+    use std::io::Write;
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .open(file)
+        .map_err(|e| e.to_string())?;
+    f.set_len(used).map_err(|e| e.to_string())?;
+    std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(used)).map_err(|e| e.to_string())?;
+    f.write_all(bytes).map_err(|e| e.to_string())
 }
 
 /// Creates `folder` (and its parents) for the file `file`.

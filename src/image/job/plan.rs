@@ -25,6 +25,7 @@ use crate::image::adaptive::{
     PixelEstimate, PositionPattern, QuadTreeParams, SamplePositions, StopParams, TreeParams,
     TreeSolver,
 };
+use crate::image::plan::new_round::ReadSamples;
 use crate::image::plan::{PlanReconstruction, PlanState, PlanStep, ProtocolError};
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples, NonFinitePolicy};
 use crate::resources::{memory_limit, ImageRequest, ImageSolve};
@@ -360,6 +361,22 @@ impl<'a> PlanRound<'a> {
         Ok(self.state.advance_dropped(samples, dropped)?)
     }
 
+    /// The samples of every round so far, for a round given only its `new` samples (with
+    /// `new_dropped`, the positions of their non-finite samples): refused unless they are the
+    /// positions of the last round handed out ([`PlanState::check_new_round`]); then `earlier`
+    /// (the samples of the earlier rounds, in the order read) followed by them, the round
+    /// [`PlanRound::run`] fits as it would every sample so far given in that order.
+    pub fn join_new(
+        &self,
+        earlier: ReadSamples,
+        new: ImageSamples,
+        new_dropped: DroppedSamples,
+    ) -> Result<(ImageSamples, DroppedSamples), JobError> {
+        self.state
+            .check_new_round(earlier.rows(), &new, &new_dropped)?;
+        Ok(earlier.joined(new, new_dropped)?)
+    }
+
     /// What a round's `step` decided for the caller of a plan with parameters `params`, in
     /// words, for every front end to print (the command line) or warn (Python): the coverage
     /// rule's fill, the samples dropped, a solver other than the plan's, a carried solver
@@ -371,10 +388,15 @@ impl<'a> PlanRound<'a> {
         let mut notes: Vec<String> = step.log.coverage.iter().cloned().collect();
         notes.extend(step.dropped.note());
         notes.extend(
-            [&step.solver_note, &step.gram_note, &step.pcg_note]
-                .into_iter()
-                .flatten()
-                .cloned(),
+            [
+                &step.solver_note,
+                &step.gram_note,
+                &step.pcg_note,
+                &step.samples_note,
+            ]
+            .into_iter()
+            .flatten()
+            .cloned(),
         );
         if step.log.fit.ridge > 0.0 {
             notes.push(format!(

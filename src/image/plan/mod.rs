@@ -8,7 +8,10 @@
 //!
 //! 1. *starts* a plan ([`PlanState::start`]): the base positions for the seed;
 //! 2. *advances* it ([`PlanState::advance`]) with every sample so far (positions as handed out,
-//!    values rendered): the round's fit on the tree, then the next positions or the stop;
+//!    values rendered): the round's fit on the tree, then the next positions or the stop; a
+//!    caller that keeps no samples gives only the last round's, joined to the samples the
+//!    plan has read ([`new_round::ReadSamples`], [`PlanState::check_new_round`]: the same round bit for
+//!    bit);
 //! 3. *reconstructs* ([`PlanState::reconstruct`]) on the tree the samples were planned for:
 //!    the fit, and the output pixels ([`crate::image::adaptive::correction`]: by default the fit's box pixels
 //!    plus the significant mean residual, with the noise estimate of the same fit and the
@@ -64,8 +67,9 @@
 //! *Files.* This module knows no paths: the state is JSON text ([`PlanState::to_json`],
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
 //! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
-//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`) and commits a round (the state
-//! and the positions, both or neither).
+//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`, and `samples.bin`, the samples
+//! read, [`new_round::ReadSamples::piece_bytes`]) and commits a round (the state and the positions, both
+//! or neither).
 //!
 //! *Why `image::plan`.* The state machine drives the refiner's rounds
 //! ([`crate::image::adaptive`]: the tree, its fits, the output pixels) from outside, so it
@@ -73,6 +77,7 @@
 //! (`io::plan_files`) sit on top of it, and nothing below calls back into it.
 
 mod final_fit;
+pub mod new_round;
 mod state;
 
 use std::path::PathBuf;
@@ -145,6 +150,88 @@ pub enum ProtocolError {
         round: usize,
         /// Positions handed out so far.
         expected: usize,
+    },
+    /// A round given only its new samples, but the samples read before it are not those of
+    /// every earlier round.
+    #[error(
+        "the plan handed out round {round} and holds {held} samples of the earlier rounds, \
+         which have {expected}: a round given only its new samples needs every earlier \
+         round's; pass every sample so far"
+    )]
+    EarlierUnknown {
+        /// Rows held.
+        held: usize,
+        /// Rows of the rounds before the last handed out.
+        expected: usize,
+        /// The last round handed out.
+        round: usize,
+    },
+    /// A round given only its new samples, but the plan has stopped: no round is pending.
+    #[error(
+        "the plan stopped at round {round}: no positions are pending, so there is no new \
+         round to give; its final image is made from every sample so far"
+    )]
+    NoRoundPending {
+        /// The round at which the plan stopped.
+        round: usize,
+    },
+    /// A round given only its new samples: they are the positions of an earlier round.
+    #[error(
+        "the {given} samples given as the new round are the positions of round {matched}, \
+         which this plan has read already (a round repeated, or the last one lost): it \
+         expects the {expected} positions it handed out for round {round}"
+    )]
+    NewRoundRepeated {
+        /// Samples given.
+        given: usize,
+        /// The round whose positions they are.
+        matched: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Its positions.
+        expected: usize,
+    },
+    /// A round given only its new samples: they are every sample of rounds `0..=matched`.
+    #[error(
+        "the {given} samples given as the new round are every sample of rounds 0..={matched}: \
+         give only the {expected} samples of the positions handed out for round {round}, or \
+         pass these as every sample so far"
+    )]
+    NewRoundCumulative {
+        /// Samples given.
+        given: usize,
+        /// The last round they complete.
+        matched: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Its positions.
+        expected: usize,
+    },
+    /// A round given only its new samples: another count than the round's.
+    #[error(
+        "{given} samples given as the new round, but this plan handed out {expected} positions \
+         for round {round}: give exactly the samples of those positions (none lost, none added)"
+    )]
+    NewRoundCount {
+        /// Samples given.
+        given: usize,
+        /// The last round handed out.
+        round: usize,
+        /// Its positions.
+        expected: usize,
+    },
+    /// A round given only its new samples: the round's count, other positions.
+    #[error(
+        "the {given} samples given as the new round are not the positions this plan handed \
+         out for round {round} (the same count, other positions: another run, moved, or \
+         rounded on the way, e.g. to float32): give the positions of round {round} as written, \
+         in float64"
+    )]
+    NewRoundMoved {
+        /// Samples given.
+        given: usize,
+        /// The last round handed out.
+        round: usize,
     },
     /// The samples' channels differ from earlier calls.
     #[error(
@@ -269,6 +356,9 @@ pub struct PlanStep {
     /// Why this round was fitted by another solver than the plan's (the direct solve would
     /// not fit in memory; `None`: the plan's solver).
     pub solver_note: Option<String>,
+    /// Why the samples read could not be kept in the plan's folder for a later round given
+    /// only its new samples (`io::plan_files`; `None`: kept, or a plan in memory).
+    pub samples_note: Option<String>,
     /// Seconds (wall clock) of the whole call on the state: matching the samples to the
     /// rounds, the round ([`ImageRound::times`]) and, at the stop, the final image.
     pub round_s: f64,
@@ -334,8 +424,15 @@ impl ProtocolError {
             | ProtocolError::Channels { .. }
             | ProtocolError::OtherParameters { .. }
             | ProtocolError::HoldsPlan { .. }
-            | ProtocolError::State { .. } => crate::error::ErrorKind::InvalidInput,
-            ProtocolError::AlreadyPlanned { .. } => crate::error::ErrorKind::OutputRefused,
+            | ProtocolError::State { .. }
+            | ProtocolError::EarlierUnknown { .. }
+            | ProtocolError::NoRoundPending { .. }
+            | ProtocolError::NewRoundCumulative { .. }
+            | ProtocolError::NewRoundCount { .. }
+            | ProtocolError::NewRoundMoved { .. } => crate::error::ErrorKind::InvalidInput,
+            ProtocolError::AlreadyPlanned { .. } | ProtocolError::NewRoundRepeated { .. } => {
+                crate::error::ErrorKind::OutputRefused
+            }
         }
     }
 }

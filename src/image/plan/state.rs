@@ -424,6 +424,7 @@ impl PlanState {
             gram_note,
             pcg_note,
             solver_note,
+            samples_note: None,
             round_s: started.elapsed().as_secs_f64(),
             image_s,
             reconstruction,
