@@ -14,7 +14,9 @@ use std::path::PathBuf;
 use clap::Args;
 use rkwave::adaptive::marking::SpreadRule;
 use rkwave::image::adaptive::{PixelEstimate, PositionPattern, SamplePositions};
-use rkwave::image::job::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
+use rkwave::image::job::{
+    PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart, RoundSamples,
+};
 use rkwave::image::plan::new_round::ReadSamples;
 use rkwave::image::plan::PlanState;
 use rkwave::image::report::PlanCallReport;
@@ -247,28 +249,11 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 round.plane(),
                 NonFinitePolicy::dropping(args.drop_nonfinite),
             )?;
-            // the rows kept in the plan's folder that these samples continue: (finite,
-            // dropped, bytes of the file)
-            let (samples, dropped, continued) = match (&args.new_samples, earlier) {
-                (Some(_), Some((read, used))) => {
-                    let at = (
-                        read.samples.as_ref().map_or(0, |s| s.len()),
-                        read.dropped.xs.len(),
-                    );
-                    let continues = read.rows() > 0;
-                    let (s, d) = round.join_new(read, given, given_dropped)?;
-                    (s, d, continues.then_some((at.0, at.1, used)))
-                }
-                (_, earlier) => {
-                    let at = earlier
-                        .filter(|(read, _)| read.rows() > 0 && read.starts(&given, &given_dropped))
-                        .map(|(read, used)| {
-                            let kept = read.samples.as_ref().map_or(0, |s| s.len());
-                            (kept, read.dropped.xs.len(), used)
-                        });
-                    (given, given_dropped, at)
-                }
-            };
+            let RoundSamples {
+                samples,
+                dropped,
+                continued,
+            } = round.gather(earlier, args.new_samples.is_some(), given, given_dropped)?;
             let step = round.run(&samples, dropped.clone())?;
             // The stopping round's call makes the final image, as `reconstruct --dim 2
             // --state` would from these samples (the same library call).

@@ -34,7 +34,9 @@ mod tiled;
 pub mod tiled_plan;
 mod uniform;
 
-pub use plan::{PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart};
+pub use plan::{
+    PlanBudget, PlanFinal, PlanOptions, PlanRound, PlanSolver, PlanStart, RoundSamples,
+};
 pub use tiled::{TileOptions, TiledJob, TiledRun};
 pub use uniform::{PixelChoice, UniformJob, UniformOutput};
 

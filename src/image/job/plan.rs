@@ -319,6 +319,18 @@ pub struct PlanRound<'a> {
     state: &'a mut PlanState,
 }
 
+/// The samples a round fits ([`PlanRound::gather`]).
+#[derive(Clone, Debug)]
+pub struct RoundSamples {
+    /// Every finite sample so far.
+    pub samples: ImageSamples,
+    /// The samples dropped for a non-finite value.
+    pub dropped: DroppedSamples,
+    /// The plan's kept rows these samples continue (finite, dropped, bytes of the file), or
+    /// `None`: the kept file is written afresh.
+    pub continued: Option<(usize, usize, u64)>,
+}
+
 impl<'a> PlanRound<'a> {
     /// Refuses a round of a plan on tiles ([`super::tiled_plan`]) under `policy` unless it
     /// refuses non-finite samples ([`NonFinitePolicy::Refuse`]): the tiled plan's rounds do not
@@ -375,6 +387,49 @@ impl<'a> PlanRound<'a> {
         self.state
             .check_new_round(earlier.rows(), &new, &new_dropped)?;
         Ok(earlier.joined(new, new_dropped)?)
+    }
+
+    /// The samples this round fits, from the samples a call was `given` (`given_dropped`:
+    /// the positions of their non-finite ones) and the plan's `kept` samples with the bytes of
+    /// their file (`PlanState::read_samples`; `None` where not kept or not readable):
+    /// with `new_only` the round's new samples joined to the kept ones ([`Self::join_new`],
+    /// which refuses them unless the kept rows and they are every position handed out);
+    /// otherwise every sample so far as given. [`RoundSamples::continued`] says which kept
+    /// rows the samples continue, so the file is appended to instead of written afresh
+    /// (`PlanState::keep_samples`).
+    pub fn gather(
+        &self,
+        kept: Option<(ReadSamples, u64)>,
+        new_only: bool,
+        given: ImageSamples,
+        given_dropped: DroppedSamples,
+    ) -> Result<RoundSamples, JobError> {
+        let counts = |read: &ReadSamples, used: u64| {
+            let finite = read.samples.as_ref().map_or(0, |s| s.len());
+            (finite, read.dropped.xs.len(), used)
+        };
+        match (new_only, kept) {
+            (true, kept) => {
+                let (read, used) = kept.unwrap_or_default();
+                let continued = (read.rows() > 0).then(|| counts(&read, used));
+                let (samples, dropped) = self.join_new(read, given, given_dropped)?;
+                Ok(RoundSamples {
+                    samples,
+                    dropped,
+                    continued,
+                })
+            }
+            (false, kept) => {
+                let continued = kept
+                    .filter(|(read, _)| read.rows() > 0 && read.starts(&given, &given_dropped))
+                    .map(|(read, used)| counts(&read, used));
+                Ok(RoundSamples {
+                    samples: given,
+                    dropped: given_dropped,
+                    continued,
+                })
+            }
+        }
     }
 
     /// What a round's `step` decided for the caller of a plan with parameters `params`, in
