@@ -405,3 +405,36 @@ fn no_command_file_imports_another() {
         "command files using command files: {calls:?}"
     );
 }
+
+/// One rounds driver (`adaptive::rounds`) for both dimensions: the 1D refiner's round
+/// (`refine::refiner`) and the image plane's (`image::adaptive::refiner::step`) both use it,
+/// and no file of either refiner decides a stop for the tolerance, the depth limit or the
+/// resolution of `f64` on its own (those reasons come from the driver's stop test only).
+#[test]
+fn both_dimensions_round_through_one_driver() {
+    let graph = dependency_graph(true);
+    for round in ["refine::refiner", "image::adaptive::refiner::step"] {
+        let deps = graph
+            .get(round)
+            .unwrap_or_else(|| panic!("module {round} not found"));
+        assert!(
+            deps.contains("adaptive::rounds"),
+            "{round} does not use the rounds driver adaptive::rounds: {deps:?}"
+        );
+    }
+    let mut files = Vec::new();
+    rust_files(&src_dir().join("refine"), &mut files);
+    rust_files(&src_dir().join("image").join("adaptive"), &mut files);
+    assert!(files.len() > 20, "read only {} files", files.len());
+    let own: Vec<String> = files
+        .iter()
+        .flat_map(|f| {
+            let text = without_unit_tests(&std::fs::read_to_string(f).expect("UTF-8"));
+            ["Tolerance", "DepthLimit", "Resolution"]
+                .into_iter()
+                .filter(move |r| text.contains(&format!("StopReason::{r}")))
+                .map(move |r| format!("{} decides StopReason::{r}", f.display()))
+        })
+        .collect();
+    assert!(own.is_empty(), "stops decided outside the driver: {own:?}");
+}

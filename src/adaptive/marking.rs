@@ -33,16 +33,21 @@ pub fn dorfler(eta: &[f64], theta: f64) -> usize {
 
 /// The longest prefix of `costs` whose sum fits in `budget`: how many of the marked units the
 /// remaining samples pay for (the units are taken in indicator order, none skipped, so a
-/// cheaper but less important unit never jumps the queue).
+/// cheaper but less important unit never jumps the queue). The rounds driver's budget cut
+/// ([`super::rounds::cut`]) on additive costs, the prefix sums.
+///
+/// ```
+/// use rkwave::adaptive::marking::within_budget;
+/// assert_eq!(within_budget(&[4, 3, 5], 7), 2);
+/// assert_eq!(within_budget(&[4, 3, 5], 3), 0);
+/// ```
 pub fn within_budget(costs: &[usize], budget: usize) -> usize {
-    let mut spent = 0usize;
-    for (i, &c) in costs.iter().enumerate() {
-        spent = spent.saturating_add(c);
-        if spent > budget {
-            return i;
-        }
+    let mut prefix = Vec::with_capacity(costs.len() + 1);
+    prefix.push(0usize);
+    for &c in costs {
+        prefix.push(prefix[prefix.len() - 1].saturating_add(c));
     }
-    costs.len()
+    super::rounds::cut(costs.len(), budget, |k| prefix[k])
 }
 
 /// Where a round's spare samples go ([`spread`]): the samples left over when the marked slots

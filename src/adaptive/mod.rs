@@ -36,6 +36,7 @@
 pub mod density;
 pub mod marking;
 pub mod params;
+pub mod rounds;
 mod stop;
 pub mod tree;
 

@@ -13,6 +13,7 @@ use super::normal::{NormalEquations, TrackedPoints};
 use super::refinement::{tree_fit, Refinement, RoundLog, RoundTimes};
 use super::samples::{fill_leaves, probe_points, shortfall, SampleStore};
 use super::{Indicator, RefineError, RefineParams, Sample, SampleOracle};
+use crate::adaptive::rounds::{self, RoundFacts};
 use crate::adaptive::tree::interval::{Leaf, WaveletTree};
 use crate::adaptive::StopReason;
 
@@ -256,57 +257,18 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
         let min_leaf = self.min_leaf_samples(&leaves);
         let probed = self.indicate(&leaves)?;
         let indicate_s = t_ind.elapsed().as_secs_f64();
-        let t_mark = Instant::now();
-        let decision = self.mark(&probed);
-        let mark_s = t_mark.elapsed().as_secs_f64();
-
-        let (marked, added) = match &decision {
-            Ok(m) => (m.marked, m.tree.len() - self.tree.len()),
-            Err(_) => (0, 0),
-        };
-        let estimate = probed
-            .indication
-            .as_ref()
-            .map(|i| (i.total_sq / self.params.domain.length()).sqrt());
-        let log = self.log(
-            leaves.len(),
+        let stop = self.params.stop;
+        let mut round = IntervalRound {
+            refiner: self,
+            probed,
+            leaves: leaves.len(),
             min_leaf,
-            probed.indication.as_ref().map(|i| i.max),
-            estimate,
-            marked,
-            added,
             indicate_s,
-            mark_s,
-        );
-        self.rounds.push(log);
-        match decision {
-            Err(reason) => {
-                self.stop = Some(reason);
-                if probed.probes > 0 {
-                    // The probes are samples: the final fit uses them.
-                    self.round += 1;
-                    self.current = fit_round(
-                        &self.tree,
-                        &self.store,
-                        &mut self.normal,
-                        &mut self.reference,
-                        &self.params,
-                        probed.probes,
-                        0.0,
-                    )?;
-                    let leaves = self.tree.leaves();
-                    let min_leaf = self.min_leaf_samples(&leaves);
-                    let log = self.log(leaves.len(), min_leaf, None, None, 0, 0, 0.0, 0.0);
-                    self.rounds.push(log);
-                }
-                Ok(Step::Stopped(reason))
-            }
-            Ok(marks) => {
-                self.tree = marks.tree;
-                self.sample_and_refit(&marks.leaves, probed.probes)?;
-                Ok(Step::Refined)
-            }
-        }
+            t_mark: Instant::now(),
+            resolvable: Vec::new(),
+            wanted: 0,
+        };
+        rounds::round(&mut round, &stop)
     }
 
     /// The indicator of the current fit; residual probes are sampled (and kept) here.
@@ -352,97 +314,6 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             }
         }
         Ok(out)
-    }
-
-    /// Stop, or the marks to make: Dörfler's set, cut to the largest prefix whose new leaves
-    /// the budget can sample.
-    fn mark(&self, probed: &Probed) -> Result<Marks, StopReason> {
-        let params = &self.params;
-        let length = params.domain.length();
-        let Some(indication) = &probed.indication else {
-            return Err(StopReason::Budget);
-        };
-        // A NaN estimate never satisfies a stop test (`NaN <= t` is false; kept explicit).
-        let below = |sq: f64| {
-            let e = (sq / length).sqrt();
-            e.is_finite() && e <= params.stop.tolerance
-        };
-        if below(indication.total_sq) {
-            return Err(StopReason::Tolerance);
-        }
-        if indication.units.is_empty() || below(indication.markable_sq) {
-            return Err(StopReason::DepthLimit);
-        }
-        // Dörfler's set on every markable unit; of it, the marks whose new leaves f64 cannot
-        // sample are dropped. If none is left, what is left of the error (a fraction `theta`
-        // of it at least) sits below the resolution of f64: refinement stops there.
-        let dorfler = indication.dorfler(params.marking.theta);
-        let resolvable: Vec<bool> = indication
-            .units
-            .iter()
-            .map(|u| u.wavelets.iter().all(|&a| self.resolvable(a)))
-            .collect();
-        let wanted_marks = resolvable[..dorfler].iter().filter(|&&r| r).count();
-        if wanted_marks == 0 {
-            return Err(StopReason::Resolution);
-        }
-        let filtered;
-        let indication = if resolvable.iter().all(|&r| r) {
-            indication
-        } else {
-            filtered = Indication {
-                units: indication
-                    .units
-                    .iter()
-                    .zip(&resolvable)
-                    .filter(|(_, &r)| r)
-                    .map(|(u, _)| u.clone())
-                    .collect(),
-                total_sq: indication.total_sq,
-                markable_sq: indication.markable_sq,
-                max: indication.max,
-            };
-            &filtered
-        };
-        if self.round + 1 >= params.stop.max_rounds {
-            return Err(StopReason::MaxRounds);
-        }
-        let need = params.per_leaf();
-        let remaining = params.stop.budget.saturating_sub(self.store.len());
-        let trial = |k: usize| -> Marks {
-            let mut tree = self.tree.clone();
-            tree.extend(
-                indication.units[..k]
-                    .iter()
-                    .flat_map(|u| u.wavelets.iter().copied()),
-            );
-            let leaves = tree.leaves();
-            let shortfall = shortfall(&self.store, &leaves, need);
-            Marks {
-                marked: k,
-                tree,
-                leaves,
-                shortfall,
-            }
-        };
-        let wanted = trial(wanted_marks);
-        if wanted.shortfall <= remaining {
-            return Ok(wanted);
-        }
-        // Largest prefix that fits the budget (the shortfall grows with the prefix).
-        let (mut lo, mut hi) = (0usize, wanted.marked);
-        while hi - lo > 1 {
-            let mid = (lo + hi) / 2;
-            if trial(mid).shortfall <= remaining {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        if lo == 0 {
-            return Err(StopReason::Budget);
-        }
-        Ok(trial(lo))
     }
 
     /// Whether the leaves that wavelet `a` (level `j`) creates, cells of level `j + 1`, can
@@ -541,6 +412,188 @@ impl<'o, O: SampleOracle + ?Sized> Refiner<'o, O> {
             base_depth: self.base_depth,
             params: self.params,
         }
+    }
+}
+
+/// One round of the 1D refiner after its indicator, the interval tree's side of the rounds
+/// driver ([`rounds::round`]): the stop test's facts, Dörfler's set of the resolvable units
+/// cut to the budget by the leaves of trial trees, deepening, sampling and the refit.
+struct IntervalRound<'r, 'o, O: SampleOracle + ?Sized> {
+    refiner: &'r mut Refiner<'o, O>,
+    probed: Probed,
+    /// Leaves of the tree the round indicated on, and the fewest samples one of them holds.
+    leaves: usize,
+    min_leaf: usize,
+    indicate_s: f64,
+    t_mark: Instant,
+    /// Whether each unit's new leaves can be sampled in `f64` ([`Refiner::resolvable`]).
+    resolvable: Vec<bool>,
+    /// The resolvable units of Dörfler's set.
+    wanted: usize,
+}
+
+impl<O: SampleOracle + ?Sized> IntervalRound<'_, '_, O> {
+    /// Logs the round as it was decided: `marked` units, `added` functions.
+    fn log(&mut self, marked: usize, added: usize) {
+        let mark_s = self.t_mark.elapsed().as_secs_f64();
+        let r = &*self.refiner;
+        let estimate = self
+            .probed
+            .indication
+            .as_ref()
+            .map(|i| (i.total_sq / r.params.domain.length()).sqrt());
+        let log = r.log(
+            self.leaves,
+            self.min_leaf,
+            self.probed.indication.as_ref().map(|i| i.max),
+            estimate,
+            marked,
+            added,
+            self.indicate_s,
+            mark_s,
+        );
+        self.refiner.rounds.push(log);
+    }
+}
+
+impl<O: SampleOracle + ?Sized> rounds::RoundAdapter for IntervalRound<'_, '_, O> {
+    type Marks = Marks;
+    type Outcome = Step;
+    type Error = RefineError;
+
+    /// The estimate `sqrt(sum eta^2 / |Omega|)`; markable: a unit left whose part of the
+    /// estimate is above the tolerance; resolvable: a unit of Dörfler's set whose new leaves
+    /// `f64` can sample; the round counted with the base fit (`round + 1`).
+    fn facts(&mut self) -> RoundFacts {
+        let r = &*self.refiner;
+        let params = &r.params;
+        let length = params.domain.length();
+        let Some(indication) = &self.probed.indication else {
+            return RoundFacts {
+                estimate: None,
+                markable: false,
+                deepenable: false,
+                resolvable: false,
+                spent: false,
+                rounds: r.round + 1,
+            };
+        };
+        // A NaN estimate never satisfies a stop test (`NaN <= t` is false; kept explicit).
+        let below = |sq: f64| {
+            let e = (sq / length).sqrt();
+            e.is_finite() && e <= params.stop.tolerance
+        };
+        let markable = !(indication.units.is_empty() || below(indication.markable_sq));
+        // Dörfler's set on every markable unit; of it, the marks whose new leaves f64 cannot
+        // sample are dropped. If none is left, what is left of the error (a fraction `theta`
+        // of it at least) sits below the resolution of f64: refinement stops there.
+        let dorfler = indication.dorfler(params.marking.theta);
+        self.resolvable = indication
+            .units
+            .iter()
+            .map(|u| u.wavelets.iter().all(|&a| r.resolvable(a)))
+            .collect();
+        self.wanted = self.resolvable[..dorfler].iter().filter(|&&r| r).count();
+        RoundFacts {
+            estimate: Some((indication.total_sq / length).sqrt()),
+            markable,
+            deepenable: markable,
+            resolvable: self.wanted > 0,
+            spent: false,
+            rounds: r.round + 1,
+        }
+    }
+
+    /// Logs the round; the residual probes, samples, go into a last fit.
+    fn stop(&mut self, reason: StopReason) -> Result<Step, RefineError> {
+        self.log(0, 0);
+        let r = &mut *self.refiner;
+        r.stop = Some(reason);
+        if self.probed.probes > 0 {
+            // The probes are samples: the final fit uses them.
+            r.round += 1;
+            r.current = fit_round(
+                &r.tree,
+                &r.store,
+                &mut r.normal,
+                &mut r.reference,
+                &r.params,
+                self.probed.probes,
+                0.0,
+            )?;
+            let leaves = r.tree.leaves();
+            let min_leaf = r.min_leaf_samples(&leaves);
+            let log = r.log(leaves.len(), min_leaf, None, None, 0, 0, 0.0, 0.0);
+            r.rounds.push(log);
+        }
+        Ok(Step::Stopped(reason))
+    }
+
+    /// The resolvable units of Dörfler's set, cut ([`rounds::cut`]) to the largest prefix
+    /// whose deepened tree's leaves the rest of the budget can top up to `ceil(rho)` (the
+    /// shortfall grows with the prefix); `None` when not even one unit fits.
+    fn mark(&mut self) -> Result<Option<Marks>, RefineError> {
+        let r = &*self.refiner;
+        let params = &r.params;
+        let indication = self
+            .probed
+            .indication
+            .as_ref()
+            .expect("the stop test stops a round without an indicator");
+        let units: Vec<&super::indicator::Unit> = indication
+            .units
+            .iter()
+            .zip(&self.resolvable)
+            .filter(|(_, &ok)| ok)
+            .map(|(u, _)| u)
+            .collect();
+        let need = params.per_leaf();
+        let remaining = params.stop.budget.saturating_sub(r.store.len());
+        let trial = |k: usize| -> Marks {
+            let mut tree = r.tree.clone();
+            tree.extend(units[..k].iter().flat_map(|u| u.wavelets.iter().copied()));
+            let leaves = tree.leaves();
+            let shortfall = shortfall(&r.store, &leaves, need);
+            Marks {
+                marked: k,
+                tree,
+                leaves,
+                shortfall,
+            }
+        };
+        // the fitting trial of the largest prefix so far is the cut's answer
+        let mut best: Option<Marks> = None;
+        let k = rounds::cut(self.wanted, remaining, |k| {
+            let t = trial(k);
+            let cost = t.shortfall;
+            if cost <= remaining && best.as_ref().is_none_or(|b| b.marked < k) {
+                best = Some(t);
+            }
+            cost
+        });
+        if k == 0 {
+            return Ok(None);
+        }
+        Ok(Some(match best {
+            Some(b) if b.marked == k => b,
+            _ => trial(k),
+        }))
+    }
+
+    /// Logs the round, deepens the tree, tops every leaf up to `ceil(rho)` and refits.
+    fn deepen(&mut self, marks: Marks) -> Result<Step, RefineError> {
+        let added = marks.tree.len() - self.refiner.tree.len();
+        self.log(marks.marked, added);
+        let r = &mut *self.refiner;
+        r.tree = marks.tree;
+        r.sample_and_refit(&marks.leaves, self.probed.probes)?;
+        Ok(Step::Refined)
+    }
+
+    /// Never called: the 1D refiner's units are all deepenable (a round that cannot mark
+    /// stops at the budget).
+    fn densify(&mut self) -> Result<Option<Step>, RefineError> {
+        Ok(None)
     }
 }
 

@@ -9,8 +9,10 @@ use super::super::indicator::{indicate, Indication};
 use super::super::pcg::TreeSolver;
 use super::super::significance::Significance;
 use super::super::AdaptiveError;
+use super::deepen::{Marking, Tally};
 use super::{Decision, ImagePlan, ImageRound, RebuildCost, Round};
 use crate::adaptive::marking::SpreadRule;
+use crate::adaptive::rounds::{self, RoundAdapter, RoundFacts};
 use crate::adaptive::Cell;
 use crate::adaptive::StopReason;
 
@@ -80,44 +82,25 @@ impl ImagePlan {
         let indicator_s = t.elapsed().as_secs_f64();
         let mut log = self.round_log(round, xs.len(), &fit, &ind, significance, rebuild);
         log.times.indicator_s = indicator_s;
-        let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
         // the coverage rule (module `coverage`): the samples every pixel lacks are held back
         let empty = self.shortfall(xs, ys);
         log.reserved = empty.iter().map(|s| s.1).sum();
-        let stop = self.stop_reason(&ind, log.estimate_rms, nothing_significant, round, xs.len());
-        if let Some(stop) = stop {
-            return Ok(self.fill_or_stop(log, fit, stop, &empty, fit_s, t));
-        }
-        let tally = self.tally(xs, ys, values, &fit, &ind, log.reserved);
-        if nothing_significant {
-            let refine_s = t.elapsed().as_secs_f64();
-            return Ok(match self.densify(round, xs.len(), &tally, &mut log) {
-                None => self.fill_or_stop(log, fit, StopReason::Budget, &empty, fit_s, t),
-                Some((next, position_s)) => Round {
-                    log,
-                    fit,
-                    decision: Decision::Sample(next),
-                    fit_s,
-                    refine_s,
-                    position_s,
-                },
-            });
-        }
-        let Some(marking) = self.mark(xs, ys, &ind, &tally) else {
-            return Ok(self.fill_or_stop(log, fit, StopReason::Budget, &empty, fit_s, t));
-        };
-        log.marked = marking.k;
-        let refine_s = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let next = self.deepen_and_sample(round, xs.len(), &tally, &marking, &mut log);
-        Ok(Round {
-            log,
-            fit,
-            decision: Decision::Sample(next),
+        let stop = self.params.stop;
+        let mut plane_round = PlaneRound {
+            plan: self,
+            xs,
+            ys,
+            values,
+            round,
+            ind,
+            log: Some(log),
+            fit: Some(fit),
+            empty,
             fit_s,
-            refine_s,
-            position_s: t.elapsed().as_secs_f64(),
-        })
+            t,
+            tally: None,
+        };
+        rounds::round(&mut plane_round, &stop)
     }
 
     /// The round would stop for `stop`: under the coverage rule with pixels short of their
@@ -244,35 +227,6 @@ impl ImagePlan {
             times: Default::default(),
         }
     }
-
-    /// Stop: at the tolerance, when nothing below the depth limit is left to deepen or
-    /// densify, when the budget is spent (a round could only deepen the tree without a
-    /// sample to give it, and the renderer would get no positions yet no final image), or at
-    /// the round limit. Under [`SpreadRule::Uncertainty`] a tree that is deep
-    /// everywhere its detail is significant is not a reason to stop while the budget lasts:
-    /// the next rounds densify where the slots' means are uncertain.
-    fn stop_reason(
-        &self,
-        ind: &Indication,
-        estimate_rms: f64,
-        nothing_significant: bool,
-        round: usize,
-        samples: usize,
-    ) -> Option<StopReason> {
-        let densify_at_limit = self.params.growth.spread == SpreadRule::Uncertainty
-            && samples < self.params.stop.budget;
-        if estimate_rms <= self.params.stop.tolerance {
-            Some(StopReason::Tolerance)
-        } else if nothing_significant && ind.insignificant.is_empty() && !densify_at_limit {
-            Some(StopReason::DepthLimit)
-        } else if samples >= self.params.stop.budget {
-            Some(StopReason::Budget)
-        } else if round >= self.params.stop.max_rounds {
-            Some(StopReason::MaxRounds)
-        } else {
-            None
-        }
-    }
 }
 
 /// The round's fit and what it cost.
@@ -295,5 +249,137 @@ fn stopped(log: ImageRound, fit: TreeFit, stop: StopReason, fit_s: f64, refine_s
         fit_s,
         refine_s,
         position_s: 0.0,
+    }
+}
+
+/// One round of the image plane after its fit and indicator, the quadtree's side of the
+/// rounds driver ([`rounds::round`]): the stop test's facts, the coverage rule's fill before
+/// a stop, densifying, marking (Dörfler extended to the least growth, cut to the budget by
+/// [`crate::adaptive::marking::within_budget`]), deepening and the positions handed out.
+struct PlaneRound<'p, 's> {
+    plan: &'p mut ImagePlan,
+    xs: &'s [f64],
+    ys: &'s [f64],
+    values: &'s [&'s [f64]],
+    /// The round's number (0: the base fit).
+    round: usize,
+    ind: Indication,
+    /// The round's log and fit, until the round's outcome takes them.
+    log: Option<ImageRound>,
+    fit: Option<TreeFit>,
+    /// The pixels short of their samples (pixel, samples it lacks): the coverage rule.
+    empty: Vec<(usize, usize)>,
+    fit_s: f64,
+    /// When the indicator started (the round's refine seconds count from it).
+    t: Instant,
+    /// The slots' samples and the round's allowance, once the round goes on.
+    tally: Option<Tally>,
+}
+
+impl PlaneRound<'_, '_> {
+    /// The slots' tally (computed once, after the stop test).
+    fn tally(&mut self) -> &Tally {
+        if self.tally.is_none() {
+            let (log, fit) = (self.log.as_ref(), self.fit.as_ref());
+            let (log, fit) = (log.expect("the log"), fit.expect("the fit"));
+            let tally =
+                self.plan
+                    .tally(self.xs, self.ys, self.values, fit, &self.ind, log.reserved);
+            self.tally = Some(tally);
+        }
+        self.tally.as_ref().expect("just computed")
+    }
+
+    /// The round's log and fit, taken by its outcome.
+    fn take(&mut self) -> (ImageRound, TreeFit) {
+        let log = self.log.take().expect("a round ends once");
+        (log, self.fit.take().expect("a round ends once"))
+    }
+}
+
+impl RoundAdapter for PlaneRound<'_, '_> {
+    type Marks = Marking;
+    type Outcome = Round;
+    type Error = AdaptiveError;
+
+    /// The estimate `sqrt(sum eta^2 / (W H))`. Nothing significant left (no markable slot)
+    /// densifies rather than deepens; it stops at the depth limit only with no insignificant
+    /// slot to densify either, and under [`SpreadRule::Uncertainty`] a tree that is deep
+    /// everywhere its detail is significant is not a reason to stop while the budget lasts.
+    /// The budget is spent at the budget's samples (a round could only deepen the tree
+    /// without a sample to give it, and the renderer would get no positions yet no final
+    /// image); the rounds counted are the rounds made.
+    fn facts(&mut self) -> RoundFacts {
+        let params = &self.plan.params;
+        let samples = self.xs.len();
+        let ind = &self.ind;
+        let nothing_significant = ind.markable_sq <= 0.0 || ind.units.is_empty();
+        let densify_at_limit =
+            params.growth.spread == SpreadRule::Uncertainty && samples < params.stop.budget;
+        RoundFacts {
+            estimate: self.log.as_ref().map(|l| l.estimate_rms),
+            markable: !(nothing_significant && ind.insignificant.is_empty() && !densify_at_limit),
+            deepenable: !nothing_significant,
+            resolvable: true,
+            spent: samples >= params.stop.budget,
+            rounds: self.round,
+        }
+    }
+
+    /// [`ImagePlan::fill_or_stop`]: the coverage rule's fill round, or the stop.
+    fn stop(&mut self, reason: StopReason) -> Result<Round, AdaptiveError> {
+        let (log, fit) = self.take();
+        let (fit_s, t) = (self.fit_s, self.t);
+        Ok(self
+            .plan
+            .fill_or_stop(log, fit, reason, &self.empty, fit_s, t))
+    }
+
+    /// [`ImagePlan::mark`] on the slots' tally.
+    fn mark(&mut self) -> Result<Option<Marking>, AdaptiveError> {
+        self.tally();
+        let tally = self.tally.as_ref().expect("tallied");
+        Ok(self.plan.mark(self.xs, self.ys, &self.ind, tally))
+    }
+
+    /// [`ImagePlan::deepen_and_sample`]: the marked slots deepened, the positions handed out.
+    fn deepen(&mut self, marking: Marking) -> Result<Round, AdaptiveError> {
+        let (mut log, fit) = self.take();
+        log.marked = marking.k;
+        let refine_s = self.t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let tally = self.tally.take().expect("marked on the tally");
+        let next =
+            self.plan
+                .deepen_and_sample(self.round, self.xs.len(), &tally, &marking, &mut log);
+        Ok(Round {
+            log,
+            fit,
+            decision: Decision::Sample(next),
+            fit_s: self.fit_s,
+            refine_s,
+            position_s: t.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// [`ImagePlan::densify`]: more samples in the slots as they are; `None` when the budget
+    /// is spent.
+    fn densify(&mut self) -> Result<Option<Round>, AdaptiveError> {
+        self.tally();
+        let tally = self.tally.take().expect("tallied");
+        let refine_s = self.t.elapsed().as_secs_f64();
+        let log = self.log.as_mut().expect("the log");
+        let densified = self.plan.densify(self.round, self.xs.len(), &tally, log);
+        Ok(densified.map(|(next, position_s)| {
+            let (log, fit) = self.take();
+            Round {
+                log,
+                fit,
+                decision: Decision::Sample(next),
+                fit_s: self.fit_s,
+                refine_s,
+                position_s,
+            }
+        }))
     }
 }
