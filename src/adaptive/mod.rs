@@ -1,5 +1,5 @@
 //! The adaptive core shared by the 1D refiner (`refine`) and the image plane's
-//! (`image::adaptive`): dyadic trees, marking, stop reasons. It depends on the bases
+//! (`image::adaptive`): dyadic trees, marking, stop reasons, the rounds driver. It depends on the bases
 //! only; both refiners build on it.
 //!
 //! Both dimensions grow the same object. A tree `T` of wavelets closed under "parent
@@ -18,7 +18,9 @@
 //! round limit, and otherwise marks the fewest leading units holding `theta` of
 //! `sum eta^2` ([`marking::dorfler`]), as many as the budget pays for
 //! ([`marking::within_budget`]), deepens them (each deepened cell has `2^D` children) and
-//! tops the new leaves up to `ceil(rho)` samples.
+//! tops the new leaves up to `ceil(rho)` samples. That round is one function for both,
+//! [`rounds::round`], over each dimension's [`rounds::RoundAdapter`] (the stop test
+//! [`rounds::stop_test`], the budget cut [`rounds::cut`]).
 //!
 //! What differs by dimension, and where:
 //!
@@ -29,7 +31,7 @@
 //! | leaf | [`Leaf`] (`leaves()`) | leaf [`Cell`] (`leaves()`, `leaf_at`) |
 //! | deepen | `extend`, `deepen` (wavelets and their ancestors) | `deepen` (one cell) |
 //! | children | 2 | 4 |
-//! | budget cut | binary search on the new leaves' shortfall | prefix of additive costs |
+//! | budget cut ([`rounds::cut`]) | the new leaves' shortfall of a trial tree | prefix sums of additive costs |
 //!
 //! ([`density`]: the 1D tree from sample counts, for samples nobody chose.)
 

@@ -1,5 +1,5 @@
-//! The rounds driver: one round's decision for the 1D refiner ([`crate::refine`]) and the
-//! image plane ([`crate::image::adaptive`]), over the interval tree and the quadtree, each
+//! The rounds driver: one round's decision for the 1D refiner (`refine`) and the
+//! image plane (`image::adaptive`), over the interval tree and the quadtree, each
 //! dimension with its own indicator, fit and sampler behind a [`RoundAdapter`].
 //!
 //! # The round both dimensions run
@@ -19,7 +19,7 @@
 //!    resolve ([`StopReason::Resolution`]); the budget spent ([`StopReason::Budget`]); the
 //!    round limit ([`StopReason::MaxRounds`]).
 //! 4. *Mark* the fewest leading units holding `theta` of `sum eta^2`
-//!    ([`super::marking::dorfler`]), cut to the longest prefix whose samples the rest of the
+//!    (`marking::dorfler`), cut to the longest prefix whose samples the rest of the
 //!    budget pays for ([`cut`]); a round that would hand out nothing stops at the budget.
 //!    With nothing significant left to deepen but budget and slots whose estimate is
 //!    uncertain, the round *densifies* instead (no unit marked).
@@ -29,7 +29,7 @@
 //! [`round`] runs steps 3-5 in that order through the dimension's adapter. A round is split
 //! at the positions handed out: "decide and hand out" is [`round`]; "take the samples and
 //! fit" is the dimension's, after the samples come back. The 1D refiner samples its oracle
-//! in-process and fits at once; the image plane's round ([`crate::image::adaptive::ImagePlan::step`])
+//! in-process and fits at once; the image plane's round (`image::adaptive::ImagePlan::step`)
 //! returns the positions, and the next call fits on them, so a renderer outside the process
 //! (the file protocol, the plan's CLI rounds) drives the same rounds.
 //!
@@ -51,7 +51,7 @@
 //! bit for bit when the driver came in); [`RoundFacts::rounds`] says which is counted.
 
 use super::params::StopParams;
-use super::StopReason;
+use super::stop::StopReason;
 
 /// What the stop test ([`stop_test`]) reads of a round, filled in by the dimension.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,5 +1,7 @@
 //! The refinement loop: fit, indicate, mark, deepen, sample, repeat (module docs of
-//! [`crate::refine`]).
+//! [`crate::refine`]); each round's decision (stop, mark within the budget, deepen) is the
+//! rounds driver's ([`crate::adaptive::rounds`]) over the interval tree's adapter
+//! (`IntervalRound`).
 
 use std::time::Instant;
 

@@ -1,6 +1,7 @@
 //! One round of the plan ([`ImagePlan::step`]) as named steps: fit ([`ImagePlan::fit_round`]),
-//! indicate, log, stop ([`ImagePlan::stop_reason`]), tally the slots, then densify when
-//! nothing significant is left, or mark, deepen and sample.
+//! indicate, log, then the rounds driver ([`crate::adaptive::rounds::round`]) over the
+//! quadtree's adapter (`PlaneRound`): the stop test (or the coverage rule's fill), tally the
+//! slots, then densify when nothing significant is left, or mark, deepen and sample.
 
 use std::time::Instant;
 
