@@ -35,7 +35,9 @@
 //!    ([`ImageSampling::cover_pixels`]).
 //!
 //! One round is [`ImagePlan::step`]: given the tree and every sample so far, it fits and either
-//! stops or deepens the tree and returns the next positions. [`refine_image`] is a loop over
+//! stops or deepens the tree and returns the next positions; its decision (the stop test, the
+//! budget cut, densify or mark and deepen) is the rounds driver's, the 1D refiner's too
+//! ([`crate::adaptive::rounds`]). [`refine_image`] is a loop over
 //! it with a scene as the oracle; the file protocol (module `protocol`) runs the same step
 //! once per call, so a renderer outside the process gets the same rounds.
 //!
