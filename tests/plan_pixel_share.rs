@@ -168,3 +168,82 @@ fn above_four_samples_a_pixel_the_plan_is_the_trees_alone() {
         );
     }
 }
+
+/// Texture past Nyquist: on a 32 x 32 plane, `0.5 + a(x) sin(2 pi (k1 x + k2 y))` with
+/// `k1 = 5.37`, `k2 = 3.71` cycles a pixel (far above what half-pixel slots at the depth limit
+/// resolve) and an amplitude `a` of 0.4 on `x < 12`, 0.1 on `12 <= x < 22` and 0 beyond (a
+/// flat band). Where the tree cannot follow the signal the final image is close to each
+/// pixel's mean, of squared error about `s_P^2 / n_P` (`s_P = a / sqrt(2)`, one sample's
+/// deviation), and Neyman's allocation above the floor `f` (`n_P = max(f, lambda s_P)`, the
+/// mean `n_P` the budget's) minimises `E = mean_P s_P^2 / n_P`. At 4 samples a pixel (the
+/// share's budgets, floor 2) with the pixel share at 0.5 and 1: every pixel holds a sample,
+/// the plan's counts give `E` within 10 % of that optimum (measured: 1.035 and 1.027 x) and
+/// below the tree alone's `E` (1.71 x the optimum, above uniform counts' 1.62 x: the tree's
+/// marking is no allocation for the pixel integrals of texture it cannot resolve).
+#[test]
+fn on_texture_past_nyquist_the_share_follows_neymans_allocation() {
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let amp = |x: f64| {
+        if x < 12.0 {
+            0.4
+        } else if x < 22.0 {
+            0.1
+        } else {
+            0.0
+        }
+    };
+    let texture = move |x: f64, y: f64| {
+        0.5 + amp(x) * (2.0 * std::f64::consts::PI * (5.37 * x + 3.71 * y)).sin()
+    };
+    let spp = 4usize;
+    let budget = spp * plane.pixels();
+    // s_P^2 of one sample in each pixel (the amplitude is constant over a pixel)
+    let var: Vec<f64> = (0..plane.pixels())
+        .map(|p| amp((p % 32) as f64 + 0.5).powi(2) / 2.0)
+        .collect();
+    let model = |n: &[f64]| var.iter().zip(n).map(|(v, n)| v / n).sum::<f64>() / n.len() as f64;
+    // Neyman above the floor: n_P = max(2, lambda s_P) with mean 4 (bisection on lambda)
+    let (mut lo, mut hi) = (0.0f64, 1e6f64);
+    let at = |l: f64| -> Vec<f64> { var.iter().map(|v| (l * v.sqrt()).max(2.0)).collect() };
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if at(mid).iter().sum::<f64>() < budget as f64 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let optimum = model(&at(lo));
+    let uniform = model(&vec![spp as f64; plane.pixels()]);
+    assert!(
+        (uniform / optimum - 1.62).abs() < 0.01,
+        "{}",
+        uniform / optimum
+    );
+    let counts = |r: &AdaptiveImage| {
+        let mut n = vec![0.0; plane.pixels()];
+        for (&x, &y) in r.xs.iter().zip(&r.ys) {
+            let (px, py) = plane.pixel_of(x, y);
+            n[py * 32 + px] += 1.0;
+        }
+        n
+    };
+    let tree_only = model(&counts(&run(&texture, plane, budget, 0.0)));
+    for share in [0.5, 1.0] {
+        let r = run(&texture, plane, budget, share);
+        let n = counts(&r);
+        assert!(
+            n.iter().all(|&c| c >= 1.0),
+            "share {share}: a pixel without a sample"
+        );
+        let e = model(&n);
+        assert!(
+            e <= 1.10 * optimum,
+            "share {share}: E {e:.3e} against Neyman's {optimum:.3e}"
+        );
+        assert!(
+            e < tree_only,
+            "share {share}: E {e:.3e}, the tree alone {tree_only:.3e}"
+        );
+    }
+}

@@ -28,6 +28,14 @@
 //! instead (docs/measurements/plan-quality.md, "When the share may apply"). Above it the
 //! round is the tree's alone, sample for sample, and a note says so.
 //!
+//! Why it is still opt-in (docs/measurements/plan-quality.md, "The texture rows' allocation"):
+//! on texture past the depth limit the tree's counts are no better than uniform counts for
+//! the pixel integrals (in the model `sum_P s_P^2 / n_P`, within about 1 dB of uniform where
+//! Neyman's is 2-4 dB ahead), and the share lifts every texture row at 4 samples a pixel
+//! above the best film + 1 dB; but since the final image's gate (the eighteenth session) it
+//! costs `cornell` 4 1.9 dB (0.25: 1.6), and a share only to pixels whose mean the fit
+//! misses, or only to pixels under no slot the tree can deepen, lost more.
+//!
 //! Placement: the share goes only where the base slots are the pixels (the uniform floor's
 //! condition, module `coverage`). A pixel that is still a slot takes the next points of its
 //! own (0, 2)-sequence (as the floor's top-up does), so its samples stay a prefix of that
