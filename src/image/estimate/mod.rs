@@ -36,6 +36,7 @@ pub mod clamp;
 pub mod gate;
 pub mod haar;
 pub mod noise;
+pub mod nugget;
 mod report;
 pub mod robust;
 pub mod shrink;
