@@ -245,29 +245,6 @@ pub fn estimate(
     let factors = spatial_factors(&mean, &variance, w, h, GATE_HALF);
     apply_factors(&mut noise.mean_variance, &factors, GATE_HALF);
     let spatial = apply_factors(&mut variance, &factors, GATE_HALF);
-    // EXPERIMENT: nugget check
-    let nmargin: f64 = std::env::var("RKWAVE_NUGGET_MARGIN")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0.0);
-    let gate_only = std::env::var("RKWAVE_NUGGET_GATEONLY").is_ok();
-    let mut gate_variance = variance.clone();
-    if nmargin > 0.0 {
-        let nug = super::nugget::nugget_variances(samples, &bins);
-        let nf = super::nugget::nugget_factors(&nug, &variance, w, h, GATE_HALF, nmargin);
-        let low = nf.iter().filter(|&&f| f < 1.0).count();
-        let before: f64 = variance.iter().flatten().sum();
-        apply_factors(&mut gate_variance, &nf, GATE_HALF);
-        if !gate_only {
-            apply_factors(&mut noise.mean_variance, &nf, GATE_HALF);
-            apply_factors(&mut variance, &nf, GATE_HALF);
-        }
-        let after: f64 = gate_variance.iter().flatten().sum();
-        eprintln!(
-            "NUGGET margin {nmargin} gate_only {gate_only} lowered {low} total {:.3}",
-            after / before
-        );
-    }
     let choice = choose_films(
         samples,
         &bins,
@@ -357,7 +334,7 @@ pub fn estimate(
     let gated = gate(
         &candidates,
         &mean,
-        &gate_variance,
+        &variance,
         Some(&weight),
         Some(&level),
         GATE_HALF,
@@ -372,29 +349,6 @@ pub fn estimate(
         })
         .count();
     let mut image = gated.image;
-    // EXPERIMENT: own range widened by k sqrt(v)
-    if let Some(k) = std::env::var("RKWAVE_OWN_K")
-        .ok()
-        .and_then(|s| s.parse::<f64>().ok())
-    {
-        let mut moved = 0usize;
-        for c in 0..channels {
-            let vc = &samples.values()[c];
-            for p in 0..pixels {
-                let idx = bins.in_pixel(p);
-                let lo = idx.iter().map(|&i| vc[i]).fold(f64::INFINITY, f64::min);
-                let hi = idx.iter().map(|&i| vc[i]).fold(f64::NEG_INFINITY, f64::max);
-                let m = k * variance[c][p].max(0.0).sqrt();
-                let x = image.channels[c][p];
-                let y = x.clamp(lo - m, hi + m);
-                if y != x {
-                    moved += 1;
-                }
-                image.channels[c][p] = y;
-            }
-        }
-        eprintln!("OWN k {k} moved {moved}");
-    }
     let (range_clamped, largest_clamp) = clamp_to_local_range(
         &mut image.channels,
         plane,

@@ -36,7 +36,6 @@ pub mod clamp;
 pub mod gate;
 pub mod haar;
 pub mod noise;
-pub mod nugget;
 mod report;
 pub mod robust;
 pub mod shrink;
