@@ -90,11 +90,24 @@ impl Texture {
     }
 }
 
-/// `g x g` jittered samples a pixel of `texture` plus Gaussian noise `sigma`, three channels
-/// (the texture scaled by 1, 0.5 and 2: a dynamic range), and the pixel integrals.
+/// `g x g` jittered samples a pixel of a random texture plus Gaussian noise `sigma`, three
+/// channels (the texture scaled by 1, 0.5 and 2: a dynamic range), and the pixel integrals.
 fn textured(w: usize, h: usize, g: usize, sigma: f64, seed: u64) -> (ImageSamples, Vec<Vec<f64>>) {
     let mut rng = Pcg64::seed_from_u64(seed);
     let tex = Texture::random(&mut rng, w);
+    sampled(&tex, w, h, g, sigma, &mut rng)
+}
+
+/// `g x g` jittered samples a pixel of `tex` plus Gaussian noise `sigma`, three channels (the
+/// texture scaled by 1, 0.5 and 2), and the pixel integrals.
+fn sampled(
+    tex: &Texture,
+    w: usize,
+    h: usize,
+    g: usize,
+    sigma: f64,
+    rng: &mut Pcg64,
+) -> (ImageSamples, Vec<Vec<f64>>) {
     let scale = [1.0, 0.5, 2.0];
     let (mut xs, mut ys) = (vec![], vec![]);
     let mut values = vec![vec![]; 3];
@@ -106,7 +119,7 @@ fn textured(w: usize, h: usize, g: usize, sigma: f64, seed: u64) -> (ImageSample
                     let y = py as f64 + (j as f64 + rng.random::<f64>()) / g as f64;
                     let f = tex.value(x, y);
                     for (c, v) in values.iter_mut().enumerate() {
-                        v.push(scale[c] * (f + sigma * normal(&mut rng)));
+                        v.push(scale[c] * (f + sigma * normal(rng)));
                     }
                     xs.push(x);
                     ys.push(y);
@@ -177,6 +190,89 @@ fn auto_never_exceeds_the_box_risk_on_random_textures() {
         );
     }
     eprintln!("worst ratio of auto's error to the box's: {worst:.3}");
+}
+
+/// A dark texture with bright bars: base 0.01-0.05, faint waves, and steps of +0.5 to +3 up and
+/// back down again 1 to 4 pixels later (a glyph's stroke, a bright stripe), so that most
+/// pixels are dark and sit beside bright ones: where relMSE weighs an error most.
+fn dark_beside_bright(rng: &mut Pcg64, w: usize) -> Texture {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let waves = (0..2)
+        .map(|_| {
+            let f = |rng: &mut Pcg64| two_pi * rng.random_range(0.01..3.0);
+            (
+                rng.random_range(0.0..0.01),
+                f(rng),
+                rng.random_range(0.0..two_pi),
+                f(rng),
+                rng.random_range(0.0..two_pi),
+            )
+        })
+        .collect();
+    let mut steps = vec![];
+    for _ in 0..rng.random_range(4..10) {
+        let along_x: bool = rng.random();
+        let at = rng.random_range(0.0..w as f64);
+        let b = rng.random_range(0.5..3.0);
+        steps.push((along_x, at, b));
+        steps.push((along_x, at + rng.random_range(1.0..4.0), -b));
+    }
+    Texture {
+        base: rng.random_range(0.01..0.05),
+        waves,
+        steps,
+    }
+}
+
+/// The relative error that relMSE measures, `(1 / N) sum (x - mu)² / (mu² + 0.01)` over
+/// pixels and channels (the suite's eps).
+fn relative_error(image: &[Vec<f64>], truth: &[Vec<f64>]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (a, b) in image.iter().zip(truth) {
+        for (&x, &r) in a.iter().zip(b) {
+            sum += (x - r) * (x - r) / (r * r + 0.01);
+            n += 1;
+        }
+    }
+    sum / n as f64
+}
+
+/// Issue 38's relMSE target on synthetic scenes built for its failure (dark pixels beside
+/// bright bars, [`dark_beside_bright`]; 2 x 2 and 4 x 4 jittered strata; noise 0, 0.01, 0.05
+/// absolute, so that the dark pixels' relative noise ranges from none to large): `auto`'s
+/// relative error against the pixel integrals is at most the per-pixel mean's, no tolerance
+/// (the target itself; twelve fixed seeds, measured worst ratio 0.938 at 4 x 4 strata and
+/// noise 0.01). Jittered strata only: under a multi-jittered sampler (Mitsuba's) the box errs
+/// less on texture than any estimate from differences of strata says, which is where the
+/// suite's text rows still miss (docs/measurements/estimators.md).
+#[test]
+fn auto_relative_error_is_not_above_the_means_beside_bright_bars() {
+    let (w, h) = (48, 48);
+    let mut worst: f64 = 0.0;
+    for seed in 0..12u64 {
+        let g = if seed % 2 == 0 { 2 } else { 4 };
+        let sigma = [0.0, 0.01, 0.05][(seed / 2 % 3) as usize];
+        let mut rng = Pcg64::seed_from_u64(7000 + seed);
+        let tex = dark_beside_bright(&mut rng, w);
+        let (samples, truth) = sampled(&tex, w, h, g, sigma, &mut rng);
+        let (image, _) = auto(&samples);
+        let mean = PixelStatistics::new(&samples).mean;
+        let (ra, rm) = (
+            relative_error(&image.channels, &truth),
+            relative_error(&mean, &truth),
+        );
+        eprintln!(
+            "seed {seed} (g {g}, sigma {sigma}): auto {ra:.4e}, mean {rm:.4e}, ratio {:.3}",
+            ra / rm
+        );
+        worst = worst.max(ra / rm);
+        assert!(
+            ra <= rm,
+            "seed {seed} (g {g}, sigma {sigma}): auto's relative error {ra:.4e}, the mean's \
+             {rm:.4e}"
+        );
+    }
+    eprintln!("worst ratio of auto's relative error to the mean's: {worst:.3}");
 }
 
 /// On the stored Mitsuba renders (64², 4 spp), `auto` is at least the per-pixel mean of the
