@@ -361,7 +361,7 @@ impl SingleScaleRows {
     /// a file of rows carried between a plan's calls (appended per call, read back by
     /// [`SingleScaleRows::from_pieces`]): the length in bytes, then the sealed layout of the
     /// plan's caches (`RKWROW01`, the plan's `tag`, the basis key, the first row, the rows,
-    /// [`positions_hash`] of their positions; per row one word `ix0 | lx << 24 | iy0 << 32 |
+    /// `positions_hash` of their positions; per row one word `ix0 | lx << 24 | iy0 << 32 |
     /// ly << 56` (each factor's indices are consecutive) and the `lx + ly` values' bits; a
     /// checksum). `None` when a row does not fit that header (indices not consecutive, an
     /// index of `2^24` or more, more than 255 values): then nothing is carried.
