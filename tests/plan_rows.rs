@@ -22,21 +22,14 @@ fn setup() -> (ImagePlane, AdaptiveParams) {
     (plane, params)
 }
 
-/// Seeded positions in `[0, w) x [0, h)`, some on cell edges and at the border.
-fn positions(seed: u64, m: usize, w: f64, h: f64) -> (Vec<f64>, Vec<f64>) {
-    let mut s = seed;
-    let mut next = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let mut xs: Vec<f64> = (0..m).map(|_| next() * w).collect();
-    let mut ys: Vec<f64> = (0..m).map(|_| next() * h).collect();
+/// Jittered positions of the basis's image (one a pixel, seeded), some moved onto cell edges
+/// and the border.
+fn positions(b: &TensorBasis) -> (Vec<f64>, Vec<f64>) {
+    let (mut xs, mut ys) = common::scenes::jittered(b.width(), b.height(), 1, 7);
     xs[0] = 0.0;
     ys[1] = 0.0;
     xs[2] = 0.5;
-    ys[3] = (h * 0.25).floor();
+    ys[3] = (b.height() as f64 * 0.25).floor();
     (xs, ys)
 }
 
@@ -54,8 +47,9 @@ fn basis() -> TensorBasis {
 #[test]
 fn pieces_read_back_are_the_rows_evaluated_afresh() {
     let b = basis();
-    let (w, h) = (b.width() as f64, b.height() as f64);
-    let (xs, ys) = positions(7, 900, w, h);
+    let (all_x, all_y) = positions(&b);
+    assert!(all_x.len() > 900, "the test needs more than 900 positions");
+    let (xs, ys) = (&all_x[..900], &all_y[..900]);
     let cuts = [0, 250, 600, 900];
     let mut file = Vec::new();
     let mut rows: Option<SingleScaleRows> = None;
@@ -65,29 +59,24 @@ fn pieces_read_back_are_the_rows_evaluated_afresh() {
         file.extend(r.piece_bytes(42, from, &xs[..to], &ys[..to]).unwrap());
         rows = Some(r);
     }
-    let fresh = SingleScaleRows::new(&b, &xs, &ys);
-    let (read, used, why) = SingleScaleRows::from_pieces(&file, 42, &b, &xs, &ys);
+    let fresh = SingleScaleRows::new(&b, xs, ys);
+    let (read, used, why) = SingleScaleRows::from_pieces(&file, 42, &b, xs, ys);
     assert!(why.is_none(), "{why:?}");
     assert_eq!(used as usize, file.len());
     assert_eq!(read.as_ref(), Some(&fresh));
     // more positions after them: the file's rows are a prefix, continued with the rest
-    let (mx, my) = positions(7, 1000, w, h);
-    let (more_x, more_y) = (
-        [&xs[..], &mx[900..]].concat(),
-        [&ys[..], &my[900..]].concat(),
-    );
-    let (read, _, why) = SingleScaleRows::from_pieces(&file, 42, &b, &more_x, &more_y);
+    let (read, _, why) = SingleScaleRows::from_pieces(&file, 42, &b, &all_x, &all_y);
     assert!(why.is_none(), "{why:?}");
-    let continued = SingleScaleRows::continued(read, &b, &more_x, &more_y);
-    assert_eq!(continued, SingleScaleRows::new(&b, &more_x, &more_y));
+    let continued = SingleScaleRows::continued(read, &b, &all_x, &all_y);
+    assert_eq!(continued, SingleScaleRows::new(&b, &all_x, &all_y));
     // another plan's tag, or other positions from the second piece on: the first piece only
     // (or none), and why
-    let (none, used, why) = SingleScaleRows::from_pieces(&file, 43, &b, &xs, &ys);
+    let (none, used, why) = SingleScaleRows::from_pieces(&file, 43, &b, xs, ys);
     assert!(none.is_none() && used == 0, "{why:?}");
     assert!(why.unwrap().contains("another plan"));
-    let mut moved = xs.clone();
+    let mut moved = xs.to_vec();
     moved[300] = f64::from_bits(moved[300].to_bits() ^ 1);
-    let (first, _, why) = SingleScaleRows::from_pieces(&file, 42, &b, &moved, &ys);
+    let (first, _, why) = SingleScaleRows::from_pieces(&file, 42, &b, &moved, ys);
     assert_eq!(first.map(|r| r.len()), Some(250));
     assert!(why.unwrap().contains("not those of the samples' positions"));
 }
