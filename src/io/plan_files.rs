@@ -1,7 +1,8 @@
 //! The plan's files in its folder: the state as JSON (`state.json`, replaced atomically), the
 //! carried solver state beside it (`gram.bin`, `pcg.bin`, and once the plan stopped the
-//! stopping round's fit `final.bin`: caches, tagged with the plan and checksummed), and the
-//! commit of a round (the state and the positions, both or neither).
+//! stopping round's fit `final.bin`; while the plan runs the single-scale rows `rows.bin`, a
+//! piece appended per call: caches, tagged with the plan and checksummed), and the commit of
+//! a round (the state and the positions, both or neither).
 //!
 //! Beside them, `samples.bin` holds every sample the plan has read, in the order read
 //! ([`ReadSamples`], a piece appended per call; not a cache): a call given only the new
@@ -40,6 +41,9 @@ pub const PCG_FILE: &str = "pcg.bin";
 pub const FINAL_FILE: &str = "final.bin";
 /// The file of every sample the plan has read, inside the plan's folder.
 pub const SAMPLES_FILE: &str = "samples.bin";
+/// The single-scale rows of the samples fitted so far, inside the plan's folder (a cache,
+/// [`crate::image::plan::CarriedRows`]).
+pub use crate::image::plan::ROWS_FILE;
 
 /// Why a plan's files could not be read or written.
 #[derive(Debug, Error)]
@@ -163,6 +167,8 @@ impl PlanState {
             ));
         }
         state.final_fit = CarriedFinal { fit, note };
+        // a cache read whole; its pieces are checked against the samples when a round fits
+        state.rows.bytes = std::fs::read(dir.join(ROWS_FILE)).ok();
         let fitted = state.progress.marked.len();
         if fitted > 0
             && matches!(state.params.fit.solver, TreeSolver::Pcg { .. })
@@ -305,6 +311,16 @@ impl PlanState {
             &dir.join(FINAL_FILE),
             self.final_fit.fit.as_ref().map(|f| f.to_bytes(tag)),
         );
+        // the rows: the new ones appended (or all written afresh); none kept, none left
+        let rows = dir.join(ROWS_FILE);
+        let written = match self.rows.piece() {
+            Some((bytes, Some(at))) => append(&rows, at, bytes).is_ok(),
+            Some((bytes, None)) => write_new(&rows, bytes, true).is_ok(),
+            None => !self.rows.is_empty(),
+        };
+        if !written {
+            let _ = std::fs::remove_file(&rows);
+        }
     }
 }
 

@@ -56,8 +56,12 @@
 //! fit in `final.bin` ([`FinalFit`]: coefficients continued to the solver's tolerance, the
 //! noise estimate, a fingerprint of the samples), from which every final image of those
 //! samples is made without a second solve ([`PlanState::reconstruct`]; missing, damaged or
-//! other samples: fitted again, [`PlanReconstruction::fit_note`]). A process that keeps the
-//! state in memory (Python's `Plan`) carries all of them without the files.
+//! other samples: fitted again, [`PlanReconstruction::fit_note`]). While the plan runs,
+//! `rows.bin` ([`CarriedRows`]) holds the single-scale rows `E` of the samples fitted, a
+//! piece appended per call, so a call evaluates only its new samples' rows (the rows read
+//! back are the evaluated ones bit for bit; missing after fitted rounds, damaged or of other
+//! positions: evaluated afresh with a note in [`PlanStep::pcg_note`]). A process that keeps
+//! the state in memory (Python's `Plan`) carries all of them without the files.
 //!
 //! *Memory.* A fit whose assembled solve (the direct one) would exceed the memory limit is
 //! fitted by matrix-free PCG instead, with a note ([`PlanStep::solver_note`]); only a fit that
@@ -67,7 +71,7 @@
 //! *Files.* This module knows no paths: the state is JSON text ([`PlanState::to_json`],
 //! [`PlanState::from_json`]) and the carried solver state is bytes ([`TreeGram::to_bytes`],
 //! [`CarriedPcg::to_bytes`]); `io::plan_files` reads and writes them in the plan's
-//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`, and `samples.bin`, the samples
+//! folder (`state.json`, `gram.bin`, `pcg.bin`, `final.bin`, `rows.bin`, and `samples.bin`, the samples
 //! read, [`new_round::ReadSamples::piece_bytes`]) and commits a round (the state and the positions, both
 //! or neither).
 //!
@@ -76,6 +80,7 @@
 //! sits beside it, not inside it; the plan's jobs (`image::job`) and the files
 //! (`io::plan_files`) sit on top of it, and nothing below calls back into it.
 
+mod carried_rows;
 mod final_fit;
 pub mod new_round;
 mod state;
@@ -100,6 +105,7 @@ pub const STATE_VERSION: u32 = 1;
 
 pub use crate::image::adaptive::gram::{CarriedGram, TreeGram};
 pub use crate::image::adaptive::pcg::CarriedPcg;
+pub use carried_rows::{CarriedRows, ROWS_FILE};
 pub use final_fit::{samples_fingerprint, CarriedFinal, FinalFit};
 
 /// Why a protocol call was refused.
@@ -325,6 +331,10 @@ pub struct PlanState {
     /// kept in `final.bin`).
     #[serde(skip)]
     pub final_fit: CarriedFinal,
+    /// The single-scale rows of the samples fitted so far ([`CarriedRows`]; kept in
+    /// `rows.bin`).
+    #[serde(skip)]
+    pub rows: CarriedRows,
 }
 
 /// What one call of [`PlanState::advance`] did.

@@ -14,7 +14,7 @@ use crate::image::adaptive::{
 };
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
 
-use super::{samples_fingerprint, CarriedFinal, CarriedGram, CarriedPcg, FinalFit};
+use super::{samples_fingerprint, CarriedFinal, CarriedGram, CarriedPcg, CarriedRows, FinalFit};
 
 /// The state file's name, as the state's own faults name it.
 const STATE_FILE: &str = "state.json";
@@ -106,6 +106,7 @@ impl PlanState {
             carried: CarriedGram::default(),
             pcg: CarriedPcg::default(),
             final_fit: CarriedFinal::default(),
+            rows: CarriedRows::default(),
         };
         Ok((state, base))
     }
@@ -337,15 +338,37 @@ impl PlanState {
         let offered = carried.as_ref().map(TreeGram::samples);
         plan.fit_state_mut().gram = carried;
         let mut pcg_note = self.offer_pcg(&mut plan, samples);
+        // the rows of the samples fitted before, read back instead of evaluated again
+        let tag = self.tag();
+        if self.rows.bytes.is_none() && self.rows.is_empty() && !self.progress.marked.is_empty() {
+            self.rows.note = Some(format!(
+                "{}: not found, although the plan has fitted {} round(s) (removed, or \
+                 the last call could not write it); the single-scale rows of every sample \
+                 evaluated afresh (the same rows, more time)",
+                super::carried_rows::ROWS_FILE,
+                self.progress.marked.len()
+            ));
+        }
+        plan.fit_state_mut().rows =
+            self.rows
+                .offer(tag, plan.tree().basis(), samples.xs(), samples.ys());
         let mut stepped = plan.step(samples.xs(), samples.ys(), &values);
         if let Err(AdaptiveError::Resource(e)) = &stepped {
             // the fit's own, finer estimate refused the direct solve: PCG instead
             if !matches!(plan.params().fit.solver, TreeSolver::Pcg { .. }) {
                 solver_note = Some(fallback_note(e));
+                let rows = plan.fit_state_mut().rows.take();
                 plan = self.plan_at(k, TreeSolver::plan_pcg())?;
                 pcg_note = self.offer_pcg(&mut plan, samples);
+                plan.fit_state_mut().rows = rows;
                 stepped = plan.step(samples.xs(), samples.ys(), &values);
             }
+        }
+        if let Some(note) = self.rows.note.take() {
+            pcg_note = Some(match pcg_note {
+                Some(n) => format!("{n}; {note}"),
+                None => note,
+            });
         }
         self.carried.gram = plan.fit_state_mut().gram.take();
         self.pcg = CarriedPcg {
@@ -354,6 +377,10 @@ impl PlanState {
             note: None,
         };
         let round = stepped?;
+        // a stopped plan fits no more rounds: it keeps no rows
+        let rows = plan.fit_state_mut().rows.take();
+        let rows = rows.filter(|_| matches!(round.decision, Decision::Sample(_)));
+        self.rows.keep(tag, rows, samples.xs(), samples.ys());
         let direct = round.log.fit.solver == "direct";
         if let Some(m) = offered.filter(|_| direct && round.log.fit.normal_kept_samples == 0) {
             gram_note.get_or_insert(format!(

@@ -38,7 +38,7 @@ pub struct DiagonalSums {
 }
 
 /// An order-dependent hash of positions (their bits, one 64-bit mix per coordinate).
-pub(super) fn positions_hash(xs: &[f64], ys: &[f64]) -> u64 {
+pub(crate) fn positions_hash(xs: &[f64], ys: &[f64]) -> u64 {
     xs.iter().zip(ys).fold(0x243F_6A88_85A3_08D3, |h, (x, y)| {
         crate::image::adaptive::oracle::mix64(
             crate::image::adaptive::oracle::mix64(h ^ x.to_bits()) ^ y.to_bits(),

@@ -44,6 +44,7 @@
 //! ([`SingleScaleRows`], [`SingleScaleColumns`]), the operator ([`TreeNormalOperator`]) and
 //! the diagonal ([`DiagonalSums`]).
 
+pub(crate) use super::diagonal::positions_hash;
 pub use super::diagonal::DiagonalSums;
 pub use super::operator::TreeNormalOperator;
 pub(crate) use super::single_scale::multilevel_values;

@@ -6,6 +6,8 @@
 
 use rayon::prelude::*;
 
+use super::diagonal::positions_hash;
+use super::gram::{seal, unseal};
 use crate::basis::tensor::TensorBasis;
 use crate::solve::vectors::interleave;
 
@@ -13,7 +15,7 @@ use crate::solve::vectors::interleave;
 const CHUNK: usize = 4096;
 
 /// The single-scale rows `E` (`m x nx ny`), stored as their two 1D factors per sample.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SingleScaleRows {
     nx: usize,
     /// What the rows depend on ([`basis_key`]).
@@ -341,4 +343,184 @@ pub(crate) fn multilevel_values(
     let mut out = vec![0.0; rows.len() * k];
     rows.apply_many(&interleave(&s), k, &mut out);
     out
+}
+
+/// The first bytes of a piece of [`SingleScaleRows::piece_bytes`]: the layout's name and
+/// version.
+const ROWS_MAGIC: &[u8; 8] = b"RKWROW01";
+
+/// Words of a piece before its rows: the basis key (7), the first row, the rows, the
+/// positions' hash.
+const PIECE_HEAD: usize = 10;
+
+/// The largest first index a row's header holds (24 bits).
+const INDEX_LIMIT: u32 = 1 << 24;
+
+impl SingleScaleRows {
+    /// The rows `from..` of these rows, the rows of the positions `(xs, ys)`, as one piece of
+    /// a file of rows carried between a plan's calls (appended per call, read back by
+    /// [`SingleScaleRows::from_pieces`]): the length in bytes, then the sealed layout of the
+    /// plan's caches (`RKWROW01`, the plan's `tag`, the basis key, the first row, the rows,
+    /// `positions_hash` of their positions; per row one word `ix0 | lx << 24 | iy0 << 32 |
+    /// ly << 56` (each factor's indices are consecutive) and the `lx + ly` values' bits; a
+    /// checksum). `None` when a row does not fit that header (indices not consecutive, an
+    /// index of `2^24` or more, more than 255 values): then nothing is carried.
+    pub fn piece_bytes(&self, tag: u64, from: usize, xs: &[f64], ys: &[f64]) -> Option<Vec<u8>> {
+        let m = self.len();
+        if from > m || xs.len() != m || ys.len() != m {
+            return None;
+        }
+        let consecutive = |ix: &[u32]| {
+            ix.len() < 256
+                && ix.first().is_none_or(|&i| i < INDEX_LIMIT)
+                && ix.windows(2).all(|w| w[1] == w[0] + 1)
+        };
+        let mut words = PIECE_HEAD;
+        for i in from..m {
+            let (ix, vx, iy, vy) = self.factors(i);
+            if !consecutive(ix) || !consecutive(iy) {
+                return None;
+            }
+            words += 1 + vx.len() + vy.len();
+        }
+        let sealed = seal(ROWS_MAGIC, tag, words, |word| {
+            self.basis_key.iter().for_each(|&k| word(k as u64));
+            word(from as u64);
+            word((m - from) as u64);
+            word(positions_hash(&xs[from..], &ys[from..]));
+            for i in from..m {
+                let (ix, vx, iy, vy) = self.factors(i);
+                let first = |ix: &[u32]| u64::from(ix.first().copied().unwrap_or(0));
+                word(
+                    first(ix) | (ix.len() as u64) << 24 | first(iy) << 32 | (iy.len() as u64) << 56,
+                );
+                vx.iter().chain(vy).for_each(|v| word(v.to_bits()));
+            }
+        });
+        let mut out = Vec::with_capacity(8 + sealed.len());
+        out.extend_from_slice(&(sealed.len() as u64).to_le_bytes());
+        out.extend_from_slice(&sealed);
+        Some(out)
+    }
+
+    /// The rows kept in `bytes` (pieces of [`SingleScaleRows::piece_bytes`], in order) that
+    /// are the rows of a prefix of the positions `(xs, ys)` on `basis`, for the plan `tag`:
+    /// the pieces are taken while each continues the rows before it, on the same basis, with
+    /// the positions' hash of the positions it claims. Returns the rows (`None`: no piece
+    /// taken), the bytes of `bytes` they fill, and why reading stopped before the end
+    /// (`None`: every piece taken).
+    pub fn from_pieces(
+        bytes: &[u8],
+        tag: u64,
+        basis: &TensorBasis,
+        xs: &[f64],
+        ys: &[f64],
+    ) -> (Option<Self>, u64, Option<String>) {
+        let mut rows: Option<Self> = None;
+        let mut used = 0usize;
+        let key = basis_key(basis);
+        while used < bytes.len() {
+            let rest = &bytes[used..];
+            let Some(len) = rest
+                .get(..8)
+                .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")) as usize)
+                .filter(|&len| len <= rest.len() - 8)
+            else {
+                return (rows, used as u64, Some("damaged: cut short".into()));
+            };
+            let done = rows.as_ref().map_or(0, Self::len);
+            match Self::piece(&rest[8..8 + len], tag, key, done, xs, ys) {
+                Ok(piece) => {
+                    let all = rows.get_or_insert_with(|| Self {
+                        nx: basis.dims().0,
+                        basis_key: key,
+                        ptr_x: vec![0],
+                        ptr_y: vec![0],
+                        ..Self::default()
+                    });
+                    all.extend(piece);
+                    used += 8 + len;
+                }
+                Err(why) => return (rows, used as u64, Some(why)),
+            }
+        }
+        if let Some(r) = rows.as_mut().filter(|r| !r.is_empty()) {
+            let last = r.len() - 1;
+            r.last = (xs[last].to_bits(), ys[last].to_bits());
+        }
+        (rows, used as u64, None)
+    }
+
+    /// One piece's rows (`done` rows before it), if it continues them (see
+    /// [`SingleScaleRows::from_pieces`]).
+    fn piece(
+        sealed: &[u8],
+        tag: u64,
+        key: [usize; 7],
+        done: usize,
+        xs: &[f64],
+        ys: &[f64],
+    ) -> Result<Self, String> {
+        let mut words =
+            unseal(sealed, ROWS_MAGIC, "file of rows", tag).map_err(|e| e.to_string())?;
+        let word = |w: &mut super::gram::Words<'_>| w.next().map_err(|e| e.to_string());
+        for k in key {
+            if word(&mut words)? != k as u64 {
+                return Err("rows of another basis".into());
+            }
+        }
+        let (from, count) = (word(&mut words)? as usize, word(&mut words)? as usize);
+        if from != done || count > xs.len().saturating_sub(done) {
+            return Err(format!(
+                "a piece of rows {from}..{} does not continue the {done} rows read (of {} \
+                 samples)",
+                from.saturating_add(count),
+                xs.len()
+            ));
+        }
+        let end = from + count;
+        if word(&mut words)? != positions_hash(&xs[from..end], &ys[from..end]) {
+            return Err(format!(
+                "the rows {from}..{end} are not those of the samples' positions"
+            ));
+        }
+        let mut rows = Self {
+            nx: key[5],
+            basis_key: key,
+            ptr_x: vec![0],
+            ptr_y: vec![0],
+            ..Self::default()
+        };
+        for _ in 0..count {
+            let head = word(&mut words)?;
+            let (ix0, lx) = ((head & 0xFF_FFFF) as u32, ((head >> 24) & 0xFF) as u32);
+            let (iy0, ly) = (((head >> 32) & 0xFF_FFFF) as u32, (head >> 56) as u32);
+            rows.ptr_x.push(rows.ptr_x.last().unwrap() + lx);
+            rows.ptr_y.push(rows.ptr_y.last().unwrap() + ly);
+            rows.ix.extend(ix0..ix0 + lx);
+            rows.iy.extend(iy0..iy0 + ly);
+            for _ in 0..lx {
+                rows.vx.push(f64::from_bits(word(&mut words)?));
+            }
+            for _ in 0..ly {
+                rows.vy.push(f64::from_bits(word(&mut words)?));
+            }
+        }
+        if words.left() != 0 {
+            return Err("damaged: the sizes do not add up".into());
+        }
+        Ok(rows)
+    }
+
+    /// Appends `later`'s rows (of the same basis) after these.
+    fn extend(&mut self, later: Self) {
+        let (bx, by) = (*self.ptr_x.last().unwrap(), *self.ptr_y.last().unwrap());
+        self.ptr_x.extend(later.ptr_x[1..].iter().map(|p| p + bx));
+        self.ptr_y.extend(later.ptr_y[1..].iter().map(|p| p + by));
+        self.ix.extend(later.ix);
+        self.vx.extend(later.vx);
+        self.iy.extend(later.iy);
+        self.vy.extend(later.vy);
+        self.last = later.last;
+    }
 }
