@@ -731,7 +731,7 @@ fn blend_shrunk_and_auto(
         (&auto_image, &auto_report.pixel_variance),
         &blended,
         &weights,
-        shrink_divergence.as_ref(),
+        |c, p| SHRUNK_DIVERGENCE_BOUND * shrink_divergence.as_ref().map_or(1.0, |d| d[c][p]),
     ) {
         Ok((image, gate)) => {
             report.final_gate = Some(gate);
@@ -775,45 +775,4 @@ fn fmt_list(v: &[f64]) -> String {
         .map(|x| format!("{x:.3e}"))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A pixel whose samples all carry the residual `d` moves by exactly `d` (the mean of
-    /// equal numbers is that number in floating point for these counts, checked to one ulp);
-    /// pixels whose residuals are zero do not move and are not counted.
-    #[test]
-    fn a_constant_residual_moves_its_pixel_by_itself() {
-        let plane = ImagePlane::new(3, 2).unwrap();
-        let d = 0.125;
-        // four samples in pixel (1, 0), two in (0, 1), one on the bottom-right border
-        let xs = [1.1, 1.4, 1.6, 1.9, 0.2, 0.7, 3.0];
-        let ys = [0.1, 0.6, 0.3, 0.9, 1.5, 1.2, 2.0];
-        let r = vec![vec![d, d, d, d, 0.0, 0.0, 0.0]];
-        let mut pixels = vec![vec![0.5; 6]];
-        let (sampled, corrected, largest) =
-            add_significant_mean_residual(&mut pixels, plane, &xs, &ys, &r, 0.01, RESIDUAL_Z);
-        assert_eq!((sampled, corrected), (3, 1));
-        assert_eq!(largest, d);
-        assert_eq!(pixels[0], vec![0.5, 0.5 + d, 0.5, 0.5, 0.5, 0.5]);
-    }
-
-    /// The clamp: a value above the neighbourhood's samples comes down to their largest, one
-    /// below comes up to their least, one inside stays bit for bit, and a pixel with no sample
-    /// in its 3x3 neighbourhood keeps its value.
-    #[test]
-    fn the_clamp_projects_onto_the_neighbourhood_range() {
-        let plane = ImagePlane::new(5, 1).unwrap();
-        // samples in pixels 0 and 1 only: pixels 0..=2 see them, 3 and 4 see none
-        let xs = [0.5, 1.2, 1.7];
-        let ys = [0.5; 3];
-        let values = vec![vec![0.1, 0.8, 0.4]];
-        let mut pixels = vec![vec![1.2, -0.3, 0.45, 7.0, -7.0]];
-        let (clamped, largest) = clamp_to_local_range(&mut pixels, plane, &xs, &ys, &values);
-        assert_eq!(pixels[0], vec![0.8, 0.1, 0.45, 7.0, -7.0]);
-        assert_eq!(clamped, 2);
-        assert!((largest - 0.4).abs() <= 1e-15);
-    }
 }

@@ -1,6 +1,6 @@
-//! The final gate of [`super::correction::PixelEstimate::BlendGated`]: per pixel the least
+//! The final gate of the plan's `blend_gated` output pixels: per pixel the least
 //! estimated risk of the box pixels, `auto` and the blend of `shrunk` and `auto`
-//! ([`super::correction`], module docs, *No harm*).
+//! (`src/image/adaptive/correction.rs`, module docs, *No harm*).
 //!
 //! Each candidate's relative SURE against the box pixels `m_P` with `auto`'s noise `v_P`,
 //! `sum_c omega ((x - m)² - v + 2 v d)` with `omega = 1 / (A² + eps)` (`A` the `auto`
@@ -9,8 +9,8 @@
 //! ([`crate::image::estimate::gate::gate`]; ties to the box). The divergences: the box 1,
 //! `auto`'s `d_A` by one random probe of its own samples
 //! ([`crate::image::estimate::divergence`]), the blend's `w_P d_S + (1 - w_P) d_A` with
-//! `d_S` the bound [`super::correction::SHRUNK_DIVERGENCE_BOUND`] times the shrinkage's
-//! exact divergence (the weights' dependence on the data, through window sums, neglected).
+//! `d_S` `shrunk`'s (the caller's: the correction's bound times the shrinkage's exact
+//! divergence) (the weights' dependence on the data, through window sums, neglected).
 
 use serde::Serialize;
 
@@ -19,8 +19,6 @@ use crate::image::estimate::divergence::probe_divergence;
 use crate::image::estimate::gate::{gate, GateCandidate, GateCount, GATE_HALF};
 use crate::image::estimate::ShrinkParams;
 use crate::image::{ImageSamples, PixelImage};
-
-use super::correction::SHRUNK_DIVERGENCE_BOUND;
 
 /// The seed of the signs of the probe of `auto`'s divergence (fixed, so the final image is a
 /// function of the samples).
@@ -60,8 +58,8 @@ impl FinalGate {
 }
 
 /// The gated pixels of the box `mean`, `auto` = (its pixels, its `v_P` per channel and pixel)
-/// and `blended` (weights `weights[0]` of `shrunk`, `weights[1]` of `auto`, the shrinkage's
-/// divergence `shrink_divergence`, 1 where `None`), before the range projection; the error
+/// and `blended` (weights `weights[0]` of `shrunk`, `weights[1]` of `auto`; `shrunk_divergence`
+/// its input's `d_S` of channel `c`, pixel `P`), before the range projection; the error
 /// is the probe's (`auto` failing on the shifted samples).
 pub fn gate_against_box(
     samples: &ImageSamples,
@@ -69,7 +67,7 @@ pub fn gate_against_box(
     auto: (&PixelImage, &[Vec<f64>]),
     blended: &PixelImage,
     weights: &[Vec<f64>],
-    shrink_divergence: Option<&Vec<Vec<f64>>>,
+    shrunk_divergence: impl Fn(usize, usize) -> f64,
 ) -> Result<(PixelImage, FinalGate), String> {
     let (auto_image, variance) = auto;
     let plane = auto_image.plane;
@@ -85,7 +83,7 @@ pub fn gate_against_box(
         .map(|c| {
             (0..pixels)
                 .map(|p| {
-                    let ds = SHRUNK_DIVERGENCE_BOUND * shrink_divergence.map_or(1.0, |d| d[c][p]);
+                    let ds = shrunk_divergence(c, p);
                     weights[0][p] * ds + weights[1][p] * probe.divergence[c][p]
                 })
                 .collect()
