@@ -15,9 +15,10 @@
 //! Unser's Monte Carlo SURE, per pixel). Their spread (about the root sum of squares of a
 //! pixel's weights on its neighbours, 0.1-0.3 for the films) is averaged away by the window
 //! sums SURE is used in. `eps_c` = [`PROBE_STEP`] times the median `|m_{P,c}|` (at least
-//! [`PROBE_FLOOR`]): small enough that the data-dependent choices inside `f` (a gate's
-//! window decision, a SURE-chosen threshold) almost never flip, large enough to stay far
-//! above rounding. A choice that does flip is a jump, not a derivative; a probe outside
+//! [`PROBE_FLOOR`]): small against the pixels, large enough that the data-dependent choices
+//! inside `f` (a gate's window decision, a SURE-chosen threshold, piecewise constant in the
+//! data) flip for few probes (measured: [`PROBE_STEP`]); the result is then a difference
+//! quotient over that step, not a derivative. A choice that flips is a jump; a probe outside
 //! `[PROBE_LOW, PROBE_HIGH]` (the divergences of `auto`'s candidates lie in `[0, 1]`, plus
 //! the cross terms) is such a jump and is clamped there, and counted.
 
