@@ -8,7 +8,7 @@
 mod common;
 
 use rkwave::image::adaptive::correction::{
-    add_significant_mean_residual, output_pixels, PixelEstimate, RESIDUAL_Z,
+    add_significant_mean_residual, clamp_to_local_range, output_pixels, PixelEstimate, RESIDUAL_Z,
 };
 use rkwave::image::adaptive::{refine_image, AdaptiveImage, AdaptiveParams, NoisyOracle};
 use rkwave::image::ImagePlane;
@@ -295,4 +295,42 @@ fn the_threshold_is_z_standard_errors_of_the_mean() {
         assert_eq!(c[0], 0.0);
         assert!((c[1] - 0.151).abs() <= 1e-15);
     }
+}
+
+// Moved from the unit tests of `correction.rs` (its 800-line limit).
+
+/// A pixel whose samples all carry the residual `d` moves by exactly `d` (the mean of
+/// equal numbers is that number in floating point for these counts, checked to one ulp);
+/// pixels whose residuals are zero do not move and are not counted.
+#[test]
+fn a_constant_residual_moves_its_pixel_by_itself() {
+    let plane = ImagePlane::new(3, 2).unwrap();
+    let d = 0.125;
+    // four samples in pixel (1, 0), two in (0, 1), one on the bottom-right border
+    let xs = [1.1, 1.4, 1.6, 1.9, 0.2, 0.7, 3.0];
+    let ys = [0.1, 0.6, 0.3, 0.9, 1.5, 1.2, 2.0];
+    let r = vec![vec![d, d, d, d, 0.0, 0.0, 0.0]];
+    let mut pixels = vec![vec![0.5; 6]];
+    let (sampled, corrected, largest) =
+        add_significant_mean_residual(&mut pixels, plane, &xs, &ys, &r, 0.01, RESIDUAL_Z);
+    assert_eq!((sampled, corrected), (3, 1));
+    assert_eq!(largest, d);
+    assert_eq!(pixels[0], vec![0.5, 0.5 + d, 0.5, 0.5, 0.5, 0.5]);
+}
+
+/// The clamp: a value above the neighbourhood's samples comes down to their largest, one
+/// below comes up to their least, one inside stays bit for bit, and a pixel with no sample
+/// in its 3x3 neighbourhood keeps its value.
+#[test]
+fn the_clamp_projects_onto_the_neighbourhood_range() {
+    let plane = ImagePlane::new(5, 1).unwrap();
+    // samples in pixels 0 and 1 only: pixels 0..=2 see them, 3 and 4 see none
+    let xs = [0.5, 1.2, 1.7];
+    let ys = [0.5; 3];
+    let values = vec![vec![0.1, 0.8, 0.4]];
+    let mut pixels = vec![vec![1.2, -0.3, 0.45, 7.0, -7.0]];
+    let (clamped, largest) = clamp_to_local_range(&mut pixels, plane, &xs, &ys, &values);
+    assert_eq!(pixels[0], vec![0.8, 0.1, 0.45, 7.0, -7.0]);
+    assert_eq!(clamped, 2);
+    assert!((largest - 0.4).abs() <= 1e-15);
 }

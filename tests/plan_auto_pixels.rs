@@ -146,7 +146,14 @@ fn auto_is_named_on_the_command_line() {
     assert_eq!("auto".parse::<PixelEstimate>(), Ok(PixelEstimate::Auto));
     assert_eq!(PixelEstimate::Auto.name(), "auto");
     let err = "autos".parse::<PixelEstimate>().unwrap_err();
-    assert!(err.contains("box_shrunk, auto or blend"), "{err}");
+    assert!(
+        err.contains("box_shrunk, auto, blend or blend_gated"),
+        "{err}"
+    );
+    assert_eq!(
+        "blend-gated".parse::<PixelEstimate>(),
+        Ok(PixelEstimate::BlendGated)
+    );
 }
 
 /// `output_pixels` of the run's tree and fit on the given samples.

@@ -6,6 +6,7 @@ noise floor, a sample cache, and scoring entries. See docs/measurements/suite.md
     suite.py cache --half tuning|validation|both            # render into CACHE (once)
     suite.py score --rkwave BIN --half tuning --spp 4 8 [--extra "FLAGS"] [--json F]
     suite.py plan  --rkwave BIN --scenes glass wires --spp 4 8 [--extra "FLAGS"] [--json F]
+    suite.py plan  --rkwave BIN2 --reuse --workdir W ...   # only the final image again, on W's kept states
     suite.py table --rkwave BIN --half both --spp 4 8 16 32 --json F   # the full table
     suite.py fixtures --out data/renders/suite --resolution 48 --spp 4 8   # for cargo test
 
@@ -66,6 +67,12 @@ def main():
         p.add_argument("--json", help="write every row to this file")
         p.add_argument("--workdir", default=f"/tmp/rkwave-suite-{os.getpid()}")
         p.add_argument("--seed", type=int, default=1, help="the plan's seed")
+        if name == "plan":
+            p.add_argument("--reuse", action="store_true",
+                           help="re-run only the final image (reconstruct --state) on the plan states and samples a "
+                                "previous plan run left in --workdir (same positions; --extra goes to reconstruct)")
+            p.add_argument("--pixels", help="with --reuse: the final image's output pixels instead of the state's "
+                                            "(blend, blend_gated, auto, shrunk, ...)")
         if name == "table":
             p.add_argument("--no-plan-spp", type=int, nargs="*", default=[],
                            help="spp at which the plan loop is skipped (time)")

@@ -22,8 +22,10 @@ below lo / above hi.
 import json
 import os
 import shlex
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -212,6 +214,39 @@ def run_plan(args, name, spp, data, w, h, rk):
     return img.astype(np.float64), s_all, ren.seconds, dt, rounds
 
 
+def rerun_final(args, name, spp, w, h):
+    """`--reuse`: the final image again from the plan state and samples a previous `plan` run
+    left in `--workdir` (`BIN reconstruct --dim 2 --state`, the state's own output pixels and
+    carried final fit, or `--pixels`; nothing is rendered, the positions are the kept run's). (image, all
+    samples, 0 render seconds, rkwave seconds, rounds: None)."""
+    tag = f"{name}-{w}x{h}-{spp}"
+    state = os.path.join(args.workdir, f"{tag}-plan")
+    allp = os.path.join(args.workdir, f"{tag}-all.npy")
+    if not (os.path.isdir(state) and os.path.exists(allp)):
+        raise SystemExit(f"--reuse: {state} or {allp} missing: run `suite.py plan` with this --workdir first")
+    out = os.path.join(args.workdir, f"{tag}-reused.npy")
+    with tempfile.TemporaryDirectory() as tmp:
+        if getattr(args, "pixels", None):
+            # the state's output pixels set to `--pixels` on a copy (the rounds do not depend on them)
+            copy = os.path.join(tmp, "plan")
+            shutil.copytree(state, copy)
+            path = os.path.join(copy, "state.json")
+            with open(path) as fh:
+                st = json.load(fh)
+            st["params"]["pixels"] = args.pixels
+            with open(path, "w") as fh:
+                json.dump(st, fh)
+            state = copy
+        cmd = [args.rkwave, "reconstruct", "--dim", "2", "--state", state, "--input", allp,
+               "--output", out, "--force"] + shlex.split(args.extra)
+        t0 = time.perf_counter()
+        p = subprocess.run(cmd, capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr}")
+    return np.load(out).astype(np.float64), np.load(allp), 0.0, dt, None
+
+
 def plan(args, scenes, w, h):
     rk = Rkwave(args.rkwave, args.workdir, nice=False)  # inherits this process's niceness
     results = []
@@ -219,7 +254,10 @@ def plan(args, scenes, w, h):
         for spp in args.spp:
             data = load(args.cache, name, spp)
             _, best = films(name, spp, data)
-            img, s_all, rs, dt, rounds = run_plan(args, name, spp, data, w, h, rk)
+            if getattr(args, "reuse", False):
+                img, s_all, rs, dt, rounds = rerun_final(args, name, spp, w, h)
+            else:
+                img, s_all, rs, dt, rounds = run_plan(args, name, spp, data, w, h, rk)
             pm, counts, filled, rad = oidn.pixel_mean(s_all, w, h)
             mean = row(name, spp, data, "mean of the plan's samples", pm, samples=len(s_all))
             r = row(name, spp, data, f"rkwave plan {args.extra}".strip(), img, render_s=rs, tool_s=dt,

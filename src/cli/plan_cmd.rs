@@ -111,7 +111,10 @@ pub struct PlanArgs {
     /// box pixels, shrunk likewise), `auto` (per pixel the film filter of least SURE, then
     /// shrunk, as `reconstruct --dim 2 --pixels auto`; `shrunk` where a pixel has no sample,
     /// said) or `blend` (per pixel `shrunk` and `auto` weighted by the inverse of their
-    /// estimated risks; `shrunk` where `auto` falls back, said). Default for a new plan:
+    /// estimated risks; `shrunk` where `auto` falls back, said) or `blend_gated` (`blend`,
+    /// then per pixel the least estimated risk of the box pixels, `auto` and the blend over a
+    /// window, so that no pixel takes a step its estimate says raises the risk over the mean
+    /// of its own samples; what it chose is in the report). Default for a new plan:
     /// `blend`; later calls keep the state's.
     #[arg(long)]
     pub output_pixels: Option<PixelEstimate>,

@@ -89,6 +89,22 @@
 //! between its two inputs. Where `auto` is not permitted the output is `shrunk`'s, said as for
 //! `auto`. Its figures: docs/measurements/plan-quality.md.
 //!
+//! *No harm* ([`PixelEstimate::BlendGated`]). The inverse-risk weight is the least variance
+//! for *uncorrelated* errors; where `shrunk` and `auto` err the same way (both smooth texture
+//! past Nyquist that the plan's samples resolve) a weight of 0.1-0.2 on a `shrunk` seven
+//! times worse still raises the risk above the box pixels' (grazing and text at 16 spp, the
+//! blend below the mean of its own samples: docs/measurements/plan-quality.md). So after the
+//! blend each pixel takes, of the box pixels `m_P` (divergence 1, risk `v_P`), `auto` and the
+//! blend, the one of least relative SURE summed over the gate's `(2 h + 1)²` window at its
+//! level ([`crate::image::estimate::gate::gate`], `omega = 1 / (A² + eps)`, levels from `A`;
+//! ties to the box): no pixel takes a step its estimate says raises the risk over the box's.
+//! The divergences: `auto`'s by one random probe of its own samples
+//! ([`crate::image::estimate::divergence`]), the blend's `w_P d_S + (1 - w_P) d_A` (the
+//! weights' dependence on the data, through window sums, neglected). Then the range
+//! projection. What the gate chose, its estimated risk against the box's and the probe's
+//! jumps are in the report ([`ResidualCorrection::final_gate`]). Measured against the
+//! ungated blend: docs/measurements/plan-quality.md.
+//!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop (`refine_image`) and the file protocol
@@ -97,6 +113,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::final_gate::{self, FinalGate};
 use super::fit::TreeFit;
 use super::significance::residuals;
 use super::AdaptiveError;
@@ -147,11 +164,14 @@ pub enum PixelEstimate {
     /// inverse-risk weights ([`crate::image::estimate::blend`]); [`PixelEstimate::Shrunk`]
     /// where `auto` is not permitted (module docs, *Blend*).
     Blend,
+    /// [`PixelEstimate::Blend`], then per pixel the least estimated risk of the box pixels,
+    /// `auto` and the blend over the gate's window (module docs, *No harm*).
+    BlendGated,
 }
 
 impl PixelEstimate {
     /// Every estimate.
-    pub const ALL: [PixelEstimate; 7] = [
+    pub const ALL: [PixelEstimate; 8] = [
         PixelEstimate::ResidualClamped,
         PixelEstimate::ResidualCorrected,
         PixelEstimate::FitOnly,
@@ -159,6 +179,7 @@ impl PixelEstimate {
         PixelEstimate::BoxShrunk,
         PixelEstimate::Auto,
         PixelEstimate::Blend,
+        PixelEstimate::BlendGated,
     ];
 
     /// The name on the command line and in state files.
@@ -171,6 +192,7 @@ impl PixelEstimate {
             PixelEstimate::BoxShrunk => "box_shrunk",
             PixelEstimate::Auto => "auto",
             PixelEstimate::Blend => "blend",
+            PixelEstimate::BlendGated => "blend_gated",
         }
     }
 
@@ -183,6 +205,7 @@ impl PixelEstimate {
                 | PixelEstimate::BoxShrunk
                 | PixelEstimate::Auto
                 | PixelEstimate::Blend
+                | PixelEstimate::BlendGated
         )
     }
 }
@@ -199,7 +222,7 @@ impl std::str::FromStr for PixelEstimate {
             .ok_or_else(|| {
                 format!(
                     "unknown output pixels `{s}`: expected residual_clamped, residual_corrected, \
-                     fit_only, shrunk, box_shrunk, auto or blend"
+                     fit_only, shrunk, box_shrunk, auto, blend or blend_gated"
                 )
             })
     }
@@ -266,12 +289,34 @@ pub struct ResidualCorrection {
     /// weigh 1/2 (`None` when it fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub blend_unknown_risk: Option<usize>,
+    /// [`PixelEstimate::BlendGated`]: what the final gate against the box pixels did (module
+    /// docs, *No harm*; `None` when it did not run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_gate: Option<FinalGate>,
+    /// [`PixelEstimate::BlendGated`]: why the final gate did not run (the probe's `auto`
+    /// failed on the shifted samples), so that the output is the blend ungated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_gate_fallback: Option<String>,
 }
 
 impl ResidualCorrection {
+    /// The final gate in words ([`PixelEstimate::BlendGated`]).
+    fn final_gate_note(&self) -> String {
+        match (&self.final_gate, &self.final_gate_fallback) {
+            (Some(gate), _) => gate.describe(),
+            (None, Some(reason)) => {
+                format!("no final gate (the probe of auto's divergence failed: {reason})")
+            }
+            (None, None) => "no final gate".to_string(),
+        }
+    }
+
     /// The correction in words (for the notes of a report).
     pub fn note(&self) -> String {
-        if self.estimate == PixelEstimate::Blend {
+        if matches!(
+            self.estimate,
+            PixelEstimate::Blend | PixelEstimate::BlendGated
+        ) {
             let shrunk = ResidualCorrection {
                 estimate: PixelEstimate::Shrunk,
                 ..self.clone()
@@ -281,11 +326,11 @@ impl ResidualCorrection {
             return match (self.blend_weight, &self.auto_fallback) {
                 (Some(w), _) => {
                     format!(
-                    "output pixels: blend, per pixel the inverse-risk combination of shrunk and \
+                    "output pixels: {name}, per pixel the inverse-risk combination of shrunk and \
                      auto (risks: SURE against the box pixels relative to 1 / (auto² + {eps}), \
                      each averaged over the {side} x {side} window; shrunk's divergence: the \
                      correction's bound {bound} times the shrinkage's exact one, mean {d:.3}; \
-                     mean weights: shrunk {w:.3}, auto {wa:.3}{}); {} blended \
+                     mean weights: shrunk {w:.3}, auto {wa:.3}{}); {}; {} \
                      pixels projected onto the range of the samples in their 3x3 \
                      neighbourhood; auto: {}; shrunk: {shrunk}",
                     match self.blend_unknown_risk {
@@ -294,6 +339,7 @@ impl ResidualCorrection {
                         ),
                         _ => String::new(),
                     },
+                    self.final_gate_note(),
                     self.blend_clamped.unwrap_or(0),
                     self.auto_description
                         .as_deref()
@@ -304,10 +350,12 @@ impl ResidualCorrection {
                     bound = SHRUNK_DIVERGENCE_BOUND,
                     wa = self.blend_weight_auto.unwrap_or(0.0),
                     side = 2 * GATE_HALF + 1,
+                    name = self.estimate.name(),
                 )
                 }
                 (None, reason) => format!(
-                    "output pixels: blend fell back to shrunk (auto: {}); {shrunk}",
+                    "output pixels: {} fell back to shrunk (auto: {}); {shrunk}",
+                    self.estimate.name(),
                     reason.as_deref().unwrap_or("no reason given"),
                 ),
             };
@@ -338,7 +386,8 @@ impl ResidualCorrection {
             PixelEstimate::Shrunk
             | PixelEstimate::BoxShrunk
             | PixelEstimate::Auto
-            | PixelEstimate::Blend => {
+            | PixelEstimate::Blend
+            | PixelEstimate::BlendGated => {
                 let what = if self.estimate == PixelEstimate::Shrunk {
                     format!(
                         "the fit's box pixels plus the significant mean residual ({} of {} \
@@ -475,8 +524,9 @@ fn output_pixels_and_shrink_divergence(
         plane,
         channels: fit.box_pixels(tree)?,
     };
-    if estimate == PixelEstimate::Blend {
-        return blend_shrunk_and_auto(tree, fit, xs, ys, values, sigma, z)
+    if matches!(estimate, PixelEstimate::Blend | PixelEstimate::BlendGated) {
+        let gated = estimate == PixelEstimate::BlendGated;
+        return blend_shrunk_and_auto(tree, fit, xs, ys, values, sigma, z, gated)
             .map(|(fit_image, image, report)| (fit_image, image, report, None));
     }
     let mut report = ResidualCorrection {
@@ -600,6 +650,7 @@ fn blend_shrunk_and_auto(
     values: &[Vec<f64>],
     sigma: f64,
     z: f64,
+    gated: bool,
 ) -> Result<(PixelImage, PixelImage, ResidualCorrection), AdaptiveError> {
     let (fit_image, shrunk, mut report, shrink_divergence) = output_pixels_and_shrink_divergence(
         tree,
@@ -612,7 +663,11 @@ fn blend_shrunk_and_auto(
         z,
         true,
     )?;
-    report.estimate = PixelEstimate::Blend;
+    report.estimate = if gated {
+        PixelEstimate::BlendGated
+    } else {
+        PixelEstimate::Blend
+    };
     let plane = shrunk.plane;
     let samples = match ImageSamples::new(plane, xs.to_vec(), ys.to_vec(), values.to_vec()) {
         Ok(s) => s,
@@ -653,29 +708,65 @@ fn blend_shrunk_and_auto(
         .zip(&area)
         .map(|(s, a)| s / a)
         .collect();
-    let (mut image, weights) = blend_by_risks(
+    let (blended, weights) = blend_by_risks(
         &[&shrunk, &auto_image],
         &[&risk_shrunk, &auto_report.window_risk],
     );
-    let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
-    let mean_weight = |k: usize| {
-        weights
-            .get(k)
-            .map_or(0.0, |x| x.iter().sum::<f64>() / pixels as f64)
+    if !gated {
+        let mut image = blended;
+        let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
+        report.blend_clamped = Some(moved);
+        report.auto_description = Some(auto_report.describe());
+        report.films = Some(auto_report.films);
+        report.blend_weight = Some(mean_weight(&weights, 0, pixels));
+        report.blend_weight_auto = Some(mean_weight(&weights, 1, pixels));
+        report.blend_shrunk_divergence =
+            Some(divergence_sum / (pixels * shrunk.channels.len()).max(1) as f64);
+        report.blend_unknown_risk = Some(unknown_risk(&risk_shrunk, &auto_report.window_risk));
+        return Ok((fit_image, image, report));
+    }
+    let mut image = match final_gate::gate_against_box(
+        &samples,
+        &stats.mean,
+        (&auto_image, &auto_report.pixel_variance),
+        &blended,
+        &weights,
+        |c, p| SHRUNK_DIVERGENCE_BOUND * shrink_divergence.as_ref().map_or(1.0, |d| d[c][p]),
+    ) {
+        Ok((image, gate)) => {
+            report.final_gate = Some(gate);
+            image
+        }
+        Err(reason) => {
+            report.final_gate_fallback = Some(reason);
+            blended
+        }
     };
+    let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
     report.blend_clamped = Some(moved);
     report.auto_description = Some(auto_report.describe());
     report.films = Some(auto_report.films);
-    report.blend_weight = Some(mean_weight(0));
-    report.blend_weight_auto = Some(mean_weight(1));
+    report.blend_weight = Some(mean_weight(&weights, 0, pixels));
+    report.blend_weight_auto = Some(mean_weight(&weights, 1, pixels));
     report.blend_shrunk_divergence =
         Some(divergence_sum / (pixels * shrunk.channels.len()).max(1) as f64);
-    report.blend_unknown_risk = Some(
-        (0..pixels)
-            .filter(|&p| risk_shrunk[p].is_nan() || auto_report.window_risk[p].is_nan())
-            .count(),
-    );
+    report.blend_unknown_risk = Some(unknown_risk(&risk_shrunk, &auto_report.window_risk));
     Ok((fit_image, image, report))
+}
+
+/// The mean over pixels of the weights of estimate `k` (0 if there is none).
+fn mean_weight(weights: &[Vec<f64>], k: usize, pixels: usize) -> f64 {
+    weights
+        .get(k)
+        .map_or(0.0, |x| x.iter().sum::<f64>() / pixels.max(1) as f64)
+}
+
+/// Pixels where either risk is not a number.
+fn unknown_risk(a: &[f64], b: &[f64]) -> usize {
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| x.is_nan() || y.is_nan())
+        .count()
 }
 
 /// Values in short scientific notation, comma-separated.
@@ -684,45 +775,4 @@ fn fmt_list(v: &[f64]) -> String {
         .map(|x| format!("{x:.3e}"))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A pixel whose samples all carry the residual `d` moves by exactly `d` (the mean of
-    /// equal numbers is that number in floating point for these counts, checked to one ulp);
-    /// pixels whose residuals are zero do not move and are not counted.
-    #[test]
-    fn a_constant_residual_moves_its_pixel_by_itself() {
-        let plane = ImagePlane::new(3, 2).unwrap();
-        let d = 0.125;
-        // four samples in pixel (1, 0), two in (0, 1), one on the bottom-right border
-        let xs = [1.1, 1.4, 1.6, 1.9, 0.2, 0.7, 3.0];
-        let ys = [0.1, 0.6, 0.3, 0.9, 1.5, 1.2, 2.0];
-        let r = vec![vec![d, d, d, d, 0.0, 0.0, 0.0]];
-        let mut pixels = vec![vec![0.5; 6]];
-        let (sampled, corrected, largest) =
-            add_significant_mean_residual(&mut pixels, plane, &xs, &ys, &r, 0.01, RESIDUAL_Z);
-        assert_eq!((sampled, corrected), (3, 1));
-        assert_eq!(largest, d);
-        assert_eq!(pixels[0], vec![0.5, 0.5 + d, 0.5, 0.5, 0.5, 0.5]);
-    }
-
-    /// The clamp: a value above the neighbourhood's samples comes down to their largest, one
-    /// below comes up to their least, one inside stays bit for bit, and a pixel with no sample
-    /// in its 3x3 neighbourhood keeps its value.
-    #[test]
-    fn the_clamp_projects_onto_the_neighbourhood_range() {
-        let plane = ImagePlane::new(5, 1).unwrap();
-        // samples in pixels 0 and 1 only: pixels 0..=2 see them, 3 and 4 see none
-        let xs = [0.5, 1.2, 1.7];
-        let ys = [0.5; 3];
-        let values = vec![vec![0.1, 0.8, 0.4]];
-        let mut pixels = vec![vec![1.2, -0.3, 0.45, 7.0, -7.0]];
-        let (clamped, largest) = clamp_to_local_range(&mut pixels, plane, &xs, &ys, &values);
-        assert_eq!(pixels[0], vec![0.8, 0.1, 0.45, 7.0, -7.0]);
-        assert_eq!(clamped, 2);
-        assert!((largest - 0.4).abs() <= 1e-15);
-    }
 }

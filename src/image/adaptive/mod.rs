@@ -24,6 +24,7 @@ pub mod correction;
 mod error;
 #[cfg(feature = "plot")]
 pub mod figure;
+pub mod final_gate;
 pub mod fit;
 mod indicator;
 pub(crate) mod oracle;

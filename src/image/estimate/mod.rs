@@ -33,6 +33,7 @@ pub mod auto;
 pub mod blend;
 mod choice;
 pub mod clamp;
+pub mod divergence;
 pub mod gate;
 pub mod haar;
 pub mod noise;
