@@ -224,19 +224,6 @@ fn dark_beside_bright(rng: &mut Pcg64, w: usize) -> Texture {
     }
 }
 
-/// The relative error that relMSE measures, `(1 / N) sum (x - mu)² / (mu² + 0.01)` over
-/// pixels and channels (the suite's eps).
-fn relative_error(image: &[Vec<f64>], truth: &[Vec<f64>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (a, b) in image.iter().zip(truth) {
-        for (&x, &r) in a.iter().zip(b) {
-            sum += (x - r) * (x - r) / (r * r + 0.01);
-            n += 1;
-        }
-    }
-    sum / n as f64
-}
-
 /// Issue 38's relMSE target on synthetic scenes built for its failure (dark pixels beside
 /// bright bars, [`dark_beside_bright`]; 2 x 2 and 4 x 4 jittered strata; noise 0, 0.01, 0.05
 /// absolute, so that the dark pixels' relative noise ranges from none to large): `auto`'s
@@ -258,8 +245,8 @@ fn auto_relative_error_is_not_above_the_means_beside_bright_bars() {
         let (image, _) = auto(&samples);
         let mean = PixelStatistics::new(&samples).mean;
         let (ra, rm) = (
-            relative_error(&image.channels, &truth),
-            relative_error(&mean, &truth),
+            common::metrics::relmse(&image.channels, &truth),
+            common::metrics::relmse(&mean, &truth),
         );
         eprintln!(
             "seed {seed} (g {g}, sigma {sigma}): auto {ra:.4e}, mean {rm:.4e}, ratio {:.3}",

@@ -112,19 +112,7 @@ fn carried_start_is_the_in_process_loop() {
 /// a missing file is noted as such.
 #[test]
 fn damaged_or_foreign_start_is_set_aside_with_a_note() {
-    fn remove(f: &std::path::Path) {
-        std::fs::remove_file(f).unwrap();
-    }
-    fn flip(f: &std::path::Path) {
-        let mut b = std::fs::read(f).unwrap();
-        let at = b.len() / 2;
-        b[at] ^= 0x10;
-        std::fs::write(f, b).unwrap();
-    }
-    fn cut(f: &std::path::Path) {
-        let b = std::fs::read(f).unwrap();
-        std::fs::write(f, &b[..b.len() - 24]).unwrap();
-    }
+    use common::damage::{cut, flip, remove};
     fn junk(f: &std::path::Path) {
         std::fs::write(f, b"not a start").unwrap();
     }
@@ -190,9 +178,7 @@ fn damaged_or_foreign_start_is_set_aside_with_a_note() {
 fn fresh_start_reaches_the_same_final_fit() {
     let carried = drive(&common::scratch("plan-pcg", "carried"), &no_edit);
     let last = carried.positions.len();
-    fn remove(f: &std::path::Path) {
-        std::fs::remove_file(f).unwrap();
-    }
+    use common::damage::remove;
     let fresh = drive(&common::scratch("plan-pcg", "fresh"), &|r| {
         (r == last).then_some(&remove as Edit<'static>)
     });

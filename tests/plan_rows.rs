@@ -151,22 +151,10 @@ fn carried_rows_are_the_in_process_loop() {
 /// when it is missing) and the plan is the same bit for bit.
 #[test]
 fn damaged_or_missing_rows_are_evaluated_afresh_with_a_note() {
+    use common::damage::{cut, flip, remove};
     let whole = drive(&common::scratch("plan-rows", "whole"), None);
-    fn flip(f: &std::path::Path) {
-        let mut b = std::fs::read(f).unwrap();
-        let at = b.len() / 2;
-        b[at] ^= 0x10;
-        std::fs::write(f, b).unwrap();
-    }
-    fn cut(f: &std::path::Path) {
-        let b = std::fs::read(f).unwrap();
-        std::fs::write(f, &b[..b.len() - 24]).unwrap();
-    }
     fn junk(f: &std::path::Path) {
         std::fs::write(f, b"not rows at all, longer than a header").unwrap();
-    }
-    fn remove(f: &std::path::Path) {
-        std::fs::remove_file(f).unwrap();
     }
     let cases: [(&str, Edit, &str); 4] = [
         ("flip", flip, "checksum"),

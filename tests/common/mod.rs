@@ -14,12 +14,14 @@
 //!   renderer answering a plan, for the image plane's hardening tests;
 //! - [`rendered`]: one-channel samples grown round by round, for the plan's library tests;
 //! - [`metrics`]: the PSNR of clipped images (the harness's definition);
+//! - [`damage`]: a bit flipped, a file cut short or removed (the plan's kept files);
 //! - [`nets`]: whether positions are a `(0, m, 2)`-net of a rectangle (the plan's placement).
 //!
 //! Each test file that needs them declares `mod common;`; what a file does not use is dead
 //! code there, hence the `allow`.
 #![allow(dead_code, unused_imports)]
 
+pub mod damage;
 pub mod image_cli;
 pub mod metrics;
 pub mod nets;

@@ -712,34 +712,25 @@ fn blend_shrunk_and_auto(
         &[&shrunk, &auto_image],
         &[&risk_shrunk, &auto_report.window_risk],
     );
-    if !gated {
-        let mut image = blended;
-        let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
-        report.blend_clamped = Some(moved);
-        report.auto_description = Some(auto_report.describe());
-        report.films = Some(auto_report.films);
-        report.blend_weight = Some(mean_weight(&weights, 0, pixels));
-        report.blend_weight_auto = Some(mean_weight(&weights, 1, pixels));
-        report.blend_shrunk_divergence =
-            Some(divergence_sum / (pixels * shrunk.channels.len()).max(1) as f64);
-        report.blend_unknown_risk = Some(unknown_risk(&risk_shrunk, &auto_report.window_risk));
-        return Ok((fit_image, image, report));
-    }
-    let mut image = match final_gate::gate_against_box(
-        &samples,
-        &stats.mean,
-        (&auto_image, &auto_report.pixel_variance),
-        &blended,
-        &weights,
-        |c, p| SHRUNK_DIVERGENCE_BOUND * shrink_divergence.as_ref().map_or(1.0, |d| d[c][p]),
-    ) {
-        Ok((image, gate)) => {
-            report.final_gate = Some(gate);
-            image
-        }
-        Err(reason) => {
-            report.final_gate_fallback = Some(reason);
-            blended
+    let mut image = if !gated {
+        blended
+    } else {
+        match final_gate::gate_against_box(
+            &samples,
+            &stats.mean,
+            (&auto_image, &auto_report.pixel_variance),
+            &blended,
+            &weights,
+            |c, p| SHRUNK_DIVERGENCE_BOUND * shrink_divergence.as_ref().map_or(1.0, |d| d[c][p]),
+        ) {
+            Ok((image, gate)) => {
+                report.final_gate = Some(gate);
+                image
+            }
+            Err(reason) => {
+                report.final_gate_fallback = Some(reason);
+                blended
+            }
         }
     };
     let (moved, _) = clamp_to_local_range(&mut image.channels, plane, xs, ys, values);
