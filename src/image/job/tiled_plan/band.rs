@@ -41,7 +41,7 @@ use super::round::TileOutcome;
 use super::state::{TilePlanState, TiledPlanState, TILED_STATE_FORMAT, TILED_STATE_VERSION};
 use super::stops::RoundTally;
 use super::times::TiledTimes;
-use super::window::{plan_window, tile_output};
+use super::window::plan_window;
 use crate::image::adaptive::{AdaptiveParams, FitState, PixelEstimate, SamplePositions};
 use crate::image::plan::ProtocolError;
 use crate::image::tiles::TileGeometry;
@@ -314,20 +314,13 @@ impl FinalBandTask {
                 .par_iter()
                 .map(|tile| {
                     let local = scratch.local(samples, tile.index, &buckets[tile.index]);
-                    let plan =
-                        scratch.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
-                    let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
-                    let start = tile.start_f64();
-                    let (fit, significance) = plan.fit_updating(
-                        local.xs(),
-                        local.ys(),
-                        &values,
-                        plan.params().fit.solver,
-                        start.as_deref(),
+                    scratch.tile_final_pixels(
+                        tile,
+                        &local,
+                        self.estimate,
                         &mut FitState::default(),
-                    )?;
-                    let sigma = significance.map_or(0.0, |s| s.level.sigma);
-                    tile_output(&plan, &fit, &local, sigma, self.estimate)
+                        &mut TiledTimes::default(),
+                    )
                 })
                 .collect()
         });

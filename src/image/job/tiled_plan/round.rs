@@ -594,6 +594,45 @@ impl TiledPlanState {
         })
     }
 
+    /// The final fit of `tile` on its window's samples `local`, continued from `fit_state`
+    /// (the tile's kept diagonal, or an empty state as the band tasks': the same image bit for
+    /// bit, `tests/tiled_plan_band.rs`),
+    /// and the window's output pixels by `estimate`; the phases' seconds into `times`
+    /// (`rebuild_s`, `fit_s`, `kernel_s`, `solve_s`, `output_s`). One implementation for the
+    /// one-process final image ([`Self::final_image`]) and the band tasks' ([`super::band`]).
+    pub(super) fn tile_final_pixels(
+        &self,
+        tile: &TilePlanState,
+        local: &ImageSamples,
+        estimate: PixelEstimate,
+        fit_state: &mut FitState,
+        times: &mut TiledTimes,
+    ) -> Result<PixelImage, ProtocolError> {
+        let t = Instant::now();
+        let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
+        let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
+        let start = tile.start_f64();
+        times.rebuild_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let (fit, significance) = plan.fit_updating(
+            local.xs(),
+            local.ys(),
+            &values,
+            plan.params().fit.solver,
+            start.as_deref(),
+            fit_state,
+        )?;
+        times.fit_s = t.elapsed().as_secs_f64();
+        times.kernel_s = fit.report.kernel_s;
+        times.solve_s = fit.report.solve_s;
+        let t = Instant::now();
+        let sigma = significance.map_or(0.0, |s| s.level.sigma);
+        let pixels = tile_output(&plan, &fit, local, sigma, estimate)?;
+        drop((plan, fit));
+        times.output_s = t.elapsed().as_secs_f64();
+        Ok(pixels)
+    }
+
     /// The final fits of one band's tiles (`band`, with their window indices `buckets`), in
     /// parallel on the current pool, each tile's interior stitched into `image` as soon as
     /// its fit is done; the tiles' times (tile order).
@@ -623,28 +662,9 @@ impl TiledPlanState {
                 let local = self.local(samples, tile.index, &picks);
                 drop(picks);
                 times.local_s = t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let plan = self.tile_plan(tile, local.len(), tile.params.growth.min_growth)?;
-                let values: Vec<&[f64]> = local.values().iter().map(|v| v.as_slice()).collect();
-                let start = tile.start_f64();
-                times.rebuild_s = t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let (fit, significance) = plan.fit_updating(
-                    local.xs(),
-                    local.ys(),
-                    &values,
-                    plan.params().fit.solver,
-                    start.as_deref(),
-                    &mut fit_state,
-                )?;
-                times.fit_s = t.elapsed().as_secs_f64();
-                times.kernel_s = fit.report.kernel_s;
-                times.solve_s = fit.report.solve_s;
-                let t = Instant::now();
-                let sigma = significance.map_or(0.0, |s| s.level.sigma);
-                let pixels = tile_output(&plan, &fit, &local, sigma, estimate)?;
-                drop((plan, fit, local));
-                times.output_s = t.elapsed().as_secs_f64();
+                let pixels =
+                    self.tile_final_pixels(tile, &local, estimate, &mut fit_state, &mut times)?;
+                drop(local);
                 let t = Instant::now();
                 // poisoned only by a panic in another tile's `stitch`, which rayon passes on
                 let mut image = image.lock().unwrap_or_else(PoisonError::into_inner);
