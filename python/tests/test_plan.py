@@ -49,6 +49,23 @@ def python_loop(plan):
     return positions
 
 
+def image_of_python_loop():
+    """The final image of the whole loop run in Python alone."""
+    whole = rkwave.Plan(resolution=(W, H), spp=SPP)
+    python_loop(whole)
+    return whole.image()
+
+
+def saved_after_two_rounds(folder):
+    """A plan given two rounds of samples in Python, then saved to `folder`."""
+    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
+    for _ in range(2):
+        xy = plan.positions()
+        plan.add(xy, disc_scene(xy))
+    plan.save(folder)
+    return plan
+
+
 def test_plan_equals_cli_from_files(tmp_path, cli):
     run = tmp_path / "run"
     cli_positions, last = cli_loop(cli, run)
@@ -92,16 +109,10 @@ def test_plan_keywords_are_the_cli_flags(tmp_path, cli, solver, output):
 
 
 def test_state_moves_between_cli_and_python(tmp_path, cli):
-    whole = rkwave.Plan(resolution=(W, H), spp=SPP)
-    python_loop(whole)
-    expected = whole.image()
+    expected = image_of_python_loop()
     # Python -> CLI: two rounds here, saved, then continued by the CLI (its stopping call
     # writes the image).
-    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
-    for _ in range(2):
-        xy = plan.positions()
-        plan.add(xy, disc_scene(xy))
-    plan.save(tmp_path / "a")
+    plan = saved_after_two_rounds(tmp_path / "a")
     samples, nxt = np.load(tmp_path / "a" / "samples.npy"), np.load(tmp_path / "a" / "next.npy")
     np.testing.assert_array_equal(nxt, plan.positions())
     k = 0
@@ -182,15 +193,9 @@ def test_new_samples_move_between_cli_and_python(tmp_path, cli):
     on in the CLI given only each round's new samples (`save` writes `samples.bin`), and a
     plan the CLI drove that way is loaded with its kept samples; both give the image of the
     loop run in Python alone, bit for bit."""
-    whole = rkwave.Plan(resolution=(W, H), spp=SPP)
-    python_loop(whole)
-    expected = whole.image()
+    expected = image_of_python_loop()
     # Python -> CLI with --new-samples
-    plan = rkwave.Plan(resolution=(W, H), spp=SPP)
-    for _ in range(2):
-        xy = plan.positions()
-        plan.add(xy, disc_scene(xy))
-    plan.save(tmp_path / "a")
+    plan = saved_after_two_rounds(tmp_path / "a")
     nxt, k = plan.positions(), 0
     while len(nxt):
         np.save(tmp_path / f"new{k}.npy", np.c_[nxt, disc_scene(nxt)])

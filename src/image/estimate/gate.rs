@@ -223,6 +223,18 @@ mod tests {
     use super::*;
     use crate::image::ImagePlane;
 
+    /// The box pixels `mean` as a candidate (divergence 1: each pixel is its own samples' mean).
+    fn box_candidate(plane: ImagePlane, mean: &[Vec<f64>]) -> GateCandidate {
+        GateCandidate {
+            name: "box".into(),
+            image: PixelImage {
+                plane,
+                channels: mean.to_vec(),
+            },
+            divergence: vec![vec![1.0; plane.pixels()]; mean.len()],
+        }
+    }
+
     /// The box's own SURE is its variance, exactly; a candidate far from the box everywhere
     /// never wins; a candidate equal to the box with divergence 0 (a constant, say) wins
     /// where its SURE `-v` is less than `v`.
@@ -232,14 +244,7 @@ mod tests {
         let n = plane.pixels();
         let mean = vec![(0..n).map(|p| p as f64 * 0.1).collect::<Vec<_>>()];
         let variance = vec![vec![0.01; n]];
-        let boxed = GateCandidate {
-            name: "box".into(),
-            image: PixelImage {
-                plane,
-                channels: mean.clone(),
-            },
-            divergence: vec![vec![1.0; n]],
-        };
+        let boxed = box_candidate(plane, &mean);
         let s = pixel_sure(&boxed, &mean, &variance, None);
         assert!(s.iter().all(|&x| (x - 0.01).abs() <= 1e-15));
         let far = GateCandidate {
@@ -304,14 +309,7 @@ mod tests {
             .map(|p| if dark(p) { 0.0 } else { 1.0 })
             .collect::<Vec<_>>()];
         let variance = vec![vec![0.01; n]];
-        let boxed = GateCandidate {
-            name: "box".into(),
-            image: PixelImage {
-                plane,
-                channels: mean.clone(),
-            },
-            divergence: vec![vec![1.0; n]],
-        };
+        let boxed = box_candidate(plane, &mean);
         // the smooth candidate: equal to the box on the bright pixels with divergence 0
         // (SURE -v), 0.3 above the dark ones (SURE 0.09 - v > v)
         let smooth = GateCandidate {
