@@ -599,7 +599,7 @@ impl TiledPlanState {
     /// bit, `tests/tiled_plan_band.rs`),
     /// and the window's output pixels by `estimate`; the phases' seconds into `times`
     /// (`rebuild_s`, `fit_s`, `kernel_s`, `solve_s`, `output_s`). One implementation for the
-    /// one-process final image ([`Self::final_image`]) and the band tasks' ([`super::band`]).
+    /// one-process final image ([`Self::final_image`]) and the Dask band tasks' (`FinalBandTask`).
     pub(super) fn tile_final_pixels(
         &self,
         tile: &TilePlanState,
