@@ -1,11 +1,16 @@
 //! The `rkwave` command line (see `rkwave --help`).
 
 mod cli;
+mod heap;
 
 use clap::Parser;
 
+/// glibc's allocator, its heap on transparent huge pages ([`heap`]).
+#[global_allocator]
+static HEAP: heap::Heap = heap::Heap;
+
 fn main() {
-    retain_freed_memory();
+    heap::configure();
     // A closed stdout (`rkwave ... | head`) ends the program quietly, as SIGPIPE would,
     // instead of a panic report; every other panic keeps the default report.
     let default_hook = std::panic::take_hook();
@@ -29,24 +34,3 @@ fn main() {
         std::process::exit(e.exit_code());
     }
 }
-
-/// Keeps freed memory in the heap for reuse instead of returning it to the system (glibc):
-/// blocks up to 32 MB come from the heap instead of a fresh `mmap` each, and the heap's top is
-/// never trimmed. The PCG iterations allocate and free vectors of 8-112 MB (a channel's
-/// coefficients, the samples' values); from fresh mappings each one paid its page faults
-/// again. The price is a higher peak resident size (freed memory is held until the process
-/// ends); both figures: docs/measurements/plan-speed.md, "Adaptive image sampling: speed and
-/// memory".
-#[cfg(all(target_os = "linux", target_env = "gnu"))]
-fn retain_freed_memory() {
-    // SAFETY: `mallopt` only sets the allocator's parameters; it runs before any other thread
-    // exists and its failure (a 0 return) leaves glibc's defaults, which are still correct.
-    unsafe {
-        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
-        libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
-    }
-}
-
-/// Elsewhere the system allocator keeps its defaults.
-#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
-fn retain_freed_memory() {}

@@ -134,14 +134,7 @@ impl SampleChunkReader {
                 let f = File::open(path).map_err(|e| read_error(path, e))?;
                 let mut f = BufReader::with_capacity(1 << 20, f);
                 let names = names(columns - 1);
-                let decode = |b: &[u8]| -> f64 {
-                    match (size, big_endian) {
-                        (8, false) => f64::from_le_bytes(b.try_into().expect("8 bytes")),
-                        (8, true) => f64::from_be_bytes(b.try_into().expect("8 bytes")),
-                        (_, false) => f32::from_le_bytes(b.try_into().expect("4 bytes")) as f64,
-                        (_, true) => f32::from_be_bytes(b.try_into().expect("4 bytes")) as f64,
-                    }
-                };
+                let decode = |b: &[u8]| super::npy::decode(b, big_endian);
                 let mut buf = Vec::new();
                 let range = rows.start.min(rows_in_file)..rows.end.min(rows_in_file);
                 let first = range.start;

@@ -6,17 +6,17 @@
 //! `{'descr': '<f8', 'fortran_order': False, 'shape': (m, k), }` padded with
 //! spaces and ending in `\n` — and then the raw array data.
 //!
-//! `npyz` parses the header (dtype, order, shape) and decodes the data. Before
-//! handing it the bytes, [`parse_npy`] checks what `npyz` would report only as
-//! a generic I/O error or could not survive: the magic string, the version,
-//! that the header lies inside the file (so a forged `u32` length allocates
-//! nothing), and the bracket nesting of the header (so no header can exhaust
-//! the stack of its recursive-descent parser). After it, the dtype, the shape
+//! `npyz` parses the header (dtype, order, shape); the data is decoded here, straight
+//! into its columns ([`decode`]). Before handing `npyz` the bytes, [`parse_npy`] checks
+//! what `npyz` would report only as a generic I/O error or could not survive: the magic
+//! string, the version, that the header lies inside the file (so a forged `u32` length
+//! allocates nothing), and the bracket nesting of the header (so no header can exhaust the
+//! stack of its recursive-descent parser). After it, the dtype, the shape
 //! and the data length are checked and every failure is a typed [`IoError`].
 
 use std::path::Path;
 
-use npyz::{DType, Endianness, NpyFile, NpyHeader, Order, TypeChar, TypeStr, WriterBuilder};
+use npyz::{DType, Endianness, NpyHeader, Order, TypeChar, TypeStr, WriterBuilder};
 
 use super::table::{check_for_writing, read_bytes, shorten, write_bytes, IoError, SampleSet};
 
@@ -66,58 +66,57 @@ pub(crate) fn parse_npy_named(
     names: impl FnOnce(usize) -> Vec<String>,
     finite_columns: usize,
 ) -> Result<SampleSet, IoError> {
-    let layout = npy_layout(bytes, bytes.len(), file)?;
     let NpyLayout {
         m,
         k,
         size,
+        big_endian,
+        fortran,
         data_start,
         data_len,
-        ..
-    } = layout;
-    let header = layout.header;
-    let data = &bytes[data_start..];
-    let truncated = |what: &str, expected: usize| IoError::Truncated {
-        file: file.to_path_buf(),
-        what: what.to_string(),
-        expected,
-        found: bytes.len(),
-    };
-    // The data in storage order, widened to f64 (exact for float32).
-    let decode_err = |e: std::io::Error| truncated(&format!("data ({e})"), data_start + data_len);
-    let npy = NpyFile::with_header(header.clone(), data);
-    let stored: Vec<f64> = if size == 8 {
-        npy.into_vec::<f64>().map_err(decode_err)?
+    } = npy_layout(bytes, bytes.len(), file)?;
+    // The data decoded straight into its columns (one pass, no copy in storage order),
+    // widened to f64 (exact for float32).
+    let data = &bytes[data_start..data_start + data_len];
+    let mut columns: Vec<Vec<f64>> = (0..k).map(|_| Vec::with_capacity(m)).collect();
+    if fortran {
+        for (column, stored) in columns.iter_mut().zip(data.chunks_exact(m * size)) {
+            column.extend(stored.chunks_exact(size).map(|b| decode(b, big_endian)));
+        }
     } else {
-        npy.into_vec::<f32>()
-            .map_err(decode_err)?
-            .into_iter()
-            .map(f64::from)
-            .collect()
-    };
-    let fortran = header.order() == Order::Fortran;
-
-    let names = names(k - 1);
-    let mut positions = Vec::with_capacity(m);
-    let mut values = vec![Vec::with_capacity(m); k - 1];
-    for i in 0..m {
-        for j in 0..k {
-            let value = stored[if fortran { j * m + i } else { i * k + j }];
-            if !value.is_finite() && j < finite_columns {
-                return Err(IoError::non_finite_cell(file, i, j, &names, value));
-            }
-            if j == 0 {
-                positions.push(value);
-            } else {
-                values[j - 1].push(value);
+        for row in data.chunks_exact(k * size) {
+            for (column, b) in columns.iter_mut().zip(row.chunks_exact(size)) {
+                column.push(decode(b, big_endian));
             }
         }
     }
+    let names = names(k - 1);
+    // the first non-finite value in row order among the columns that must be finite
+    let finite = &columns[..finite_columns.min(k)];
+    if let Some((i, j)) = (0..m)
+        .flat_map(|i| (0..finite.len()).map(move |j| (i, j)))
+        .find(|&(i, j)| !finite[j][i].is_finite())
+    {
+        return Err(IoError::non_finite_cell(file, i, j, &names, columns[j][i]));
+    }
+    let positions = columns.remove(0);
+    let values = columns;
     Ok(SampleSet {
         positions,
         values,
         names,
     })
+}
+
+/// One stored value of `b.len()` bytes (8: float64, 4: float32, widened exactly), in the
+/// byte order the header gives.
+pub(crate) fn decode(b: &[u8], big_endian: bool) -> f64 {
+    match (b.len(), big_endian) {
+        (8, false) => f64::from_le_bytes(b.try_into().expect("8 bytes")),
+        (8, true) => f64::from_be_bytes(b.try_into().expect("8 bytes")),
+        (_, false) => f32::from_le_bytes(b.try_into().expect("4 bytes")) as f64,
+        (_, true) => f32::from_be_bytes(b.try_into().expect("4 bytes")) as f64,
+    }
 }
 
 /// Parses the header with `npyz`. Files of versions 1.0 and 2.0 written by
@@ -266,7 +265,6 @@ pub(crate) struct NpyLayout {
     pub data_start: usize,
     /// Bytes of data, `m k size`.
     pub data_len: usize,
-    header: NpyHeader,
 }
 
 /// The checks of [`parse_npy`] that need only the header: `bytes` holds the file's first
@@ -416,6 +414,5 @@ pub(crate) fn npy_layout(bytes: &[u8], total: usize, file: &Path) -> Result<NpyL
         fortran: header.order() == Order::Fortran,
         data_start,
         data_len,
-        header,
     })
 }

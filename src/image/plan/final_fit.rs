@@ -106,13 +106,11 @@ impl FinalFit {
         ];
         report_words(&self.fit.report, &mut head);
         string_words(self.solver_note.as_deref(), &mut head);
-        let mask: Vec<u64> = (0..n.div_ceil(64))
-            .map(|b| {
-                on.iter()
-                    .filter(|&&f| f / 64 == b)
-                    .fold(0u64, |w, &f| w | (1u64 << (f % 64)))
-            })
-            .collect();
+        // bit `f % 64` of word `f / 64` for each entry `f` on: one pass over them
+        let mut mask = vec![0u64; n.div_ceil(64)];
+        for &f in &on {
+            mask[f / 64] |= 1u64 << (f % 64);
+        }
         let words = 1 + head.len() + mask.len() + on.len() * self.fit.coefficients.len();
         seal(FINAL_MAGIC, tag, words, |word| {
             word(head.len() as u64);

@@ -93,7 +93,7 @@ use thiserror::Error;
 use crate::adaptive::QuadTree;
 use crate::adaptive::StopReason;
 use crate::image::adaptive::{
-    mix64, AdaptiveError, AdaptiveParams, ImageRound, PlanProgress, ResidualCorrection,
+    mix64, AdaptiveError, AdaptiveParams, ImagePlan, ImageRound, PlanProgress, ResidualCorrection,
     SamplePositions, TreeFit,
 };
 use crate::image::{DroppedSamples, ImagePlane, PixelImage};
@@ -335,6 +335,40 @@ pub struct PlanState {
     /// `rows.bin`).
     #[serde(skip)]
     pub rows: CarriedRows,
+    /// The plan as of this state's progress, resumed once when the state was read or started
+    /// ([`ResumedPlan`]; not kept in any file).
+    #[serde(skip)]
+    pub resumed: ResumedPlan,
+}
+
+/// The plan of a state ([`ImagePlan::resume`] of its plane, parameters and progress), built
+/// once when the state is read ([`PlanState::from_json`], which resumes it to check the
+/// history) or started, and reused by the state's calls instead of resuming it again (the
+/// base tree and its coverage rule cost a resumption several milliseconds at 128², their
+/// base positions drawn again). Used only while it is the plan of the state's own plane,
+/// parameters and progress (compared whole), so a state changed meanwhile resumes afresh.
+/// Solver state only: two plan states that differ in it are equal.
+#[derive(Clone, Debug, Default)]
+pub struct ResumedPlan(Option<ImagePlan>);
+
+impl PartialEq for ResumedPlan {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl ResumedPlan {
+    /// The plan kept, if it is the plan of `plane`, `params` and `progress`.
+    fn of(
+        &self,
+        plane: ImagePlane,
+        params: &AdaptiveParams,
+        progress: &PlanProgress,
+    ) -> Option<&ImagePlan> {
+        self.0.as_ref().filter(|plan| {
+            plan.plane() == plane && plan.params() == params && plan.progress() == progress
+        })
+    }
 }
 
 /// What one call of [`PlanState::advance`] did.

@@ -158,6 +158,8 @@ impl ReadSamples {
     ) -> Result<(ReadSamples, usize), String> {
         let mut read = ReadSamples::default();
         let mut at = 0usize;
+        // the fingerprint of the rows read so far, continued piece by piece (a sum)
+        let mut f = 0u64;
         while read.through != Some(through) {
             let Some(len) = bytes.get(at..at + 8) else {
                 return Err(match read.through {
@@ -179,16 +181,13 @@ impl ReadSamples {
             if read.through.is_some_and(|r| round <= r) || round > through {
                 return Err(format!("damaged: a piece of round {round} out of order"));
             }
+            if let Some(s) = &piece.samples {
+                f = fingerprint(f, s.xs(), s.ys());
+            }
+            f = fingerprint(f, &piece.dropped.xs, &piece.dropped.ys);
             read.extend(piece)?;
             read.through = Some(round);
             let issued = &state.issued[round];
-            let f = fingerprint(
-                fingerprint(0, read.samples.as_ref().map_or(&[][..], |s| s.xs()), {
-                    read.samples.as_ref().map_or(&[][..], |s| s.ys())
-                }),
-                &read.dropped.xs,
-                &read.dropped.ys,
-            );
             if read.rows() != issued.total || parse_hex(&issued.fingerprint) != Some(f) {
                 return Err(format!(
                     "its samples of rounds 0..={round} ({} rows) are not the positions this \

@@ -14,7 +14,9 @@ use crate::image::adaptive::{
 };
 use crate::image::{DroppedSamples, ImagePlane, ImageSamples};
 
-use super::{samples_fingerprint, CarriedFinal, CarriedGram, CarriedPcg, CarriedRows, FinalFit};
+use super::{
+    samples_fingerprint, CarriedFinal, CarriedGram, CarriedPcg, CarriedRows, FinalFit, ResumedPlan,
+};
 
 /// The state file's name, as the state's own faults name it.
 const STATE_FILE: &str = "state.json";
@@ -46,21 +48,24 @@ impl PlanState {
     /// Parses a state written by [`PlanState::to_json`] (`file` names it in errors), checking
     /// its format, version and history against its own parameters.
     pub fn from_json(text: &str, file: &Path) -> Result<Self, ProtocolError> {
-        let state: Self = serde_json::from_str(text).map_err(|e| ProtocolError::State {
+        let mut state: Self = serde_json::from_str(text).map_err(|e| ProtocolError::State {
             file: file.to_path_buf(),
             problem: e.to_string(),
         })?;
         state.check_layout(file)?;
-        ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
-            match e {
-                // A memory limit below the plan's budget is no fault of the state.
-                AdaptiveError::Resource(e) => ProtocolError::Adaptive(e.into()),
-                e => ProtocolError::State {
-                    file: file.to_path_buf(),
-                    problem: e.to_string(),
-                },
-            }
-        })?;
+        let plan =
+            ImagePlan::resume(state.plane, &state.params, state.progress.clone()).map_err(|e| {
+                match e {
+                    // A memory limit below the plan's budget is no fault of the state.
+                    AdaptiveError::Resource(e) => ProtocolError::Adaptive(e.into()),
+                    e => ProtocolError::State {
+                        file: file.to_path_buf(),
+                        problem: e.to_string(),
+                    },
+                }
+            })?;
+        // kept for the calls on this state (resumed once, not again per use)
+        state.resumed = ResumedPlan(Some(plan));
         Ok(state)
     }
 
@@ -76,6 +81,9 @@ impl PlanState {
     /// Functions of the plan's basis at its depth limit (the length of a carried PCG
     /// start, [`CarriedPcg::from_bytes`]).
     pub fn basis_len(&self) -> Result<usize, ProtocolError> {
+        if let Some(plan) = self.resumed.of(self.plane, &self.params, &self.progress) {
+            return Ok(plan.tree().basis().len());
+        }
         Ok(ImagePlan::new(self.plane, &self.params)?
             .tree()
             .basis()
@@ -89,7 +97,7 @@ impl PlanState {
     ) -> Result<(Self, SamplePositions), ProtocolError> {
         let plan = ImagePlan::new(plane, params)?;
         let base = plan.base_positions();
-        let state = Self {
+        let mut state = Self {
             format: STATE_FORMAT.into(),
             version: STATE_VERSION,
             plane,
@@ -107,7 +115,9 @@ impl PlanState {
             pcg: CarriedPcg::default(),
             final_fit: CarriedFinal::default(),
             rows: CarriedRows::default(),
+            resumed: ResumedPlan::default(),
         };
+        state.resumed = ResumedPlan(Some(plan));
         Ok((state, base))
     }
 
@@ -199,6 +209,11 @@ impl PlanState {
     fn plan_at(&self, k: usize, solver: TreeSolver) -> Result<ImagePlan, ProtocolError> {
         let mut params = self.params;
         params.fit.solver = solver;
+        if k == self.progress.marked.len() {
+            if let Some(plan) = self.resumed.of(self.plane, &params, &self.progress) {
+                return Ok(plan.clone());
+            }
+        }
         let progress = if k == self.progress.marked.len() {
             self.progress.clone()
         } else {
@@ -432,6 +447,8 @@ impl PlanState {
                     fingerprint: format!("{:016x}", fingerprint(start, &next.xs, &next.ys)),
                 });
                 self.progress = plan.progress().clone();
+                // the plan kept is of the progress before this round's
+                self.resumed = ResumedPlan::default();
                 (next, Some(last + 1), None)
             }
             Decision::Stop(stop) => {

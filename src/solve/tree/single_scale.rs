@@ -431,14 +431,11 @@ impl SingleScaleRows {
             let done = rows.as_ref().map_or(0, Self::len);
             match Self::piece(&rest[8..8 + len], tag, key, done, xs, ys) {
                 Ok(piece) => {
-                    let all = rows.get_or_insert_with(|| Self {
-                        nx: basis.dims().0,
-                        basis_key: key,
-                        ptr_x: vec![0],
-                        ptr_y: vec![0],
-                        ..Self::default()
-                    });
-                    all.extend(piece);
+                    // the first piece is the rows read (not copied); a later one is appended
+                    match rows.as_mut() {
+                        None => rows = Some(piece),
+                        Some(all) => all.extend(piece),
+                    }
                     used += 8 + len;
                 }
                 Err(why) => return (rows, used as u64, Some(why)),
@@ -491,6 +488,16 @@ impl SingleScaleRows {
             ptr_y: vec![0],
             ..Self::default()
         };
+        // a head word a row, then its factors' values (x and y about half each)
+        let values = words.left().saturating_sub(count) / 2;
+        rows.ptr_x.reserve(count);
+        rows.ptr_y.reserve(count);
+        for v in [&mut rows.ix, &mut rows.iy] {
+            v.reserve(values);
+        }
+        for v in [&mut rows.vx, &mut rows.vy] {
+            v.reserve(values);
+        }
         for _ in 0..count {
             let head = word(&mut words)?;
             let (ix0, lx) = ((head & 0xFF_FFFF) as u32, ((head >> 24) & 0xFF) as u32);
