@@ -47,3 +47,50 @@ fn final_image_is_checked_before_the_round() {
     assert!(e.contains("--final-image"), "{e}");
     assert!(!d.join("n1.npy").exists(), "a refused call writes nothing");
 }
+
+/// The stopping round's fit carried in `final.bin` (`FinalFit::to_bytes`, a mask of the
+/// entries on, then their values) gives back every coefficient bit for bit whichever entries
+/// are on: pseudo-random patterns over a basis whose size is not a multiple of the mask's
+/// 64-bit words, `-0.0` entries kept as on (their bits are not all zero), one to three
+/// channels.
+#[test]
+fn final_fit_bytes_give_back_every_entry() {
+    use rkwave::image::adaptive::{TreeFit, TreeFitReport};
+    use rkwave::image::plan::FinalFit;
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        state >> 33
+    };
+    for (n, channels) in [(1, 1), (63, 2), (64, 1), (1000, 3), (4097, 2)] {
+        let coefficients: Vec<Vec<f64>> = (0..channels)
+            .map(|_| {
+                (0..n)
+                    .map(|_| match next() % 8 {
+                        0 => -0.0,
+                        1 | 2 => (next() % 1000) as f64 / 7.0 - 50.0,
+                        _ => 0.0,
+                    })
+                    .collect()
+            })
+            .collect();
+        let fit = FinalFit {
+            samples: 3 * n,
+            channels,
+            fingerprint: next(),
+            sigma: 0.5,
+            fit: TreeFit {
+                coefficients: coefficients.clone(),
+                report: TreeFitReport::default(),
+            },
+            solver_note: None,
+        };
+        let back = FinalFit::from_bytes(&fit.to_bytes(11), 11, n).unwrap();
+        for (a, b) in back.fit.coefficients.iter().zip(&coefficients) {
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(a), bits(b), "n = {n}, {channels} channel(s)");
+        }
+    }
+}
