@@ -42,7 +42,7 @@ use serde::Serialize;
 
 use super::clamp::clamp_to_local_range;
 use super::gate::{gate, GateCandidate, GateCount, GATE_HALF, LEVEL_EPS, LEVEL_RATIO};
-use super::noise::{DifferenceCount, PixelNoise};
+use super::noise::{CountCalibration, DifferenceCount, PixelNoise};
 use super::robust::{robust_estimate, RobustReport, KAPPA, ROBUST_HALF};
 use super::shrink::ShrinkParams;
 use super::spatial::{apply_factors, spatial_factors, SpatialCheck};
@@ -93,6 +93,8 @@ pub struct AutoReport {
     /// `c`, the least of three's expectation on pure noise relative to the noise at these
     /// positions ([`PixelNoise::pure_noise_ratio`]).
     pub pure_noise_ratio: Option<f64>,
+    /// The equalisation of the noise across sample counts ([`PixelNoise::equalise_counts`]).
+    pub counts: CountCalibration,
     /// The check of `v_P` against the box pixels' differences across pixels
     /// ([`super::spatial`]).
     pub spatial: SpatialCheck,
@@ -170,7 +172,7 @@ impl AutoReport {
              per candidate: {gate}); films by SURE: {films}; SureShrink of the box pixels ({} \
              shifts, heteroscedastic per-pixel noise, median lambda {} per channel, {} of the \
              coefficients killed); noise of each pixel's mean from the least of three difference \
-             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}; {}); estimated risk per pixel {:.3e} \
+             estimates of its strata ({} pixels: {noise}; median sigma {}{calibration}; {}; {}); estimated risk per pixel {:.3e} \
              against the box's {:.3e} (gain {gain}); {} pixels projected onto the range of the \
              samples in their 3x3 neighbourhood (largest move {:.3e}); {}",
             self.shrink.shifts * self.shrink.shifts,
@@ -182,6 +184,7 @@ impl AutoReport {
                 .join(", "),
             self.pixels_with_blocks,
             super::list(&self.sigma),
+            self.counts.describe(),
             self.spatial.describe(),
             self.estimated_risk,
             self.box_risk,
@@ -225,6 +228,8 @@ pub fn estimate(
                  pixel's mean is unknown (render at least 2 samples per pixel)"
             )
         })?;
+    // 1a. every count's noise brought to the most common count's bias (`noise`, "Counts")
+    let counts = noise.equalise_counts(samples, &bins);
     let mean: Vec<Vec<f64>> = samples
         .values()
         .iter()
@@ -375,6 +380,7 @@ pub fn estimate(
             pixels_with_blocks: noise.pixels_with_blocks(),
             noise_estimators: noise.estimator_counts(),
             pure_noise_ratio: noise.pure_noise_ratio,
+            counts,
             spatial,
             gate: gated.counts,
             estimated_risk: gated.risk,

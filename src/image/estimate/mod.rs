@@ -57,7 +57,7 @@ pub use choice::{ParseUniformEstimateError, UniformEstimate};
 pub use clamp::clamp_to_sample_range;
 pub use gate::GateCount;
 pub use haar::{Haar2d, HaarCoefficients};
-pub use noise::{DifferenceCount, PixelNoise, StrataDifference};
+pub use noise::{CountCalibration, CountClass, DifferenceCount, PixelNoise, StrataDifference};
 pub use report::EstimateReport;
 pub use robust::RobustReport;
 pub use shrink::{
@@ -148,6 +148,7 @@ pub fn reconstruct_estimated(
         pixels_with_spread: None,
         noise_estimators: None,
         pure_noise_ratio: None,
+        count_calibration: None,
         spatial_check: None,
         threshold: None,
         shrink: None,

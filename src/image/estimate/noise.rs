@@ -54,6 +54,22 @@
 //! dividing it by `c` raised the risk estimate on texture as much as on noise and lost up to
 //! 2 dB on the suite's texture scenes (docs/measurements/estimators.md).
 //!
+//! **Counts.** That bias depends on the count: at `n_P = 2` the three orderings give the same
+//! pair (`c_2 = 1` exactly), from 3 samples up the least of three falls to about 0.5-0.7 of
+//! `s²` (the plan's pixels, prefixes of each pixel's own (0, 2)-sequence). Where the counts
+//! are uneven (the adaptive plan, and most of all its pixel share, which raises a third to a
+//! half of the pixels to 3-8 samples beside pixels at 2) the pixels of a window or of a Haar
+//! coefficient then carry different biases, and SURE's comparisons (SureShrink's threshold
+//! per level, the gate's window sums) mix them: on the suite's `cornell` at 4 spp with the
+//! share, SureShrink killed 34 % of the coefficients where it killed 81 % at main's counts,
+//! and `auto` fell 3.9 dB while the box gained 1.6 (docs/measurements/plan-quality.md, "The
+//! final image on the pixel share's uneven counts"). So every count is brought to the bias of
+//! the most common count `ref` ([`PixelNoise::equalise_counts`]):
+//! `v_P <- v_P c_ref / c_{n_P}`, `c_n` the pure-noise ratio of the pixels holding `n` samples
+//! (simulated as above, per count, at least [`MIN_CLASS_DRAWS`] pixel draws a count). The
+//! level stays the most common count's (the uncalibrated bias the gate's and the check's
+//! parameters were chosen with), and with one count (the uniform path) nothing moves.
+//!
 //! **Global level.** `sigma_c = sqrt(median_P sigma²_{grid,P,c} / q_K)` (the 2D strata's
 //! differences alone, `sigma²_{grid,P} = s²_grid / n_P`) over the pixels with two samples or
 //! more, `q_K` the median of `chi²_K / K` (`K` the most common count of 2 x 2
@@ -378,6 +394,174 @@ pub fn pure_noise_ratio(samples: &ImageSamples, bins: &PixelBins) -> Option<f64>
 
 /// The seed of [`pure_noise_ratio`]'s simulated noise.
 const PURE_NOISE_SEED: u64 = 0x5eed_ca1b;
+
+/// The least of three's pure-noise ratio at one sample count, and the factor its pixels'
+/// noise took ([`PixelNoise::equalise_counts`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct CountClass {
+    /// The sample count `n`.
+    pub count: usize,
+    /// Pixels with `n` samples.
+    pub pixels: usize,
+    /// `c_n = sum s²_{e*}(z) / sum s²_grid(z)` over the simulated draws at this count.
+    pub ratio: f64,
+    /// `c_ref / c_n`, the factor of these pixels' `v_P` (1 at the reference count).
+    pub factor: f64,
+}
+
+/// What [`PixelNoise::equalise_counts`] did: the reference count and every count class.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CountCalibration {
+    /// The most common count of the pixels with two samples or more, whose bias every other
+    /// count is brought to.
+    pub reference_count: usize,
+    /// Per count present (two samples or more), ascending.
+    pub classes: Vec<CountClass>,
+}
+
+impl CountCalibration {
+    /// Pixels whose noise moved (a factor other than 1).
+    pub fn moved_pixels(&self) -> usize {
+        self.classes
+            .iter()
+            .filter(|c| c.factor != 1.0)
+            .map(|c| c.pixels)
+            .sum()
+    }
+
+    /// In words.
+    pub fn describe(&self) -> String {
+        if self.classes.len() <= 1 {
+            return format!(
+                "every pixel with two samples or more holds {} (no count equalisation)",
+                self.reference_count
+            );
+        }
+        let classes = self
+            .classes
+            .iter()
+            .map(|c| format!("{} x{} ({} px)", c.count, fmt_factor(c.factor), c.pixels))
+            .collect::<Vec<_>>()
+            .join(", ");
+        format!(
+            "the noise of pixels of other counts brought to the least of three's pure-noise bias \
+             at the most common count {} (factor per count: {classes}; {} pixels moved)",
+            self.reference_count,
+            self.moved_pixels()
+        )
+    }
+}
+
+fn fmt_factor(f: f64) -> String {
+    format!("{f:.2}")
+}
+
+/// Simulated pixels per count class at least (the draws repeat the positions of a rare
+/// count's pixels with fresh noise, up to [`MAX_DRAWS`] times).
+pub const MIN_CLASS_DRAWS: usize = 512;
+
+/// The most draws of one pixel's positions in [`PixelNoise::equalise_counts`].
+pub const MAX_DRAWS: usize = 64;
+
+impl PixelNoise {
+    /// Brings the noise of every count to the bias of the most common count (module docs,
+    /// "Counts"): `v_P <- v_P c_ref / c_{n_P}`, `c_n` the least of three's expectation on pure
+    /// noise at the positions of the pixels holding `n` samples (simulated, fixed seed),
+    /// `ref` the most common count. With one count (the uniform path) nothing moves.
+    pub fn equalise_counts(
+        &mut self,
+        samples: &ImageSamples,
+        bins: &PixelBins,
+    ) -> CountCalibration {
+        let ratios = count_ratios(samples, bins);
+        let with_blocks: Vec<usize> = (0..self.count.len())
+            .filter(|&p| self.estimator[p].is_some())
+            .collect();
+        let reference_count = mode(with_blocks.iter().map(|&p| self.count[p]));
+        let reference = ratios
+            .iter()
+            .find(|r| r.0 == reference_count)
+            .map_or(f64::NAN, |r| r.2);
+        let classes: Vec<CountClass> = ratios
+            .iter()
+            .map(|&(count, pixels, ratio)| CountClass {
+                count,
+                pixels,
+                ratio,
+                factor: if count == reference_count {
+                    1.0
+                } else if ratio > 0.0 && reference > 0.0 {
+                    reference / ratio
+                } else {
+                    1.0
+                },
+            })
+            .collect();
+        for &p in &with_blocks {
+            let n = self.count[p];
+            if let Some(class) = classes.iter().find(|c| c.count == n) {
+                if class.factor != 1.0 {
+                    for mv in self.mean_variance.iter_mut() {
+                        mv[p] *= class.factor;
+                    }
+                }
+            }
+        }
+        CountCalibration {
+            reference_count,
+            classes,
+        }
+    }
+}
+
+/// `(n, pixels, c_n)` per count `n >= 2` present: `c_n = sum s²_{e*}(z) / sum s²_grid(z)` over
+/// the pixels holding `n` samples, each given i.i.d. standard normal values (one channel, a
+/// fixed seed) in `ceil(MIN_CLASS_DRAWS / pixels)` draws (at most [`MAX_DRAWS`]). The grid's
+/// estimate is unbiased on pure noise, so `c_n` estimates `E s²_{e*} / s²` at that count.
+fn count_ratios(samples: &ImageSamples, bins: &PixelBins) -> Vec<(usize, usize, f64)> {
+    use rand::{Rng, SeedableRng};
+    use std::collections::BTreeMap;
+    let pixels = samples.plane().pixels();
+    let mut per_count: BTreeMap<usize, usize> = BTreeMap::new();
+    for p in 0..pixels {
+        let n = bins.in_pixel(p).len();
+        if n >= 2 {
+            *per_count.entry(n).or_insert(0) += 1;
+        }
+    }
+    let draws_of = |n: usize| MIN_CLASS_DRAWS.div_ceil(per_count[&n]).clamp(1, MAX_DRAWS);
+    let most = per_count.keys().map(|&n| draws_of(n)).max().unwrap_or(0);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(PURE_NOISE_SEED ^ 0xc0_0175);
+    let mut work = DifferenceWork::new(1);
+    let mut sums: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+    let mut z = vec![vec![0.0; samples.len()]];
+    for draw in 0..most {
+        for p in 0..pixels {
+            let idx = bins.in_pixel(p);
+            let n = idx.len();
+            if n < 2 || draw >= draws_of(n) {
+                continue;
+            }
+            for &i in idx {
+                // Box–Muller
+                let u: f64 = rng.random::<f64>().max(1e-300);
+                let t: f64 = rng.random();
+                z[0][i] = (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * t).cos();
+            }
+            work.estimate(idx, samples.xs(), samples.ys(), &z);
+            let e = sums.entry(n).or_insert((0.0, 0.0));
+            e.0 += work.least().1[0];
+            e.1 += work.grid[0];
+        }
+    }
+    per_count
+        .iter()
+        .map(|(&n, &count)| {
+            let (least, grid) = sums.get(&n).copied().unwrap_or((0.0, 0.0));
+            (n, count, if grid > 0.0 { least / grid } else { f64::NAN })
+        })
+        .collect()
+}
 
 /// The most frequent value (the smallest among ties).
 fn mode(values: impl Iterator<Item = usize>) -> usize {

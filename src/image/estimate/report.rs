@@ -5,7 +5,7 @@ use serde::Serialize;
 use super::auto::{AutoReport, FilmCount, WINDOW_HALF};
 use super::choice::UniformEstimate;
 use super::gate::GateCount;
-use super::noise::DifferenceCount;
+use super::noise::{CountCalibration, DifferenceCount};
 use super::robust::RobustReport;
 use super::shrink::ShrinkParams;
 use super::spatial::SpatialCheck;
@@ -57,6 +57,9 @@ pub struct EstimateReport {
     /// the estimated risks fall short of the actual ones by about this factor where the pixels
     /// hold Monte Carlo noise only.
     pub pure_noise_ratio: Option<f64>,
+    /// The noise of each sample count brought to the least of three's bias at the most common
+    /// count (`auto` only; [`super::noise::PixelNoise::equalise_counts`]).
+    pub count_calibration: Option<CountCalibration>,
     /// The check of the strata's noise against the box pixels' differences across pixels:
     /// the pixels whose noise it lowered, the median and total factor (`auto` only;
     /// [`spatial`](super::spatial)).
@@ -87,6 +90,7 @@ impl AutoReport {
         report.pixels_with_spread = Some(self.pixels_with_blocks);
         report.noise_estimators = Some(self.noise_estimators);
         report.pure_noise_ratio = self.pure_noise_ratio;
+        report.count_calibration = Some(self.counts);
         report.spatial_check = Some(self.spatial);
         report.gate = Some(self.gate);
         report.gate_level_ratio = Some(self.level_ratio);
