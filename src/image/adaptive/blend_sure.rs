@@ -4,7 +4,7 @@
 //! *Blend* and *SURE blend*).
 //!
 //! With `R^S_P` and `R^A_P` the risks `blend` weighs (`shrunk`'s and `auto`'s relative SURE
-//! against the box pixels, window-averaged: [`super::correction`]) and
+//! against the box pixels, window-averaged: `correction.rs`, *Blend*) and
 //! `Q_P = (1 / |W|) sum_W sum_c omega (S - A)²` over the `(2 h + 1)²` window around `P`
 //! (`h` = [`SURE_BLEND_HALF`], `omega = 1 / (A² + eps)`, `eps` = [`auto::RELATIVE_EPS`]),
 //! the combination `w S + (1 - w) A` has the estimated risk

@@ -105,9 +105,7 @@
 //! jumps are in the report ([`ResidualCorrection::final_gate`]). Measured against the
 //! ungated blend: docs/measurements/plan-quality.md.
 //!
-//! *SURE blend* ([`PixelEstimate::BlendSure`]). The blend with `shrunk`'s weight the least of
-//! the inverse-risk weight and the weight of least SURE of the combination itself, which sees
-//! the two errors' correlation through `sum omega (S - A)²` ([`super::blend_sure`]).
+//! *SURE blend* ([`PixelEstimate::BlendSure`]): `shrunk`'s weight capped ([`super::blend_sure`]).
 //!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
@@ -309,8 +307,7 @@ pub struct ResidualCorrection {
     /// failed on the shifted samples), so that the output is the blend ungated.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub final_gate_fallback: Option<String>,
-    /// [`PixelEstimate::BlendSure`]: what the weights of least SURE did (`None` when `auto`
-    /// fell back).
+    /// [`PixelEstimate::BlendSure`]: what its weights did (`None` when `auto` fell back).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sure_blend: Option<SureBlend>,
 }
