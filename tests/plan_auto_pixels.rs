@@ -147,7 +147,7 @@ fn auto_is_named_on_the_command_line() {
     assert_eq!(PixelEstimate::Auto.name(), "auto");
     let err = "autos".parse::<PixelEstimate>().unwrap_err();
     assert!(
-        err.contains("box_shrunk, auto, blend or blend_gated"),
+        err.contains("box_shrunk, auto, blend, blend_gated or blend_sure"),
         "{err}"
     );
     assert_eq!(

@@ -114,7 +114,9 @@ pub struct PlanArgs {
     /// estimated risks; `shrunk` where `auto` falls back, said) or `blend_gated` (`blend`,
     /// then per pixel the least estimated risk of the box pixels, `auto` and the blend over a
     /// window, so that no pixel takes a step its estimate says raises the risk over the mean
-    /// of its own samples; what it chose is in the report). Default for a new plan:
+    /// of its own samples; what it chose is in the report) or `blend_sure` (`blend` with
+    /// `shrunk`'s weight capped by the weight of least SURE of the combination, which sees
+    /// the two errors' correlation; what it did is in the report). Default for a new plan:
     /// `blend`; later calls keep the state's.
     #[arg(long)]
     pub output_pixels: Option<PixelEstimate>,

@@ -105,6 +105,8 @@
 //! jumps are in the report ([`ResidualCorrection::final_gate`]). Measured against the
 //! ungated blend: docs/measurements/plan-quality.md.
 //!
+//! *SURE blend* ([`PixelEstimate::BlendSure`]): `shrunk`'s weight capped ([`super::blend_sure`]).
+//!
 //! [`PixelEstimate`] chooses between this (the default, clamped), the correction without the
 //! clamp and the fit's box pixels alone; all
 //! the in-process loop (`refine_image`) and the file protocol
@@ -113,6 +115,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::blend_sure::{blend_by_sure, SureBlend};
 use super::final_gate::{self, FinalGate};
 use super::fit::TreeFit;
 use super::significance::residuals;
@@ -167,11 +170,15 @@ pub enum PixelEstimate {
     /// [`PixelEstimate::Blend`], then per pixel the least estimated risk of the box pixels,
     /// `auto` and the blend over the gate's window (module docs, *No harm*).
     BlendGated,
+    /// [`PixelEstimate::Shrunk`] and [`PixelEstimate::Auto`] combined per pixel by the weight
+    /// of least SURE of the combination over a window ([`super::blend_sure`]; module docs,
+    /// *SURE blend*); [`PixelEstimate::Shrunk`] where `auto` is not permitted.
+    BlendSure,
 }
 
 impl PixelEstimate {
     /// Every estimate.
-    pub const ALL: [PixelEstimate; 8] = [
+    pub const ALL: [PixelEstimate; 9] = [
         PixelEstimate::ResidualClamped,
         PixelEstimate::ResidualCorrected,
         PixelEstimate::FitOnly,
@@ -180,6 +187,7 @@ impl PixelEstimate {
         PixelEstimate::Auto,
         PixelEstimate::Blend,
         PixelEstimate::BlendGated,
+        PixelEstimate::BlendSure,
     ];
 
     /// The name on the command line and in state files.
@@ -193,6 +201,7 @@ impl PixelEstimate {
             PixelEstimate::Auto => "auto",
             PixelEstimate::Blend => "blend",
             PixelEstimate::BlendGated => "blend_gated",
+            PixelEstimate::BlendSure => "blend_sure",
         }
     }
 
@@ -206,6 +215,7 @@ impl PixelEstimate {
                 | PixelEstimate::Auto
                 | PixelEstimate::Blend
                 | PixelEstimate::BlendGated
+                | PixelEstimate::BlendSure
         )
     }
 }
@@ -222,7 +232,7 @@ impl std::str::FromStr for PixelEstimate {
             .ok_or_else(|| {
                 format!(
                     "unknown output pixels `{s}`: expected residual_clamped, residual_corrected, \
-                     fit_only, shrunk, box_shrunk, auto, blend or blend_gated"
+                     fit_only, shrunk, box_shrunk, auto, blend, blend_gated or blend_sure"
                 )
             })
     }
@@ -297,11 +307,20 @@ pub struct ResidualCorrection {
     /// failed on the shifted samples), so that the output is the blend ungated.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub final_gate_fallback: Option<String>,
+    /// [`PixelEstimate::BlendSure`]: what its weights did (`None` when `auto` fell back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sure_blend: Option<SureBlend>,
 }
 
 impl ResidualCorrection {
     /// The final gate in words ([`PixelEstimate::BlendGated`]).
     fn final_gate_note(&self) -> String {
+        if self.estimate == PixelEstimate::BlendSure {
+            return self
+                .sure_blend
+                .as_ref()
+                .map_or_else(|| "no SURE weights".to_string(), SureBlend::describe);
+        }
         match (&self.final_gate, &self.final_gate_fallback) {
             (Some(gate), _) => gate.describe(),
             (None, Some(reason)) => {
@@ -315,7 +334,7 @@ impl ResidualCorrection {
     pub fn note(&self) -> String {
         if matches!(
             self.estimate,
-            PixelEstimate::Blend | PixelEstimate::BlendGated
+            PixelEstimate::Blend | PixelEstimate::BlendGated | PixelEstimate::BlendSure
         ) {
             let shrunk = ResidualCorrection {
                 estimate: PixelEstimate::Shrunk,
@@ -326,8 +345,8 @@ impl ResidualCorrection {
             return match (self.blend_weight, &self.auto_fallback) {
                 (Some(w), _) => {
                     format!(
-                    "output pixels: {name}, per pixel the inverse-risk combination of shrunk and \
-                     auto (risks: SURE against the box pixels relative to 1 / (auto² + {eps}), \
+                    "output pixels: {name}, per pixel the {how} combination of shrunk and auto \
+                     (risks: SURE against the box pixels relative to 1 / (auto² + {eps}), \
                      each averaged over the {side} x {side} window; shrunk's divergence: the \
                      correction's bound {bound} times the shrinkage's exact one, mean {d:.3}; \
                      mean weights: shrunk {w:.3}, auto {wa:.3}{}); {}; {} \
@@ -351,6 +370,11 @@ impl ResidualCorrection {
                     wa = self.blend_weight_auto.unwrap_or(0.0),
                     side = 2 * GATE_HALF + 1,
                     name = self.estimate.name(),
+                    how = if self.estimate == PixelEstimate::BlendSure {
+                        "SURE-weighted"
+                    } else {
+                        "inverse-risk"
+                    },
                 )
                 }
                 (None, reason) => format!(
@@ -387,7 +411,8 @@ impl ResidualCorrection {
             | PixelEstimate::BoxShrunk
             | PixelEstimate::Auto
             | PixelEstimate::Blend
-            | PixelEstimate::BlendGated => {
+            | PixelEstimate::BlendGated
+            | PixelEstimate::BlendSure => {
                 let what = if self.estimate == PixelEstimate::Shrunk {
                     format!(
                         "the fit's box pixels plus the significant mean residual ({} of {} \
@@ -524,9 +549,11 @@ fn output_pixels_and_shrink_divergence(
         plane,
         channels: fit.box_pixels(tree)?,
     };
-    if matches!(estimate, PixelEstimate::Blend | PixelEstimate::BlendGated) {
-        let gated = estimate == PixelEstimate::BlendGated;
-        return blend_shrunk_and_auto(tree, fit, xs, ys, values, sigma, z, gated)
+    if matches!(
+        estimate,
+        PixelEstimate::Blend | PixelEstimate::BlendGated | PixelEstimate::BlendSure
+    ) {
+        return blend_shrunk_and_auto(tree, fit, xs, ys, values, sigma, z, estimate)
             .map(|(fit_image, image, report)| (fit_image, image, report, None));
     }
     let mut report = ResidualCorrection {
@@ -650,7 +677,7 @@ fn blend_shrunk_and_auto(
     values: &[Vec<f64>],
     sigma: f64,
     z: f64,
-    gated: bool,
+    estimate: PixelEstimate,
 ) -> Result<(PixelImage, PixelImage, ResidualCorrection), AdaptiveError> {
     let (fit_image, shrunk, mut report, shrink_divergence) = output_pixels_and_shrink_divergence(
         tree,
@@ -663,11 +690,7 @@ fn blend_shrunk_and_auto(
         z,
         true,
     )?;
-    report.estimate = if gated {
-        PixelEstimate::BlendGated
-    } else {
-        PixelEstimate::Blend
-    };
+    report.estimate = estimate;
     let plane = shrunk.plane;
     let samples = match ImageSamples::new(plane, xs.to_vec(), ys.to_vec(), values.to_vec()) {
         Ok(s) => s,
@@ -708,11 +731,19 @@ fn blend_shrunk_and_auto(
         .zip(&area)
         .map(|(s, a)| s / a)
         .collect();
-    let (blended, weights) = blend_by_risks(
+    let (mut blended, mut weights) = blend_by_risks(
         &[&shrunk, &auto_image],
         &[&risk_shrunk, &auto_report.window_risk],
     );
-    let mut image = if !gated {
+    if estimate == PixelEstimate::BlendSure {
+        let (image, w_shrunk, sure) =
+            blend_by_sure(&shrunk, &auto_image, &risk_shrunk, &auto_report.window_risk);
+        blended = image;
+        let w_auto = w_shrunk.iter().map(|w| 1.0 - w).collect();
+        weights = vec![w_shrunk, w_auto];
+        report.sure_blend = Some(sure);
+    }
+    let mut image = if estimate != PixelEstimate::BlendGated {
         blended
     } else {
         match final_gate::gate_against_box(

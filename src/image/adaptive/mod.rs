@@ -20,6 +20,7 @@
 //!   significant mean residual of each pixel's samples; the default output);
 //! * `figure`: the image, the local depth and the samples side by side.
 
+pub mod blend_sure;
 pub mod correction;
 mod error;
 #[cfg(feature = "plot")]

@@ -44,6 +44,7 @@ pub mod spatial;
 pub mod spin;
 pub mod statistics;
 pub mod sure;
+pub mod sure_blend;
 pub mod sureshrink;
 mod text;
 
