@@ -93,8 +93,9 @@ pub struct AutoReport {
     /// `c`, the least of three's expectation on pure noise relative to the noise at these
     /// positions ([`PixelNoise::pure_noise_ratio`]).
     pub pure_noise_ratio: Option<f64>,
-    /// The equalisation of the noise across sample counts ([`PixelNoise::equalise_counts`]).
-    pub counts: CountCalibration,
+    /// The equalisation of the noise across sample counts ([`PixelNoise::equalise_counts`]),
+    /// when [`ShrinkParams::equalise_counts`] asks for it.
+    pub counts: Option<CountCalibration>,
     /// The check of `v_P` against the box pixels' differences across pixels
     /// ([`super::spatial`]).
     pub spatial: SpatialCheck,
@@ -184,7 +185,10 @@ impl AutoReport {
                 .join(", "),
             self.pixels_with_blocks,
             super::list(&self.sigma),
-            self.counts.describe(),
+            self.counts.as_ref().map_or_else(
+                || "noise not equalised across sample counts".to_string(),
+                CountCalibration::describe
+            ),
             self.spatial.describe(),
             self.estimated_risk,
             self.box_risk,
@@ -228,8 +232,11 @@ pub fn estimate(
                  pixel's mean is unknown (render at least 2 samples per pixel)"
             )
         })?;
-    // 1a. every count's noise brought to the most common count's bias (`noise`, "Counts")
-    let counts = noise.equalise_counts(samples, &bins);
+    // 1a. with `shrink.equalise_counts`, every count's noise brought to the most common
+    // count's bias (`noise`, "Counts")
+    let counts = shrink
+        .equalise_counts
+        .then(|| noise.equalise_counts(samples, &bins));
     let mean: Vec<Vec<f64>> = samples
         .values()
         .iter()

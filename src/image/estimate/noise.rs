@@ -64,7 +64,8 @@
 //! share, SureShrink killed 34 % of the coefficients where it killed 81 % at main's counts,
 //! and `auto` fell 3.9 dB while the box gained 1.6 (docs/measurements/plan-quality.md, "The
 //! final image on the pixel share's uneven counts"). So every count is brought to the bias of
-//! the most common count `ref` ([`PixelNoise::equalise_counts`]):
+//! the most common count `ref` ([`PixelNoise::equalise_counts`], when `auto` is asked to by
+//! [`super::ShrinkParams::equalise_counts`]; off by default):
 //! `v_P <- v_P c_ref / c_{n_P}`, `c_n` the pure-noise ratio of the pixels holding `n` samples
 //! (simulated as above, per count, at least [`MIN_CLASS_DRAWS`] pixel draws a count). The
 //! level stays the most common count's (the uncalibrated bias the gate's and the check's

@@ -90,7 +90,7 @@ impl AutoReport {
         report.pixels_with_spread = Some(self.pixels_with_blocks);
         report.noise_estimators = Some(self.noise_estimators);
         report.pure_noise_ratio = self.pure_noise_ratio;
-        report.count_calibration = Some(self.counts);
+        report.count_calibration = self.counts;
         report.spatial_check = Some(self.spatial);
         report.gate = Some(self.gate);
         report.gate_level_ratio = Some(self.level_ratio);
