@@ -81,7 +81,20 @@ pub fn pcg_many(
     tolerance: f64,
     max_iterations: usize,
 ) -> (Vec<Vec<f64>>, CgReport) {
+    pcg_many_to(op, fs, starts, &vec![tolerance; fs.len()], max_iterations)
+}
+
+/// [`pcg_many`] with channel `c` stopping at its own relative residual `tolerances[c]`
+/// ([`cg::pcg_to`]).
+pub fn pcg_many_to(
+    op: &TreeNormalOperator<'_>,
+    fs: &[&[f64]],
+    starts: Option<&[Vec<f64>]>,
+    tolerances: &[f64],
+    max_iterations: usize,
+) -> (Vec<Vec<f64>>, CgReport) {
     let k = fs.len();
+    let tolerance = tolerances.iter().copied().fold(0.0, f64::max);
     let b = op.rhs_many(&interleave(fs), k);
     let n = op.basis().len();
     let xs: Vec<Vec<f64>> = (0..k)
@@ -102,12 +115,14 @@ pub fn pcg_many(
         forward_error: None,
     };
     let b: Vec<&[f64]> = b.iter().map(|b| b.as_slice()).collect();
-    cg::pcg(
+    cg::pcg_to(
         op,
         &Jacobi::new(op.inverse_diagonal()),
         &b,
         Some(xs),
         &params,
+        tolerances,
+        true,
     )
 }
 
