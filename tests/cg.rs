@@ -315,13 +315,23 @@ fn per_channel_tolerances_stop_each_channel_at_its_own() {
         let tolerances = [5e-2, 1e-6, 1e-11];
         let p = params(0.5, 500);
         let (xs, report) = cg::pcg_to(&op, &jacobi, &[&b, &b, &b], None, &p, &tolerances, false);
-        let exact = ad.clone().cholesky().unwrap().solve(&DVector::from_vec(b.clone()));
+        let exact = ad
+            .clone()
+            .cholesky()
+            .unwrap()
+            .solve(&DVector::from_vec(b.clone()));
         for (c, &t) in tolerances.iter().enumerate() {
             let res = report.relative_residual[c];
-            assert!(report.converged[c] && res <= t, "seed {seed} channel {c}: {res} > {t}");
+            assert!(
+                report.converged[c] && res <= t,
+                "seed {seed} channel {c}: {res} > {t}"
+            );
             let err = (DVector::from_vec(xs[c].clone()) - &exact).norm() / exact.norm();
             let bound = 2.0 * kap * (res + n as f64 * f64::EPSILON);
-            assert!(err <= bound, "seed {seed} channel {c}: error {err} > {bound}");
+            assert!(
+                err <= bound,
+                "seed {seed} channel {c}: error {err} > {bound}"
+            );
             let (alone, r) = cg::pcg_to(&op, &jacobi, &[&b], None, &p, &[t], false);
             assert_eq!(alone[0], xs[c], "seed {seed} channel {c}");
             assert_eq!(r.iterations[0], report.iterations[c]);
@@ -350,9 +360,7 @@ fn a_scaled_start_is_never_farther_than_zero_or_the_start() {
         let energy = |e: &DVector<f64>| e.dot(&(&ad * e));
         let noise: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.5).collect();
         for (factor, mix) in [(3.0, 0.1), (-2.0, 0.1), (0.2, 0.5), (1.0, 0.0), (0.0, 1.0)] {
-            let x0: Vec<f64> = (0..n)
-                .map(|i| factor * exact[i] + mix * noise[i])
-                .collect();
+            let x0: Vec<f64> = (0..n).map(|i| factor * exact[i] + mix * noise[i]).collect();
             let x0v = DVector::from_vec(x0.clone());
             let (x, report) = cg::pcg_to(
                 &op,
@@ -371,7 +379,10 @@ fn a_scaled_start_is_never_farther_than_zero_or_the_start() {
                 (scaled - formula).abs() <= 1e-9 * scale,
                 "seed {seed} start {factor}/{mix}: {scaled} against {formula}"
             );
-            assert!(scaled <= energy(&exact) * (1.0 + 1e-12), "farther than zero");
+            assert!(
+                scaled <= energy(&exact) * (1.0 + 1e-12),
+                "farther than zero"
+            );
             assert!(
                 scaled <= energy(&(&x0v - &exact)) * (1.0 + 1e-12) + 1e-15 * scale,
                 "farther than the start"

@@ -16,7 +16,7 @@ use rkwave::io::plan_files::FINAL_FILE;
 
 use common::rendered::{small_plan, Rendered, NOISY_EDGE};
 
-/// The small plan of the file-protocol tests under the renderer plan's PCG (`1e-4`, rounds
+/// The small plan of the file-protocol tests under the renderer plan's PCG (`3e-4`, rounds
 /// to `1e-2`).
 fn setup() -> (ImagePlane, AdaptiveParams) {
     let (plane, mut params) = small_plan();

@@ -104,7 +104,7 @@ pub struct ChannelSolve {
     pub tolerance: f64,
     /// The start's relative residual (1 from zero; the carried start's quality).
     pub start_residual: f64,
-    /// The relative residual reached (recomputed).
+    /// The relative residual reached (the recurred `||r|| / ||b||`).
     pub residual: f64,
     /// Iterations taken.
     pub iterations: usize,
