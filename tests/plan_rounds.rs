@@ -24,7 +24,10 @@ const TOL: f64 = 3e-4;
 fn setup() -> (ImagePlane, AdaptiveParams) {
     let (plane, mut params) = small_plan();
     params.fit.solver = TreeSolver::plan_pcg();
-    assert_eq!(params.fit.solver.with_tolerance(TOL), Some(params.fit.solver));
+    assert_eq!(
+        params.fit.solver.with_tolerance(TOL),
+        Some(params.fit.solver)
+    );
     (plane, params)
 }
 
