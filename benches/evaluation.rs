@@ -98,6 +98,11 @@ fn tree_fit_parts(c: &mut Criterion) {
             b.iter(|| op.apply_many(&vs).len())
         });
     }
+    // one product's two 2D FWTs alone (synthesis S v, analysis S^T u): the rest of
+    // `operator_k1` is the two passes over the rows `E`
+    group.bench_function("fwt_pair", |b| {
+        b.iter(|| basis.analysis(&basis.synthesis(&v)).len())
+    });
     group.finish();
 }
 

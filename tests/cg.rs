@@ -296,3 +296,99 @@ fn forward_error_stop_bounds_the_error_not_the_residual() {
     let warm = rel(&x[0]);
     assert!(warm <= 2.0 * eps, "from a warm start: {warm:e}");
 }
+
+/// `pcg_to`: each channel stops at its own tolerance (its recomputed residual at most it,
+/// its coefficients within `kappa (res + n eps)` of the dense solve), and a channel is the
+/// same channel run alone at that tolerance, bit for bit; a looser channel takes no more
+/// iterations than a tighter one of the same right-hand side.
+#[test]
+fn per_channel_tolerances_stop_each_channel_at_its_own() {
+    for seed in SEEDS {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let n = 25;
+        let (a, ad) = normal(&kernel(&mut rng, 75, n));
+        let kap = kappa(&ad);
+        let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / ad[(i, i)]).collect();
+        let jacobi = Jacobi::new(&inverse_diagonal);
+        let op = SparseOperator::new(&a);
+        let b: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.5).collect();
+        let tolerances = [5e-2, 1e-6, 1e-11];
+        let p = params(0.5, 500);
+        let (xs, report) = cg::pcg_to(&op, &jacobi, &[&b, &b, &b], None, &p, &tolerances, false);
+        let exact = ad
+            .clone()
+            .cholesky()
+            .unwrap()
+            .solve(&DVector::from_vec(b.clone()));
+        for (c, &t) in tolerances.iter().enumerate() {
+            let res = report.relative_residual[c];
+            assert!(
+                report.converged[c] && res <= t,
+                "seed {seed} channel {c}: {res} > {t}"
+            );
+            let err = (DVector::from_vec(xs[c].clone()) - &exact).norm() / exact.norm();
+            let bound = 2.0 * kap * (res + n as f64 * f64::EPSILON);
+            assert!(
+                err <= bound,
+                "seed {seed} channel {c}: error {err} > {bound}"
+            );
+            let (alone, r) = cg::pcg_to(&op, &jacobi, &[&b], None, &p, &[t], false);
+            assert_eq!(alone[0], xs[c], "seed {seed} channel {c}");
+            assert_eq!(r.iterations[0], report.iterations[c]);
+            assert_eq!(report.start_residual[c], 1.0);
+        }
+        assert!(report.iterations[0] <= report.iterations[1]);
+        assert!(report.iterations[1] <= report.iterations[2]);
+    }
+}
+
+/// The scaled start (`pcg_to`'s `scale_start`, read at zero iterations): `s x_0` with
+/// `s = x_0.b / x_0.A x_0`, whose energy error is `||x*||_A^2 - (x_0.b)^2 / x_0.A x_0`
+/// (to rounding), at most the zero start's `||x*||_A` and `x_0`'s own, for starts of
+/// either sign, too long, too short or unrelated to the solution; the reported start
+/// residual is that of the scaled start.
+#[test]
+fn a_scaled_start_is_never_farther_than_zero_or_the_start() {
+    for seed in SEEDS {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let n = 20;
+        let (a, ad) = normal(&kernel(&mut rng, 60, n));
+        let op = SparseOperator::new(&a);
+        let b: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.5).collect();
+        let bv = DVector::from_vec(b.clone());
+        let exact = ad.clone().cholesky().unwrap().solve(&bv);
+        let energy = |e: &DVector<f64>| e.dot(&(&ad * e));
+        let noise: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.5).collect();
+        for (factor, mix) in [(3.0, 0.1), (-2.0, 0.1), (0.2, 0.5), (1.0, 0.0), (0.0, 1.0)] {
+            let x0: Vec<f64> = (0..n).map(|i| factor * exact[i] + mix * noise[i]).collect();
+            let x0v = DVector::from_vec(x0.clone());
+            let (x, report) = cg::pcg_to(
+                &op,
+                &Identity,
+                &[&b],
+                Some(vec![x0.clone()]),
+                &params(1e-12, 0),
+                &[1e-12],
+                true,
+            );
+            let xv = DVector::from_vec(x[0].clone());
+            let scaled = energy(&(&xv - &exact));
+            let formula = energy(&exact) - x0v.dot(&bv).powi(2) / energy(&x0v);
+            let scale = energy(&exact);
+            assert!(
+                (scaled - formula).abs() <= 1e-9 * scale,
+                "seed {seed} start {factor}/{mix}: {scaled} against {formula}"
+            );
+            assert!(
+                scaled <= energy(&exact) * (1.0 + 1e-12),
+                "farther than zero"
+            );
+            assert!(
+                scaled <= energy(&(&x0v - &exact)) * (1.0 + 1e-12) + 1e-15 * scale,
+                "farther than the start"
+            );
+            let residual = (&bv - &ad * &xv).norm() / bv.norm();
+            assert!((report.start_residual[0] - residual).abs() <= 1e-9);
+        }
+    }
+}

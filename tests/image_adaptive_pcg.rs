@@ -608,3 +608,90 @@ fn continued_rows_equal_the_rows_afresh() {
     SingleScaleRows::new(&other, &xs, &ys).apply(&s6, &mut b);
     assert_eq!(a, b);
 }
+
+/// The noise test's probes at their own tolerance ([`FitParams::probe_tolerance`]): in every
+/// round of a PCG run with the noise test, the report's channels are the image's (asked the
+/// round tolerance, reached it) then the probes' (asked the probe tolerance, reached it,
+/// never more iterations than the same run's probes at the round tolerance); the stopping
+/// round's continued fit has the image's channels alone, at the solver's tolerance. Out of
+/// range it is refused naming `probe_tolerance`.
+#[test]
+fn probes_stop_at_their_own_tolerance() {
+    use rkwave::image::adaptive::{refine_image, AdaptiveParams};
+    use rkwave::image::ImagePlane;
+    let plane = ImagePlane::new(32, 32).unwrap();
+    let noisy = |x: f64, y: f64| {
+        let edge = if x + 0.4 * y < 17.0 { 0.2 } else { 0.9 };
+        edge + 0.05 * ((x * 12.9898 + y * 78.233).sin() * 43758.5453).fract()
+    };
+    let base = AdaptiveParams {
+        stop: StopParams {
+            budget: 4 * plane.pixels(),
+            ..AdaptiveParams::default().stop
+        },
+        fit: FitParams {
+            solver: TreeSolver::plan_pcg(),
+            round_tolerance: Some(1e-2),
+            ..AdaptiveParams::default().fit
+        },
+        ..AdaptiveParams::default()
+    };
+    assert!(base.noise.false_alarm > 0.0 && base.noise.probes >= 1);
+    let probes = base.noise.probes;
+    let loose = AdaptiveParams {
+        fit: FitParams {
+            probe_tolerance: Some(5e-2),
+            ..base.fit
+        },
+        ..base
+    };
+    let run = refine_image(&noisy, plane, &loose).unwrap();
+    let rounds = &run.report.rounds;
+    assert!(rounds.len() >= 2, "{} rounds", rounds.len());
+    for r in rounds {
+        let ch = &r.fit.channels;
+        assert_eq!(ch.len(), 1 + probes, "round {}", r.round);
+        assert!(
+            ch[0].tolerance == 1e-2 && ch[0].residual <= 1e-2,
+            "{:?}",
+            ch[0]
+        );
+        for p in &ch[1..] {
+            assert!(p.tolerance == 5e-2 && p.residual <= 5e-2, "{p:?}");
+        }
+    }
+    let last = rounds
+        .last()
+        .unwrap()
+        .final_fit
+        .as_ref()
+        .expect("continued");
+    assert_eq!(last.channels.len(), 1);
+    assert!(last.channels[0].tolerance == 3e-4 && last.channels[0].residual <= 3e-4);
+    // the first round (zero starts on the same tree and samples) against the round tolerance
+    let tight = refine_image(&noisy, plane, &base).unwrap();
+    let first = (
+        &rounds[0].fit.channels,
+        &tight.report.rounds[0].fit.channels,
+    );
+    assert_eq!(first.0[0], first.1[0], "the image channel is unchanged");
+    for (a, b) in first.0[1..].iter().zip(&first.1[1..]) {
+        assert!(a.iterations <= b.iterations, "{a:?} against {b:?}");
+        assert!(b.tolerance == 1e-2 && b.residual <= 1e-2);
+    }
+    for t in [0.0, 1.0, f64::NAN, -1e-3] {
+        let bad = AdaptiveParams {
+            fit: FitParams {
+                probe_tolerance: Some(t),
+                ..loose.fit
+            },
+            ..loose
+        };
+        match bad.validate() {
+            Err(rkwave::image::adaptive::AdaptiveError::Parameter { parameter, .. }) => {
+                assert_eq!(parameter, "probe_tolerance")
+            }
+            other => panic!("{t}: {other:?}"),
+        }
+    }
+}

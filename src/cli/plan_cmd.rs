@@ -122,7 +122,7 @@ pub struct PlanArgs {
     pub output_pixels: Option<PixelEstimate>,
     /// The solver of the rounds' fits (recorded in the state): `pcg` (default for a new plan:
     /// matrix-free conjugate gradients, the rounds to a relative residual of 1e-2 from the
-    /// last round's coefficients carried in `pcg.bin`, the final image's fit to 1e-4) or
+    /// last round's coefficients carried in `pcg.bin`, the final image's fit to 3e-4) or
     /// `direct` (the sparse Cholesky of the normal matrix carried in `gram.bin`). A fit whose
     /// direct solve would exceed the memory limit uses PCG, with a note.
     #[arg(long, value_enum)]

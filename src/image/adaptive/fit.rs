@@ -32,7 +32,7 @@ use sprs::CsMat;
 
 use super::gram::{assemble, TreeGram};
 use super::pcg::{
-    pcg_many, DiagonalSums, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX,
+    pcg_many_to, DiagonalSums, SingleScaleRows, TreeNormalOperator, TreeSolver, DIRECT_FALLBACK_MAX,
 };
 use super::schwarz::{schwarz_pcg, Schwarz, SchwarzReport};
 use super::AdaptiveError;
@@ -92,6 +92,36 @@ pub struct TreeFitReport {
     /// `DIRECT_FALLBACK_MAX` functions (taken: `solver` `"pcg->direct"`),
     /// [`IterationLimit::Accept`] above and for the Schwarz PCG (taken: `converged` false).
     pub on_limit: Option<IterationLimit>,
+    /// PCG per channel (the image's, then the noise test's probes): what each asked and
+    /// reached (empty for the direct and Schwarz solves).
+    pub channels: Vec<ChannelSolve>,
+}
+
+/// One channel of a PCG fit.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ChannelSolve {
+    /// The relative residual asked, `||K_T^T (f - K_T c)|| <= tolerance ||K_T^T f||`.
+    pub tolerance: f64,
+    /// The start's relative residual (1 from zero; the carried start's quality).
+    pub start_residual: f64,
+    /// The relative residual reached (the recurred `||r|| / ||b||`).
+    pub residual: f64,
+    /// Iterations taken.
+    pub iterations: usize,
+}
+
+impl ChannelSolve {
+    /// Per channel of a PCG `report` asked for `tolerances`.
+    fn of(report: &CgReport, tolerances: &[f64]) -> Vec<Self> {
+        (0..report.iterations.len())
+            .map(|c| Self {
+                tolerance: tolerances[c],
+                start_residual: report.start_residual.get(c).copied().unwrap_or(1.0),
+                residual: report.relative_residual[c],
+                iterations: report.iterations[c],
+            })
+            .collect()
+    }
 }
 
 /// What a fit leaves for the next round's fit (more samples after the same ones, a tree that
@@ -272,6 +302,24 @@ pub fn fit_tree_updating(
     start: Option<&[Vec<f64>]>,
     state: &mut FitState,
 ) -> Result<TreeFit, AdaptiveError> {
+    fit_tree_channels(tree, xs, ys, values, solver, None, start, state)
+}
+
+/// [`fit_tree_updating`] with, under PCG, channel `c` stopping at its own relative residual
+/// `tolerances[c]` (`None`: the solver's tolerance for every channel; ignored by the direct
+/// and Schwarz solves). The fallback to the direct solve is taken when a channel misses its
+/// own tolerance at the iteration limit.
+#[allow(clippy::too_many_arguments)]
+pub fn fit_tree_channels(
+    tree: &QuadTree,
+    xs: &[f64],
+    ys: &[f64],
+    values: &[&[f64]],
+    solver: TreeSolver,
+    tolerances: Option<&[f64]>,
+    start: Option<&[Vec<f64>]>,
+    state: &mut FitState,
+) -> Result<TreeFit, AdaptiveError> {
     check_samples(tree, xs, ys, values)?;
     match solver {
         TreeSolver::Direct | TreeSolver::Schwarz { .. } => {
@@ -288,7 +336,11 @@ pub fn fit_tree_updating(
             state.diagonal = Some(diagonal);
             let kernel_s = t.elapsed().as_secs_f64();
             let t = std::time::Instant::now();
-            let solved = pcg_many(&op, values, start, tolerance, max_iterations);
+            let tolerances = match tolerances {
+                Some(t) if t.len() == values.len() => t.to_vec(),
+                _ => vec![tolerance; values.len()],
+            };
+            let solved = pcg_many_to(&op, values, start, &tolerances, max_iterations);
             let solve_s = t.elapsed().as_secs_f64();
             let unsampled = op.unsampled();
             drop(op);
@@ -330,6 +382,7 @@ pub fn fit_tree_updating(
                     condition: largest(condition(&report)),
                     converged,
                     on_limit: Some(on_limit),
+                    channels: ChannelSolve::of(&report, &tolerances),
                     ..TreeFitReport::default()
                 },
                 coefficients,

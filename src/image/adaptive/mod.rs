@@ -43,7 +43,10 @@ pub use crate::adaptive::{Cell, QuadTree};
 pub use crate::adaptive::{MarkingParams, StopParams, TreeParams};
 pub use correction::{PixelEstimate, ResidualCorrection};
 pub use error::AdaptiveError;
-pub use fit::{fit_tree, fit_tree_updating, fit_tree_with, FitState, TreeFit, TreeFitReport};
+pub use fit::{
+    fit_tree, fit_tree_channels, fit_tree_updating, fit_tree_with, ChannelSolve, FitState, TreeFit,
+    TreeFitReport,
+};
 pub use gram::TreeGram;
 pub(crate) use oracle::mix64;
 pub use oracle::{position_normal, ImageOracle, NoisyOracle, SceneOracle};

@@ -56,7 +56,7 @@ impl PlanBudget {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlanSolver {
     /// Matrix-free conjugate gradients, rounds warm-started ([`TreeSolver::plan_pcg`]: to a
-    /// relative residual of `1e-4`), the default of a new plan.
+    /// relative residual of `3e-4`), the default of a new plan.
     Pcg,
     /// The sparse Cholesky of the normal matrix carried between rounds.
     Direct,

@@ -129,6 +129,7 @@ pub fn cgls(
         converged: active.iter().map(|&a| !a).collect(),
         condition: None,
         forward_error: None,
+        start_residual: Vec::new(),
     };
     (y, report)
 }

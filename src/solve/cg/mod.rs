@@ -70,7 +70,7 @@ pub use lanczos::{lanczos_condition, lanczos_extremes};
 pub use limit::IterationLimit;
 pub use operator::SparseOperator;
 pub use params::{CgParams, CgReport, ConditionEstimate, ResidualReport};
-pub use pcg::pcg;
+pub use pcg::{pcg, pcg_to};
 pub use precondition::{Identity, Jacobi, LocalInverse};
 pub use schwarz::{AdditiveSchwarz, SchwarzStats};
 pub use traits::{Preconditioner, SymmetricOperator};

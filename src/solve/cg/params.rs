@@ -48,6 +48,9 @@ pub struct CgReport {
     /// Final relative residual per channel (see [`CgParams::residual`]; for CGLS the
     /// recurred normal residual `||A^T r|| / ||A^T f||`).
     pub relative_residual: Vec<f64>,
+    /// Per channel, the relative residual of the start, `||b - A x_0|| / ||b||` (1 from a
+    /// zero start; empty for [`super::cgls`]).
+    pub start_residual: Vec<f64>,
     /// Per channel, whether the tolerance (and the forward-error tolerance, when asked) was
     /// reached.
     pub converged: Vec<bool>,

@@ -28,6 +28,10 @@ struct Channel {
     error_bound: f64,
     /// The recurred `||r|| / ||b||`.
     residual: f64,
+    /// `||b - A x_0|| / ||b||` of the start.
+    start_residual: f64,
+    /// The channel's stop: `||r|| <= tolerance ||b||`.
+    tolerance: f64,
     /// The step length of the current iteration.
     alpha: f64,
     /// Whether the current iteration stepped (no breakdown).
@@ -64,7 +68,7 @@ impl Channel {
 
     /// The second half, given `z = M^{-1} r`: `beta = r.z / (r.z)_old`, `p = z + beta p`,
     /// and the stopping rule (with the forward-error stop when `forward_error` is given).
-    fn conjugate(&mut self, tolerance: f64, keep: bool, forward_error: Option<f64>) {
+    fn conjugate(&mut self, keep: bool, forward_error: Option<f64>) {
         let rz_new = dot(&self.r, &self.z);
         let beta = rz_new / self.rz;
         for (p, z) in self.p.iter_mut().zip(&self.z) {
@@ -78,7 +82,7 @@ impl Channel {
         self.iterations += 1;
         let rnorm = dot(&self.r, &self.r).sqrt();
         self.residual = rnorm / self.bnorm;
-        let mut done = rnorm <= tolerance * self.bnorm;
+        let mut done = rnorm <= self.tolerance * self.bnorm;
         if let (true, Some(eps)) = (done, forward_error) {
             self.error_bound = self.forward_bound();
             done = self.error_bound <= eps;
@@ -127,12 +131,42 @@ pub fn pcg(
     start: Option<Vec<Vec<f64>>>,
     params: &CgParams,
 ) -> (Vec<Vec<f64>>, CgReport) {
+    pcg_to(
+        op,
+        pre,
+        b,
+        start,
+        params,
+        &vec![params.tolerance; b.len()],
+        false,
+    )
+}
+
+/// [`pcg`] with channel `c` stopping at its own relative residual `tolerances[c]`
+/// ([`CgParams::tolerance`] unused): the channels still share each iteration's products.
+///
+/// With `scale_start`, a channel's nonzero start `x_0` is replaced by `s x_0`,
+/// `s = (x_0 . b) / (x_0 . A x_0)` when finite (`A x_0 != 0`): the multiple of the start
+/// nearest the solution in the energy norm (the Galerkin step on `span{x_0}`), so
+/// `||s x_0 - x*||_A^2 = ||x*||_A^2 - (x_0 . b)^2 / (x_0 . A x_0)`, never farther than the
+/// zero start nor than `x_0` itself. It costs no product (`A x_0` is the start's residual's)
+/// and matters where the start is a poor guess of a new right-hand side (a probe channel
+/// whose new samples carry new values).
+pub fn pcg_to(
+    op: &dyn SymmetricOperator,
+    pre: &dyn Preconditioner,
+    b: &[&[f64]],
+    start: Option<Vec<Vec<f64>>>,
+    params: &CgParams,
+    tolerances: &[f64],
+    scale_start: bool,
+) -> (Vec<Vec<f64>>, CgReport) {
     let k = b.len();
     let n = op.dim();
-    let tolerance = params.tolerance;
+    assert_eq!(tolerances.len(), k, "one tolerance per channel");
     let forward_error = params.forward_error;
     let keep = params.condition == ConditionEstimate::Lanczos || forward_error.is_some();
-    let xs = start.unwrap_or_else(|| vec![vec![0.0; n]; k]);
+    let mut xs = start.unwrap_or_else(|| vec![vec![0.0; n]; k]);
     debug_assert_eq!(xs.len(), k);
     // r_0 = b - A x_0 (A x_0 only computed when some start is not 0)
     let warm = xs.iter().any(|x| x.iter().any(|&v| v != 0.0));
@@ -140,6 +174,15 @@ pub fn pcg(
         let refs: Vec<&[f64]> = xs.iter().map(|x| x.as_slice()).collect();
         let mut ax = vec![vec![0.0; n]; k];
         op.apply(&refs, &mut ax);
+        if scale_start {
+            for ((x, ax), b) in xs.iter_mut().zip(ax.iter_mut()).zip(b) {
+                let s = dot(x, b) / dot(x, ax);
+                if s.is_finite() {
+                    x.iter_mut().for_each(|v| *v *= s);
+                    ax.iter_mut().for_each(|v| *v *= s);
+                }
+            }
+        }
         b.iter()
             .zip(&ax)
             .map(|(b, ax)| b.iter().zip(ax).map(|(b, a)| b - a).collect())
@@ -166,7 +209,8 @@ pub fn pcg(
         .into_iter()
         .zip(rs.into_iter().zip(zs))
         .zip(b.iter().zip(bmbs))
-        .map(|((x, (r, z)), (b, bmb))| {
+        .zip(tolerances)
+        .map(|(((x, (r, z)), (b, bmb)), &tolerance)| {
             let rz = dot(&r, &z);
             let bnorm = dot(b, b).sqrt();
             let rnorm = dot(&r, &r).sqrt();
@@ -177,6 +221,8 @@ pub fn pcg(
                 q: vec![0.0; n],
                 active: bnorm > 0.0 && rz > 0.0 && (rnorm > tolerance * bnorm || error_far),
                 residual: if bnorm > 0.0 { rnorm / bnorm } else { 0.0 },
+                start_residual: if bnorm > 0.0 { rnorm / bnorm } else { 0.0 },
+                tolerance,
                 x,
                 r,
                 z,
@@ -208,7 +254,7 @@ pub fn pcg(
         let stepped: Vec<usize> = live.into_iter().filter(|&c| ch[c].stepped).collect();
         apply_preconditioner(pre, &mut ch, &stepped);
         ch.par_iter_mut().filter(|s| s.stepped).for_each(|s| {
-            s.conjugate(tolerance, keep, forward_error);
+            s.conjugate(keep, forward_error);
             s.stepped = false;
         });
     }
@@ -243,6 +289,7 @@ pub fn pcg(
             // b = 0: the solution is 0, whatever the start
             report.iterations.push(0);
             report.relative_residual.push(0.0);
+            report.start_residual.push(0.0);
             report.converged.push(true);
             if let Some(cond) = report.condition.as_mut() {
                 cond.push(1.0);
@@ -255,8 +302,9 @@ pub fn pcg(
         }
         report.iterations.push(s.iterations);
         report.relative_residual.push(residual);
+        report.start_residual.push(s.start_residual);
         let bound_ok = forward_error.is_none_or(|eps| s.error_bound <= eps);
-        report.converged.push(residual <= tolerance && bound_ok);
+        report.converged.push(residual <= s.tolerance && bound_ok);
         if let Some(cond) = report.condition.as_mut() {
             cond.push(lanczos_condition(&s.alphas, &s.betas));
         }

@@ -418,7 +418,25 @@ impl ImagePlan {
         let probes = probe_values(params.sampling.seed, xs, ys, params.noise.probes);
         let mut all: Vec<&[f64]> = values.to_vec();
         all.extend(probes.iter().map(|p| p.as_slice()));
-        let mut fit = fit_tree_updating(tree, xs, ys, &all, solver, start, state)?;
+        // the probes stop at their own tolerance (PCG only)
+        let tolerances = params.fit.probe_tolerance.and_then(|t| match solver {
+            TreeSolver::Pcg { tolerance, .. } => {
+                let mut v = vec![tolerance; ch];
+                v.extend(std::iter::repeat_n(t, all.len() - ch));
+                Some(v)
+            }
+            _ => None,
+        });
+        let mut fit = super::super::fit::fit_tree_channels(
+            tree,
+            xs,
+            ys,
+            &all,
+            solver,
+            tolerances.as_deref(),
+            start,
+            state,
+        )?;
         // the rows of the fit (PCG's, continued) or continued here (the direct solve's)
         let rows = SingleScaleRows::continued(state.rows.take(), tree.basis(), xs, ys);
         let significance = Significance::new(

@@ -44,6 +44,9 @@ pub(super) struct FlatParams {
     solver: TreeSolver,
     #[serde(default = "default_round_tolerance")]
     round_tolerance: Option<f64>,
+    /// Older files lack it: their probes stop at the round's tolerance, as they were written.
+    #[serde(default)]
+    probe_tolerance: Option<f64>,
     #[serde(default = "default_false_alarm")]
     false_alarm: f64,
     #[serde(default = "default_probes")]
@@ -127,6 +130,7 @@ impl From<AdaptiveParams> for FlatParams {
             seed: a.sampling.seed,
             solver: a.fit.solver,
             round_tolerance: a.fit.round_tolerance,
+            probe_tolerance: a.fit.probe_tolerance,
             false_alarm: a.noise.false_alarm,
             probes: a.noise.probes,
             pixels: a.output.pixels,
@@ -173,6 +177,7 @@ impl From<FlatParams> for AdaptiveParams {
             fit: FitParams {
                 solver: f.solver,
                 round_tolerance: f.round_tolerance,
+                probe_tolerance: f.probe_tolerance,
                 measure_rebuild: f.measure_rebuild,
             },
             noise: NoiseParams {
