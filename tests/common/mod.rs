@@ -15,7 +15,9 @@
 //! - [`rendered`]: one-channel samples grown round by round, for the plan's library tests;
 //! - [`metrics`]: the PSNR of clipped images (the harness's definition);
 //! - [`damage`]: a bit flipped, a file cut short or removed (the plan's kept files);
-//! - [`nets`]: whether positions are a `(0, m, 2)`-net of a rectangle (the plan's placement).
+//! - [`nets`]: whether positions are a `(0, m, 2)`-net of a rectangle (the plan's placement);
+//! - [`sub_pixel_checker`]: texture past the pixel scale plus noise, sampled as a plan samples,
+//!   and the final image's error against the pixel integrals (the final-image tests).
 //!
 //! Each test file that needs them declares `mod common;`; what a file does not use is dead
 //! code there, hence the `allow`.
@@ -30,6 +32,7 @@ pub mod rendered;
 pub mod runner;
 pub mod scenes;
 pub mod stored;
+pub mod sub_pixel_checker;
 pub mod trees;
 
 pub use metrics::psnr;

@@ -31,10 +31,10 @@ pub struct ShrinkParams {
     /// prototype found 0.7 better at 16 spp and worse at 4 spp than 1).
     pub threshold_factor: f64,
     /// `auto` only: every sample count's noise `v_P` brought to the least of three's pure-noise
-    /// bias at the most common count before shrinking ([`super::PixelNoise::equalise_counts`]),
-    /// for samples of uneven per-pixel counts (the plan's pixel share). Off by default: on the
-    /// plan's own counts it moved seven tuning rows by 0.11-0.30 dB (docs/measurements/
-    /// plan-quality.md, "The final image on the pixel share's uneven counts").
+    /// bias at the most common count before shrinking (`PixelNoise::equalise_counts` in the noise
+    /// module), for samples of uneven per-pixel counts (the plan's pixel share). Off by
+    /// default: on the plan's own counts it moved seven tuning rows by 0.11-0.30 dB
+    /// (docs/measurements/plan-quality.md, "The final image on the pixel share's uneven counts").
     pub equalise_counts: bool,
 }
 
