@@ -22,9 +22,10 @@
 use serde::Serialize;
 
 use crate::image::estimate::auto;
+use crate::image::estimate::blend::combine;
 use crate::image::estimate::blend::inverse_risk_weight;
-use crate::image::estimate::sure::window_sum;
-use crate::image::estimate::sure_blend::{combination_risk, combine, weights_from_risks};
+use crate::image::estimate::sure::window_mean;
+use crate::image::estimate::sure_blend::{combination_risk, weights_from_risks};
 use crate::image::PixelImage;
 
 /// The half side `h` of the `(2 h + 1)²` window of `Q` (chosen on the tuning half, seed 1,
@@ -105,12 +106,7 @@ pub fn blend_by_sure(
             q[p] += omega * (s_c[p] - a_c[p]).powi(2);
         }
     }
-    let area = window_sum(&vec![1.0; pixels], w, h, SURE_BLEND_HALF);
-    let q: Vec<f64> = window_sum(&q, w, h, SURE_BLEND_HALF)
-        .iter()
-        .zip(&area)
-        .map(|(x, a)| x / a)
-        .collect();
+    let q = window_mean(&q, w, h, SURE_BLEND_HALF);
     let sure = weights_from_risks(risk_shrunk, risk_auto, &q);
     let mut report = SureBlend {
         window: 2 * SURE_BLEND_HALF + 1,

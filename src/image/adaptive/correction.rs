@@ -124,7 +124,7 @@ use crate::adaptive::QuadTree;
 use crate::image::estimate::auto;
 use crate::image::estimate::blend::blend_by_risks;
 use crate::image::estimate::gate::GATE_HALF;
-use crate::image::estimate::sure::window_sum;
+use crate::image::estimate::sure::window_mean;
 use crate::image::estimate::{
     shrink_channel, shrink_channel_with_divergence, universal_threshold, FilmCount,
     PixelStatistics, ShrinkParams,
@@ -725,12 +725,7 @@ fn blend_shrunk_and_auto(
             shrunk_sure[p] += omega * (d * d - v + 2.0 * v * ds);
         }
     }
-    let area = window_sum(&vec![1.0; pixels], w, h, GATE_HALF);
-    let risk_shrunk: Vec<f64> = window_sum(&shrunk_sure, w, h, GATE_HALF)
-        .iter()
-        .zip(&area)
-        .map(|(s, a)| s / a)
-        .collect();
+    let risk_shrunk = window_mean(&shrunk_sure, w, h, GATE_HALF);
     let (mut blended, mut weights) = blend_by_risks(
         &[&shrunk, &auto_image],
         &[&risk_shrunk, &auto_report.window_risk],

@@ -112,12 +112,6 @@ pub fn blend_by_risk(
     b: &PixelImage,
     risk_b: &[f64],
 ) -> (PixelImage, Vec<f64>) {
-    assert_eq!(a.plane, b.plane, "the two estimates are of one plane");
-    assert_eq!(
-        a.channels.len(),
-        b.channels.len(),
-        "and of one channel count"
-    );
     let pixels = a.plane.pixels();
     assert!(
         risk_a.len() == pixels && risk_b.len() == pixels,
@@ -128,25 +122,35 @@ pub fn blend_by_risk(
         .zip(risk_b)
         .map(|(&ra, &rb)| inverse_risk_weight(ra, rb))
         .collect();
-    let channels = a
-        .channels
-        .iter()
-        .zip(&b.channels)
-        .map(|(ca, cb)| {
-            ca.iter()
-                .zip(cb)
-                .zip(&weight)
-                .map(|((&x, &y), &w)| w * x + (1.0 - w) * y)
-                .collect()
-        })
-        .collect();
-    (
-        PixelImage {
-            plane: a.plane,
-            channels,
-        },
-        weight,
-    )
+    (combine(a, b, &weight), weight)
+}
+
+/// `w_P a_P + (1 - w_P) b_P` in every channel.
+///
+/// Panics if the images differ in plane or channels or `weight` is not one a pixel.
+pub fn combine(a: &PixelImage, b: &PixelImage, weight: &[f64]) -> PixelImage {
+    assert_eq!(a.plane, b.plane, "the two estimates are of one plane");
+    assert_eq!(
+        a.channels.len(),
+        b.channels.len(),
+        "and of one channel count"
+    );
+    assert_eq!(weight.len(), a.plane.pixels(), "one weight a pixel");
+    PixelImage {
+        plane: a.plane,
+        channels: a
+            .channels
+            .iter()
+            .zip(&b.channels)
+            .map(|(ca, cb)| {
+                ca.iter()
+                    .zip(cb)
+                    .zip(weight)
+                    .map(|((&x, &y), &w)| w * x + (1.0 - w) * y)
+                    .collect()
+            })
+            .collect(),
+    }
 }
 
 #[cfg(test)]

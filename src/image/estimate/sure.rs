@@ -247,6 +247,17 @@ pub fn sure(candidate: &FilmCandidate, mean: &[Vec<f64>], noise: &PixelNoise) ->
         .collect()
 }
 
+/// The means of `values` (`width x height`, row-major) over the `(2 half + 1)²` window around
+/// each pixel, clipped at the borders: [`window_sum`] over the window's pixel count.
+pub fn window_mean(values: &[f64], width: usize, height: usize, half: usize) -> Vec<f64> {
+    let area = window_sum(&vec![1.0; values.len()], width, height, half);
+    window_sum(values, width, height, half)
+        .iter()
+        .zip(&area)
+        .map(|(s, a)| s / a)
+        .collect()
+}
+
 /// The sums of `values` (`width x height`, row-major) over the `(2 half + 1)²` window around each
 /// pixel, clipped at the borders (a summed-area table).
 pub fn window_sum(values: &[f64], width: usize, height: usize, half: usize) -> Vec<f64> {

@@ -26,8 +26,6 @@
 //! the two agree on the window and the less risky end is taken (`a` only where strictly
 //! less); where a sum is not finite, `w = 0` (`b`), counted.
 
-use crate::image::PixelImage;
-
 /// The weights of least SURE of the combination, and what they did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SureWeights {
@@ -89,39 +87,13 @@ pub fn weights_from_risks(risk_a: &[f64], risk_b: &[f64], q: &[f64]) -> SureWeig
     out
 }
 
-/// `w_P a_P + (1 - w_P) b_P` in every channel.
-///
-/// Panics if the images differ in plane or channels or `weight` is not one a pixel.
-pub fn combine(a: &PixelImage, b: &PixelImage, weight: &[f64]) -> PixelImage {
-    assert_eq!(a.plane, b.plane, "the two estimates are of one plane");
-    assert_eq!(
-        a.channels.len(),
-        b.channels.len(),
-        "and of one channel count"
-    );
-    assert_eq!(weight.len(), a.plane.pixels(), "one weight a pixel");
-    PixelImage {
-        plane: a.plane,
-        channels: a
-            .channels
-            .iter()
-            .zip(&b.channels)
-            .map(|(ca, cb)| {
-                ca.iter()
-                    .zip(cb)
-                    .zip(weight)
-                    .map(|((&x, &y), &w)| w * x + (1.0 - w) * y)
-                    .collect()
-            })
-            .collect(),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::image::estimate::blend::combine;
     use crate::image::estimate::blend::inverse_risk_weight;
     use crate::image::ImagePlane;
+    use crate::image::PixelImage;
 
     struct Rng(u64);
     impl Rng {
